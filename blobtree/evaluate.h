@@ -17,6 +17,10 @@ struct FieldColour {
 // Field at p (inside where >= layout::ISO_VALUE).
 float evaluate(const Program& program, const glm::vec3& p);
 
+// The same Program run in double arithmetic (the records stay float): the oracle that tests
+// use to separate what compile() changed from float evaluation noise.
+double evaluatePrecise(const Program& program, const glm::dvec3& p);
+
 // Field and blended colour at p.
 FieldColour evaluateWithColour(const Program& program, const glm::vec3& p);
 

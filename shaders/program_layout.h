@@ -30,6 +30,15 @@ struct uvec4 { uint x, y, z, w; };
 //   OP_POW    reg[dst] = pow(max(reg[dst], 0), uintBitsToFloat(w))  (Ricci power and root)
 //   OP_WARP   point[dst] = warps[y](point[z])
 //   OP_SKIP   if point[z] is outside boxes[y]: reg[dst] = 0, jump to instruction w
+//   OP_ONE_MINUS reg[dst] = 1 - reg[dst]                         (a cutter evaluated first)
+//   OP_MUL    reg[dst] = reg[dst] * reg[y]                       (smooth difference, reordered)
+// Colour (when wanted) follows the field: OP_PRIM sets the primitive's colour; OP_ADD blends
+// the two colours weighted by max(field, 0); OP_MAX/OP_MIN keep the colour of the operand that
+// wins; OP_DIFF/OP_SDIFF take the cutter's colour where 1 - reg[y] < reg[dst]; OP_MUL the colour
+// of the smaller operand; OP_POW/OP_ONE_MINUS keep it; a taken OP_SKIP writes colour 0.
+// Difference and smooth difference are emitted as OP_DIFF/OP_SDIFF when their first child is
+// evaluated first, else as OP_ONE_MINUS on each cutter plus OP_MIN/OP_MUL, which keeps the
+// register count logarithmic for every tree shape.
 // Field registers hold the field (and, when colour is wanted, a colour per register). Point
 // register 0 is the query point; warps write the registers above it.
 BLOBVK_CONST uint OP_PRIM = 1u;
@@ -41,6 +50,8 @@ BLOBVK_CONST uint OP_SDIFF = 6u;
 BLOBVK_CONST uint OP_POW = 7u;
 BLOBVK_CONST uint OP_WARP = 8u;
 BLOBVK_CONST uint OP_SKIP = 9u;
+BLOBVK_CONST uint OP_ONE_MINUS = 10u;
+BLOBVK_CONST uint OP_MUL = 11u;
 
 BLOBVK_CONST uint MAX_FIELD_REGISTERS = 32u;  // Sethi-Ullman needs log2(nodes)+1: ample
 BLOBVK_CONST uint MAX_POINT_REGISTERS = 8u;   // warp nesting depth + 1
