@@ -1,0 +1,37 @@
+#include "backends.h"
+
+#include "cpu_simd/reference_polygonizer.h"
+
+#include <chrono>
+#include <stdexcept>
+
+namespace blobvk::app {
+
+std::vector<std::string> backendNames() {
+  std::vector<std::string> names{"reference"};
+  return names;
+}
+
+mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                         const PolygonizeSettings& settings, PolygonizeStats* stats) {
+  const auto start = std::chrono::steady_clock::now();
+  mesh::TriMesh mesh;
+  double evaluations = 0.0;
+  if (settings.backend == "reference") {
+    cpu::ReferenceOptions options;
+    options.refineSteps = settings.refineSteps;
+    mesh = cpu::polygonizeReference(program, grid, options);
+    evaluations = double(grid.pointCount());
+  } else {
+    std::string known;
+    for (const std::string& n : backendNames()) known += (known.empty() ? "" : ", ") + n;
+    throw std::invalid_argument("unknown backend '" + settings.backend + "' (known: " + known + ")");
+  }
+  if (stats) {
+    stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    stats->pointEvaluations = evaluations;
+  }
+  return mesh;
+}
+
+}  // namespace blobvk::app

@@ -1,0 +1,70 @@
+// `blobvk generate tower|eggshell|random -o scene.json`: the thesis' procedural test models.
+#include "commands.h"
+
+#include "blobtree/generators.h"
+#include "blobtree/scene_io.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <memory>
+
+namespace blobvk::app {
+namespace {
+
+void save(blobtree::Node root, const std::string& name, const std::string& out) {
+  blobtree::Scene scene;
+  scene.root = std::move(root);
+  scene.name = name;
+  blobtree::saveSceneJson(scene, out);
+  const blobtree::TreeStats s = blobtree::treeStats(scene.root);
+  std::printf("wrote %s: %zu primitives, %zu operators, depth %zu\n", out.c_str(), s.primitives,
+              s.operators, s.depth);
+}
+
+}  // namespace
+
+void addGenerateCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("generate", "Write a procedural test model as a JSON scene");
+  cmd->require_subcommand(1);
+
+  struct Tower {
+    int levels = 4, pillars = 8, grid = 1;
+    double radius = 6.0, height = 6.0;
+    std::string out;
+  };
+  auto tower = std::make_shared<Tower>();
+  auto* t = cmd->add_subcommand("tower", "The thesis' 'Piza' tower, instanced on a grid");
+  t->add_option("--levels", tower->levels, "Stacked levels")->check(CLI::Range(1, 1000));
+  t->add_option("--pillars", tower->pillars, "Pillars per level")->check(CLI::Range(1, 1000));
+  t->add_option("--radius", tower->radius, "Radius of the pillar circle")->check(CLI::Range(0.01, 1e4));
+  t->add_option("--height", tower->height, "Pillar height")->check(CLI::Range(0.01, 1e4));
+  t->add_option("--grid", tower->grid, "Towers per side of the I x I grid")->check(CLI::Range(1, 100));
+  t->add_option("-o,--output", tower->out, "Output .json")->required();
+  t->callback([tower] {
+    save(blobtree::generateTower(tower->levels, tower->pillars, tower->radius, tower->height,
+                                 tower->grid),
+         "tower", tower->out);
+  });
+
+  auto eggOut = std::make_shared<std::string>();
+  auto* e = cmd->add_subcommand("eggshell", "Difference of two scaled points (the FEM test model)");
+  e->add_option("-o,--output", *eggOut, "Output .json")->required();
+  e->callback([eggOut] { save(blobtree::generateEggshell(), "eggshell", *eggOut); });
+
+  struct Random {
+    int count = 128;
+    std::uint64_t seed = 1;
+    std::string out;
+  };
+  auto random = std::make_shared<Random>();
+  auto* r = cmd->add_subcommand("random", "Blend of N random points (deterministic per seed)");
+  r->add_option("--count", random->count, "Number of points")->check(CLI::Range(1, 1000000));
+  r->add_option("--seed", random->seed, "Random seed");
+  r->add_option("-o,--output", random->out, "Output .json")->required();
+  r->callback([random] {
+    save(blobtree::generateRandomBlobs(random->count, random->seed), "random", random->out);
+  });
+}
+
+}  // namespace blobvk::app

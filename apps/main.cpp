@@ -1,0 +1,27 @@
+// blobvk: implicit models to meshes and images. See README.md and `blobvk --help`.
+#include "commands.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+
+int main(int argc, char** argv) {
+  CLI::App app{"blobvk: BlobTree implicit models to meshes, images and soft bodies"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "blobvk 0.1.0");
+  blobvk::app::addGenerateCommand(app);
+  blobvk::app::addMeshCommand(app);
+  blobvk::app::addInfoCommand(app);
+  blobvk::app::addConvertCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    // One clear line; the library's messages already name the file and the place.
+    std::fprintf(stderr, "blobvk: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
