@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Runs every libFuzzer target for N minutes each (default 2), seeded from the shipped scenes and
+# the bad-input catalogue. Crashes land in tests/fuzz/regressions/<target>/ so CTest replays them.
+# Usage: scripts/fuzz.sh [minutes] [target...]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+minutes="${1:-2}"
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(fuzz_scene_json fuzz_scene_blob fuzz_compile_eval fuzz_mesh_readers)
+bash scripts/setup.sh
+cmake --preset fuzz >/dev/null
+cmake --build --preset fuzz --target "${targets[@]}"
+for t in "${targets[@]}"; do
+  corpus="build/fuzz/corpus/$t"
+  crashes="tests/fuzz/regressions/$t"
+  mkdir -p "$corpus" "$crashes"
+  case "$t" in
+    fuzz_scene_json) seeds=(scenes tests/data/bad) ;;
+    fuzz_scene_blob) seeds=(scenes/legacy tests/data/bad) ;;
+    *) seeds=() ;;
+  esac
+  echo "== $t for $minutes min"
+  "build/fuzz/tests/fuzz/$t" "$corpus" "${seeds[@]}" -max_total_time=$((minutes * 60)) \
+    -artifact_prefix="$crashes/" -print_final_stats=1 2>&1 | grep -E "stat::number_of_executed_units|stat::peak_rss|SUMMARY|Done" || true
+done

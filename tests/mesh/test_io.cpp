@@ -1,0 +1,263 @@
+#include "cube_mesh.h"
+
+#include "mesh/checks.h"
+#include "mesh/io.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <unistd.h>
+
+namespace blobvk {
+namespace {
+
+namespace fs = std::filesystem;
+
+class MeshIo : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("blobvk_mesh_io_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string write(const std::string& name, const std::string& bytes) const {
+    std::ofstream(path(name), std::ios::binary) << bytes;
+    return path(name);
+  }
+  static std::string read(const std::string& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+  fs::path dir_;
+};
+
+// A cube with normals and colours that are exact multiples of 1/255 (PLY stores uchar colours).
+mesh::TriMesh attributedCube() {
+  mesh::TriMesh m = testing::unitCube();
+  for (std::size_t i = 0; i < m.positions.size(); ++i) {
+    const auto& p = m.positions[i];
+    m.normals.push_back({p.x - 0.5f, p.y - 0.5f, 0.1f * float(i) - 0.3f});
+    m.colours.push_back({float(i * 30) / 255.0f, float(255 - i) / 255.0f, float(i % 3 * 100) / 255.0f});
+  }
+  m.positions[3].x = 0.1f;  // a value with no short decimal form: ascii must round-trip it
+  return m;
+}
+
+void expectNear(const std::vector<mesh::Float3>& a, const std::vector<mesh::Float3>& b, float tol) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_NEAR(a[i].x, b[i].x, tol) << i;
+    EXPECT_NEAR(a[i].y, b[i].y, tol) << i;
+    EXPECT_NEAR(a[i].z, b[i].z, tol) << i;
+  }
+}
+
+TEST_F(MeshIo, PlyBinaryRoundTrip) {
+  const mesh::TriMesh m = attributedCube();
+  mesh::writePly(m, path("a.ply"), true);
+  const mesh::TriMesh r = mesh::readPly(path("a.ply"));
+  EXPECT_EQ(r.positions, m.positions);
+  EXPECT_EQ(r.normals, m.normals);
+  expectNear(r.colours, m.colours, 1e-6f);
+  EXPECT_EQ(r.triangles, m.triangles);
+}
+
+TEST_F(MeshIo, PlyAsciiRoundTripIsExact) {
+  const mesh::TriMesh m = attributedCube();
+  mesh::writePly(m, path("a.ply"), false);
+  const mesh::TriMesh r = mesh::readPly(path("a.ply"));
+  EXPECT_EQ(r.positions, m.positions);
+  EXPECT_EQ(r.normals, m.normals);
+  expectNear(r.colours, m.colours, 1e-6f);
+  EXPECT_EQ(r.triangles, m.triangles);
+}
+
+TEST_F(MeshIo, ObjRoundTripKeepsNormalsAndColours) {
+  const mesh::TriMesh m = attributedCube();
+  mesh::writeObj(m, path("a.obj"));
+  const mesh::TriMesh r = mesh::readObj(path("a.obj"));
+  EXPECT_EQ(r.positions, m.positions);
+  EXPECT_EQ(r.normals, m.normals);
+  EXPECT_EQ(r.colours, m.colours);
+  EXPECT_EQ(r.triangles, m.triangles);
+}
+
+TEST_F(MeshIo, StlRoundTripWeldsBackToTheSameTopology) {
+  const mesh::TriMesh m = testing::unitCube();
+  mesh::writeStl(m, path("a.stl"));
+  EXPECT_EQ(fs::file_size(path("a.stl")), 84u + 50u * 12u);
+  const mesh::TriMesh r = mesh::readStl(path("a.stl"));
+  ASSERT_EQ(r.triangles.size(), m.triangles.size());
+  EXPECT_EQ(r.positions.size(), 8u);
+  for (std::size_t t = 0; t < m.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(r.positions[r.triangles[t][std::size_t(k)]], m.positions[m.triangles[t][std::size_t(k)]]);
+  const mesh::MeshReport report = mesh::checkMesh(r);
+  EXPECT_TRUE(report.watertight());
+  EXPECT_NEAR(report.volume, 1.0, 1e-9);
+}
+
+TEST_F(MeshIo, AsciiStlIsRead) {
+  const std::string p = write("a.stl",
+                              "solid t\nfacet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n"
+                              "  vertex 0 1 0\n endloop\nendfacet\nendsolid t\n");
+  const mesh::TriMesh r = mesh::readStl(p);
+  ASSERT_EQ(r.triangles.size(), 1u);
+  EXPECT_EQ(r.positions[1], (mesh::Float3{1, 0, 0}));
+}
+
+TEST_F(MeshIo, WritersAreByteDeterministic) {
+  const mesh::TriMesh m = attributedCube();
+  for (const char* name : {"a.ply", "a.obj", "a.stl"}) {
+    mesh::writeMesh(m, path(std::string("1") + name));
+    mesh::writeMesh(m, path(std::string("2") + name));
+    EXPECT_EQ(read(path(std::string("1") + name)), read(path(std::string("2") + name))) << name;
+  }
+  mesh::writePly(m, path("x.ply"), false);
+  EXPECT_NE(read(path("x.ply")).find("0.1 "), std::string::npos);
+}
+
+TEST_F(MeshIo, WriteMeshRejectsUnknownExtensions) {
+  try {
+    mesh::writeMesh(testing::unitCube(), path("a.xyz"));
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(".xyz"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(mesh::writeMesh(testing::unitCube(), path("noextension")), std::invalid_argument);
+}
+
+TEST_F(MeshIo, WritersRejectInconsistentMeshes) {
+  mesh::TriMesh m = testing::unitCube();
+  m.normals.resize(3);
+  EXPECT_THROW(mesh::writePly(m, path("a.ply")), std::invalid_argument);
+  m = testing::unitCube();
+  m.triangles.push_back({0, 1, 8});
+  EXPECT_THROW(mesh::writeObj(m, path("a.obj")), std::invalid_argument);
+}
+
+TEST_F(MeshIo, UnwritableAndMissingPathsNameTheFile) {
+  const std::string missing = path("does/not/exist.ply");
+  try {
+    mesh::readPly(missing);
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(missing), std::string::npos);
+  }
+  EXPECT_THROW(mesh::writePly(testing::unitCube(), missing), std::runtime_error);
+}
+
+struct BadFile {
+  const char* name;
+  std::string bytes;
+  const char* expected;  // a piece of the message
+};
+
+void expectRejected(const std::string& p, const char* expected, bool ply) {
+  try {
+    if (ply) mesh::readPly(p);
+    else mesh::readObj(p);
+    ADD_FAILURE() << p << " was accepted";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(p), std::string::npos) << what;
+    EXPECT_NE(what.find(expected), std::string::npos) << "message: " << what;
+  }
+}
+
+const std::string kPlyHead = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                             "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+
+TEST_F(MeshIo, MalformedPlyIsRejectedWithAMessage) {
+  std::string bin = "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nproperty float x\n"
+                    "property float y\nproperty float z\nend_header\n";
+  bin += std::string(24, '\0');
+  const std::vector<BadFile> bad = {
+      {"empty.ply", "", "not a PLY file"},
+      {"notply.ply", "hello\n", "not a PLY file"},
+      {"noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\n", "end_header"},
+      {"bigendian.ply", "ply\nformat binary_big_endian 1.0\nend_header\n", "unsupported format"},
+      {"nofmt.ply", "ply\nelement vertex 0\nproperty float x\nend_header\n", "no format"},
+      {"badtype.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n", "unknown property type"},
+      {"noxyz.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n", "lacks x, y or z"},
+      {"negcount.ply", "ply\nformat ascii 1.0\nelement vertex -5\nend_header\n", "malformed element"},
+      {"hugecount.ply", bin, "declares 1000000000 entries"},
+      {"shortdata.ply", kPlyHead + "0 0 0\n1 0 0\n", "declares 3 entries"},
+      {"shortface.ply", kPlyHead + "0 0 0\n1 0 0\n0 1 0\n3 0 1\n", "unexpected end"},
+      {"nan.ply", kPlyHead + "0 0 zero\n1 0 0\n0 1 0\n3 0 1 2\n", "not a number"},
+      {"badindex.ply", kPlyHead + "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "uses vertex 7"},
+      {"negindex.ply", kPlyHead + "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", "invalid vertex index"},
+      {"twovertex.ply", kPlyHead + "0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "fewer than 3"},
+      {"fraction.ply", kPlyHead + "0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n", "not an integer"},
+      {"huge.ply", kPlyHead + "0 0 1e300\n1 0 0\n0 1 0\n3 0 1 2\n", "outside the float range"},
+  };
+  for (const BadFile& b : bad) expectRejected(write(b.name, b.bytes), b.expected, true);
+}
+
+TEST_F(MeshIo, MalformedObjIsRejectedWithAMessage) {
+  const std::vector<BadFile> bad = {
+      {"shortv.obj", "v 1 2\n", "3 coordinates"},
+      {"nanv.obj", "v 1 2 x\n", "not a number"},
+      {"faceidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "does not name"},
+      {"facezero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "does not name"},
+      {"facetwo.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "at least 3"},
+      {"badnormal.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//1\n", "normal index"},
+      {"mixedcolour.obj", "v 0 0 0 1 0 0\nv 1 0 0\n", "colour"},
+  };
+  for (const BadFile& b : bad) expectRejected(write(b.name, b.bytes), b.expected, false);
+}
+
+TEST_F(MeshIo, ObjAcceptsRelativeIndicesAndPolygons) {
+  const std::string p = write("q.obj", "# quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nf -4/1 -3/1 -2/1 -1/1\n");
+  const mesh::TriMesh r = mesh::readObj(p);
+  ASSERT_EQ(r.triangles.size(), 2u);
+  EXPECT_EQ(r.triangles[1], (std::array<std::uint32_t, 3>{0, 2, 3}));
+  EXPECT_TRUE(r.normals.empty());
+}
+
+// Mutated valid files must either load or throw std::runtime_error: never crash or hang.
+TEST_F(MeshIo, FuzzedFilesNeverCrash) {
+  const mesh::TriMesh m = attributedCube();
+  mesh::writePly(m, path("b.ply"), true);
+  mesh::writePly(m, path("a.ply"), false);
+  mesh::writeObj(m, path("o.obj"));
+  mesh::writeStl(m, path("s.stl"));
+  std::mt19937 rng(4242);
+  int loaded = 0, rejected = 0;
+  for (const char* name : {"b.ply", "a.ply", "o.obj", "s.stl"}) {
+    const std::string original = read(path(name));
+    const std::string ext = fs::path(name).extension().string();
+    for (int trial = 0; trial < 400; ++trial) {
+      std::string bytes = original;
+      if (trial % 4 == 0) {
+        bytes.resize(std::size_t(rng() % (bytes.size() + 1)));  // truncation
+      } else {
+        const int flips = 1 + int(rng() % 8);
+        for (int f = 0; f < flips; ++f) bytes[rng() % bytes.size()] = char(rng() % 256);
+      }
+      const std::string p = write(std::string("fuzz") + ext, bytes);
+      try {
+        const mesh::TriMesh r = mesh::readMesh(p);
+        for (const auto& t : r.triangles)
+          for (auto v : t) ASSERT_LT(v, r.positions.size());
+        ++loaded;
+      } catch (const std::runtime_error&) {
+        ++rejected;
+      }
+    }
+  }
+  EXPECT_GT(rejected, 0);
+  EXPECT_GT(loaded, 0);
+}
+
+}  // namespace
+}  // namespace blobvk
