@@ -1,5 +1,6 @@
 #include "backends.h"
 
+#include "cpu_simd/mpu_polygonizer.h"
 #include "cpu_simd/reference_polygonizer.h"
 
 #include <chrono>
@@ -8,7 +9,7 @@
 namespace blobvk::app {
 
 std::vector<std::string> backendNames() {
-  std::vector<std::string> names{"reference"};
+  std::vector<std::string> names{"cpu", "reference"};
   return names;
 }
 
@@ -17,7 +18,15 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
   const auto start = std::chrono::steady_clock::now();
   mesh::TriMesh mesh;
   double evaluations = 0.0;
-  if (settings.backend == "reference") {
+  if (settings.backend == "cpu") {
+    cpu::MpuOptions options;
+    options.threads = settings.threads;
+    options.refineSteps = settings.refineSteps;
+    if (settings.mpuSize > 0) options.mpuCells = settings.mpuSize;
+    cpu::MpuStats mpu;
+    mesh = cpu::polygonizeMpu(program, grid, options, &mpu);
+    evaluations = double(mpu.pointEvaluations);
+  } else if (settings.backend == "reference") {
     cpu::ReferenceOptions options;
     options.refineSteps = settings.refineSteps;
     mesh = cpu::polygonizeReference(program, grid, options);

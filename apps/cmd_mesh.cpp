@@ -2,6 +2,7 @@
 #include "backends.h"
 #include "commands.h"
 #include "model.h"
+#include "resource_limits.h"
 
 #include "mesh/checks.h"
 #include "mesh/io.h"
@@ -21,6 +22,8 @@ void addMeshCommand(CLI::App& app) {
     std::optional<int> resolution;
     PolygonizeSettings settings;
     bool ascii = false, quiet = false;
+    std::string maxMemory;
+    Limits limits;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("mesh", "Polygonize a scene into a mesh (.ply, .obj, .stl)");
@@ -40,13 +43,20 @@ void addMeshCommand(CLI::App& app) {
       ->check(CLI::Range(0, 16));
   cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
+  cmd->add_option("--max-memory", a->maxMemory, "Refuse jobs needing more (e.g. 2G; default: available)");
+  cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
   cmd->add_flag("--ascii", a->ascii, "Write ASCII PLY instead of binary");
   cmd->add_flag("-q,--quiet", a->quiet, "Print nothing on success");
   cmd->callback([a] {
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
+    if (!a->maxMemory.empty()) a->limits.maxMemoryBytes = parseByteSize(a->maxMemory);
+    checkMemory(estimatePolygonizeBytes(grid, a->settings.backend), a->limits,
+                "a " + std::to_string(grid.cells.x) + " x " + std::to_string(grid.cells.y) + " x " +
+                    std::to_string(grid.cells.z) + " grid");
     PolygonizeStats stats;
     const mesh::TriMesh mesh = polygonize(model.program, grid, a->settings, &stats);
+    checkTriangles(mesh.triangleCount(), a->limits);
     if (a->ascii) mesh::writePly(mesh, a->out, false);
     else mesh::writeMesh(mesh, a->out);
     if (!a->quiet) {
