@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   blobvk::app::addMeshCommand(app);
   blobvk::app::addInfoCommand(app);
   blobvk::app::addConvertCommand(app);
+  blobvk::app::addBenchCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

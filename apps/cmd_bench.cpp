@@ -1,0 +1,109 @@
+// `blobvk bench SCENE... [--resolution N...] [--backend B...] [--repeats R] [--json]`:
+// whole-scene polygonization timings, a table for people and JSON for machines.
+#include "backends.h"
+#include "commands.h"
+#include "model.h"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <vector>
+
+namespace blobvk::app {
+namespace {
+
+struct Row {
+  std::string scene, backend;
+  int resolution = 0, threads = 0;
+  double median = 0, min = 0, max = 0;
+  std::size_t triangles = 0, vertices = 0;
+  double evaluations = 0;
+};
+
+}  // namespace
+
+void addBenchCommand(CLI::App& app) {
+  struct Args {
+    std::vector<std::string> scenes;
+    std::vector<int> resolutions{128};
+    std::vector<std::string> backends{"cpu"};
+    std::vector<int> threads{0};
+    int repeats = 5, warmup = 1, mpuSize = 0;
+    std::string device;
+    bool json = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("bench", "Time whole-scene polygonization (median of repeats)");
+  cmd->add_option("scenes", a->scenes, "Scene files")->required();
+  cmd->add_option("--resolution", a->resolutions, "Cells along the longest side (several allowed)")
+      ->check(CLI::Range(1, 4096));
+  cmd->add_option("--backend", a->backends, "Backends to run: cpu, reference, vk (several allowed)");
+  cmd->add_option("--threads", a->threads, "CPU thread counts (0 = all; several allowed)")
+      ->check(CLI::Range(0, 1024));
+  cmd->add_option("--repeats", a->repeats, "Timed runs per configuration")->check(CLI::Range(1, 1000));
+  cmd->add_option("--warmup", a->warmup, "Untimed runs first")->check(CLI::Range(0, 100));
+  cmd->add_option("--mpu", a->mpuSize, "Cells per MPU side (cpu; 0 = default)")->check(CLI::Range(0, 64));
+  cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
+  cmd->add_flag("--json", a->json, "Print JSON instead of a table");
+  cmd->callback([a] {
+    std::vector<Row> rows;
+    for (const std::string& path : a->scenes) {
+      const Model model = loadModel(path);
+      for (int resolution : a->resolutions) {
+        const blobtree::GridSpec grid = gridFor(model, std::nullopt, resolution);
+        for (const std::string& backend : a->backends) {
+          for (int threads : a->threads) {
+            PolygonizeSettings settings;
+            settings.backend = backend;
+            settings.threads = threads;
+            settings.mpuSize = a->mpuSize;
+            settings.device = a->device;
+            Row row{path, backend, resolution, threads};
+            std::vector<double> times;
+            for (int i = 0; i < a->warmup + a->repeats; ++i) {
+              PolygonizeStats stats;
+              const mesh::TriMesh mesh = polygonize(model.program, grid, settings, &stats);
+              if (i < a->warmup) continue;
+              times.push_back(stats.seconds);
+              row.triangles = mesh.triangleCount();
+              row.vertices = mesh.vertexCount();
+              row.evaluations = stats.pointEvaluations;
+            }
+            std::sort(times.begin(), times.end());
+            row.median = times[times.size() / 2];
+            row.min = times.front();
+            row.max = times.back();
+            rows.push_back(row);
+            if (!a->json) std::fprintf(stderr, "  %s %d %s: %.4f s\n", path.c_str(), resolution, backend.c_str(), row.median);
+          }
+        }
+      }
+    }
+    if (a->json) {
+      nlohmann::json out = nlohmann::json::array();
+      for (const Row& r : rows) {
+        out.push_back({{"scene", r.scene}, {"backend", r.backend}, {"resolution", r.resolution},
+                       {"threads", r.threads}, {"median_s", r.median}, {"min_s", r.min},
+                       {"max_s", r.max}, {"triangles", r.triangles}, {"vertices", r.vertices},
+                       {"point_evaluations", r.evaluations},
+                       {"fvept", r.triangles ? r.evaluations / double(r.triangles) : 0.0},
+                       {"evaluations_per_s", r.median > 0 ? r.evaluations / r.median : 0.0}});
+      }
+      std::printf("%s\n", out.dump(2).c_str());
+      return;
+    }
+    std::printf("%-28s %5s %-9s %7s %9s %9s %9s %10s %7s %12s\n", "scene", "res", "backend", "threads",
+                "median s", "min s", "max s", "triangles", "FVEPT", "evals/s");
+    for (const Row& r : rows) {
+      std::printf("%-28s %5d %-9s %7d %9.4f %9.4f %9.4f %10zu %7.2f %12.4g\n", r.scene.c_str(),
+                  r.resolution, r.backend.c_str(), r.threads, r.median, r.min, r.max, r.triangles,
+                  r.triangles ? r.evaluations / double(r.triangles) : 0.0,
+                  r.median > 0 ? r.evaluations / r.median : 0.0);
+    }
+  });
+}
+
+}  // namespace blobvk::app

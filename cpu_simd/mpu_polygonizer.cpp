@@ -1,0 +1,535 @@
+// MPU polygonizer (see mpu_polygonizer.h). Two parallel passes and a scan in between:
+//
+// 1. Per MPU (parallel): early discard by interval bounds; field cache of its (D+1)^3 grid points
+//    in SIMD batches; case index per cell; one vertex per crossing edge that the MPU *owns* (the
+//    edge's start point lies in the MPU's half-open point range [lo, lo + D), the last MPU along
+//    an axis also owning the grid's far plane); triangles whose corners are local vertex ids or,
+//    for edges owned by a neighbour above, a deferred reference (the point and axis). The MPU
+//    writes how many vertices each of its point rows (k, j) has and how many triangles each of
+//    its cell rows has into global count arrays indexed by (row, MPU column).
+// 2. Exclusive scan of both count arrays in (row, MPU column) order. That order is exactly the
+//    global edge-key order of vertices (rows of points, x increasing, axes 0..2) and the cell
+//    order of triangles, so the scan gives every row segment its final place.
+// 3. Per MPU (parallel): copy vertices and triangles to their places; deferred references are
+//    resolved through the owner's table of ranks for the points on its low faces.
+// Placement depends only on indices, never on scheduling: the output is the same for any
+// thread count, and equal to polygonizeReference's since the fields are bit-identical.
+#include "cpu_simd/mpu_polygonizer.h"
+
+#include "cpu_simd/field_bounds.h"
+#include "mesh/marching_cubes.h"
+
+#include <tbb/combinable.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <glm/common.hpp>
+#include <glm/vec3.hpp>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace blobvk::cpu {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+constexpr std::uint32_t kDeferred = 1u << 31;
+constexpr std::uint8_t kNoRank = 255;
+
+std::uint32_t encodeDeferred(int x, int y, int z, int axis) {
+  return kDeferred | std::uint32_t(x) | (std::uint32_t(y) << 7) | (std::uint32_t(z) << 14) |
+         (std::uint32_t(axis) << 21);
+}
+
+struct MpuResult {
+  glm::ivec3 mpu{0}, lo{0}, pts{0}, owned{0};
+  std::vector<mesh::Float3> positions, normals, colours;
+  std::vector<std::uint64_t> keys;
+  std::vector<std::uint32_t> vertexRowStart;    // per owned point row (k, j), plus the end
+  std::vector<std::array<std::uint32_t, 3>> triangles;  // local ids or deferred references
+  std::vector<std::uint32_t> triangleRowStart;  // per cell row (k, j), plus the end
+  // Rank of each crossing edge inside its point row, for owned points on the low faces
+  // (i == 0: faceX[k * owned.y + j]; j == 0: faceY[k * owned.x + i]; k == 0: faceZ[j * owned.x
+  // + i]), which is what neighbours below need to number their references to these edges.
+  std::vector<std::array<std::uint8_t, 3>> faceX, faceY, faceZ;
+};
+
+struct ThreadStats {
+  std::uint64_t grid = 0, edge = 0, attribute = 0, blocks = 0;
+  std::uint64_t discardedEmpty = 0, discardedFull = 0, empty = 0, full = 0, crossed = 0;
+  double discard = 0, field = 0, cells = 0, vertices = 0, attributes = 0;
+};
+
+struct Scratch {
+  std::vector<float> x, y, z, field;
+  std::vector<std::uint8_t> inside, config;
+  std::vector<std::uint32_t> vertexId;  // per (local point * 3 + axis); valid for crossing edges
+  std::vector<std::uint32_t> edgePoint;
+  std::vector<std::uint8_t> edgeAxis;
+  std::vector<float> t, lo, hi, flo, fhi, f, px, py, pz, nx, ny, nz, cr, cg, cb;
+  std::vector<int> kept, active;
+  std::vector<std::uint32_t> localToGlobal;
+};
+
+struct Context {
+  const blobtree::Program& program;
+  const blobtree::GridSpec& grid;
+  const MpuOptions& options;
+  SimdLevel level;
+  int width;
+  int D;
+  glm::ivec3 mpus;     // MPUs per axis
+  glm::ivec3 points;   // grid points per axis
+  std::vector<std::uint32_t> vertexRows;    // [(k * points.y + j) * mpus.x + a]
+  std::vector<std::uint32_t> triangleRows;  // [(k * cells.y + j) * mpus.x + a]
+  std::vector<std::unique_ptr<MpuResult>> results;
+
+  std::size_t vertexRow(int k, int j, int a) const {
+    return (std::size_t(k) * std::size_t(points.y) + std::size_t(j)) * std::size_t(mpus.x) +
+           std::size_t(a);
+  }
+  std::size_t triangleRow(int k, int j, int a) const {
+    return (std::size_t(k) * std::size_t(grid.cells.y) + std::size_t(j)) * std::size_t(mpus.x) +
+           std::size_t(a);
+  }
+  std::uint64_t blocks(std::size_t n) const { return (n + std::size_t(width) - 1) / std::size_t(width); }
+};
+
+// Illinois regula falsi on all edges of an MPU at once, step by step, mirroring
+// reference_polygonizer.cpp's crossingParameter (same operations, same early stop).
+void refineEdges(Context& ctx, Scratch& s, std::size_t count, const float* ax, const float* ay,
+                 const float* az, const float* length, ThreadStats& st) {
+  const float iso = layout::ISO_VALUE;
+  for (int step = 0; step < ctx.options.refineSteps; ++step) {
+    std::size_t n = 0;
+    for (std::size_t e = 0; e < count; ++e) {
+      if (!s.active[e]) continue;
+      float p[3] = {ax[e], ay[e], az[e]};
+      p[s.edgeAxis[e]] = p[s.edgeAxis[e]] + s.t[e] * length[e];
+      s.px[n] = p[0], s.py[n] = p[1], s.pz[n] = p[2];
+      s.kept[n] = int(e);  // reuse as the batch -> edge map
+      ++n;
+    }
+    if (n == 0) break;
+    evaluateFieldBatch(ctx.program, s.px.data(), s.py.data(), s.pz.data(), s.f.data(), n,
+                       ctx.level);
+    st.edge += n;
+    st.blocks += ctx.blocks(n);
+    for (std::size_t b = 0; b < n; ++b) {
+      const std::size_t e = std::size_t(s.kept[b]);
+      const float f = s.f[b];
+      if (f == iso) {
+        s.active[e] = 0;
+        continue;
+      }
+      int& keptSide = s.active[e];  // 1: none yet, 2: lo kept last, 3: hi kept last
+      if ((f >= iso) == (s.flo[e] >= iso)) {
+        s.lo[e] = s.t[e], s.flo[e] = f;
+        if (keptSide == 3) s.fhi[e] = iso + (s.fhi[e] - iso) * 0.5f;
+        keptSide = 3;
+      } else {
+        s.hi[e] = s.t[e], s.fhi[e] = f;
+        if (keptSide == 2) s.flo[e] = iso + (s.flo[e] - iso) * 0.5f;
+        keptSide = 2;
+      }
+      s.t[e] = s.lo[e] + (iso - s.flo[e]) / (s.fhi[e] - s.flo[e]) * (s.hi[e] - s.lo[e]);
+    }
+  }
+}
+
+std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadStats& st) {
+  const blobtree::GridSpec& grid = ctx.grid;
+  const int D = ctx.D;
+  const glm::ivec3 mi(m % ctx.mpus.x, (m / ctx.mpus.x) % ctx.mpus.y, m / (ctx.mpus.x * ctx.mpus.y));
+  const glm::ivec3 lo = mi * D;
+  const glm::ivec3 hiCell = glm::min(lo + D, grid.cells);
+  const glm::ivec3 pts = hiCell - lo + 1;
+  glm::ivec3 owned = pts - 1;
+  for (int a = 0; a < 3; ++a)
+    if (mi[a] == ctx.mpus[a] - 1) owned[a] = pts[a];
+  const float iso = layout::ISO_VALUE;
+
+  auto t0 = Clock::now();
+  if (ctx.options.earlyDiscard) {
+    const glm::vec3 blo = grid.point(lo.x, lo.y, lo.z), bhi = grid.point(hiCell.x, hiCell.y, hiCell.z);
+    const FieldInterval f = fieldBounds(ctx.program, glm::dvec3(blo), glm::dvec3(bhi));
+    st.discard += msSince(t0);
+    if (f.hi < iso) {
+      ++st.discardedEmpty;
+      return nullptr;
+    }
+    if (f.lo >= iso) {
+      ++st.discardedFull;
+      return nullptr;
+    }
+  }
+
+  // ---- field cache, x fastest ----
+  t0 = Clock::now();
+  const std::size_t sx = 1, sy = std::size_t(pts.x), sz = std::size_t(pts.x) * std::size_t(pts.y);
+  const std::size_t N = sz * std::size_t(pts.z);
+  s.x.resize(N), s.y.resize(N), s.z.resize(N), s.field.resize(N), s.inside.resize(N);
+  float cx[65], cy[65], cz[65];  // the grid's own coordinate expression, per axis
+  for (int i = 0; i < pts.x; ++i) cx[i] = grid.point(lo.x + i, 0, 0).x;
+  for (int j = 0; j < pts.y; ++j) cy[j] = grid.point(0, lo.y + j, 0).y;
+  for (int k = 0; k < pts.z; ++k) cz[k] = grid.point(0, 0, lo.z + k).z;
+  {
+    std::size_t p = 0;
+    for (int k = 0; k < pts.z; ++k)
+      for (int j = 0; j < pts.y; ++j)
+        for (int i = 0; i < pts.x; ++i, ++p) s.x[p] = cx[i], s.y[p] = cy[j], s.z[p] = cz[k];
+  }
+  evaluateFieldBatch(ctx.program, s.x.data(), s.y.data(), s.z.data(), s.field.data(), N, ctx.level);
+  st.grid += N;
+  st.blocks += ctx.blocks(N);
+  std::size_t insideCount = 0;
+  for (std::size_t p = 0; p < N; ++p) {
+    const std::uint8_t in = s.field[p] >= iso ? 1 : 0;
+    s.inside[p] = in;
+    insideCount += in;
+  }
+  st.field += msSince(t0);
+  if (insideCount == 0) {
+    ++st.empty;
+    return nullptr;
+  }
+  if (insideCount == N) {
+    ++st.full;
+    return nullptr;
+  }
+  ++st.crossed;
+
+  // ---- vertices on owned crossing edges, in edge-key order ----
+  t0 = Clock::now();
+  auto r = std::make_unique<MpuResult>();
+  r->mpu = mi, r->lo = lo, r->pts = pts, r->owned = owned;
+  s.vertexId.resize(N * 3);
+  s.edgePoint.clear(), s.edgeAxis.clear();
+  r->vertexRowStart.resize(std::size_t(owned.y) * std::size_t(owned.z) + 1);
+  const std::size_t strides[3] = {sx, sy, sz};
+  for (int k = 0; k < owned.z; ++k) {
+    for (int j = 0; j < owned.y; ++j) {
+      const std::size_t row = std::size_t(k) * std::size_t(owned.y) + std::size_t(j);
+      const std::uint32_t rowBegin = std::uint32_t(s.edgePoint.size());
+      r->vertexRowStart[row] = rowBegin;
+      const std::size_t base = std::size_t(k) * sz + std::size_t(j) * sy;
+      const bool yEdge = j + 1 < pts.y, zEdge = k + 1 < pts.z;
+      for (int i = 0; i < owned.x; ++i) {
+        const std::size_t p = base + std::size_t(i);
+        const std::uint8_t in = s.inside[p];
+        const bool cross[3] = {i + 1 < pts.x && s.inside[p + sx] != in,
+                               yEdge && s.inside[p + sy] != in, zEdge && s.inside[p + sz] != in};
+        for (int axis = 0; axis < 3; ++axis) {
+          if (!cross[axis]) continue;
+          s.vertexId[p * 3 + std::size_t(axis)] = std::uint32_t(s.edgePoint.size());
+          s.edgePoint.push_back(std::uint32_t(p));
+          s.edgeAxis.push_back(std::uint8_t(axis));
+        }
+      }
+      ctx.vertexRows[ctx.vertexRow(lo.z + k, lo.y + j, mi.x)] =
+          std::uint32_t(s.edgePoint.size()) - rowBegin;
+    }
+  }
+  const std::size_t nv = s.edgePoint.size();
+  r->vertexRowStart.back() = std::uint32_t(nv);
+
+  // Positions: the reference's expression, a[axis] + t * (b[axis] - a[axis]).
+  for (auto* v : {&s.t, &s.lo, &s.hi, &s.flo, &s.fhi, &s.f, &s.px, &s.py, &s.pz, &s.nx, &s.ny,
+                  &s.nz, &s.cr, &s.cg, &s.cb})
+    v->resize(nv);
+  s.kept.resize(nv), s.active.resize(nv);
+  std::vector<float>& ax = s.nx;  // start points and lengths borrow the normal buffers
+  std::vector<float>& ay = s.ny;
+  std::vector<float>& az = s.nz;
+  std::vector<float>& length = s.cr;
+  r->keys.resize(nv);
+  for (std::size_t e = 0; e < nv; ++e) {
+    const std::size_t p = s.edgePoint[e];
+    const int axis = s.edgeAxis[e];
+    const int i = int(p % sy), j = int((p / sy) % std::size_t(pts.y)), k = int(p / sz);
+    ax[e] = cx[i], ay[e] = cy[j], az[e] = cz[k];
+    const float* c = axis == 0 ? cx : axis == 1 ? cy : cz;
+    const int idx = axis == 0 ? i : axis == 1 ? j : k;
+    length[e] = c[idx + 1] - c[idx];
+    const float fa = s.field[p], fb = s.field[p + strides[axis]];
+    s.t[e] = (iso - fa) / (fb - fa);
+    s.lo[e] = 0.0f, s.hi[e] = 1.0f, s.flo[e] = fa, s.fhi[e] = fb, s.active[e] = 1;
+    r->keys[e] = grid.edgeKey(lo.x + i, lo.y + j, lo.z + k, axis);
+  }
+  if (ctx.options.refineSteps > 0) refineEdges(ctx, s, nv, ax.data(), ay.data(), az.data(), length.data(), st);
+  r->positions.resize(nv);
+  for (std::size_t e = 0; e < nv; ++e) {
+    float q[3] = {ax[e], ay[e], az[e]};
+    const int axis = s.edgeAxis[e];
+    q[axis] = q[axis] + s.t[e] * length[e];
+    r->positions[e] = {q[0], q[1], q[2]};
+    s.px[e] = q[0], s.py[e] = q[1], s.pz[e] = q[2];
+  }
+  // Low-face rank tables for the neighbours below.
+  const auto rankOf = [&](int i, int j, int k) {
+    std::array<std::uint8_t, 3> ranks{kNoRank, kNoRank, kNoRank};
+    const std::size_t p = std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
+    const std::uint32_t rowBegin =
+        r->vertexRowStart[std::size_t(k) * std::size_t(owned.y) + std::size_t(j)];
+    const std::uint8_t in = s.inside[p];
+    const bool cross[3] = {i + 1 < pts.x && s.inside[p + sx] != in,
+                           j + 1 < pts.y && s.inside[p + sy] != in,
+                           k + 1 < pts.z && s.inside[p + sz] != in};
+    for (int axis = 0; axis < 3; ++axis)
+      if (cross[axis]) ranks[std::size_t(axis)] = std::uint8_t(s.vertexId[p * 3 + std::size_t(axis)] - rowBegin);
+    return ranks;
+  };
+  r->faceX.resize(std::size_t(owned.y) * std::size_t(owned.z));
+  r->faceY.resize(std::size_t(owned.x) * std::size_t(owned.z));
+  r->faceZ.resize(std::size_t(owned.x) * std::size_t(owned.y));
+  for (int k = 0; k < owned.z; ++k)
+    for (int j = 0; j < owned.y; ++j) r->faceX[std::size_t(k * owned.y + j)] = rankOf(0, j, k);
+  for (int k = 0; k < owned.z; ++k)
+    for (int i = 0; i < owned.x; ++i) r->faceY[std::size_t(k * owned.x + i)] = rankOf(i, 0, k);
+  for (int j = 0; j < owned.y; ++j)
+    for (int i = 0; i < owned.x; ++i) r->faceZ[std::size_t(j * owned.x + i)] = rankOf(i, j, 0);
+  st.vertices += msSince(t0);
+
+  // ---- attributes in SIMD batches ----
+  t0 = Clock::now();
+  if (ctx.options.normals) {
+    evaluateNormalBatch(ctx.program, s.px.data(), s.py.data(), s.pz.data(), s.nx.data(),
+                        s.ny.data(), s.nz.data(), nv, ctx.options.normalStep, ctx.level);
+    st.attribute += 6 * nv;
+    st.blocks += 6 * ctx.blocks(nv);
+    r->normals.resize(nv);
+    for (std::size_t e = 0; e < nv; ++e) r->normals[e] = {s.nx[e], s.ny[e], s.nz[e]};
+  }
+  if (ctx.options.colours) {
+    evaluateFieldColourBatch(ctx.program, s.px.data(), s.py.data(), s.pz.data(), s.f.data(),
+                             s.cr.data(), s.cg.data(), s.cb.data(), nv, ctx.level);
+    st.attribute += nv;
+    st.blocks += ctx.blocks(nv);
+    r->colours.resize(nv);
+    for (std::size_t e = 0; e < nv; ++e) r->colours[e] = {s.cr[e], s.cg[e], s.cb[e]};
+  }
+  st.attributes += msSince(t0);
+
+  // ---- cells: case index per row of cells, triangles in cell order ----
+  t0 = Clock::now();
+  const auto& cases = mesh::marchingCubesCases();
+  const int ncx = pts.x - 1, ncy = pts.y - 1, ncz = pts.z - 1;
+  s.config.resize(std::size_t(ncx));
+  r->triangleRowStart.resize(std::size_t(ncy) * std::size_t(ncz) + 1);
+  for (int k = 0; k < ncz; ++k) {
+    for (int j = 0; j < ncy; ++j) {
+      const std::uint32_t rowBegin = std::uint32_t(r->triangles.size());
+      r->triangleRowStart[std::size_t(k * ncy + j)] = rowBegin;
+      const std::uint8_t* r00 = s.inside.data() + std::size_t(k) * sz + std::size_t(j) * sy;
+      const std::uint8_t* r10 = r00 + sy;
+      const std::uint8_t* r01 = r00 + sz;
+      const std::uint8_t* r11 = r01 + sy;
+      std::uint8_t* cfg = s.config.data();
+      // Corner c at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1) sets bit c; vectorised by the
+      // compiler over the row.
+      for (int i = 0; i < ncx; ++i)
+        cfg[i] = std::uint8_t(r00[i] | (r00[i + 1] << 1) | (r10[i] << 2) | (r10[i + 1] << 3) |
+                              (r01[i] << 4) | (r01[i + 1] << 5) | (r11[i] << 6) | (r11[i + 1] << 7));
+      for (int i = 0; i < ncx; ++i) {
+        if (cfg[i] == 0 || cfg[i] == 255) continue;
+        const mesh::McCase& mc = cases[cfg[i]];
+        for (int t = 0; t < mc.triangleCount; ++t) {
+          std::array<std::uint32_t, 3> tri{};
+          for (int v = 0; v < 3; ++v) {
+            const int e = mc.edges[std::size_t(t * 3 + v)];
+            const std::array<int, 3> st3 = mesh::mcEdgeStart(e);
+            const int axis = mesh::mcEdgeAxis(e);
+            const int x = i + st3[0], y = j + st3[1], z = k + st3[2];
+            if (x < owned.x && y < owned.y && z < owned.z) {
+              tri[std::size_t(v)] =
+                  s.vertexId[(std::size_t(z) * sz + std::size_t(y) * sy + std::size_t(x)) * 3 +
+                             std::size_t(axis)];
+            } else {
+              tri[std::size_t(v)] = encodeDeferred(x, y, z, axis);
+            }
+          }
+          r->triangles.push_back(tri);
+        }
+      }
+      ctx.triangleRows[ctx.triangleRow(lo.z + k, lo.y + j, mi.x)] =
+          std::uint32_t(r->triangles.size()) - rowBegin;
+    }
+  }
+  r->triangleRowStart.back() = std::uint32_t(r->triangles.size());
+  st.cells += msSince(t0);
+  return r;
+}
+
+// Global index of an edge owned by a neighbour above (x, y or z past the owned range).
+std::uint32_t resolveDeferred(const Context& ctx, const MpuResult& r, std::uint32_t code) {
+  int q[3] = {int(code & 127u), int((code >> 7) & 127u), int((code >> 14) & 127u)};
+  const int axis = int((code >> 21) & 3u);
+  const glm::ivec3 g = r.lo + glm::ivec3(q[0], q[1], q[2]);
+  glm::ivec3 owner = r.mpu;
+  for (int a = 0; a < 3; ++a) {
+    if (q[a] >= r.owned[a]) {
+      owner[a] += 1;
+      q[a] -= r.owned[a];
+    }
+  }
+  const int m = (owner.z * ctx.mpus.y + owner.y) * ctx.mpus.x + owner.x;
+  const MpuResult* o = ctx.results[std::size_t(m)].get();
+  std::uint8_t rank = kNoRank;
+  if (o) {
+    if (q[0] == 0)
+      rank = o->faceX[std::size_t(q[2] * o->owned.y + q[1])][std::size_t(axis)];
+    else if (q[1] == 0)
+      rank = o->faceY[std::size_t(q[2] * o->owned.x + q[0])][std::size_t(axis)];
+    else
+      rank = o->faceZ[std::size_t(q[1] * o->owned.x + q[0])][std::size_t(axis)];
+  }
+  if (rank == kNoRank)
+    throw std::logic_error("polygonizeMpu: a triangle refers to an edge its owner has no vertex for");
+  return ctx.vertexRows[ctx.vertexRow(g.z, g.y, owner.x)] + rank;
+}
+
+void scatterMpu(const Context& ctx, const MpuResult& r, mesh::TriMesh& out, Scratch& s) {
+  const glm::ivec3 owned = r.owned;
+  s.localToGlobal.resize(r.positions.size());
+  for (int k = 0; k < owned.z; ++k) {
+    for (int j = 0; j < owned.y; ++j) {
+      const std::size_t row = std::size_t(k) * std::size_t(owned.y) + std::size_t(j);
+      const std::uint32_t begin = r.vertexRowStart[row], end = r.vertexRowStart[row + 1];
+      const std::uint32_t base = ctx.vertexRows[ctx.vertexRow(r.lo.z + k, r.lo.y + j, r.mpu.x)];
+      for (std::uint32_t v = begin; v < end; ++v) {
+        const std::uint32_t g = base + (v - begin);
+        s.localToGlobal[v] = g;
+        out.positions[g] = r.positions[v];
+        out.edgeKeys[g] = r.keys[v];
+        if (!r.normals.empty()) out.normals[g] = r.normals[v];
+        if (!r.colours.empty()) out.colours[g] = r.colours[v];
+      }
+    }
+  }
+  const int ncy = r.pts.y - 1, ncz = r.pts.z - 1;
+  for (int k = 0; k < ncz; ++k) {
+    for (int j = 0; j < ncy; ++j) {
+      const std::size_t row = std::size_t(k * ncy + j);
+      const std::uint32_t begin = r.triangleRowStart[row], end = r.triangleRowStart[row + 1];
+      const std::uint32_t base = ctx.triangleRows[ctx.triangleRow(r.lo.z + k, r.lo.y + j, r.mpu.x)];
+      for (std::uint32_t t = begin; t < end; ++t) {
+        std::array<std::uint32_t, 3> tri = r.triangles[t];
+        for (auto& v : tri) v = (v & kDeferred) ? resolveDeferred(ctx, r, v) : s.localToGlobal[v];
+        out.triangles[base + (t - begin)] = tri;
+      }
+    }
+  }
+}
+
+std::uint64_t exclusiveScan(std::vector<std::uint32_t>& counts) {
+  std::uint64_t sum = 0;
+  for (auto& c : counts) {
+    const std::uint32_t n = c;
+    c = std::uint32_t(sum);
+    sum += n;
+  }
+  return sum;
+}
+
+}  // namespace
+
+mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                            const MpuOptions& options, MpuStats* stats) {
+  const auto tStart = Clock::now();
+  if (!(grid.cellSize > 0.0f))
+    throw std::invalid_argument("polygonizeMpu: cell size must be positive, got " +
+                                std::to_string(grid.cellSize));
+  if (grid.cells.x < 0 || grid.cells.y < 0 || grid.cells.z < 0)
+    throw std::invalid_argument("polygonizeMpu: negative cell count");
+  if (options.mpuCells < 2 || options.mpuCells > 64)
+    throw std::invalid_argument("polygonizeMpu: mpuCells must be in [2, 64], got " +
+                                std::to_string(options.mpuCells));
+  if (options.refineSteps < 0) throw std::invalid_argument("polygonizeMpu: refineSteps must be >= 0");
+  if (options.threads < 0) throw std::invalid_argument("polygonizeMpu: threads must be >= 0");
+
+  MpuStats local;
+  MpuStats& st = stats ? *stats : local;
+  st = MpuStats{};
+  const SimdLevel level = options.simd.value_or(bestSimdLevel());
+  if (!simdLevelSupported(level))
+    throw std::invalid_argument(std::string("polygonizeMpu: SIMD level ") + toString(level) +
+                                " is not supported by this CPU");
+  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  st.mpuCells = options.mpuCells, st.threads = threads, st.simd = level;
+
+  mesh::TriMesh mesh;
+  if (grid.cells.x == 0 || grid.cells.y == 0 || grid.cells.z == 0) return mesh;
+
+  const int D = options.mpuCells;
+  Context ctx{program, grid, options, level, simdWidth(level), D,
+              (grid.cells + D - 1) / D, grid.points(), {}, {}, {}};
+  const std::size_t mpuCount = std::size_t(ctx.mpus.x) * std::size_t(ctx.mpus.y) * std::size_t(ctx.mpus.z);
+  ctx.vertexRows.assign(std::size_t(ctx.points.y) * std::size_t(ctx.points.z) * std::size_t(ctx.mpus.x), 0u);
+  ctx.triangleRows.assign(std::size_t(grid.cells.y) * std::size_t(grid.cells.z) * std::size_t(ctx.mpus.x), 0u);
+  ctx.results.resize(mpuCount);
+  st.mpus = mpuCount;
+  st.msSetup = msSince(tStart);
+
+  tbb::task_arena arena(threads);
+  tbb::combinable<ThreadStats> perThread;
+  tbb::combinable<Scratch> scratch;
+  auto t0 = Clock::now();
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mpuCount, 1), [&](const auto& range) {
+      ThreadStats& ts = perThread.local();
+      Scratch& s = scratch.local();
+      for (std::size_t m = range.begin(); m != range.end(); ++m)
+        ctx.results[m] = processMpu(ctx, int(m), s, ts);
+    });
+  });
+  st.msMpus = msSince(t0);
+
+  t0 = Clock::now();
+  const std::uint64_t nv = exclusiveScan(ctx.vertexRows);
+  const std::uint64_t nt = exclusiveScan(ctx.triangleRows);
+  if (nv >= std::uint64_t(kDeferred))
+    throw std::length_error("polygonizeMpu: more than 2^31 vertices");
+  st.msPrefix = msSince(t0);
+
+  t0 = Clock::now();
+  mesh.positions.resize(nv);
+  mesh.edgeKeys.resize(nv);
+  if (options.normals) mesh.normals.resize(nv);
+  if (options.colours) mesh.colours.resize(nv);
+  mesh.triangles.resize(nt);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mpuCount, 1), [&](const auto& range) {
+      Scratch& s = scratch.local();
+      for (std::size_t m = range.begin(); m != range.end(); ++m)
+        if (ctx.results[m]) scatterMpu(ctx, *ctx.results[m], mesh, s);
+    });
+  });
+  st.msScatter = msSince(t0);
+
+  perThread.combine_each([&](const ThreadStats& t) {
+    st.gridEvaluations += t.grid, st.edgeEvaluations += t.edge, st.attributeEvaluations += t.attribute;
+    st.simdBlocks += t.blocks;
+    st.discardedEmpty += t.discardedEmpty, st.discardedFull += t.discardedFull;
+    st.empty += t.empty, st.full += t.full, st.crossed += t.crossed;
+    st.cpuDiscard += t.discard, st.cpuField += t.field, st.cpuCells += t.cells;
+    st.cpuVertices += t.vertices, st.cpuAttributes += t.attributes;
+  });
+  st.pointEvaluations = st.gridEvaluations + st.edgeEvaluations + st.attributeEvaluations;
+  st.vertices = nv, st.triangles = nt;
+  st.fvept = nt ? double(st.pointEvaluations) / double(nt) : 0.0;
+  st.fveptSimd = nt ? double(st.simdBlocks) / double(nt) : 0.0;
+  st.msTotal = msSince(tStart);
+  return mesh;
+}
+
+}  // namespace blobvk::cpu

@@ -1,0 +1,52 @@
+// The multi-core polygonizer: the grid is cut into MPUs (blocks of D^3 cells) processed in
+// parallel on TBB, each with a conservative early discard (field_bounds.h), a SIMD field cache,
+// a case index per cell and per-edge vertices. The output is one welded mesh equal to
+// polygonizeReference's: vertices in global edge-key order, triangles in cell order, the same
+// bytes for any thread count.
+#pragma once
+
+#include "blobtree/grid.h"
+#include "blobtree/program.h"
+#include "cpu_simd/simd_evaluator.h"
+#include "mesh/trimesh.h"
+
+#include <cstdint>
+#include <optional>
+
+namespace blobvk::cpu {
+
+inline constexpr int kDefaultMpuCells = 16;  // chosen by bench_polygonizer's MPU-size sweep
+
+struct MpuOptions {
+  int mpuCells = kDefaultMpuCells;  // D: cells per MPU side, 2..64
+  int threads = 0;                  // 0: all cores (tbb default concurrency)
+  bool normals = true;
+  bool colours = true;
+  int refineSteps = 0;        // as ReferenceOptions::refineSteps (Illinois steps per edge)
+  bool earlyDiscard = true;   // the conservative interval test per MPU
+  std::optional<SimdLevel> simd;  // default: bestSimdLevel()
+  float normalStep = 1e-4f;   // central-difference step, as blobtree::normal's default
+};
+
+struct MpuStats {
+  // Point evaluations of the field: grid points sampled, refinement steps on edges, attribute
+  // evaluations (6 per normal, 1 per colour).
+  std::uint64_t gridEvaluations = 0, edgeEvaluations = 0, attributeEvaluations = 0;
+  std::uint64_t pointEvaluations = 0;  // the sum of the three
+  std::uint64_t simdBlocks = 0;        // SIMD calls (point evaluations / lane width, rounded up)
+  std::uint64_t triangles = 0, vertices = 0;
+  double fvept = 0.0;      // point evaluations per triangle
+  double fveptSimd = 0.0;  // SIMD calls per triangle (the thesis' count)
+  std::uint64_t mpus = 0, discardedEmpty = 0, discardedFull = 0, empty = 0, full = 0, crossed = 0;
+  int mpuCells = 0, threads = 0;
+  SimdLevel simd = SimdLevel::Scalar;
+  // Wall-clock per phase (ms).
+  double msSetup = 0, msMpus = 0, msPrefix = 0, msScatter = 0, msTotal = 0;
+  // CPU time summed over threads inside the MPU phase (ms).
+  double cpuDiscard = 0, cpuField = 0, cpuCells = 0, cpuVertices = 0, cpuAttributes = 0;
+};
+
+mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                            const MpuOptions& options = {}, MpuStats* stats = nullptr);
+
+}  // namespace blobvk::cpu

@@ -1,0 +1,17 @@
+// Internal: the per-ISA entry points behind simd_evaluator.h. Each is defined in a file compiled
+// with that ISA's flags (simd_avx2.cpp, simd_avx512.cpp) and must only be called after the CPU
+// check in simd_evaluator.cpp. Colour pointers may be null (field only).
+#pragma once
+
+#include "blobtree/program.h"
+
+#include <cstddef>
+
+namespace blobvk::cpu::detail {
+
+void evaluateAvx2(const blobtree::Program& program, const float* x, const float* y, const float* z,
+                  float* field, float* r, float* g, float* b, std::size_t n);
+void evaluateAvx512(const blobtree::Program& program, const float* x, const float* y,
+                    const float* z, float* field, float* r, float* g, float* b, std::size_t n);
+
+}  // namespace blobvk::cpu::detail
