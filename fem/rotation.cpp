@@ -1,0 +1,46 @@
+#include "fem/rotation.h"
+
+#include <cmath>
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+
+namespace blobvk::fem {
+
+int extractRotation(const double Fr[9], double qa[4], int maxIterations, double tolerance) {
+  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> F(Fr);
+  Eigen::Quaterniond q(qa[0], qa[1], qa[2], qa[3]);
+  if (q.squaredNorm() < 0.5) q = Eigen::Quaterniond::Identity();
+  q.normalize();
+  int it = 0;
+  for (; it < maxIterations; ++it) {
+    const Eigen::Matrix3d R = q.toRotationMatrix();
+    const Eigen::Matrix3d G = F * R.transpose();
+    const Eigen::Vector3d g(G(2, 1) - G(1, 2), G(0, 2) - G(2, 0), G(1, 0) - G(0, 1));
+    const double trace = G.trace();
+    const Eigen::Matrix3d H = trace * Eigen::Matrix3d::Identity() - 0.5 * (G + G.transpose());
+    // Positive definite by leading minors (scaled): then a Newton step; else the robust step.
+    const double scale = std::abs(trace) + 1e-300;
+    const double m1 = H(0, 0), m2 = H(0, 0) * H(1, 1) - H(0, 1) * H(1, 0), m3 = H.determinant();
+    Eigen::Vector3d omega;
+    if (m1 > 1e-6 * scale && m2 > 1e-6 * scale * scale && m3 > 1e-6 * scale * scale * scale)
+      omega = H.inverse() * g;
+    else
+      omega = g / (scale + 1e-9);
+    double w = omega.norm();
+    if (!(w > tolerance)) break;  // also stops on NaN input
+    if (w > 1.0) {  // never rotate more than 1 rad per iteration
+      omega /= w;
+      w = 1.0;
+    }
+    q = Eigen::Quaterniond(Eigen::AngleAxisd(w, omega / w)) * q;
+    q.normalize();
+  }
+  qa[0] = q.w();
+  qa[1] = q.x();
+  qa[2] = q.y();
+  qa[3] = q.z();
+  return it;
+}
+
+}  // namespace blobvk::fem

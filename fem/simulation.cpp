@@ -1,0 +1,292 @@
+#include "fem/simulation.h"
+
+#include "fem/block_matrix.h"
+#include "fem/elements.h"
+#include "fem/pcg.h"
+#include "fem/tet_utils.h"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <tbb/parallel_for.h>
+
+namespace blobvk::fem {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+}  // namespace
+
+struct Simulation::Impl {
+  mesh::TetMesh mesh;
+  SimulationSettings settings;
+  ElementSet elements;
+  BlockMatrix3 matrix;
+  std::vector<double> mass;
+  std::vector<mesh::Double3> velocity;
+  std::vector<unsigned char> fixed, freeDof;
+  std::vector<double> force, rhs, solution;
+  std::vector<ToolContactReport> contacts;
+  StepStats stats;
+  double time = 0;
+  mesh::TriMesh renderMesh;
+  SurfaceEmbedding embedding;
+  bool embedded = false;
+  // Per-node contact scratch: depth, normal and tool of the deepest contact.
+  std::vector<double> contactDepth;
+  std::vector<mesh::Double3> contactNormal;
+
+  void addToolContacts(double h);
+  void applyFloor();
+};
+
+Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_unique<Impl>()) {
+  validateTetMesh(m);
+  if (s.materials.empty()) throw std::invalid_argument("simulation: at least one material is needed");
+  for (std::size_t r = 0; r < s.materials.size(); ++r) validateMaterial(s.materials[r], r);
+  for (std::size_t t = 0; t < m.regions.size(); ++t)
+    if (m.regions[t] >= s.materials.size())
+      throw std::invalid_argument("tet " + std::to_string(t) + " has region " + std::to_string(m.regions[t]) + " but only " +
+                                  std::to_string(s.materials.size()) + " materials are given");
+  if (!(s.timeStep > 0) || !std::isfinite(s.timeStep)) throw std::invalid_argument("simulation: time step must be > 0");
+  if (s.rayleighMass < 0 || s.rayleighStiffness < 0) throw std::invalid_argument("simulation: Rayleigh coefficients must be >= 0");
+  if (s.cgMaxIterations < 1) throw std::invalid_argument("simulation: cgMaxIterations must be >= 1");
+  for (std::size_t k = 0; k < s.tools.size(); ++k) validateTool(s.tools[k], k);
+  if (s.floor) {
+    const auto& n = s.floor->normal;
+    const double len = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    if (!(len > 0)) throw std::invalid_argument("simulation: floor normal must be non-zero");
+    s.floor->normal = {n.x / len, n.y / len, n.z / len};
+    s.floor->offset /= len;
+  }
+  Impl& d = *impl_;
+  d.mesh = std::move(m);
+  d.settings = std::move(s);
+  if (d.mesh.boundaryFaces.empty()) d.mesh.boundaryFaces = findBoundaryFaces(d.mesh);
+  d.elements.build(d.mesh, d.settings.materials);
+  d.matrix.build(d.mesh.nodeCount(), d.mesh.tets);
+  d.mass = d.elements.lumpedMass(d.mesh.nodeCount());
+  const std::size_t n = d.mesh.nodeCount();
+  d.velocity.assign(n, {});
+  d.fixed.assign(n, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if (d.settings.fixed && d.settings.fixed(d.mesh.restPositions[i])) d.fixed[i] = 1;
+  for (auto i : d.settings.fixedNodes) {
+    if (i >= n) throw std::invalid_argument("simulation: fixed node " + std::to_string(i) + " out of range");
+    d.fixed[i] = 1;
+  }
+  d.freeDof.resize(3 * n);
+  for (std::size_t i = 0; i < 3 * n; ++i) d.freeDof[i] = d.fixed[i / 3] ? 0 : 1;
+  d.force.assign(3 * n, 0);
+  d.rhs.assign(3 * n, 0);
+  d.solution.assign(3 * n, 0);
+  d.contacts.assign(d.settings.tools.size(), {});
+  d.contactDepth.assign(n, 0);
+  d.contactNormal.assign(n, {});
+  d.renderMesh = boundarySurface(d.mesh);
+}
+
+Simulation::~Simulation() = default;
+Simulation::Simulation(Simulation&&) noexcept = default;
+Simulation& Simulation::operator=(Simulation&&) noexcept = default;
+
+void Simulation::Impl::addToolContacts(double h) {
+  const std::size_t n = mesh.nodeCount();
+  for (std::size_t k = 0; k < settings.tools.size(); ++k) {
+    const Tool& tool = settings.tools[k];
+    const ToolPose pose = tool.poseAt(time + h);
+    const double reach = tool.boundingRadius();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+        contactDepth[i] = 0;
+        if (fixed[i]) continue;
+        const auto& p = mesh.positions[i];
+        const double dx = p.x - pose.position.x, dy = p.y - pose.position.y, dz = p.z - pose.position.z;
+        if (dx * dx + dy * dy + dz * dz > reach * reach) continue;  // broad phase
+        const ToolContact c = tool.contact(p, pose);
+        if (c.depth > 0) {
+          contactDepth[i] = c.depth;
+          contactNormal[i] = c.normal;
+        }
+      }
+    });
+    // Serial accumulation keeps the reported totals deterministic.
+    ToolContactReport report;
+    const double kh2 = tool.stiffness * h * h;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (contactDepth[i] <= 0) continue;
+      const auto& nn = contactNormal[i];
+      const double f = tool.stiffness * contactDepth[i];
+      force[3 * i] += f * nn.x;
+      force[3 * i + 1] += f * nn.y;
+      force[3 * i + 2] += f * nn.z;
+      // Implicit penalty: d f / d x = -k n n^T enters (M + h D + h^2 K) as + h^2 k n n^T.
+      double* B = matrix.block(matrix.diagonal(i));
+      const double nv[3] = {nn.x, nn.y, nn.z};
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) B[a * 3 + b] += kh2 * nv[a] * nv[b];
+      ++report.nodesInContact;
+      report.force.x += f * nn.x;
+      report.force.y += f * nn.y;
+      report.force.z += f * nn.z;
+      report.maxDepth = std::max(report.maxDepth, contactDepth[i]);
+    }
+    contacts[k] = report;
+  }
+}
+
+void Simulation::Impl::applyFloor() {
+  if (!settings.floor) return;
+  const FloorPlane& f = *settings.floor;
+  for (std::size_t i = 0; i < mesh.nodeCount(); ++i) {
+    auto& p = mesh.positions[i];
+    const double s = f.normal.x * p.x + f.normal.y * p.y + f.normal.z * p.z - f.offset;
+    if (s >= 0 || fixed[i]) continue;
+    p = {p.x - s * f.normal.x, p.y - s * f.normal.y, p.z - s * f.normal.z};
+    auto& v = velocity[i];
+    const double vn = f.normal.x * v.x + f.normal.y * v.y + f.normal.z * v.z;
+    const mesh::Double3 vt{v.x - vn * f.normal.x, v.y - vn * f.normal.y, v.z - vn * f.normal.z};
+    const double normalPart = vn < 0 ? -f.restitution * vn : vn;
+    const double keep = 1.0 - f.friction;
+    v = {keep * vt.x + normalPart * f.normal.x, keep * vt.y + normalPart * f.normal.y, keep * vt.z + normalPart * f.normal.z};
+  }
+}
+
+void Simulation::step() {
+  Impl& d = *impl_;
+  const auto start = Clock::now();
+  const double h = d.settings.timeStep;
+  const std::size_t n = d.mesh.nodeCount();
+  StepStats stats;
+
+  auto t = Clock::now();
+  const long long rotationIterations = d.elements.updateRotations(d.mesh.positions, d.settings.rotationMaxIterations);
+  stats.rotationIterationsPerTet = double(rotationIterations) / double(d.elements.size());
+  stats.rotationsMs = msSince(t);
+
+  // A = (1 + h alpha) M + (h beta + h^2) K~ ; b = M v + h (f_elastic + f_gravity + f_contact).
+  t = Clock::now();
+  d.matrix.setZero();
+  std::fill(d.force.begin(), d.force.end(), 0.0);
+  const double massScale = 1.0 + h * d.settings.rayleighMass;
+  for (std::size_t i = 0; i < n; ++i) {
+    double* B = d.matrix.block(d.matrix.diagonal(i));
+    B[0] = B[4] = B[8] = massScale * d.mass[i];
+  }
+  d.elements.addForcesAndStiffness(d.mesh.positions, d.force, &d.matrix, h * d.settings.rayleighStiffness + h * h);
+  const auto& g = d.settings.gravity;
+  for (std::size_t i = 0; i < n; ++i) {
+    d.force[3 * i] += d.mass[i] * g.x;
+    d.force[3 * i + 1] += d.mass[i] * g.y;
+    d.force[3 * i + 2] += d.mass[i] * g.z;
+  }
+  stats.assemblyMs = msSince(t);
+
+  t = Clock::now();
+  d.addToolContacts(h);
+  stats.contactMs = msSince(t);
+
+  t = Clock::now();
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& v = d.velocity[i];
+    const double vv[3] = {v.x, v.y, v.z};
+    for (int c = 0; c < 3; ++c) {
+      d.rhs[3 * i + c] = d.mass[i] * vv[c] + h * d.force[3 * i + c];
+      d.solution[3 * i + c] = d.fixed[i] ? 0.0 : vv[c];  // warm start: the current velocity
+    }
+  }
+  const PcgResult cg = solvePcg(d.matrix, d.rhs, d.freeDof, d.solution, d.settings.cgMaxIterations, d.settings.cgTolerance);
+  stats.cgIterations = cg.iterations;
+  stats.cgRelativeResidual = cg.relativeResidual;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (d.fixed[i]) {
+      d.velocity[i] = {};
+      continue;
+    }
+    d.velocity[i] = {d.solution[3 * i], d.solution[3 * i + 1], d.solution[3 * i + 2]};
+    auto& p = d.mesh.positions[i];
+    p = {p.x + h * d.velocity[i].x, p.y + h * d.velocity[i].y, p.z + h * d.velocity[i].z};
+  }
+  d.applyFloor();
+  stats.solveMs = msSince(t);
+  d.time += h;
+  stats.totalMs = msSince(start);
+  d.stats = stats;
+}
+
+void Simulation::run(int steps) {
+  for (int i = 0; i < steps; ++i) step();
+}
+
+double Simulation::time() const { return impl_->time; }
+const mesh::TetMesh& Simulation::mesh() const { return impl_->mesh; }
+const std::vector<mesh::Double3>& Simulation::positions() const { return impl_->mesh.positions; }
+const std::vector<mesh::Double3>& Simulation::velocities() const { return impl_->velocity; }
+const std::vector<double>& Simulation::nodeMasses() const { return impl_->mass; }
+const std::vector<unsigned char>& Simulation::fixedMask() const { return impl_->fixed; }
+const SimulationSettings& Simulation::settings() const { return impl_->settings; }
+const std::vector<ToolContactReport>& Simulation::toolContacts() const { return impl_->contacts; }
+const StepStats& Simulation::lastStats() const { return impl_->stats; }
+
+void Simulation::setPositions(const std::vector<mesh::Double3>& p) {
+  if (p.size() != impl_->mesh.nodeCount()) throw std::invalid_argument("setPositions: wrong node count");
+  impl_->mesh.positions = p;
+}
+
+void Simulation::setVelocities(const std::vector<mesh::Double3>& v) {
+  if (v.size() != impl_->mesh.nodeCount()) throw std::invalid_argument("setVelocities: wrong node count");
+  impl_->velocity = v;
+}
+
+std::vector<mesh::Double3> Simulation::elasticForces() {
+  Impl& d = *impl_;
+  d.elements.updateRotations(d.mesh.positions, d.settings.rotationMaxIterations);
+  std::vector<double> f(3 * d.mesh.nodeCount(), 0.0);
+  d.elements.addForcesAndStiffness(d.mesh.positions, f, nullptr, 0.0);
+  std::vector<mesh::Double3> out(d.mesh.nodeCount());
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {f[3 * i], f[3 * i + 1], f[3 * i + 2]};
+  return out;
+}
+
+Energies Simulation::energies() {
+  Impl& d = *impl_;
+  Energies e;
+  d.elements.updateRotations(d.mesh.positions, d.settings.rotationMaxIterations);
+  std::vector<double> scratch(3 * d.mesh.nodeCount(), 0.0);
+  e.elastic = d.elements.addForcesAndStiffness(d.mesh.positions, scratch, nullptr, 0.0);
+  const auto& g = d.settings.gravity;
+  for (std::size_t i = 0; i < d.mesh.nodeCount(); ++i) {
+    const auto& v = d.velocity[i];
+    const auto& p = d.mesh.positions[i];
+    e.kinetic += 0.5 * d.mass[i] * (v.x * v.x + v.y * v.y + v.z * v.z);
+    e.gravitational -= d.mass[i] * (g.x * p.x + g.y * p.y + g.z * p.z);
+  }
+  return e;
+}
+
+double Simulation::currentVolume() const { return totalVolume(impl_->mesh, false); }
+double Simulation::restVolume() const { return totalVolume(impl_->mesh, true); }
+
+void Simulation::setRenderSurface(mesh::TriMesh surface, SurfaceEmbedding embedding) {
+  if (embedding.size() != surface.positions.size())
+    throw std::invalid_argument("setRenderSurface: one embedding entry per surface vertex is needed");
+  for (const auto& nodes : embedding.nodes)
+    for (auto n : nodes)
+      if (n >= impl_->mesh.nodeCount()) throw std::invalid_argument("setRenderSurface: embedding references a missing node");
+  impl_->renderMesh = std::move(surface);
+  impl_->embedding = std::move(embedding);
+  impl_->embedded = true;
+}
+
+mesh::TriMesh Simulation::renderSurface() const {
+  const Impl& d = *impl_;
+  if (!d.embedded) return boundarySurface(d.mesh);
+  mesh::TriMesh s = d.renderMesh;
+  applyEmbedding(d.embedding, d.mesh.positions, s);
+  return s;
+}
+
+}  // namespace blobvk::fem

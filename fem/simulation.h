@@ -1,0 +1,107 @@
+// Soft-body simulation of a tet mesh: corotational linear FEM, lumped mass, Rayleigh damping,
+// implicit backward Euler (one linearised Newton step per time step, Baraff-Witkin), solved
+// with warm-started Jacobi PCG over a fixed-pattern block matrix; fixed nodes, gravity, a floor
+// plane and penalty contact with moving implicit tools. Eigen and TBB stay in the .cpp files.
+#pragma once
+
+#include "fem/material.h"
+#include "fem/surface_embedding.h"
+#include "fem/tool.h"
+#include "mesh/tetmesh.h"
+#include "mesh/trimesh.h"
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace blobvk::fem {
+
+// The floor: nodes are kept on the side where dot(normal, x) >= offset. A node that crosses it
+// is projected back; its normal velocity becomes -restitution * v_n and its tangential velocity
+// is scaled by (1 - friction).
+struct FloorPlane {
+  mesh::Double3 normal{0, 1, 0};
+  double offset = 0;
+  double restitution = 0.0;
+  double friction = 0.5;
+};
+
+// true for nodes that must not move, given their rest position (e.g. an implicit selector).
+using NodeSelector = std::function<bool(const mesh::Double3& restPosition)>;
+
+struct SimulationSettings {
+  std::vector<Material> materials = std::vector<Material>(1);  // indexed by TetMesh::regions (region 0 if empty)
+  double timeStep = 1.0 / 60.0;
+  mesh::Double3 gravity{0, -9.81, 0};
+  double rayleighMass = 0.0;        // alpha: D = alpha M + beta K
+  double rayleighStiffness = 0.01;  // beta (seconds)
+  int cgMaxIterations = 100;
+  double cgTolerance = 1e-6;        // relative residual; 0 = always cgMaxIterations
+  int rotationMaxIterations = 30;
+  NodeSelector fixed;                      // optional
+  std::vector<std::uint32_t> fixedNodes;   // optional, added to the selector's nodes
+  std::optional<FloorPlane> floor;
+  std::vector<Tool> tools;
+};
+
+struct StepStats {
+  double rotationsMs = 0, assemblyMs = 0, contactMs = 0, solveMs = 0, totalMs = 0;
+  int cgIterations = 0;
+  double cgRelativeResidual = 0;
+  double rotationIterationsPerTet = 0;
+};
+
+// What tool k did to the body in the last step.
+struct ToolContactReport {
+  std::size_t nodesInContact = 0;
+  mesh::Double3 force;     // total penalty force on the body (the tool feels the opposite)
+  double maxDepth = 0;     // deepest penetration of a node inside the iso surface
+};
+
+struct Energies {
+  double kinetic = 0, elastic = 0, gravitational = 0;  // gravitational = -sum m g.x
+  double total() const { return kinetic + elastic + gravitational; }
+};
+
+class Simulation {
+ public:
+  // Validates mesh (degenerate tets, indices), materials (E > 0, -1 < nu < 0.5, rho > 0), region
+  // indices, tools and time step; throws std::invalid_argument with the reason.
+  Simulation(mesh::TetMesh mesh, SimulationSettings settings);
+  ~Simulation();
+  Simulation(Simulation&&) noexcept;
+  Simulation& operator=(Simulation&&) noexcept;
+
+  void step();
+  void run(int steps);
+
+  double time() const;
+  const mesh::TetMesh& mesh() const;                  // positions are the current state
+  const std::vector<mesh::Double3>& positions() const;
+  const std::vector<mesh::Double3>& velocities() const;
+  void setPositions(const std::vector<mesh::Double3>& positions);
+  void setVelocities(const std::vector<mesh::Double3>& velocities);
+  const std::vector<double>& nodeMasses() const;
+  const std::vector<unsigned char>& fixedMask() const;  // 1 per fixed node
+  const SimulationSettings& settings() const;
+
+  // Elastic forces at the current positions (3 per node; rotations re-extracted first).
+  std::vector<mesh::Double3> elasticForces();
+  Energies energies();
+  double currentVolume() const;
+  double restVolume() const;
+
+  const std::vector<ToolContactReport>& toolContacts() const;  // one per tool, last step
+  const StepStats& lastStats() const;
+
+  // Render surface: by default the tet boundary; or a caller mesh embedded in the tets.
+  void setRenderSurface(mesh::TriMesh surface, SurfaceEmbedding embedding);
+  mesh::TriMesh renderSurface() const;  // positions follow the body, normals recomputed
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace blobvk::fem

@@ -1,0 +1,35 @@
+// The parts of the TetGen front end that do not need TetGen itself (always compiled).
+#include "fem/tetgen_mesher.h"
+
+#include <cstdio>
+#include <stdexcept>
+
+namespace blobvk::fem {
+
+std::string tetgenSwitches(const TetgenOptions& o) {
+  std::string s = "pzQ";
+  char buf[96];
+  if (o.quality) {
+    if (o.maxRadiusEdgeRatio < 1.0) throw std::invalid_argument("TetGen: radius-edge bound must be >= 1.0");
+    if (o.minDihedralDegrees > 0)
+      std::snprintf(buf, sizeof buf, "q%.6g/%.6g", o.maxRadiusEdgeRatio, o.minDihedralDegrees);
+    else
+      std::snprintf(buf, sizeof buf, "q%.6g", o.maxRadiusEdgeRatio);
+    s += buf;
+  }
+  if (o.maxVolume > 0) {
+    std::snprintf(buf, sizeof buf, "a%.9g", o.maxVolume);
+    s += buf;
+  }
+  if (o.keepSurface) s += "Y";
+  return s;
+}
+
+#if !BLOBVK_HAS_TETGEN
+bool tetgenAvailable() { return false; }
+mesh::TetMesh tetrahedralize(const mesh::TriMesh&, const TetgenOptions&) {
+  throw std::runtime_error("blobvk was built without TetGen (BLOBVK_WITH_TETGEN=OFF); use the voxel mesher");
+}
+#endif
+
+}  // namespace blobvk::fem

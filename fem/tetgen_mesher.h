@@ -1,0 +1,32 @@
+// Constrained Delaunay tetrahedralization of a closed surface with TetGen 1.5. TetGen is AGPL:
+// it is linked only when the CMake option BLOBVK_WITH_TETGEN is ON, and only tetgen_mesher.cpp
+// includes it. Without it, tetrahedralize() throws and tetgenAvailable() is false.
+#pragma once
+
+#include "mesh/tetmesh.h"
+#include "mesh/trimesh.h"
+
+#include <string>
+
+namespace blobvk::fem {
+
+struct TetgenOptions {
+  double maxRadiusEdgeRatio = 1.414;  // -q<ratio>; >= 1.0 (TetGen may not terminate below)
+  double minDihedralDegrees = 10.0;   // -q<ratio>/<angle>; heuristic, 0 = TetGen default
+  double maxVolume = 0.0;             // -a<volume>; 0 = unbounded
+  bool quality = true;                // false: no -q (boundary-conforming CDT only)
+  bool keepSurface = false;           // -Y: no Steiner points on the boundary
+};
+
+bool tetgenAvailable();
+// The TetGen switch string these options produce (always with p, z (0-based) and Q (quiet)).
+std::string tetgenSwitches(const TetgenOptions& options);
+
+// Surface vertex i becomes node i (TetGen keeps input points first), so a render mesh with the
+// same vertices follows the body through fem::identityEmbedding(). Throws std::invalid_argument
+// when the surface is not closed, manifold and consistently oriented (mesh::checkMesh), and
+// for a self-intersecting surface (found by a TetGen -d pass first: TetGen 1.5 crashes on such
+// input otherwise), and std::runtime_error with TetGen's reason when meshing fails.
+mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& options = {});
+
+}  // namespace blobvk::fem

@@ -1,0 +1,207 @@
+// Meshers and input validation: voxel conformity and volume, TetGen quality and rejections.
+#include "fem/simulation.h"
+#include "fem/tet_utils.h"
+#include "fem/tetgen_mesher.h"
+#include "mesh/checks.h"
+#include "test_helpers.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+
+namespace blobvk::fem {
+namespace {
+
+using mesh::Double3;
+
+TEST(VoxelMesher, BoxIsConformingWithExactVolumeAndClosedBoundary) {
+  const mesh::TetMesh m = test::boxMesh(0.4, 0.3, 0.2, 0.1);
+  EXPECT_EQ(m.tets.size(), 4u * 3u * 2u * 6u);
+  EXPECT_EQ(m.nodeCount(), 5u * 4u * 3u);
+  EXPECT_NEAR(totalVolume(m, true), 0.4 * 0.3 * 0.2, 1e-12);
+  // Conforming: only outer faces are boundary faces (2 triangles per outer cell face).
+  EXPECT_EQ(m.boundaryFaces.size(), 2u * 2u * (4 * 3 + 4 * 2 + 3 * 2));
+  mesh::TriMesh surface;
+  for (const auto& p : m.positions) surface.positions.push_back({float(p.x), float(p.y), float(p.z)});
+  surface.triangles = m.boundaryFaces;
+  const mesh::MeshReport report = mesh::checkMesh(surface);
+  EXPECT_TRUE(report.watertight()) << report.summary();
+  EXPECT_NEAR(report.volume, 0.4 * 0.3 * 0.2, 1e-6);  // outward orientation
+  EXPECT_NO_THROW(validateTetMesh(m));
+}
+
+TEST(VoxelMesher, SphereFieldKeepsCellsWithCentreOrCornerInside) {
+  VoxelMesherSettings s;
+  s.boundsMin = {-1, -1, -1};
+  s.boundsMax = {1, 1, 1};
+  s.cellSize = 0.1;
+  auto field = [](double x, double y, double z) {
+    const double d2 = x * x + y * y + z * z;
+    return float(d2 < 0.25 ? std::pow(1 - d2 / 0.25, 3) : 0.0);  // iso 0.5 at r = 0.5*sqrt(1-2^-1/3)
+  };
+  const mesh::TetMesh m = voxelTetrahedralize(field, s);
+  const double r = 0.5 * std::sqrt(1 - std::pow(2.0, -1.0 / 3.0));
+  // The kept cells cover the ball and stay within one cell diagonal of it.
+  const double vol = totalVolume(m, true), ball = 4.0 / 3.0 * M_PI * r * r * r;
+  EXPECT_GT(vol, ball);
+  for (const auto& p : m.positions) EXPECT_LE(test::norm(p), r + 2 * std::sqrt(3.0) * 0.1);
+  EXPECT_NO_THROW(validateTetMesh(m));
+}
+
+TEST(VoxelMesher, SampledGridMatchesCallbackOnSameGrid) {
+  SampledGrid g;
+  g.origin = {0, 0, 0};
+  g.spacing = 0.25;
+  g.nx = g.ny = g.nz = 5;
+  for (int k = 0; k < 5; ++k)
+    for (int j = 0; j < 5; ++j)
+      for (int i = 0; i < 5; ++i) g.values.push_back(i <= 2 && j <= 2 && k <= 2 ? 1.0f : 0.0f);
+  const mesh::TetMesh m = voxelTetrahedralize(g);
+  // Cells with any corner in the 3x3x3 inside block: indices 0..2 per axis -> 27 cells.
+  EXPECT_EQ(m.tets.size(), 27u * 6u);
+}
+
+mesh::TriMesh cubeSurface(double h, double ox = 0) {
+  mesh::TriMesh m;
+  for (int c = 0; c < 8; ++c)
+    m.positions.push_back({float(ox + (c & 1 ? h : -h)), float(c & 2 ? h : -h), float(c & 4 ? h : -h)});
+  // Counter-clockwise seen from outside.
+  m.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                 {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  return m;
+}
+
+double minDihedralDegrees(const mesh::TetMesh& m) {
+  double best = 180;
+  static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  for (const auto& t : m.tets) {
+    Eigen::Vector3d p[4];
+    for (int k = 0; k < 4; ++k) p[k] = {m.positions[t[k]].x, m.positions[t[k]].y, m.positions[t[k]].z};
+    for (const auto& e : kEdges) {
+      int o[2], c = 0;
+      for (int k = 0; k < 4; ++k)
+        if (k != e[0] && k != e[1]) o[c++] = k;
+      const Eigen::Vector3d axis = (p[e[1]] - p[e[0]]).normalized();
+      Eigen::Vector3d a = p[o[0]] - p[e[0]], b = p[o[1]] - p[e[0]];
+      a -= a.dot(axis) * axis;
+      b -= b.dot(axis) * axis;
+      best = std::min(best, std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI);
+    }
+  }
+  return best;
+}
+
+TEST(TetgenMesher, SwitchesReflectOptions) {
+  TetgenOptions o;
+  o.maxRadiusEdgeRatio = 1.5;
+  o.minDihedralDegrees = 12;
+  o.maxVolume = 0.001;
+  EXPECT_EQ(tetgenSwitches(o), "pzQq1.5/12a0.001");
+  o.quality = false;
+  o.maxVolume = 0;
+  o.keepSurface = true;
+  EXPECT_EQ(tetgenSwitches(o), "pzQY");
+  o.quality = true;
+  o.maxRadiusEdgeRatio = 0.9;
+  EXPECT_THROW(tetgenSwitches(o), std::invalid_argument);
+}
+
+TEST(TetgenMesher, CubeGivesQualityTetsWithExactVolume) {
+  if (!tetgenAvailable()) GTEST_SKIP() << "built without TetGen";
+  TetgenOptions o;
+  o.maxVolume = 0.01;
+  const mesh::TetMesh m = tetrahedralize(cubeSurface(0.5), o);
+  EXPECT_GT(m.tets.size(), 100u);
+  EXPECT_NEAR(totalVolume(m, true), 1.0, 1e-9);
+  EXPECT_NO_THROW(validateTetMesh(m));
+  EXPECT_GE(minDihedralDegrees(m), 10.0 - 1e-6);
+  for (const auto& t : m.tets) EXPECT_LE(std::abs(tetVolume(m.restPositions, t)), 0.01 * (1 + 1e-9));
+  // Input points stay the first nodes (the identity surface mapping relies on it).
+  const auto cube = cubeSurface(0.5);
+  for (std::size_t i = 0; i < cube.positions.size(); ++i) EXPECT_EQ(m.positions[i].x, double(cube.positions[i].x));
+  // Boundary = the cube's surface.
+  mesh::TriMesh surface;
+  for (const auto& p : m.positions) surface.positions.push_back({float(p.x), float(p.y), float(p.z)});
+  surface.triangles = m.boundaryFaces;
+  EXPECT_NEAR(mesh::checkMesh(surface).volume, 1.0, 1e-5);
+}
+
+TEST(TetgenMesher, RejectsOpenSurface) {
+  auto open = cubeSurface(0.5);
+  open.triangles.pop_back();
+  try {
+    tetrahedralize(open);
+    FAIL() << "open surface accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("closed"), std::string::npos) << e.what();
+  } catch (const std::runtime_error& e) {
+    EXPECT_FALSE(tetgenAvailable()) << e.what();
+  }
+}
+
+TEST(TetgenMesher, RejectsSelfIntersectingSurface) {
+  if (!tetgenAvailable()) GTEST_SKIP() << "built without TetGen";
+  auto a = cubeSurface(0.5), b = cubeSurface(0.5, 0.3);  // two overlapping closed cubes
+  const auto offset = std::uint32_t(a.positions.size());
+  a.positions.insert(a.positions.end(), b.positions.begin(), b.positions.end());
+  for (auto t : b.triangles) a.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  try {
+    tetrahedralize(a);
+    FAIL() << "self-intersecting surface accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("intersects itself"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Validation, BadMaterialsAndDegenerateTetsGiveClearErrors) {
+  const mesh::TetMesh m = test::boxMesh(0.2, 0.2, 0.2, 0.1);
+  auto expectThrowContaining = [&](SimulationSettings s, const mesh::TetMesh& mesh, const std::string& text) {
+    try {
+      Simulation sim(mesh, s);
+      FAIL() << "accepted: " << text;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+    }
+  };
+  SimulationSettings s;
+  s.materials[0].youngModulus = 0;
+  expectThrowContaining(s, m, "Young");
+  s = {};
+  s.materials[0].poissonRatio = 0.5;
+  expectThrowContaining(s, m, "Poisson");
+  s = {};
+  s.materials[0].density = -1;
+  expectThrowContaining(s, m, "density");
+  s = {};
+  s.timeStep = 0;
+  expectThrowContaining(s, m, "time step");
+  mesh::TetMesh flat = m;
+  flat.restPositions[flat.tets[3][3]] = flat.restPositions[flat.tets[3][0]];  // collapse a tet
+  expectThrowContaining({}, flat, "degenerate");
+  mesh::TetMesh regions = m;
+  regions.regions.assign(m.tets.size(), 2);
+  expectThrowContaining({}, regions, "region");
+  SimulationSettings toolless;
+  toolless.tools.push_back(Tool{});
+  expectThrowContaining(toolless, m, "keyframe");
+}
+
+TEST(Regions, SelectorAssignsPerTetMaterials) {
+  mesh::TetMesh m = test::boxMesh(0.4, 0.1, 0.1, 0.05);
+  assignRegions(m, [](const Double3& c) { return c.x < 0.2 ? 0u : 1u; });
+  ASSERT_EQ(m.regions.size(), m.tets.size());
+  SimulationSettings s;
+  s.materials = {Material{1e5, 0.3, 1000}, Material{1e5, 0.3, 3000}};
+  Simulation sim(m, s);
+  // Mass: 0.2*0.1*0.1*(1000 + 3000) = 8 kg.
+  double total = 0;
+  for (double mi : sim.nodeMasses()) total += mi;
+  EXPECT_NEAR(total, 8.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace blobvk::fem
