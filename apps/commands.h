@@ -15,6 +15,8 @@ void addConvertCommand(CLI::App& app);
 void addBenchCommand(CLI::App& app);
 void addDevicesCommand(CLI::App& app);
 void addCompareCommand(CLI::App& app);
+void addSimulateCommand(CLI::App& app);
+void addCutCommand(CLI::App& app);
 
 // Thrown for a usage problem the user can fix (exit code 2, like CLI11's own errors).
 struct UsageError {

@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   blobvk::app::addInfoCommand(app);
   blobvk::app::addConvertCommand(app);
   blobvk::app::addBenchCommand(app);
+  blobvk::app::addSimulateCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,76 @@
+// `blobvk simulate SCENE --steps N -o frames/`: the scene as a soft body pressed by its tools;
+// one PLY of the render surface per frame.
+#include "commands.h"
+#include "model.h"
+#include "progress.h"
+#include "soft_body.h"
+
+#include "mesh/io.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+namespace blobvk::app {
+
+void addSimulateCommand(CLI::App& app) {
+  struct Args {
+    std::string scene, out;
+    int steps = 0, threads = 0, frameEvery = 0;
+    std::optional<float> cellSize;
+    std::optional<int> resolution;
+  };
+  auto a = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("simulate", "Run the scene's soft-body simulation, writing frames");
+  cmd->add_option("scene", a->scene, "Scene with a \"simulation\" section")->required();
+  cmd->add_option("-o,--output", a->out, "Folder for frame_NNNNN.ply")->required();
+  cmd->add_option("--steps", a->steps, "Time steps (default: the scene's, else 100)")->check(CLI::Range(1, 10000000));
+  cmd->add_option("--frame-every", a->frameEvery, "Write a frame every K steps")->check(CLI::Range(1, 1000000));
+  cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(CLI::Range(4, 4096));
+  cmd->add_option("--cell-size", a->cellSize, "Polygonization cell size")->check(CLI::PositiveNumber);
+  cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
+  cmd->callback([a] {
+    const Model model = loadModel(a->scene);
+    const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution ? a->resolution : std::optional<int>(48));
+    SoftBody body = buildSoftBody(model, grid, a->threads);
+    fem::Simulation& sim = *body.simulation;
+    const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 100);
+    const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
+    std::filesystem::create_directories(a->out);
+    std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.2f s, tets %.2f s\n",
+                 a->scene.c_str(), body.surface.triangleCount(), sim.mesh().tetCount(), sim.mesh().nodeCount(),
+                 body.config.mesher.c_str(), body.meshSeconds, body.tetSeconds);
+    Progress progress("simulate", steps);
+    double totalMs = 0, maxForce = 0;
+    int frame = 0;
+    char name[64];
+    std::snprintf(name, sizeof name, "frame_%05d.ply", frame++);
+    mesh::writePly(sim.renderSurface(), (std::filesystem::path(a->out) / name).string());
+    for (int s = 1; s <= steps; ++s) {
+      sim.step();
+      totalMs += sim.lastStats().totalMs;
+      for (const auto& c : sim.toolContacts()) {
+        maxForce = std::max(maxForce, std::sqrt(c.force.x * c.force.x + c.force.y * c.force.y + c.force.z * c.force.z));
+      }
+      for (const auto& x : sim.positions()) {
+        if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z)) {
+          throw std::runtime_error("the simulation diverged at step " + std::to_string(s) + " (NaN); reduce timeStep or tool stiffness");
+        }
+      }
+      if (s % every == 0 || s == steps) {
+        std::snprintf(name, sizeof name, "frame_%05d.ply", frame++);
+        mesh::writePly(sim.renderSurface(), (std::filesystem::path(a->out) / name).string());
+      }
+      char note[64];
+      std::snprintf(note, sizeof note, "%.2f ms/step", totalMs / s);
+      progress.update(s, note);
+    }
+    std::printf("%d steps, %d frames in %s; %.3f ms/step; max tool force %.4g N; volume %.4g (rest %.4g)\n", steps,
+                frame, a->out.c_str(), totalMs / steps, maxForce, sim.currentVolume(), sim.restVolume());
+  });
+}
+
+}  // namespace blobvk::app

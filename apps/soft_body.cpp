@@ -1,0 +1,97 @@
+#include "soft_body.h"
+
+#include "backends.h"
+#include "blobtree/evaluate.h"
+#include "fem/surface_embedding.h"
+#include "fem/tet_utils.h"
+#include "fem/tetgen_mesher.h"
+#include "fem/voxel_mesher.h"
+
+#include <chrono>
+#include <stdexcept>
+
+namespace blobvk::app {
+namespace {
+
+double since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The primitive whose own field is largest at p: the thesis' "material from primitives".
+// Primitives under warps are looked up at the unwarped point, an approximation stated in
+// docs/fem.md.
+std::uint32_t dominantPrimitive(const blobtree::Program& program, const mesh::Double3& c) {
+  const glm::vec3 p(float(c.x), float(c.y), float(c.z));
+  std::uint32_t best = 0;
+  float bestField = -1.0f;
+  for (std::uint32_t i = 0; i < program.primitives.size(); ++i) {
+    const float f = blobtree::primitiveField(program, program.primitives[i], p);
+    if (f > bestField) {
+      bestField = f;
+      best = i;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+SoftBody buildSoftBody(const Model& model, const blobtree::GridSpec& grid, int threads) {
+  if (model.scene.simulationJson.empty()) {
+    throw std::runtime_error(model.path + ": the scene has no \"simulation\" section (see docs/fem.md)");
+  }
+  SoftBody body;
+  body.config = parseSimulationConfig(model.scene.simulationJson, model.path);
+  SimulationConfig& config = body.config;
+
+  auto start = std::chrono::steady_clock::now();
+  PolygonizeSettings poly;
+  poly.threads = threads;
+  body.surface = polygonize(model.program, grid, poly);
+  body.meshSeconds = since(start);
+
+  start = std::chrono::steady_clock::now();
+  mesh::TetMesh tets;
+  fem::SurfaceEmbedding embedding;
+  const blobtree::Program& program = model.program;
+  if (config.mesher == "tetgen") {
+    if (!fem::tetgenAvailable()) {
+      throw std::runtime_error(model.path + ": /simulation/mesher: this build has no TetGen (BLOBVK_WITH_TETGEN=OFF); use \"voxel\"");
+    }
+    tets = fem::tetrahedralize(body.surface, config.tetgen);
+    embedding = fem::identityEmbedding(body.surface.vertexCount());
+  } else {
+    fem::VoxelMesherSettings voxel;
+    const auto& b = program.bounds;
+    voxel.boundsMin = {b.lo.x, b.lo.y, b.lo.z};
+    voxel.boundsMax = {b.hi.x, b.hi.y, b.hi.z};
+    voxel.cellSize = config.voxelCellSize > 0 ? config.voxelCellSize : 2.0 * grid.cellSize;
+    tets = fem::voxelTetrahedralize(
+        [&program](double x, double y, double z) {
+          return blobtree::evaluate(program, glm::vec3(float(x), float(y), float(z)));
+        },
+        voxel);
+    embedding = fem::embedPoints(tets, body.surface.positions);
+  }
+  if (tets.tets.empty()) throw std::runtime_error(model.path + ": the tetrahedral mesh is empty (model too thin for the voxel cell size?)");
+  if (config.materialFromPrimitive) {
+    if (config.settings.materials.size() < program.primitives.size()) {
+      throw std::runtime_error(model.path + ": /simulation/materials: materialFromPrimitive needs one material per primitive (" +
+                               std::to_string(program.primitives.size()) + "), got " +
+                               std::to_string(config.settings.materials.size()));
+    }
+    fem::assignRegions(tets, [&program](const mesh::Double3& c) { return dominantPrimitive(program, c); });
+  }
+  if (config.fixedSelector) {
+    const blobtree::Program* selector = &*config.fixedSelector;
+    config.settings.fixed = [selector](const mesh::Double3& p) {
+      return blobtree::evaluate(*selector, glm::vec3(float(p.x), float(p.y), float(p.z))) >= 0.5f;
+    };
+  }
+  body.tetSeconds = since(start);
+  body.simulation = std::make_unique<fem::Simulation>(std::move(tets), config.settings);
+  body.simulation->setRenderSurface(body.surface, std::move(embedding));
+  return body;
+}
+
+}  // namespace blobvk::app

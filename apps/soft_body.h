@@ -1,0 +1,22 @@
+// From a scene to a running soft body: polygonize, tetrahedralize (TetGen or voxels), assign
+// materials, fix nodes, embed the render surface. Shared by `simulate` and `cut`.
+#pragma once
+
+#include "fem/simulation.h"
+#include "model.h"
+#include "simulation_config.h"
+
+#include <memory>
+
+namespace blobvk::app {
+
+struct SoftBody {
+  SimulationConfig config;
+  mesh::TriMesh surface;                     // the polygonized model (rest state)
+  std::unique_ptr<fem::Simulation> simulation;
+  double meshSeconds = 0, tetSeconds = 0;
+};
+
+SoftBody buildSoftBody(const Model& model, const blobtree::GridSpec& grid, int threads);
+
+}  // namespace blobvk::app

@@ -1,0 +1,28 @@
+#version 450
+// One invocation: turns a slab's scan totals into a VkDrawIndexedIndirectCommand (words 0-4)
+// followed by the running vertex and triangle counts (words 5, 6), so an engine can draw the
+// mesh without reading counts back.
+#extension GL_GOOGLE_include_directive : require
+layout(local_size_x = 1) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer VertexOffsets { uint vertexOffsets[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Totals { uint totals[]; };  // [vertices, triangles]
+layout(std430, set = 0, binding = 2) writeonly buffer Args { uint args[]; };
+
+layout(push_constant) uniform Push {
+  uint ownedPoints;   // points whose vertices this slab owns
+  uint lastSlab;      // 1: the slab owns every classified point
+  uint vertexBase, triangleBase;
+} pc;
+
+void main() {
+  uint vertices = pc.lastSlab != 0u ? totals[0] : vertexOffsets[pc.ownedPoints];
+  uint triangles = totals[1];
+  args[0] = 3u * (pc.triangleBase + triangles);
+  args[1] = 1u;
+  args[2] = 0u;
+  args[3] = 0u;
+  args[4] = 0u;
+  args[5] = pc.vertexBase + vertices;
+  args[6] = pc.triangleBase + triangles;
+}

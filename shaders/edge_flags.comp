@@ -1,0 +1,31 @@
+#version 450
+// Per grid point of a slab: which of its three "upper" edges (+x bit 0, +y bit 1, +z bit 2)
+// cross the iso value, and how many (the value the vertex scan sums). Inside is f >= iso, as in
+// the CPU reference.
+#extension GL_GOOGLE_include_directive : require
+#include "program_layout.h"
+#include "common.glsl"
+
+layout(std430, set = 0, binding = 0) readonly buffer Field { float field[]; };
+layout(std430, set = 0, binding = 1) writeonly buffer Flags { uint flags[]; };
+layout(std430, set = 0, binding = 2) writeonly buffer Counts { uint counts[]; };
+
+layout(push_constant) uniform Push {
+  uint nx, ny;            // points per axis
+  uint cellsX, cellsY, cellsZ;
+  uint k0;                // global z of slab layer 0
+  uint count;             // points to classify (nx * ny * layers)
+} pc;
+
+void main() {
+  uint idx = linearInvocation();
+  if (idx >= pc.count) return;
+  uint i = idx % pc.nx, j = (idx / pc.nx) % pc.ny, k = pc.k0 + idx / (pc.nx * pc.ny);
+  bool inside = field[idx] >= ISO_VALUE;
+  uint bits = 0u;
+  if (i < pc.cellsX && (field[idx + 1u] >= ISO_VALUE) != inside) bits |= 1u;
+  if (j < pc.cellsY && (field[idx + pc.nx] >= ISO_VALUE) != inside) bits |= 2u;
+  if (k < pc.cellsZ && (field[idx + pc.nx * pc.ny] >= ISO_VALUE) != inside) bits |= 4u;
+  flags[idx] = bits;
+  counts[idx] = bitCount(bits);
+}

@@ -1,0 +1,42 @@
+// The field of a Program at every point of a grid, computed on the GPU in z-slab bricks (a
+// grid never has to fit one storage buffer). Used by `blobvk compare` and the benchmarks.
+#pragma once
+
+#include "blobtree/grid.h"
+#include "blobtree/program.h"
+#include "vk/gpu_program.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace blobvk::vk {
+
+struct FieldOptions {
+  Traversal traversal = Traversal::Stackless;
+  std::uint32_t workgroupSize = 64;
+  std::uint64_t maxBrickBytes = 64ull << 20;  // field floats per brick (also capped by the device)
+};
+
+struct FieldStats {
+  double seconds = 0.0;      // wall time of the GPU submits (upload excluded)
+  std::uint32_t bricks = 0;
+  std::uint64_t evaluations = 0;
+};
+
+// Field at grid.point(i, j, k), stored at grid.pointIndex(i, j, k).
+std::vector<float> evaluateFieldOnGrid(Device& device, const blobtree::Program& program,
+                                       const blobtree::GridSpec& grid,
+                                       const FieldOptions& options = {},
+                                       FieldStats* stats = nullptr);
+
+// z layers of points per brick so that `bytesPerPoint * points` stays within the budget and the
+// device's maxStorageBufferRange (at least 1).
+std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& grid,
+                             std::uint64_t maxBytes, std::uint64_t bytesPerPoint);
+
+// Records the field of points (i, j, k0 + l), l < layers, into `out` (slab-linear floats).
+void recordFieldSlab(Recorder& rec, const GpuProgram& program, Traversal traversal,
+                     std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
+                     std::uint32_t k0, std::uint32_t layers, const Buffer& out);
+
+}  // namespace blobvk::vk

@@ -1,0 +1,38 @@
+// GPU marching cubes: the field in z-slab bricks, edge-crossing flags, two prefix sums (vertex
+// and triangle offsets), vertices on crossing edges in global edge-key order (welded), and
+// triangles in cell order then case-table order: the same mesh as cpu::polygonizeReference,
+// index by index, wherever the two classify the grid points alike.
+#pragma once
+
+#include "blobtree/grid.h"
+#include "blobtree/program.h"
+#include "mesh/trimesh.h"
+#include "vk/gpu_program.h"
+
+#include <cstdint>
+
+namespace blobvk::vk {
+
+struct GpuPolygonizeOptions {
+  bool normals = true;
+  bool colours = true;
+  int refineSteps = 0;         // regula-falsi steps after the linear interpolation
+  float normalStep = 1e-4f;    // central-difference step (blobtree::normal's default)
+  Traversal traversal = Traversal::Stackless;
+  std::uint32_t workgroupSize = 64;
+  std::uint64_t maxBrickBytes = 32ull << 20;  // per-slab field bytes; smaller means more slabs
+};
+
+struct GpuStats {
+  double seconds = 0.0;          // wall time of all submits and readbacks
+  double classifySeconds = 0.0;  // field, flags, cell counts, scans
+  double emitSeconds = 0.0;      // vertices (with normals/colours) and triangles
+  std::uint32_t bricks = 0;
+  std::uint64_t fieldEvaluations = 0;  // grid samples (normals/colours/refinement excluded)
+};
+
+mesh::TriMesh polygonize(Device& device, const blobtree::Program& program,
+                         const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options = {},
+                         GpuStats* stats = nullptr);
+
+}  // namespace blobvk::vk

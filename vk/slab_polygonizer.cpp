@@ -1,0 +1,151 @@
+#include "vk/slab_polygonizer.h"
+
+#include "mesh/marching_cubes.h"
+#include "vk/error.h"
+#include "vk/field.h"
+#include "vk/scan.h"
+
+#include <algorithm>
+#include <array>
+#include <vector>
+
+namespace blobvk::vk {
+namespace {
+
+// The case table as 20 uint32 per configuration: triangle count, then 18 edge ids.
+std::vector<std::uint32_t> packCases() {
+  std::vector<std::uint32_t> words(256 * 20, 0);
+  const auto& cases = mesh::marchingCubesCases();
+  for (std::size_t c = 0; c < 256; ++c) {
+    words[c * 20] = cases[c].triangleCount;
+    for (std::size_t e = 0; e < 18; ++e) words[c * 20 + 1 + e] = cases[c].edges[e];
+  }
+  return words;
+}
+
+}  // namespace
+
+SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& program,
+                                 const blobtree::GridSpec& grid,
+                                 const GpuPolygonizeOptions& options)
+    : device_(device), grid_(grid), options_(options) {
+  const auto pts = grid.points();
+  if (grid.cells.x < 1 || grid.cells.y < 1 || grid.cells.z < 1) {
+    throw VulkanError("GPU polygonizer: the grid has no cells");
+  }
+  program_ = uploadProgram(device, program, options.traversal);
+  const auto words = packCases();
+  cases_ = device.createBuffer(words.size() * 4);
+  device.upload(cases_, words.data(), words.size() * 4);
+
+  // A slab of C cell layers needs C + 2 field layers (the top one for the +z edges of the
+  // slab's top point layer, whose offsets the triangles need).
+  const std::uint32_t layers = layersPerBrick(device, grid, options.maxBrickBytes, 4);
+  slabCells_ = std::max<std::uint32_t>(1, std::min<std::uint32_t>(layers > 2 ? layers - 2 : 1,
+                                                                    std::uint32_t(grid.cells.z)));
+  slabs_ = (std::uint32_t(grid.cells.z) + slabCells_ - 1) / slabCells_;
+  const std::uint64_t layer = std::uint64_t(pts.x) * std::uint64_t(pts.y);
+  const std::uint64_t points = layer * (slabCells_ + 1);
+  const std::uint64_t cells = std::uint64_t(grid.cells.x) * std::uint64_t(grid.cells.y) * slabCells_;
+  field_ = device.createBuffer(layer * std::min<std::uint64_t>(slabCells_ + 2, pts.z) * 4);
+  flags_ = device.createBuffer(points * 4);
+  vertexOffsets_ = device.createBuffer(points * 4);
+  triOffsets_ = device.createBuffer(cells * 4);
+  pointScratch_ = std::uint32_t(scanScratchWords(points));
+  scratch_ = device.createBuffer((pointScratch_ + scanScratchWords(cells) + 1) * 4);
+  totals_ = device.createBuffer(16);
+  args_ = device.createBuffer(7 * 4, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+}
+
+SlabPlan SlabPolygonizer::plan(std::uint32_t slab) const {
+  SlabPlan p;
+  p.k0 = slab * slabCells_;
+  p.cellLayers = std::min<std::uint32_t>(slabCells_, std::uint32_t(grid_.cells.z) - p.k0);
+  p.last = p.k0 + p.cellLayers == std::uint32_t(grid_.cells.z);
+  const auto pts = grid_.points();
+  const std::uint64_t layer = std::uint64_t(pts.x) * std::uint64_t(pts.y);
+  p.ownedPoints = layer * (p.cellLayers + (p.last ? 1 : 0));
+  p.cells = std::uint64_t(grid_.cells.x) * std::uint64_t(grid_.cells.y) * p.cellLayers;
+  return p;
+}
+
+void SlabPolygonizer::recordClassify(Recorder& rec, std::uint32_t slab, std::uint32_t vertexBase,
+                                     std::uint32_t triangleBase) {
+  const SlabPlan p = plan(slab);
+  const auto pts = grid_.points();
+  const std::uint32_t nx = std::uint32_t(pts.x), ny = std::uint32_t(pts.y);
+  const std::uint32_t wg = options_.workgroupSize;
+  const std::array<std::uint32_t, 1> spec{wg};
+  // Field layers: the slab's point layers k0 .. k0 + C, plus one above unless at the top.
+  const std::uint32_t fieldLayers = p.cellLayers + 1 + (p.last ? 0 : 1);
+  const std::uint32_t classified = nx * ny * (p.cellLayers + 1);
+  recordFieldSlab(rec, program_, options_.traversal, wg, grid_, p.k0, fieldLayers, field_);
+  rec.computeBarrier();
+  {
+    const Kernel& k = device_.kernel("edge_flags", 3, spec);
+    const std::uint32_t push[7] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y),
+                                   std::uint32_t(grid_.cells.z), p.k0, classified};
+    const BufferRange bind[3] = {field_, flags_, vertexOffsets_};
+    const Groups g = groupsFor(classified, wg);
+    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y);
+  }
+  {
+    const Kernel& k = device_.kernel("cell_count", 3, spec);
+    const std::uint32_t push[5] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y),
+                                   std::uint32_t(p.cells)};
+    const BufferRange bind[3] = {field_, cases_, triOffsets_};
+    const Groups g = groupsFor(p.cells, wg);
+    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y);
+  }
+  rec.computeBarrier();
+  recordExclusiveScan(rec, vertexOffsets_.handle(), 0, classified, scratch_.handle(), 0,
+                      totals_.handle(), 0);
+  recordExclusiveScan(rec, triOffsets_.handle(), 0, std::uint32_t(p.cells), scratch_.handle(),
+                      pointScratch_, totals_.handle(), 1);
+  rec.computeBarrier();
+  {
+    const Kernel& k = device_.kernel("draw_args", 3, {});
+    const std::uint32_t push[4] = {std::uint32_t(p.ownedPoints), p.last ? 1u : 0u, vertexBase,
+                                   triangleBase};
+    const BufferRange bind[3] = {vertexOffsets_, totals_, args_};
+    rec.dispatch(k, bind, push, sizeof(push), 1);
+  }
+  rec.computeBarrier();
+}
+
+void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_t vertexBase,
+                                 const SlabOutputs& out) {
+  const SlabPlan p = plan(slab);
+  const auto pts = grid_.points();
+  const std::uint32_t nx = std::uint32_t(pts.x), ny = std::uint32_t(pts.y);
+  const std::uint32_t wg = options_.workgroupSize;
+  {
+    const std::array<std::uint32_t, 2> spec{wg, options_.traversal == Traversal::StackBased ? 1u : 0u};
+    const Kernel& k = device_.kernel("vertices", 12, spec);
+    struct {
+      float origin[3], cell;
+      std::uint32_t nx, ny, count, k0, codeLength, refineSteps, attributes;
+      float normalStep;
+    } push{{grid_.origin.x, grid_.origin.y, grid_.origin.z}, grid_.cellSize, nx, ny,
+           std::uint32_t(p.ownedPoints), p.k0, program_.codeLength,
+           std::uint32_t(std::max(options_.refineSteps, 0)),
+           (options_.normals ? 1u : 0u) | (options_.colours ? 2u : 0u), options_.normalStep};
+    const auto pb = program_.bindings();
+    const BufferRange bind[12] = {pb[0], pb[1], pb[2], pb[3], pb[4], field_, flags_, vertexOffsets_,
+                                  out.positions, out.normals, out.colours, out.keys};
+    const Groups g = groupsFor(p.ownedPoints, wg);
+    rec.dispatch(k, bind, &push, sizeof(push), g.x, g.y);
+  }
+  {
+    const std::array<std::uint32_t, 1> spec{wg};
+    const Kernel& k = device_.kernel("triangles", 6, spec);
+    const std::uint32_t push[6] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y),
+                                   std::uint32_t(p.cells), vertexBase};
+    const BufferRange bind[6] = {field_, cases_, flags_, vertexOffsets_, triOffsets_, out.indices};
+    const Groups g = groupsFor(p.cells, wg);
+    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y);
+  }
+  rec.computeBarrier();
+}
+
+}  // namespace blobvk::vk
