@@ -108,6 +108,9 @@ struct Scene {
   std::optional<Camera> camera;
   GridSettings grid;
   std::string name;
+  // The "simulation" section (FEM, tools, cutting), kept as JSON text: blobtree knows nothing
+  // of simulation; apps/simulation_config.cpp validates it. Empty when absent.
+  std::string simulationJson;
 };
 
 // Statistics used by `blobvk info`.

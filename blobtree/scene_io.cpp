@@ -1,0 +1,33 @@
+#include "blobtree/scene_io.h"
+
+#include "blobtree/scene_blob.h"
+#include "blobtree/scene_error.h"
+#include "blobtree/scene_json.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+
+namespace blobvk::blobtree {
+
+Scene loadScene(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw SceneError(path, "file", "is a directory, not a scene file");
+  if (ext == ".json") return readSceneJson(path);
+  if (ext == ".blob" || ext == ".scene") return readSceneBlob(path);
+  throw SceneError(path, "file", "unknown scene extension '" + ext + "' (expected .json, .blob or .scene)");
+}
+
+void saveSceneJson(const Scene& scene, const std::string& path) {
+  const std::string text = writeSceneJson(scene);
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw SceneError(path, "file", "cannot open file for writing");
+  out << text;
+  out.close();
+  if (!out) throw SceneError(path, "file", "write error");
+}
+
+}  // namespace blobvk::blobtree

@@ -1,0 +1,23 @@
+// The blobvk JSON scene format (docs/scene-format.md): a model tree plus optional camera and
+// grid sections. Readers validate strictly and throw SceneError naming the JSON pointer at fault.
+#pragma once
+
+#include "blobtree/tree.h"
+
+#include <string>
+#include <string_view>
+
+namespace blobvk::blobtree {
+
+// Parses a scene from JSON text; `sourceName` is used in error messages (a path or "<memory>").
+// Instances are expanded, so the returned tree holds only primitives, operators and warps.
+Scene parseSceneJson(std::string_view text, const std::string& sourceName);
+
+// Reads and parses a .json file; an unreadable file is a SceneError too.
+Scene readSceneJson(const std::string& path);
+
+// Serialises a scene; parseSceneJson(writeSceneJson(s)) gives back an equal tree.
+// Throws std::invalid_argument for a tree no reader would accept (a warp axis out of range).
+std::string writeSceneJson(const Scene& scene);
+
+}  // namespace blobvk::blobtree

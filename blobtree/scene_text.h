@@ -1,0 +1,53 @@
+// Small text helpers shared by the scene readers (internal).
+#pragma once
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <string_view>
+
+#include "blobtree/scene_error.h"
+
+namespace blobvk::blobtree::detail {
+
+// A user-provided string made safe for a one-line error message: quoted, control characters
+// escaped, long strings cut.
+inline std::string quotedText(std::string_view s) {
+  std::string out = "'";
+  std::size_t n = 0;
+  for (char ch : s) {
+    if (++n > 60) {
+      out += "...";
+      break;
+    }
+    const auto c = static_cast<unsigned char>(ch);
+    if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    } else {
+      out += ch;
+    }
+  }
+  return out + "'";
+}
+
+// Formats a double for messages (shortest readable form).
+inline std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+// Whole file as bytes; SceneError when it cannot be opened or read.
+inline std::string readWholeFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SceneError(path, "file", "cannot open file for reading");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) throw SceneError(path, "file", "read error");
+  return buffer.str();
+}
+
+}  // namespace blobvk::blobtree::detail

@@ -1,0 +1,142 @@
+// The bad-input catalogue: every malformed file in tests/data/bad/ must be refused with a
+// SceneError that names the file, the exact JSON pointer or line, and the problem.
+#include "blobtree/scene_error.h"
+#include "blobtree/scene_io.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <set>
+
+using namespace blobvk::blobtree;
+
+namespace {
+
+const std::string kBad = BLOBVK_SOURCE_DIR "/tests/data/bad/";
+
+struct BadCase {
+  const char* file;
+  const char* location;  // JSON pointer or "line N" (derived by reading the file)
+  const char* phrase;    // must appear in the problem
+};
+
+const BadCase kCases[] = {
+    // JSON: syntax
+    {"j01_missing_brace.json", "line 3, column 1", "unexpected end of input"},
+    {"j02_trailing_comma.json", "line 3, column 28", "malformed JSON"},
+    {"j36_empty.json", "line 1, column 1", "unexpected end of input"},
+    // JSON: structure and types
+    {"j03_not_object.json", "/", "expected the scene object at the top level, got an array"},
+    {"j04_missing_version.json", "/", "missing required key 'blobvk'"},
+    {"j05_wrong_version.json", "/blobvk", "unsupported format version 2"},
+    {"j06_missing_root.json", "/", "missing required key 'root'"},
+    {"j07_unknown_top_key.json", "/roots", "unknown key 'roots'"},
+    {"j08_unknown_type.json", "/root/type", "unknown node type 'sphere'"},
+    {"j09_missing_type.json", "/root", "missing required key 'type'"},
+    {"j10_color_spelling.json", "/root/color", "did you mean 'colour'"},
+    {"j11_radius_string.json", "/root/children/1/radius", "expected a number, got a string"},
+    {"j16_short_vector.json", "/root/centre", "expected an array of 3 numbers, got 2 elements"},
+    {"j17_vector_element_string.json", "/root/centre/1", "expected a number, got a string"},
+    {"j42_id_not_string.json", "/root/id", "expected a string, got a number"},
+    {"j43_children_not_array.json", "/root/children", "expected an array of nodes, got an object"},
+    {"j45_slash_key.json", "/root/a~1b~0c", "unknown key 'a/b~c'"},
+    {"j48_scale_bool.json", "/root/transform/scale", "got a boolean"},
+    // JSON: values
+    {"j12_negative_radius.json", "/root/children/0/radius", "radius must be > 0, got -1"},
+    {"j13_zero_support.json", "/root/support", "support must be > 0, got 0"},
+    {"j14_huge_number.json", "/root/centre/1", "out of range"},
+    {"j15_overflow_number.json", "line 1, column 58", "number overflow"},
+    {"j23_zero_axis.json", "/root/axis", "cannot be normalised"},
+    {"j24_zero_quaternion.json", "/root/transform/rotate/quaternion", "cannot be normalised"},
+    {"j25_zero_scale.json", "/root/transform/scale/1", "scale must be > 0"},
+    {"j26_ricci_power_zero.json", "/root/power", "power must be > 0"},
+    {"j27_bad_axis_name.json", "/root/axis", "unknown axis 'w'"},
+    {"j28_same_axes.json", "/root/taperAxis", "must differ"},
+    {"j35_colour_range.json", "/root/colour/0", "within [0, 1]"},
+    {"j37_triangle_collinear.json", "/root/corners", "collinear"},
+    {"j38_bend_zero_rate.json", "/root/rate", "non-zero"},
+    {"j46_bend_range.json", "/root/hi", "lo < hi"},
+    {"j47_cube_negative.json", "/root/halfExtents/1", "must be >= 0"},
+    {"j40_rotate_both.json", "/root/transform/rotate", "not both"},
+    // JSON: arity
+    {"j18_warp_two_children.json", "/root/children", "exactly 1 child, got 2"},
+    {"j19_difference_one_child.json", "/root/children", "at least 2 children, got 1"},
+    {"j20_union_no_children.json", "/root/children", "at least 1 child, got 0"},
+    {"j21_blend_missing_children.json", "/root", "missing required key 'children'"},
+    {"j22_primitive_with_children.json", "/root/children", "cannot have children"},
+    // JSON: instancing
+    {"j29_instance_unknown.json", "/root/children/1/of", "unknown id 'b'"},
+    {"j30_instance_self.json", "/root/children/0/children/1/of", "contains itself"},
+    {"j31_instance_ambiguous.json", "/root/children/2/of", "defined twice"},
+    {"j39_definition_without_id.json", "/definitions/0", "needs an \"id\""},
+    {"j44_mutual_instances.json", "/definitions/1/children/0/of", "'a' contains itself"},
+    // JSON: camera and grid
+    {"j32_grid_both.json", "/grid", "not both"},
+    {"j33_grid_bounds.json", "/grid/bounds/hi/0", "lo < hi"},
+    {"j34_camera_fov.json", "/camera/fovYDeg", "field of view"},
+    {"j41_resolution_fraction.json", "/grid/resolution", "expected an integer"},
+    // legacy .blob
+    {"b01_no_global.blob", "line 4", "no [Global] section"},
+    {"b02_no_rootids.blob", "line 5", "has no RootIDs"},
+    {"b03_unknown_root.blob", "line 6", "unknown node id '7'"},
+    {"b04_dangling_child.blob", "line 4", "unknown node id '9'"},
+    {"b05_cycle.blob", "line 9", "cycle: node '0' contains itself"},
+    {"b06_unknown_op.blob", "line 3", "unknown operator type 'MORPH'"},
+    {"b07_unknown_prim.blob", "line 3", "unknown primitive type 'SPHERE'"},
+    {"b08_bad_number.blob", "line 4", "'abc' is not a number"},
+    {"b09_negative_radius.blob", "line 6", "radius must be > 0, got -2"},
+    {"b10_short_vector.blob", "line 4", "position needs 3 numbers, got 2"},
+    {"b11_duplicate_id.blob", "line 5", "duplicate node id '1' (first at line 1)"},
+    {"b12_missing_equals.blob", "line 4", "expected 'key=value'"},
+    {"b13_key_before_section.blob", "line 1", "before any [section]"},
+    {"b14_warp_two_children.blob", "line 6", "exactly 1 child, got 2"},
+    {"b15_difference_one_child.blob", "line 4", "at least 2 children, got 1"},
+    {"b16_zero_quaternion.blob", "line 4", "cannot be normalised"},
+    {"b17_instance_cycle.blob", "line 13", "cycle: node '0' contains itself"},
+    {"b18_children_count.blob", "line 4", "ChildrenCount=3 but 2"},
+    {"b19_huge_value.blob", "line 4", "out of range"},
+    {"b20_unclosed_header.blob", "line 1", "missing its ']'"},
+    {"b21_layers.blob", "line 6", "NumLayers=1"},
+    {"b22_range_reversed.blob", "line 5", "first <= last"},
+    {"b23_missing_radius.blob", "line 1", "is missing radius="},
+    {"b24_isoperator_bad.blob", "line 2", "must be 0 or 1"},
+    {"b25_nan.blob", "line 4", "not finite"},
+    {"b26_null_root.blob", "line 3", "NULL primitive may only pad"},
+    {"b27_ricci_power.blob", "line 4", "power must be > 0"},
+};
+
+class BadInput : public ::testing::TestWithParam<BadCase> {};
+
+}  // namespace
+
+TEST_P(BadInput, IsRefusedWithLocationAndReason) {
+  const BadCase& c = GetParam();
+  const std::string path = kBad + c.file;
+  try {
+    loadScene(path);
+    FAIL() << c.file << " was accepted";
+  } catch (const SceneError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.location(), c.location) << what;
+    EXPECT_NE(e.problem().find(c.phrase), std::string::npos) << what;
+    EXPECT_EQ(what, path + ": " + c.location + ": " + e.problem());
+    EXPECT_EQ(what.find('\n'), std::string::npos) << "one line";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Catalogue, BadInput, ::testing::ValuesIn(kCases), [](const auto& info) {
+  std::string name = info.param.file;
+  for (char& ch : name)
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  return name;
+});
+
+TEST(BadInputCatalogue, EveryFileIsListedOnce) {
+  std::set<std::string> listed;
+  for (const BadCase& c : kCases) EXPECT_TRUE(listed.insert(c.file).second) << c.file;
+  std::set<std::string> present;
+  for (const auto& entry : std::filesystem::directory_iterator(kBad)) present.insert(entry.path().filename().string());
+  EXPECT_EQ(listed, present);
+  EXPECT_GE(listed.size(), 30u);
+}

@@ -1,0 +1,317 @@
+// JSON scene format: round trips for every node type, the documented defaults and shorthands,
+// instancing, and the limits that protect the reader.
+#include "blobtree/scene_error.h"
+#include "blobtree/scene_io.h"
+#include "blobtree/scene_json.h"
+#include "test_scene_compare.h"
+
+#include <gtest/gtest.h>
+
+#include <glm/gtc/quaternion.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+using namespace blobvk::blobtree;
+using blobvk::testing::expectSameTree;
+
+namespace {
+
+Node leaf(PrimitiveType type) {
+  Primitive p;
+  p.type = type;
+  p.a = Vec3(0.25, -1.5, 2.0);
+  p.b = Vec3(0.0, 0.6, 0.8);  // a unit vector: the reader normalises axes
+  p.c = Vec3(3.0, 1.0, -2.0);
+  p.radius = 0.75;
+  p.height = 2.5;
+  p.scale = 1.7;
+  p.support = 1.3;
+  p.colour = Vec3(0.1, 0.2, 0.3);
+  if (type == PrimitiveType::Cube) p.b = Vec3(0.5, 1.0, 1.5);  // half extents
+  if (type == PrimitiveType::Line) p.b = Vec3(4.0, 5.0, 6.0);  // end point
+  if (type == PrimitiveType::Triangle) p.b = Vec3(1.0, 0.0, 0.0);
+  Node n;
+  n.kind = p;
+  return n;
+}
+
+Node withChildren(std::variant<Primitive, Operator, Warp> kind, std::vector<Node> children) {
+  Node n;
+  n.kind = std::move(kind);
+  n.children = std::move(children);
+  return n;
+}
+
+Scene everyNodeType() {
+  std::vector<Node> prims;
+  for (auto t : {PrimitiveType::Point, PrimitiveType::Line, PrimitiveType::Cylinder, PrimitiveType::Disc,
+                 PrimitiveType::Ring, PrimitiveType::Cube, PrimitiveType::Triangle, PrimitiveType::QuadricPoint})
+    prims.push_back(leaf(t));
+  prims[0].id = "first point";
+  prims[2].transform.translate = Vec3(1.0, 2.0, 3.0);
+  prims[2].transform.rotate = glm::angleAxis(0.7, glm::normalize(Vec3(1.0, 1.0, 0.0)));
+  prims[3].transform.scale = Vec3(2.0, 0.5, 1.25);
+  prims[4].transform.scale = Vec3(3.0);
+
+  std::vector<Node> ops;
+  for (auto t : {OperatorType::Blend, OperatorType::Ricci, OperatorType::Union, OperatorType::Intersection,
+                 OperatorType::Difference, OperatorType::SmoothDifference}) {
+    Operator o;
+    o.type = t;
+    o.power = 3.5;
+    ops.push_back(withChildren(o, {prims[ops.size() % prims.size()], prims[(ops.size() + 1) % prims.size()]}));
+  }
+  ops[1].transform.translate = Vec3(-1.0, 0.0, 0.5);
+
+  Warp twist{WarpType::Twist, 1, 0, 0.4};
+  Warp taper{WarpType::Taper, 2, 1, -0.1};
+  Warp bend{WarpType::Bend, 0, 2, 0.3, 0.5, -2.0, 4.0};
+  Warp shear{WarpType::Shear, 1, 2, 0.25};
+  Warp unboundedBend{WarpType::Bend, 1, 2, -0.2, 1.0};
+  std::vector<Node> warps;
+  for (const Warp& w : {twist, taper, bend, shear, unboundedBend}) warps.push_back(withChildren(w, {prims[warps.size()]}));
+  warps[2].transform.rotate = glm::angleAxis(1.1, Vec3(0.0, 0.0, 1.0));
+
+  std::vector<Node> all = prims;
+  all.insert(all.end(), ops.begin(), ops.end());
+  all.insert(all.end(), warps.begin(), warps.end());
+  Scene s;
+  s.name = "every node type";
+  s.root = withChildren(Operator{OperatorType::Union}, all);
+  s.root.id = "root";
+  Camera c;
+  c.eye = Vec3(10.0, 5.0, 3.0);
+  c.target = Vec3(0.0, 1.0, 0.0);
+  c.up = Vec3(0.0, 1.0, 0.0);
+  c.azimuthDeg = 30.0;
+  c.elevationDeg = -10.0;
+  c.distance = 12.0;
+  c.fovYDeg = 50.0;
+  s.camera = c;
+  s.grid.resolution = 64;
+  s.grid.boundsLo = Vec3(-5.0);
+  s.grid.boundsHi = Vec3(5.0, 6.0, 7.0);
+  s.simulationJson = R"({"fem":{"youngModulus":10000000.0,"tools":[1,2]}})";
+  return s;
+}
+
+Scene parse(const std::string& text) { return parseSceneJson(text, "test.json"); }
+
+std::string sceneWithRoot(const std::string& root) { return R"({"blobvk": 1, "root": )" + root + "}"; }
+
+SceneError parseError(const std::string& text) {
+  try {
+    parse(text);
+  } catch (const SceneError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "expected a SceneError for: " << text.substr(0, 200);
+  return SceneError("", "", "");
+}
+
+}  // namespace
+
+TEST(SceneJson, RoundTripKeepsEveryNodeTypeAndParameter) {
+  const Scene original = everyNodeType();
+  const std::string text = writeSceneJson(original);
+  const Scene back = parse(text);
+  expectSameTree(original.root, back.root);
+  EXPECT_EQ(back.name, original.name);
+  ASSERT_TRUE(back.camera.has_value());
+  EXPECT_EQ(*back.camera->eye, *original.camera->eye);
+  EXPECT_EQ(*back.camera->target, *original.camera->target);
+  EXPECT_EQ(*back.camera->up, *original.camera->up);
+  EXPECT_EQ(*back.camera->azimuthDeg, 30.0);
+  EXPECT_EQ(*back.camera->elevationDeg, -10.0);
+  EXPECT_EQ(*back.camera->distance, 12.0);
+  EXPECT_EQ(back.camera->fovYDeg, 50.0);
+  EXPECT_EQ(back.grid.resolution, 64);
+  EXPECT_FALSE(back.grid.cellSize.has_value());
+  EXPECT_EQ(*back.grid.boundsHi, Vec3(5.0, 6.0, 7.0));
+  EXPECT_EQ(back.simulationJson, original.simulationJson);  // kept verbatim for the simulation code
+  // Writing what was read gives the same text: the format has one spelling per tree.
+  EXPECT_EQ(writeSceneJson(back), text);
+}
+
+TEST(SceneJson, RoundTripsOneNodeTypeAtATime) {
+  const Scene all = everyNodeType();
+  for (const Node& n : all.root.children) {
+    Scene s;
+    s.root = n;
+    s.grid.cellSize = 0.125;
+    const Scene back = parse(writeSceneJson(s));
+    SCOPED_TRACE(writeSceneJson(s));
+    expectSameTree(n, back.root);
+    EXPECT_EQ(back.grid.cellSize, 0.125);
+    EXPECT_FALSE(back.camera.has_value());
+  }
+}
+
+TEST(SceneJson, DefaultsMatchTheDocumentation) {
+  const Scene s = parse(sceneWithRoot(R"({"type": "union", "children": [
+      {"type": "point"},
+      {"type": "cylinder", "radius": 0.5, "height": 2},
+      {"type": "disc", "radius": 1},
+      {"type": "ricci", "children": [{"type": "point"}]},
+      {"type": "twist", "factor": 1, "children": [{"type": "point"}]},
+      {"type": "taper", "factor": 1, "children": [{"type": "point"}]},
+      {"type": "bend", "rate": 1, "children": [{"type": "point"}]},
+      {"type": "shear", "factor": 1, "children": [{"type": "point"}]},
+      {"type": "quadricPoint"}]})"));
+  const auto& c = s.root.children;
+  const auto& point = std::get<Primitive>(c[0].kind);
+  EXPECT_EQ(point.a, Vec3(0.0));
+  EXPECT_EQ(point.support, 1.0);
+  EXPECT_EQ(point.colour, Vec3(0.8));
+  EXPECT_EQ(c[0].transform.scale, Vec3(1.0));
+  EXPECT_EQ(std::get<Primitive>(c[1].kind).b, Vec3(0.0, 1.0, 0.0));  // cylinder axis "y"
+  EXPECT_EQ(std::get<Primitive>(c[2].kind).b, Vec3(0.0, 1.0, 0.0));  // disc normal "y"
+  EXPECT_EQ(std::get<Operator>(c[3].kind).power, 2.0);
+  EXPECT_EQ(std::get<Warp>(c[4].kind).axis, 2);
+  EXPECT_EQ(std::get<Warp>(c[5].kind).axis, 2);
+  EXPECT_EQ(std::get<Warp>(c[5].kind).otherAxis, 0);
+  const auto& bend = std::get<Warp>(c[6].kind);
+  EXPECT_EQ(bend.axis, 1);
+  EXPECT_EQ(bend.otherAxis, 2);
+  EXPECT_EQ(bend.centre, 0.0);
+  EXPECT_LT(bend.lo, -1e29);
+  EXPECT_GT(bend.hi, 1e29);
+  EXPECT_EQ(std::get<Warp>(c[7].kind).axis, 0);
+  EXPECT_EQ(std::get<Warp>(c[7].kind).otherAxis, 1);
+  EXPECT_EQ(std::get<Primitive>(c[8].kind).scale, 1.0);
+  EXPECT_FALSE(s.camera.has_value());
+}
+
+TEST(SceneJson, ShorthandsForAxesRotationsAndScales) {
+  const Scene s = parse(sceneWithRoot(R"({"type": "union", "children": [
+      {"type": "cylinder", "axis": "x", "radius": 1, "height": 1},
+      {"type": "ring", "normal": [0, 0, 4], "radius": 1},
+      {"type": "point", "transform": {"rotate": {"axis": "z", "angleDeg": 90}, "scale": 2}},
+      {"type": "point", "transform": {"rotate": {"quaternion": [0, 0, 2, 0]}}},
+      {"type": "cube", "halfExtents": 0.5}]})"));
+  const auto& c = s.root.children;
+  EXPECT_EQ(std::get<Primitive>(c[0].kind).b, Vec3(1.0, 0.0, 0.0));
+  EXPECT_EQ(std::get<Primitive>(c[1].kind).b, Vec3(0.0, 0.0, 1.0));
+  const Quat q = c[2].transform.rotate;  // 90 degrees about z maps x to y
+  const Vec3 x = q * Vec3(1.0, 0.0, 0.0);
+  EXPECT_NEAR(x.x, 0.0, 1e-12);
+  EXPECT_NEAR(x.y, 1.0, 1e-12);
+  EXPECT_EQ(c[2].transform.scale, Vec3(2.0));
+  EXPECT_NEAR(c[3].transform.rotate.z, 1.0, 1e-15);  // normalised on load
+  EXPECT_NEAR(c[3].transform.rotate.w, 0.0, 1e-15);
+  EXPECT_EQ(std::get<Primitive>(c[4].kind).b, Vec3(0.5));
+}
+
+TEST(SceneJson, InstancesAreCopiesPlacedByTheirTransform) {
+  const Scene s = parse(R"({"blobvk": 1,
+    "definitions": [{"type": "blend", "id": "pair", "children": [
+        {"type": "point", "centre": [-1, 0, 0]}, {"type": "point", "centre": [1, 0, 0]}]}],
+    "root": {"type": "union", "children": [
+        {"type": "instance", "of": "pair"},
+        {"type": "instance", "of": "pair", "id": "moved", "transform": {"translate": [0, 5, 0]}},
+        {"type": "point", "id": "rotated", "centre": [2, 0, 0],
+         "transform": {"rotate": {"axis": "y", "angleDeg": 30}, "translate": [1, 2, 3]}},
+        {"type": "instance", "of": "rotated", "transform": {"scale": 2, "rotate": {"axis": "x", "angleDeg": 45}}},
+        {"type": "instance", "of": "rotated", "transform": {"scale": [1, 2, 3]}}]}})");
+  const auto& c = s.root.children;
+  ASSERT_EQ(c.size(), 5u);  // definitions are not part of the model
+  EXPECT_EQ(c[0].id, "pair");
+  EXPECT_EQ(c[0].children.size(), 2u);
+  EXPECT_EQ(c[1].id, "moved");
+  EXPECT_EQ(c[1].transform.translate, Vec3(0.0, 5.0, 0.0));
+  // Uniform placement scale: folded into one transform that maps points like the two in a row.
+  const Transform& inner = c[2].transform;
+  const Transform& folded = c[3].transform;
+  ASSERT_TRUE(c[3].isPrimitive());
+  const Quat outerRot = glm::angleAxis(glm::radians(45.0), Vec3(1.0, 0.0, 0.0));
+  for (const Vec3 p : {Vec3(0.0), Vec3(1.0, -2.0, 0.5), Vec3(-3.0, 4.0, 7.0)}) {
+    const Vec3 viaInner = inner.translate + inner.rotate * (inner.scale * p);
+    const Vec3 twoSteps = outerRot * (2.0 * viaInner);
+    const Vec3 oneStep = folded.translate + folded.rotate * (folded.scale * p);
+    EXPECT_NEAR(glm::length(twoSteps - oneStep), 0.0, 1e-12);
+  }
+  // Non-uniform placement scale of a rotated node cannot be one TRS: wrapped in a 1-child union.
+  ASSERT_TRUE(c[4].isOperator());
+  EXPECT_EQ(std::get<Operator>(c[4].kind).type, OperatorType::Union);
+  EXPECT_EQ(c[4].transform.scale, Vec3(1.0, 2.0, 3.0));
+  ASSERT_EQ(c[4].children.size(), 1u);
+  expectSameTree(c[4].children[0], c[2]);
+}
+
+TEST(SceneJson, InstancesOfInstancesExpandFully) {
+  // Each level doubles the previous one: 2^10 points from 11 definitions.
+  std::string defs = R"({"type": "point", "id": "d0"})";
+  for (int i = 1; i <= 10; ++i)
+    defs += R"(, {"type": "union", "id": "d)" + std::to_string(i) + R"(", "children": [{"type": "instance", "of": "d)" +
+            std::to_string(i - 1) + R"("}, {"type": "instance", "of": "d)" + std::to_string(i - 1) +
+            R"(", "transform": {"translate": [1, 0, 0]}}]})";
+  const Scene s = parse(R"({"blobvk": 1, "definitions": [)" + defs + R"(], "root": {"type": "instance", "of": "d10"}})");
+  EXPECT_EQ(blobvk::testing::countNodes(s.root).primitives, 1024u);
+  EXPECT_EQ(blobvk::testing::countNodes(s.root).operators, 1023u);
+}
+
+TEST(SceneJson, ExponentialInstancingIsStoppedByTheNodeLimit) {
+  std::string defs = R"({"type": "point", "id": "d0"})";
+  for (int i = 1; i <= 30; ++i)
+    defs += R"(, {"type": "union", "id": "d)" + std::to_string(i) + R"(", "children": [{"type": "instance", "of": "d)" +
+            std::to_string(i - 1) + R"("}, {"type": "instance", "of": "d)" + std::to_string(i - 1) + R"("}]})";
+  const SceneError e = parseError(R"({"blobvk": 1, "definitions": [)" + defs + R"(], "root": {"type": "instance", "of": "d30"}})");
+  EXPECT_NE(e.problem().find("more than 4000000 nodes"), std::string::npos) << e.what();
+}
+
+TEST(SceneJson, DepthLimitIsEnforcedWithoutRecursingPastIt) {
+  auto nested = [](int depth) {
+    std::string s;
+    for (int i = 1; i < depth; ++i) s += R"({"type": "union", "children": [)";
+    s += R"({"type": "point"})";
+    for (int i = 1; i < depth; ++i) s += "]}";
+    return sceneWithRoot(s);
+  };
+  EXPECT_NO_THROW(parse(nested(4096)));
+  const SceneError justOver = parseError(nested(4097));
+  EXPECT_NE(justOver.problem().find("deeper than 4096"), std::string::npos);
+  EXPECT_LT(std::string(justOver.what()).size(), 400u) << "the pointer is shortened";
+  const SceneError wayOver = parseError(nested(200000));  // refused before nlohmann builds it
+  EXPECT_EQ(wayOver.location(), "line 1");
+  EXPECT_NE(wayOver.problem().find("nested deeper"), std::string::npos);
+}
+
+TEST(SceneJson, ErrorsAreOneLineNamingFileAndPointer) {
+  const SceneError e = parseError(sceneWithRoot("{\"type\": \"point\", \"na\\nme\": 1}"));
+  const std::string what = e.what();
+  EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  EXPECT_EQ(what.rfind("test.json: /root/", 0), 0u) << what;
+  EXPECT_EQ(e.file(), "test.json");
+}
+
+TEST(SceneJson, UnreadableFilesAreSceneErrors) {
+  EXPECT_THROW(readSceneJson("/nonexistent/dir/scene.json"), SceneError);
+  EXPECT_THROW(loadScene("/nonexistent/dir/scene.blob"), SceneError);
+  EXPECT_THROW(loadScene(BLOBVK_SOURCE_DIR "/scenes"), SceneError);  // a directory
+  try {
+    loadScene(BLOBVK_SOURCE_DIR "/README.md");
+    FAIL() << "an unknown extension must be refused";
+  } catch (const SceneError& e) {
+    EXPECT_NE(e.problem().find("unknown scene extension"), std::string::npos);
+  }
+}
+
+TEST(SceneJson, SaveAndLoadThroughAFile) {
+  const Scene original = everyNodeType();
+  const auto path = std::filesystem::temp_directory_path() / "blobvk_test_scene_roundtrip.JSON";
+  saveSceneJson(original, path.string());
+  const Scene back = loadScene(path.string());  // extension matched case-insensitively
+  expectSameTree(original.root, back.root);
+  std::filesystem::remove(path);
+  EXPECT_THROW(saveSceneJson(original, "/nonexistent/dir/out.json"), SceneError);
+}
+
+TEST(SceneJson, WriterRefusesTreesNoReaderWouldAccept) {
+  Scene s;
+  Warp w{WarpType::Twist, 7, 0, 1.0};
+  s.root.kind = w;
+  s.root.children.push_back(Node{});
+  EXPECT_THROW(writeSceneJson(s), std::invalid_argument);
+}
