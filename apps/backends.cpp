@@ -3,6 +3,11 @@
 #include "cpu_simd/mpu_polygonizer.h"
 #include "cpu_simd/reference_polygonizer.h"
 
+#ifdef BLOBVK_HAVE_VULKAN
+#include "vk/polygonize.h"
+#include "vk/standalone.h"
+#endif
+
 #include <chrono>
 #include <stdexcept>
 
@@ -10,6 +15,9 @@ namespace blobvk::app {
 
 std::vector<std::string> backendNames() {
   std::vector<std::string> names{"cpu", "reference"};
+#ifdef BLOBVK_HAVE_VULKAN
+  names.push_back("vk");
+#endif
   return names;
 }
 
@@ -31,6 +39,22 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     options.refineSteps = settings.refineSteps;
     mesh = cpu::polygonizeReference(program, grid, options);
     evaluations = double(grid.pointCount());
+#ifdef BLOBVK_HAVE_VULKAN
+  } else if (settings.backend == "vk") {
+    vk::StandaloneOptions deviceOptions;
+    deviceOptions.device = settings.device;
+    deviceOptions.validation = settings.validation;
+    vk::StandaloneContext context(deviceOptions);
+    vk::GpuPolygonizeOptions options;
+    options.refineSteps = settings.refineSteps;
+    vk::GpuStats gpu;
+    mesh = vk::polygonize(context.device(), program, grid, options, &gpu);
+    evaluations = double(gpu.fieldEvaluations);
+    if (context.validationMessages() != 0) {
+      throw std::runtime_error("the Vulkan validation layer reported " +
+                               std::to_string(context.validationMessages()) + " message(s)");
+    }
+#endif
   } else {
     std::string known;
     for (const std::string& n : backendNames()) known += (known.empty() ? "" : ", ") + n;

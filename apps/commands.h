@@ -2,6 +2,8 @@
 // failure; main() turns any exception into one line on stderr and a non-zero exit.
 #pragma once
 
+#include <string>
+
 namespace CLI {
 class App;
 }
@@ -18,9 +20,9 @@ void addCompareCommand(CLI::App& app);
 void addSimulateCommand(CLI::App& app);
 void addCutCommand(CLI::App& app);
 
-// Thrown for a usage problem the user can fix (exit code 2, like CLI11's own errors).
-struct UsageError {
-  const char* what;
+// A comparison that ran but did not meet its thresholds: exit code 3 (errors give 1).
+struct ComparisonFailed {
+  std::string message;
 };
 
 }  // namespace blobvk::app

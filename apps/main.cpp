@@ -16,10 +16,15 @@ int main(int argc, char** argv) {
   blobvk::app::addConvertCommand(app);
   blobvk::app::addBenchCommand(app);
   blobvk::app::addSimulateCommand(app);
+  blobvk::app::addDevicesCommand(app);
+  blobvk::app::addCompareCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const blobvk::app::ComparisonFailed& e) {
+    std::fprintf(stderr, "blobvk: comparison failed: %s\n", e.message.c_str());
+    return 3;
   } catch (const std::exception& e) {
     // One clear line; the library's messages already name the file and the place.
     std::fprintf(stderr, "blobvk: error: %s\n", e.what());

@@ -1,0 +1,186 @@
+// `blobvk compare SCENE`: the CPU and Vulkan backends on the same grid, compared field by field,
+// cell by cell and mesh by mesh. A non-zero exit (3) when a threshold is exceeded, so users can
+// put it in their CI.
+#include "backends.h"
+#include "commands.h"
+#include "compare_images.h"
+#include "mesh_distance.h"
+#include "model.h"
+
+#include "cpu_simd/simd_evaluator.h"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+
+#ifdef BLOBVK_HAVE_VULKAN
+#include "vk/field.h"
+#include "vk/standalone.h"
+#endif
+
+namespace blobvk::app {
+namespace {
+
+std::vector<float> cpuField(const blobtree::Program& program, const blobtree::GridSpec& grid) {
+  const glm::ivec3 n = grid.points();
+  std::vector<float> field(grid.pointCount());
+  std::vector<float> x(std::size_t(n.x)), y(std::size_t(n.x)), z(std::size_t(n.x));
+  const cpu::SimdLevel level = cpu::bestSimdLevel();
+  for (int k = 0; k < n.z; ++k)
+    for (int j = 0; j < n.y; ++j) {
+      for (int i = 0; i < n.x; ++i) {
+        const glm::vec3 p = grid.point(i, j, k);
+        x[std::size_t(i)] = p.x;
+        y[std::size_t(i)] = p.y;
+        z[std::size_t(i)] = p.z;
+      }
+      cpu::evaluateFieldBatch(program, x.data(), y.data(), z.data(), &field[grid.pointIndex(0, j, k)],
+                              std::size_t(n.x), level);
+    }
+  return field;
+}
+
+struct CellDiff {
+  std::uint64_t cellsDiffering = 0, explained = 0;
+};
+
+// Cells whose inside/outside configuration differs, and whether each differing corner sits
+// within eps of the iso value on the CPU side (a legitimate rounding disagreement).
+CellDiff compareCells(const std::vector<float>& a, const std::vector<float>& b, const blobtree::GridSpec& grid, float eps) {
+  CellDiff d;
+  const float iso = layout::ISO_VALUE;
+  for (int k = 0; k < grid.cells.z; ++k)
+    for (int j = 0; j < grid.cells.y; ++j)
+      for (int i = 0; i < grid.cells.x; ++i) {
+        bool differs = false, explained = true;
+        for (int c = 0; c < 8; ++c) {
+          const std::uint64_t idx = grid.pointIndex(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1));
+          if ((a[idx] >= iso) != (b[idx] >= iso)) {
+            differs = true;
+            explained = explained && std::abs(a[idx] - iso) <= eps;
+          }
+        }
+        if (differs) {
+          ++d.cellsDiffering;
+          if (explained) ++d.explained;
+        }
+      }
+  return d;
+}
+
+}  // namespace
+
+void addCompareCommand(CLI::App& app) {
+  struct Args {
+    std::string scene;
+    std::optional<int> resolution;
+    std::optional<float> cellSize;
+    std::string cpuBackend = "cpu";
+    std::string device;
+    bool validation = false, json = false, images = false;
+    double maxFieldDiff = 1e-4, maxHausdorffCells = 0.05;
+    ImageCompareSettings imageSettings;
+  };
+  auto a = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("compare", "Compare the CPU and Vulkan backends on a scene");
+  cmd->add_option("scene", a->scene, "Scene file")->required();
+  auto* res = cmd->add_option("--resolution", a->resolution, "Cells along the longest side (default 64)")->check(CLI::Range(2, 4096));
+  cmd->add_option("--cell-size", a->cellSize, "Grid cell size")->check(CLI::PositiveNumber)->excludes(res);
+  cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference");
+  cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
+  cmd->add_flag("--validation", a->validation, "Run the Vulkan side under the validation layer");
+  cmd->add_option("--max-field-diff", a->maxFieldDiff, "Fail above this max |field difference| (default 1e-4)");
+  cmd->add_option("--max-hausdorff", a->maxHausdorffCells, "Fail above this Hausdorff distance, in cells (default 0.05)");
+  cmd->add_flag("--images", a->images, "Also render CPU mesh, GPU mesh and ray-cast and compare pixels");
+  cmd->add_option("--image-size", a->imageSettings.width, "Image side in pixels (default 256)")->check(CLI::Range(16, 4096));
+  cmd->add_option("--write-images", a->imageSettings.writeDir, "Folder for the rendered images");
+  cmd->add_flag("--json", a->json, "Print the report as JSON");
+  cmd->callback([a] {
+#ifndef BLOBVK_HAVE_VULKAN
+    throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
+#else
+    const Model model = loadModel(a->scene);
+    const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->cellSize ? a->resolution : a->resolution.value_or(64));
+    nlohmann::json report{{"scene", a->scene},
+                          {"grid", {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cellSize", grid.cellSize}}}};
+
+    // Fields.
+    vk::StandaloneOptions deviceOptions;
+    deviceOptions.device = a->device;
+    deviceOptions.validation = a->validation;
+    vk::StandaloneContext context(deviceOptions);
+    const std::vector<float> gpu = vk::evaluateFieldOnGrid(context.device(), model.program, grid);
+    const std::vector<float> cpu = cpuField(model.program, grid);
+    double maxDiff = 0, sumDiff = 0;
+    for (std::size_t i = 0; i < cpu.size(); ++i) {
+      const double d = std::abs(double(cpu[i]) - double(gpu[i]));
+      maxDiff = std::max(maxDiff, d);
+      sumDiff += d;
+    }
+    const CellDiff cells = compareCells(cpu, gpu, grid, float(std::max(a->maxFieldDiff, maxDiff)));
+    report["field"] = {{"max_abs_diff", maxDiff}, {"mean_abs_diff", cpu.empty() ? 0.0 : sumDiff / double(cpu.size())},
+                       {"points", cpu.size()}};
+    report["cells"] = {{"differing", cells.cellsDiffering}, {"explained_by_iso_rounding", cells.explained}};
+
+    // Meshes.
+    PolygonizeSettings cpuSettings;
+    cpuSettings.backend = a->cpuBackend;
+    PolygonizeSettings gpuSettings;
+    gpuSettings.backend = "vk";
+    gpuSettings.device = a->device;
+    gpuSettings.validation = a->validation;
+    const mesh::TriMesh cpuMesh = polygonize(model.program, grid, cpuSettings);
+    const mesh::TriMesh gpuMesh = polygonize(model.program, grid, gpuSettings);
+    const bool sameTopology = cpuMesh.edgeKeys == gpuMesh.edgeKeys && cpuMesh.triangles == gpuMesh.triangles;
+    const double hausdorff = vertexHausdorff(cpuMesh, gpuMesh, grid.cellSize);
+    report["mesh"] = {{"cpu", {{"vertices", cpuMesh.vertexCount()}, {"triangles", cpuMesh.triangleCount()}}},
+                      {"vk", {{"vertices", gpuMesh.vertexCount()}, {"triangles", gpuMesh.triangleCount()}}},
+                      {"identical_topology", sameTopology},
+                      {"hausdorff", hausdorff},
+                      {"hausdorff_cells", hausdorff / grid.cellSize}};
+    if (context.validationMessages() != 0) report["validation_messages"] = context.validationMessages();
+
+    std::vector<std::string> failures;
+    if (maxDiff > a->maxFieldDiff) failures.push_back("max field difference " + std::to_string(maxDiff) + " > " + std::to_string(a->maxFieldDiff));
+    if (cells.explained != cells.cellsDiffering) failures.push_back(std::to_string(cells.cellsDiffering - cells.explained) + " cell(s) differ beyond iso rounding");
+    if (hausdorff / grid.cellSize > a->maxHausdorffCells) failures.push_back("Hausdorff distance " + std::to_string(hausdorff / grid.cellSize) + " cells > " + std::to_string(a->maxHausdorffCells));
+    if (!sameTopology && cells.cellsDiffering == 0) failures.push_back("mesh topology differs although every cell agrees");
+    if (context.validationMessages() != 0) failures.push_back("validation layer messages");
+    if (a->images) {
+      a->imageSettings.height = a->imageSettings.width;
+      a->imageSettings.device = a->device;
+      a->imageSettings.validation = a->validation;
+      nlohmann::json images;
+      if (!compareImages(model, grid, a->imageSettings, images)) failures.push_back("images differ beyond tolerance");
+      report["images"] = images;
+    }
+    report["pass"] = failures.empty();
+    report["failures"] = failures;
+
+    if (a->json) {
+      std::printf("%s\n", report.dump(2).c_str());
+    } else {
+      std::printf("%s on a %d x %d x %d grid\n", a->scene.c_str(), grid.cells.x, grid.cells.y, grid.cells.z);
+      std::printf("field   max |cpu - vk| %.3g, mean %.3g over %zu points\n", maxDiff, sumDiff / double(cpu.size()), cpu.size());
+      std::printf("cells   %llu differ, %llu explained by samples within eps of the iso value\n",
+                  (unsigned long long)cells.cellsDiffering, (unsigned long long)cells.explained);
+      std::printf("mesh    cpu %zu v / %zu t, vk %zu v / %zu t, topology %s, Hausdorff %.3g (%.3g cells)\n",
+                  cpuMesh.vertexCount(), cpuMesh.triangleCount(), gpuMesh.vertexCount(), gpuMesh.triangleCount(),
+                  sameTopology ? "identical" : "different", hausdorff, hausdorff / grid.cellSize);
+      if (report.contains("images")) std::printf("images  %s\n", report["images"].dump().c_str());
+      std::printf("%s\n", failures.empty() ? "PASS" : "FAIL");
+    }
+    if (!failures.empty()) {
+      std::string all;
+      for (const auto& f : failures) all += (all.empty() ? "" : "; ") + f;
+      throw ComparisonFailed{a->scene + ": " + all};
+    }
+#endif
+  });
+}
+
+}  // namespace blobvk::app

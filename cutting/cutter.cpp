@@ -1,0 +1,442 @@
+#include "cutting/cutter.h"
+
+#include "cutting/predicates.h"
+#include "cutting/vec.h"
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <numeric>
+#include <stdexcept>
+#include <unordered_map>
+#include <unordered_set>
+
+namespace blobvk::cutting {
+namespace {
+
+struct CutEdge {
+  std::uint32_t a, b;  // a < b
+  double t;            // crossing at a + t (b - a)
+};
+
+struct TriBox {
+  Double3 lo, hi;
+};
+
+TriBox boxOf(const Triangle& t, double pad) {
+  TriBox b{t[0], t[0]};
+  for (const auto& p : t) {
+    b.lo = {std::min(b.lo.x, p.x), std::min(b.lo.y, p.y), std::min(b.lo.z, p.z)};
+    b.hi = {std::max(b.hi.x, p.x), std::max(b.hi.y, p.y), std::max(b.hi.z, p.z)};
+  }
+  b.lo = b.lo - Double3{pad, pad, pad};
+  b.hi = b.hi + Double3{pad, pad, pad};
+  return b;
+}
+
+bool overlaps(const TriBox& b, Double3 p, Double3 q) {
+  return !(std::max(p.x, q.x) < b.lo.x || std::max(p.y, q.y) < b.lo.y || std::max(p.z, q.z) < b.lo.z ||
+           std::min(p.x, q.x) > b.hi.x || std::min(p.y, q.y) > b.hi.y || std::min(p.z, q.z) > b.hi.z);
+}
+
+double distanceToSurface(Double3 p, const std::vector<Triangle>& swept) {
+  double best = 1e300;
+  for (const auto& t : swept) best = std::min(best, length(p - closestPointOnTriangle(p, t[0], t[1], t[2])));
+  return best;
+}
+
+// Small union-find over local indices.
+struct Components {
+  std::vector<int> parent;
+  explicit Components(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int find(int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  }
+  void unite(int a, int b) { parent[find(a)] = find(b); }
+};
+
+}  // namespace
+
+Cutter::Cutter(mesh::TetMesh mesh, CutOptions options) : topology_(std::move(mesh)), options_(options) {
+  if (!(options_.snapFraction >= 0.0 && options_.snapFraction < 0.5))
+    throw std::invalid_argument("CutOptions::snapFraction must lie in [0, 0.5)");
+  if (!(options_.steinerMargin > 0.0 && options_.steinerMargin <= 0.25))
+    throw std::invalid_argument("CutOptions::steinerMargin must lie in (0, 0.25]");
+  grid_.rebuild(topology_);
+  meanEdge_ = grid_.cellSize() / 2.0;
+}
+
+CutResult Cutter::cut(const std::vector<Triangle>& swept) {
+  const auto start = std::chrono::steady_clock::now();
+  CutResult result;
+  if (swept.empty()) return result;
+  if (grid_.needsRebuild(topology_)) grid_.rebuild(topology_);
+  const auto& pos = topology_.mesh().positions;
+  const double tolAbs = options_.onSurfaceTolerance * meanEdge_;
+  const double tau = options_.snapFraction;
+
+  // 1. Candidate tets near the swept surface.
+  std::vector<TriBox> boxes;
+  std::vector<std::uint32_t> candidates;
+  for (const auto& t : swept) {
+    boxes.push_back(boxOf(t, tolAbs));
+    grid_.query(topology_, boxes.back().lo, boxes.back().hi, candidates);
+  }
+  std::sort(candidates.begin(), candidates.end());
+  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+
+  // 2. Cut edges (each mesh edge tested once) and nodes lying on the surface.
+  std::unordered_map<std::uint64_t, CutEdge> cutEdges;
+  std::unordered_set<std::uint64_t> tested;
+  std::unordered_set<std::uint32_t> cutNodes, seenNodes;
+  // Unit normals of the swept triangles: a tet strictly on one side of every triangle's plane
+  // (farther than the on-surface tolerance) can neither be crossed nor touch the surface.
+  std::vector<Double3> normals;
+  for (const auto& t : swept) {
+    const Double3 n = cross(t[1] - t[0], t[2] - t[0]);
+    normals.push_back(n * (1.0 / length(n)));
+  }
+  std::vector<std::uint32_t> near;
+  std::vector<std::uint8_t> relevant(swept.size());
+  for (std::uint32_t slot : candidates) {
+    const Tet& tet = topology_.tet(slot);
+    bool any = false;
+    for (std::size_t i = 0; i < swept.size(); ++i) {
+      int above = 0, below = 0;
+      for (std::uint32_t n : tet) {
+        const double d = dot(pos[n] - swept[i][0], normals[i]);
+        above += d > tolAbs;
+        below += d < -tolAbs;
+      }
+      relevant[i] = above < 4 && below < 4;
+      any |= relevant[i] != 0;
+    }
+    if (!any) continue;
+    near.push_back(slot);
+    for (const auto& e : kTetEdges) {
+      std::uint32_t a = tet[e[0]], b = tet[e[1]];
+      if (a > b) std::swap(a, b);
+      // Irrelevant triangles have both ends of every edge of the tet on one side, so one test
+      // per edge (against the triangles relevant to the first tet that reaches it) is exact.
+      if (!tested.insert(edgeKey(a, b)).second) continue;
+      bool hitAny = false;
+      for (std::size_t i = 0; i < swept.size() && !hitAny; ++i) {
+        if (!relevant[i] || !overlaps(boxes[i], pos[a], pos[b])) continue;
+        const SegmentHit hit = segmentCrossesTriangle(pos[a], pos[b], swept[i][0], swept[i][1], swept[i][2]);
+        if (hit.hit) {
+          cutEdges.emplace(edgeKey(a, b), CutEdge{a, b, hit.t});
+          hitAny = true;
+        }
+      }
+    }
+    for (std::uint32_t n : tet)
+      if (seenNodes.insert(n).second && distanceToSurface(pos[n], swept) <= tolAbs) cutNodes.insert(n);
+  }
+
+  result.candidateTets = near.size();
+
+  // 3. Cut nodes by the thesis' rule, then drop every cut edge touching a cut node.
+  for (const auto& [key, ce] : cutEdges) {
+    if (ce.t < tau) cutNodes.insert(ce.a);
+    if (ce.t > 1.0 - tau) cutNodes.insert(ce.b);
+  }
+  std::vector<CutEdge> kept;
+  for (const auto& [key, ce] : cutEdges)
+    if (!cutNodes.count(ce.a) && !cutNodes.count(ce.b)) kept.push_back(ce);
+  std::sort(kept.begin(), kept.end(), [](const CutEdge& x, const CutEdge& y) {
+    return x.a != y.a ? x.a < y.a : x.b < y.b;
+  });
+  result.cutEdges = kept.size();
+  result.cutNodes = cutNodes.size();
+
+  // 4. Codes per touched tet.
+  struct Codes {
+    std::uint8_t edges = 0, nodes = 0;
+  };
+  std::unordered_map<std::uint32_t, Codes> touched;
+  std::unordered_map<std::uint64_t, std::uint32_t> edgePoint;
+  for (const CutEdge& ce : kept) {
+    const std::uint32_t node = topology_.addNode(lerp(topology_.mesh().positions[ce.a], topology_.mesh().positions[ce.b], ce.t),
+                                                 lerp(topology_.mesh().restPositions[ce.a],
+                                                      topology_.mesh().restPositions[ce.b], ce.t));
+    edgePoint[edgeKey(ce.a, ce.b)] = node;
+    NewNode nn;
+    nn.index = node;
+    nn.kind = NewNode::Kind::EdgePoint;
+    nn.sources = {ce.a, ce.b, kNone, kNone};
+    nn.weights = {1.0 - ce.t, ce.t, 0.0, 0.0};
+    result.newNodes.push_back(nn);
+    for (std::uint32_t slot : topology_.tetsOfNode(ce.a)) {
+      const Tet& tet = topology_.tet(slot);
+      for (int e = 0; e < 6; ++e)
+        if (edgeKey(tet[kTetEdges[e][0]], tet[kTetEdges[e][1]]) == edgeKey(ce.a, ce.b))
+          touched[slot].edges |= std::uint8_t(1u << e);
+    }
+  }
+  for (std::uint32_t n : cutNodes)
+    for (std::uint32_t slot : topology_.tetsOfNode(n)) {
+      const Tet& tet = topology_.tet(slot);
+      for (int i = 0; i < 4; ++i)
+        if (tet[i] == n) touched[slot].nodes |= std::uint8_t(1u << i);
+    }
+  std::vector<std::uint32_t> order;
+  for (const auto& [slot, codes] : touched) order.push_back(slot);
+  std::sort(order.begin(), order.end());
+
+  // 5. Split, 6. collect crack faces.
+  std::unordered_set<FaceKey, FaceKeyHash> crack;
+  std::vector<std::uint32_t> changed;
+  for (std::uint32_t slot : order) {
+    const Codes codes = touched[slot];
+    const Tet parent = topology_.tet(slot);
+    if (codes.edges == 0) {
+      const CutCase kind = std::popcount(unsigned(codes.nodes)) >= 3 ? CutCase::Z : CutCase::NodesOnly;
+      ++result.caseCounts[std::size_t(kind)];
+      if (kind != CutCase::Z) continue;
+      // A face of three cut nodes is on the crack where the surface really separates the two
+      // tets sharing it: each tet's side is that of its solid (non-cut) nodes, or of its centroid
+      // when all four nodes are cut nodes, against the swept triangle nearest the face.
+      for (const auto& f : kTetFaces) {
+        if (!(codes.nodes >> f[0] & 1) || !(codes.nodes >> f[1] & 1) || !(codes.nodes >> f[2] & 1)) continue;
+        const std::uint32_t a = parent[f[0]], b = parent[f[1]], c = parent[f[2]];
+        const auto pair = topology_.tetsOfFace(a, b, c);
+        const std::uint32_t other = pair[0] == slot ? pair[1] : pair[0];
+        if (other == kNone) continue;
+        const Double3 centre = (pos[a] + pos[b] + pos[c]) * (1.0 / 3.0);
+        const Triangle* nearest = nullptr;
+        double nearestDistance = 1e300;
+        for (const auto& tri : swept) {
+          const double dist = length(centre - closestPointOnTriangle(centre, tri[0], tri[1], tri[2]));
+          if (dist < nearestDistance) nearestDistance = dist, nearest = &tri;
+        }
+        // Beyond the blade the face would drift off the surface: its centre may be no farther
+        // than its farthest (snapped) node, plus tau of its size where the surface bends.
+        const double reach = std::max({distanceToSurface(pos[a], swept), distanceToSurface(pos[b], swept),
+                                       distanceToSurface(pos[c], swept)});
+        const double span = std::max({length(pos[b] - pos[a]), length(pos[c] - pos[b]), length(pos[a] - pos[c])});
+        if (nearestDistance > reach + tau * span + tolAbs) continue;
+        const Triangle& plane = *nearest;
+        auto sideOf = [&](std::uint32_t t) {
+          const Tet& nodes = topology_.tet(t);
+          double best = 0.0;
+          for (std::uint32_t v : nodes)
+            if (!cutNodes.count(v)) {
+              const double value = orient3dValue(plane[0], plane[1], plane[2], pos[v]);
+              if (std::fabs(value) > std::fabs(best)) best = value;
+            }
+          if (best == 0.0)
+            best = orient3dValue(plane[0], plane[1], plane[2],
+                                 (pos[nodes[0]] + pos[nodes[1]] + pos[nodes[2]] + pos[nodes[3]]) * 0.25);
+          return best > 0 ? 1 : (best < 0 ? -1 : 0);
+        };
+        if (sideOf(slot) * sideOf(other) < 0) crack.insert(makeFaceKey(a, b, c));
+      }
+      continue;
+    }
+    std::array<std::uint32_t, 11> global{};
+    std::array<std::uint64_t, 11> keys{};
+    for (int i = 0; i < 4; ++i) global[i] = parent[i], keys[i] = parent[i];
+    for (int e = 0; e < 6; ++e) {
+      keys[kEdgePointBase + e] = ~0ull - 1;
+      if (codes.edges >> e & 1) {
+        global[kEdgePointBase + e] = edgePoint.at(edgeKey(parent[kTetEdges[e][0]], parent[kTetEdges[e][1]]));
+        keys[kEdgePointBase + e] = global[kEdgePointBase + e];
+      }
+    }
+    keys[kSteinerLocal] = ~0ull;
+    const auto& rest = topology_.mesh().restPositions;
+    auto steinerWeights = [&](const Tet& t, const std::vector<Triangle>& surface) -> std::array<double, 4> {
+      const auto& p = topology_.mesh().positions;
+      const Double3 centroid = (p[t[0]] + p[t[1]] + p[t[2]] + p[t[3]]) * 0.25;
+      Double3 best = centroid;
+      double bestDistance = 1e300;
+      for (const auto& tri : surface) {
+        const Double3 q = closestPointOnTriangle(centroid, tri[0], tri[1], tri[2]);
+        if (length(q - centroid) < bestDistance) bestDistance = length(q - centroid), best = q;
+      }
+      const double volume = tetVolume(p[t[0]], p[t[1]], p[t[2]], p[t[3]]);
+      std::array<double, 4> w{};
+      if (volume > 0) {
+        w[0] = tetVolume(best, p[t[1]], p[t[2]], p[t[3]]) / volume;
+        w[1] = tetVolume(p[t[0]], best, p[t[2]], p[t[3]]) / volume;
+        w[2] = tetVolume(p[t[0]], p[t[1]], best, p[t[3]]) / volume;
+        w[3] = 1.0 - w[0] - w[1] - w[2];
+        if (*std::min_element(w.begin(), w.end()) >= options_.steinerMargin) return w;
+      }
+      return {0.25, 0.25, 0.25, 0.25};
+    };
+    const double parentRest = tetVolume(rest[parent[0]], rest[parent[1]], rest[parent[2]], rest[parent[3]]);
+    // Steiner point of a partial split: the centroid's closest point on the swept surface when
+    // it lies inside the tet with every barycentric weight >= steinerMargin (the crack then
+    // continues through it exactly when the blade moves on), else the centroid.
+    const std::array<double, 4> lambda = steinerWeights(parent, swept);
+    auto restOf = [&](std::uint8_t local) -> Double3 {
+      if (local == kSteinerLocal)
+        return rest[parent[0]] * lambda[0] + rest[parent[1]] * lambda[1] + rest[parent[2]] * lambda[2] +
+               rest[parent[3]] * lambda[3];
+      return rest[global[local]];
+    };
+    auto minRatio = [&](const Decomposition& d) {
+      double worst = 1e300;
+      for (int i = 0; i < d.tetCount; ++i) {
+        const auto& c = d.tets[i];
+        worst = std::min(worst, tetVolume(restOf(c[0]), restOf(c[1]), restOf(c[2]), restOf(c[3])) / parentRest);
+      }
+      return worst;
+    };
+    Decomposition d = decomposeTet(codes.edges, codes.nodes, keys);
+    double ratio = minRatio(d);
+    if (d.separating && !(ratio > 1e-12)) {
+      // A strongly non-planar crack quad would invert a child: split without opening instead.
+      d = decomposeTet(codes.edges, codes.nodes, keys, true);
+      ratio = minRatio(d);
+      ++result.separatingFallbacks;
+    }
+    ++result.caseCounts[std::size_t(d.kind)];
+    result.minChildVolumeRatio = std::min(result.minChildVolumeRatio, ratio);
+    if (d.usesSteiner) {
+      const auto& p = topology_.mesh().positions;
+      global[kSteinerLocal] = topology_.addNode(p[parent[0]] * lambda[0] + p[parent[1]] * lambda[1] +
+                                                    p[parent[2]] * lambda[2] + p[parent[3]] * lambda[3],
+                                                restOf(kSteinerLocal));
+      NewNode nn;
+      nn.index = global[kSteinerLocal];
+      nn.kind = NewNode::Kind::Steiner;
+      nn.sources = parent;
+      nn.weights = lambda;
+      result.newNodes.push_back(nn);
+    }
+    result.removedTets.push_back(slot);
+    result.removedTetNodes.push_back(parent);
+    ++result.splitTets;
+    const std::uint32_t region = topology_.mesh().regions[slot];
+    for (int i = 0; i < d.tetCount; ++i) {
+      const auto& c = d.tets[i];
+      const Tet child{global[c[0]], global[c[1]], global[c[2]], global[c[3]]};
+      std::uint32_t s = slot;
+      if (i == 0) topology_.setTet(slot, child);
+      else s = topology_.addTet(child, region);
+      result.addedTets.push_back(s);
+      grid_.insert(topology_, s);
+    }
+    for (int i = 0; i < d.crackCount; ++i)
+      crack.insert(makeFaceKey(global[d.crack[i][0]], global[d.crack[i][1]], global[d.crack[i][2]]));
+  }
+  result.crackFaces = crack.size();
+
+  // 7. Open the crack: around each crack vertex, tets connected through non-crack faces stay
+  // together; every further group gets its own copy of the vertex.
+  std::vector<std::uint32_t> crackVertices;
+  for (const FaceKey& f : crack) crackVertices.insert(crackVertices.end(), {f.a, f.b, f.c});
+  std::sort(crackVertices.begin(), crackVertices.end());
+  crackVertices.erase(std::unique(crackVertices.begin(), crackVertices.end()), crackVertices.end());
+  std::unordered_set<std::uint32_t> renumbered;
+  for (std::uint32_t v : crackVertices) {
+    const std::vector<std::uint32_t> around = topology_.tetsOfNode(v);
+    if (around.size() < 2) continue;
+    Components comps(around.size());
+    for (std::size_t i = 0; i < around.size(); ++i) {
+      const Tet& t = topology_.tet(around[i]);
+      for (const auto& f : kTetFaces) {
+        const std::uint32_t a = t[f[0]], b = t[f[1]], c = t[f[2]];
+        if (a != v && b != v && c != v) continue;
+        if (crack.count(makeFaceKey(a, b, c))) continue;
+        const auto pair = topology_.tetsOfFace(a, b, c);
+        const std::uint32_t other = pair[0] == around[i] ? pair[1] : pair[0];
+        if (other == kNone) continue;
+        const auto j = std::find(around.begin(), around.end(), other) - around.begin();
+        comps.unite(int(i), int(j));
+      }
+    }
+    std::unordered_map<int, std::uint32_t> copyOf;
+    const int keep = comps.find(0);
+    for (std::size_t i = 0; i < around.size(); ++i) {
+      const int root = comps.find(int(i));
+      if (root == keep) continue;
+      auto it = copyOf.find(root);
+      if (it == copyOf.end()) {
+        const std::uint32_t copy = topology_.addNode(topology_.mesh().positions[v], topology_.mesh().restPositions[v]);
+        it = copyOf.emplace(root, copy).first;
+        NewNode nn;
+        nn.index = copy;
+        nn.kind = NewNode::Kind::Duplicate;
+        nn.sources = {v, kNone, kNone, kNone};
+        nn.weights = {1.0, 0.0, 0.0, 0.0};
+        result.newNodes.push_back(nn);
+        ++result.duplicatedNodes;
+      }
+      Tet t = topology_.tet(around[i]);
+      if (renumbered.insert(around[i]).second) changed.push_back(around[i]);
+      for (auto& n : t)
+        if (n == v) n = it->second;
+      topology_.setTet(around[i], t);
+    }
+  }
+  // Renumbered tets that were not split are reported as removed and re-added. Their removed
+  // node lists are their pre-cut contents, which the duplicate records let the FEM reconstruct;
+  // for simplicity we report the current nodes mapped back through the duplicate sources.
+  std::unordered_set<std::uint32_t> split(result.addedTets.begin(), result.addedTets.end());
+  std::unordered_map<std::uint32_t, std::uint32_t> original;
+  for (const NewNode& nn : result.newNodes)
+    if (nn.kind == NewNode::Kind::Duplicate) original[nn.index] = nn.sources[0];
+  for (std::uint32_t slot : changed) {
+    if (split.count(slot)) continue;
+    Tet before = topology_.tet(slot);
+    for (auto& n : before) {
+      auto it = original.find(n);
+      while (it != original.end()) {
+        n = it->second;
+        it = original.find(n);
+      }
+    }
+    result.removedTets.push_back(slot);
+    result.removedTetNodes.push_back(before);
+    result.addedTets.push_back(slot);
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+double minimumChildVolumeFraction(double tau, double steinerMargin) {
+  // Unit reference tet; the ratio is affine-invariant, so this bounds every tet.
+  const std::array<Double3, 4> corner{Double3{0, 0, 0}, Double3{1, 0, 0}, Double3{0, 1, 0}, Double3{0, 0, 1}};
+  const double parent = tetVolume(corner[0], corner[1], corner[2], corner[3]);
+  double worst = 1.0;
+  std::array<int, 4> perm{0, 1, 2, 3};
+  for (int nodeMask = 0; nodeMask < 16; ++nodeMask)
+    for (int edgeMask = 1; edgeMask < 64; ++edgeMask) {
+      bool valid = true;
+      for (int e = 0; e < 6; ++e)
+        if ((edgeMask >> e & 1) && ((nodeMask >> kTetEdges[e][0] & 1) || (nodeMask >> kTetEdges[e][1] & 1)))
+          valid = false;
+      if (!valid) continue;
+      std::sort(perm.begin(), perm.end());
+      do {
+        std::array<std::uint64_t, 11> keys{};
+        for (int i = 0; i < 4; ++i) keys[i] = std::uint64_t(perm[i]);
+        for (int e = 0; e < 6; ++e) keys[kEdgePointBase + e] = 10 + std::uint64_t(e);
+        keys[kSteinerLocal] = 100;
+        const Decomposition d = decomposeTet(std::uint8_t(edgeMask), std::uint8_t(nodeMask), keys);
+        for (int box = 0; box < 64; ++box) {
+          std::array<Double3, 11> p{};
+          for (int i = 0; i < 4; ++i) p[i] = corner[i];
+          for (int e = 0; e < 6; ++e) {
+            const double t = (box >> e & 1) ? 1.0 - tau : tau;
+            p[kEdgePointBase + e] = lerp(corner[kTetEdges[e][0]], corner[kTetEdges[e][1]], t);
+          }
+          p[kSteinerLocal] = (corner[0] + corner[1] + corner[2] + corner[3]) * 0.25;
+          for (int i = 0; i < d.tetCount; ++i) {
+            const auto& c = d.tets[i];
+            // A Steiner child is (face piece area fraction) x (Steiner weight of the opposite
+            // node): scale the centroid's 1/4 down to the smallest allowed weight.
+            const double scale = d.usesSteiner ? std::min(1.0, steinerMargin / 0.25) : 1.0;
+            worst = std::min(worst, scale * tetVolume(p[c[0]], p[c[1]], p[c[2]], p[c[3]]) / parent);
+          }
+        }
+      } while (std::next_permutation(perm.begin(), perm.end()));
+    }
+  return worst;
+}
+
+}  // namespace blobvk::cutting

@@ -1,0 +1,88 @@
+// One cut event (thesis §6.3-6.7, all cases): find the mesh edges the swept surface crosses,
+// snap nearby nodes (cut nodes) and drop their edges, split every touched tet with the
+// decomposition of decompose.h, then open the crack by duplicating the crack's nodes wherever the
+// tets around them fall apart. Produces a CutResult change set for an incremental FEM rebuild.
+#pragma once
+
+#include "cutting/blade.h"
+#include "cutting/decompose.h"
+#include "cutting/spatial_grid.h"
+#include "cutting/topology.h"
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace blobvk::cutting {
+
+struct CutOptions {
+  // tau: a crossing closer than tau * edge length to an edge end makes that end a cut node and
+  // removes all its edges from the cut list (the thesis' roi = 0.2). Every kept cut point then
+  // lies in [tau, 1 - tau] along its edge, which bounds the children's volumes from below (see
+  // minimumChildVolumeFraction). Must lie in [0, 0.5).
+  double snapFraction = 0.2;
+  // Nodes closer than this to the swept surface (relative to the mean edge length) are on it.
+  double onSurfaceTolerance = 1e-9;
+  // Partial cuts split around a Steiner point placed on the swept surface when all its
+  // barycentric weights are >= this (else at the centroid); bounds those children's volumes.
+  double steinerMargin = 0.1;
+};
+
+struct NewNode {
+  enum class Kind : std::uint8_t { EdgePoint, Steiner, Duplicate };
+  std::uint32_t index = 0;
+  Kind kind = Kind::EdgePoint;
+  // position = sum(weights[i] * positions[sources[i]]) (same for rest positions); unused sources
+  // are kNone. EdgePoint: 2 sources; Steiner: the 4 nodes of the split tet; Duplicate: 1 source
+  // (the node it was split from; the two now belong to different sides of the crack).
+  std::array<std::uint32_t, 4> sources{kNone, kNone, kNone, kNone};
+  std::array<double, 4> weights{};
+};
+
+// Change set of one cut event. Tet slots are reused, so indices are valid before and after.
+// For the FEM: drop the element formerly at each removedTets[i] (its nodes are removedTetNodes[i]),
+// add the element now at each addedTets slot, grow the node arrays by newNodes (appended in
+// order, positions and rest positions already set in the mesh). Slots in neither list are
+// untouched; node indices never change.
+struct CutResult {
+  std::vector<std::uint32_t> removedTets;
+  std::vector<Tet> removedTetNodes;
+  std::vector<std::uint32_t> addedTets;
+  std::vector<NewNode> newNodes;
+  std::array<std::size_t, 11> caseCounts{};  // indexed by CutCase
+  std::size_t candidateTets = 0, cutEdges = 0, cutNodes = 0, splitTets = 0, separatingFallbacks = 0;
+  std::size_t crackFaces = 0, duplicatedNodes = 0;
+  double minChildVolumeRatio = 1.0;  // smallest child rest volume / its parent's, this event
+  double seconds = 0.0;
+  std::size_t count(CutCase c) const { return caseCounts[std::size_t(c)]; }
+};
+
+class Cutter {
+ public:
+  explicit Cutter(mesh::TetMesh mesh, CutOptions options = {});
+
+  // Cuts along the given swept triangles (a blade step, or a whole stroke at once).
+  CutResult cut(const std::vector<Triangle>& swept);
+
+  const CutTopology& topology() const { return topology_; }
+  CutTopology& topology() { return topology_; }
+  // Call after the simulation moved the nodes: rebuilds the spatial hash (O(n)).
+  void positionsChanged() { grid_.rebuild(topology_); }
+  const CutOptions& options() const { return options_; }
+
+ private:
+  CutTopology topology_;
+  CutOptions options_;
+  SpatialGrid grid_;
+  double meanEdge_ = 1.0;
+};
+
+// The smallest child/parent volume ratio any split can produce when every cut point lies in
+// [tau, 1 - tau] along its edge: the children's barycentric determinants are multi-affine in the
+// cut parameters, so the minimum over the parameter box is attained at a corner; this enumerates
+// every cut code, every vertex-key order and every corner. Steiner children are scaled by the
+// smallest allowed Steiner weight (CutOptions::steinerMargin).
+double minimumChildVolumeFraction(double tau, double steinerMargin);
+
+}  // namespace blobvk::cutting

@@ -1,0 +1,120 @@
+// Mutable tetrahedral topology for cutting: nodes, edges, faces and tets with incidence, kept up
+// to date incrementally as tets are split (thesis §6.1 VolMesh, with hash maps instead of
+// std::map). Tet slots are reused; deleted tets leave holes until compact().
+#pragma once
+
+#include "mesh/tetmesh.h"
+#include "mesh/trimesh.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace blobvk::cutting {
+
+inline constexpr std::uint32_t kNone = 0xffffffffu;
+using Tet = std::array<std::uint32_t, 4>;
+using Face = std::array<std::uint32_t, 3>;
+
+// Outward faces of tet (0,1,2,3) in the thesis numbering f0..f3 (face i is opposite node i).
+inline constexpr std::array<std::array<int, 3>, 4> kTetFaces = {{{1, 2, 3}, {2, 0, 3}, {3, 0, 1}, {1, 0, 2}}};
+// Local edges in the thesis numbering e0..e5 (so cut-edge codes 56/37/11/22, 46/51/29 match).
+inline constexpr std::array<std::array<int, 2>, 6> kTetEdges = {{{1, 2}, {2, 3}, {3, 1}, {2, 0}, {0, 3}, {0, 1}}};
+
+inline std::uint64_t edgeKey(std::uint32_t a, std::uint32_t b) {
+  if (a > b) std::swap(a, b);
+  return (std::uint64_t(a) << 32) | b;
+}
+
+struct FaceKey {
+  std::uint32_t a, b, c;  // sorted ascending
+  friend bool operator==(const FaceKey&, const FaceKey&) = default;
+};
+FaceKey makeFaceKey(std::uint32_t a, std::uint32_t b, std::uint32_t c);
+struct FaceKeyHash {
+  std::size_t operator()(const FaceKey& k) const {
+    std::uint64_t h = k.a * 0x9E3779B97F4A7C15ull;
+    h ^= (k.b + 0x7F4A7C159E3779B9ull + (h << 6) + (h >> 2));
+    h ^= (k.c * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2));
+    return std::size_t(h);
+  }
+};
+
+struct SelfCheckReport {
+  std::size_t tets = 0, nodes = 0, interiorFaces = 0, boundaryFaces = 0;
+  std::size_t overSharedFaces = 0;      // faces used by 3+ tets (non-conforming)
+  std::size_t misorientedFaces = 0;     // interior face traversed the same way by both tets
+  std::size_t duplicateTets = 0;        // same node set twice
+  std::size_t nonPositiveTets = 0;      // rest volume <= 0
+  std::size_t degenerateTets = 0;       // repeated or out-of-range node index
+  std::size_t incidenceMismatches = 0;  // incremental maps disagree with a rebuild
+  bool ok() const {
+    return overSharedFaces == 0 && misorientedFaces == 0 && duplicateTets == 0 && nonPositiveTets == 0 &&
+           degenerateTets == 0 && incidenceMismatches == 0;
+  }
+  std::string summary() const;
+};
+
+class CutTopology {
+ public:
+  explicit CutTopology(mesh::TetMesh mesh);
+
+  // The mesh; tets of dead slots hold stale data until compact(). boundaryFaces is only
+  // refreshed by toTetMesh().
+  const mesh::TetMesh& mesh() const { return mesh_; }
+  // Current positions may be updated by the simulation (same size; rest positions untouched).
+  std::vector<mesh::Double3>& positions() { return mesh_.positions; }
+
+  std::size_t slotCount() const { return mesh_.tets.size(); }
+  std::size_t liveTetCount() const { return mesh_.tets.size() - freeSlots_.size(); }
+  bool alive(std::uint32_t slot) const { return alive_[slot] != 0; }
+  const Tet& tet(std::uint32_t slot) const { return mesh_.tets[slot]; }
+
+  std::uint32_t addNode(mesh::Double3 position, mesh::Double3 rest);
+  // Inserts a tet in a free slot (lowest freed first is not guaranteed) or at the end.
+  std::uint32_t addTet(const Tet& nodes, std::uint32_t region = 0);
+  // Replaces the content of a live slot in place.
+  void setTet(std::uint32_t slot, const Tet& nodes);
+  // Deferred deletion: the slot is detached from all incidence and becomes a hole.
+  void removeTet(std::uint32_t slot);
+  // Fills holes with tets from the end; returns (from, to) slot moves. Nodes are never removed.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> compact();
+
+  // Incidence queries, O(1) expected.
+  const std::vector<std::uint32_t>& tetsOfNode(std::uint32_t node) const { return tetsOfNode_[node]; }
+  bool hasEdge(std::uint32_t a, std::uint32_t b) const { return edges_.count(edgeKey(a, b)) != 0; }
+  std::size_t edgeCount() const { return edges_.size(); }
+  std::size_t faceCount() const { return faces_.size(); }
+  // The (up to two) tets sharing the face, kNone where absent.
+  std::array<std::uint32_t, 2> tetsOfFace(std::uint32_t a, std::uint32_t b, std::uint32_t c) const;
+  template <typename F>
+  void forEachEdge(F&& f) const {
+    for (const auto& [key, count] : edges_) f(std::uint32_t(key >> 32), std::uint32_t(key & 0xffffffffu));
+  }
+
+  // Full O(n) verification against a from-scratch rebuild.
+  SelfCheckReport selfCheck() const;
+  // Compacted copy with boundary faces (outward) recomputed.
+  mesh::TetMesh toTetMesh() const;
+  double totalRestVolume() const;
+
+ private:
+  struct FaceRecord {
+    std::uint32_t tets[2] = {kNone, kNone};
+    std::uint32_t extra = 0;  // tets beyond two (a conformity error, reported by selfCheck)
+  };
+  void attach(std::uint32_t slot);
+  void detach(std::uint32_t slot);
+
+  mesh::TetMesh mesh_;
+  std::vector<std::uint8_t> alive_;
+  std::vector<std::uint32_t> freeSlots_;
+  std::vector<std::vector<std::uint32_t>> tetsOfNode_;
+  std::unordered_map<std::uint64_t, std::uint32_t> edges_;  // edge key -> number of tets using it
+  std::unordered_map<FaceKey, FaceRecord, FaceKeyHash> faces_;
+};
+
+}  // namespace blobvk::cutting
