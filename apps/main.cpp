@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   blobvk::app::addConvertCommand(app);
   blobvk::app::addBenchCommand(app);
   blobvk::app::addSimulateCommand(app);
+  blobvk::app::addCutCommand(app);
   blobvk::app::addDevicesCommand(app);
   blobvk::app::addCompareCommand(app);
   try {

@@ -36,11 +36,11 @@ std::uint32_t dominantPrimitive(const blobtree::Program& program, const mesh::Do
 
 }  // namespace
 
-SoftBody buildSoftBody(const Model& model, const blobtree::GridSpec& grid, int threads) {
+TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int threads) {
   if (model.scene.simulationJson.empty()) {
     throw std::runtime_error(model.path + ": the scene has no \"simulation\" section (see docs/fem.md)");
   }
-  SoftBody body;
+  TetModel body;
   body.config = parseSimulationConfig(model.scene.simulationJson, model.path);
   SimulationConfig& config = body.config;
 
@@ -89,8 +89,20 @@ SoftBody buildSoftBody(const Model& model, const blobtree::GridSpec& grid, int t
     };
   }
   body.tetSeconds = since(start);
-  body.simulation = std::make_unique<fem::Simulation>(std::move(tets), config.settings);
-  body.simulation->setRenderSurface(body.surface, std::move(embedding));
+  body.tets = std::move(tets);
+  body.embedding = std::move(embedding);
+  return body;
+}
+
+SoftBody buildSoftBody(const Model& model, const blobtree::GridSpec& grid, int threads) {
+  TetModel tets = buildTetModel(model, grid, threads);
+  SoftBody body;
+  body.config = std::move(tets.config);
+  body.surface = std::move(tets.surface);
+  body.meshSeconds = tets.meshSeconds;
+  body.tetSeconds = tets.tetSeconds;
+  body.simulation = std::make_unique<fem::Simulation>(std::move(tets.tets), body.config.settings);
+  body.simulation->setRenderSurface(body.surface, std::move(tets.embedding));
   return body;
 }
 

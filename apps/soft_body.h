@@ -6,6 +6,8 @@
 #include "model.h"
 #include "simulation_config.h"
 
+#include "fem/surface_embedding.h"
+
 #include <memory>
 
 namespace blobvk::app {
@@ -16,6 +18,16 @@ struct SoftBody {
   std::unique_ptr<fem::Simulation> simulation;
   double meshSeconds = 0, tetSeconds = 0;
 };
+
+// The tetrahedral mesh alone (for cutting before the FEM is built).
+struct TetModel {
+  SimulationConfig config;
+  mesh::TriMesh surface;
+  mesh::TetMesh tets;
+  fem::SurfaceEmbedding embedding;
+  double meshSeconds = 0, tetSeconds = 0;
+};
+TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int threads);
 
 SoftBody buildSoftBody(const Model& model, const blobtree::GridSpec& grid, int threads);
 

@@ -1,9 +1,10 @@
 // Whole polygonization with the MPU polygonizer: tower (4 levels, 8 pillars, one instance) and a
 // blend of 128 random points, at several resolutions, thread counts and MPU sizes. Counters:
 // triangles, FVEPT (point evaluations per triangle), FVEPT_simd (SIMD calls per triangle),
-// discarded/crossed MPUs. Arguments: {resolution, threads, mpuCells}.
+// discarded/crossed MPUs. Arguments: {resolution, threads, mpuCells, subBlockCells (-1: default)}.
 //   bench_polygonizer --benchmark_filter='/256/2/'      # the 256^3, 2-core target
 //   bench_polygonizer --benchmark_filter='mpu_sweep'     # time against MPU size
+//   bench_polygonizer --benchmark_filter='subblock_sweep' # sparse field cache block size
 #include "cpu_simd/mpu_polygonizer.h"
 #include "tests/cpu_simd/models.h"
 
@@ -32,6 +33,7 @@ void polygonize(benchmark::State& state, const blobtree::Node& node) {
   cpu::MpuOptions o;
   o.threads = int(state.range(1));
   o.mpuCells = int(state.range(2));
+  if (state.range(3) >= 0) o.subBlockCells = int(state.range(3));
   cpu::MpuStats st;
   for (auto _ : state) {
     mesh::TriMesh m = cpu::polygonizeMpu(program, grid, o, &st);
@@ -52,6 +54,12 @@ void polygonize(benchmark::State& state, const blobtree::Node& node) {
   state.counters["cpu_cells"] = st.cpuCells;
   state.counters["cpu_vertices"] = st.cpuVertices;
   state.counters["cpu_discard"] = st.cpuDiscard;
+  state.counters["cpu_prune"] = st.cpuPrune;
+  state.counters["tape_avg"] =
+      double(st.tapeInstructions) / double(std::max<std::uint64_t>(1, st.empty + st.full + st.crossed));
+  state.counters["code"] = double(program.code.size());
+  state.counters["subblocks_classified"] =
+      double(st.subBlocksClassified) / double(std::max<std::uint64_t>(1, st.subBlocks));
 }
 
 void registerAll() {
@@ -62,13 +70,21 @@ void registerAll() {
         (std::string("polygonize/") + name).c_str(),
         [node = node](benchmark::State& s) { polygonize(s, node); });
     for (int res : {64, 128, 256})
-      for (int threads : {1, 2}) b->Args({res, threads, cpu::kDefaultMpuCells});
+      for (int threads : {1, 2}) b->Args({res, threads, cpu::kDefaultMpuCells, -1});
     b->Unit(benchmark::kMillisecond)->UseRealTime();
     auto* sweep = benchmark::RegisterBenchmark(
         (std::string("mpu_sweep/") + name).c_str(),
         [node = node](benchmark::State& s) { polygonize(s, node); });
-    for (int d : {4, 6, 8, 12, 16, 24, 32}) sweep->Args({256, 2, d});
+    for (int d : {4, 6, 8, 12, 16, 24, 32})
+      for (int threads : {1, 2}) sweep->Args({256, threads, d, -1});
     sweep->Unit(benchmark::kMillisecond)->UseRealTime();
+    // Sparse field cache: sub-block size B (0: every point evaluated) for a few MPU sizes.
+    auto* sparse = benchmark::RegisterBenchmark(
+        (std::string("subblock_sweep/") + name).c_str(),
+        [node = node](benchmark::State& s) { polygonize(s, node); });
+    for (int d : {8, 16, 32})
+      for (int sb : {0, 2, 4, 8}) sparse->Args({256, 1, d, sb});
+    sparse->Unit(benchmark::kMillisecond)->UseRealTime();
   }
 }
 

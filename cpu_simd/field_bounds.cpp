@@ -16,15 +16,7 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-struct Box {
-  glm::dvec3 lo, hi;
-  bool finite() const {
-    for (int a = 0; a < 3; ++a)
-      if (!std::isfinite(lo[a]) || !std::isfinite(hi[a])) return false;
-    return true;
-  }
-  static Box everything() { return {glm::dvec3(-kInf), glm::dvec3(kInf)}; }
-};
+using Box = BoundsBox;
 
 // Float evaluation of coordinates differs from exact by a few ulps of the largest magnitude
 // involved; pad by more than that.
@@ -44,12 +36,16 @@ Box transform(const layout::MatrixRecord& m, const Box& b) {
   for (int r = 0; r < 3; ++r) {
     // Affine image of a box, row by row: each term's min/max is independent.
     const double w[3] = {rows[r].x, rows[r].y, rows[r].z};
-    double lo = rows[r].w, hi = rows[r].w;
+    double lo = rows[r].w, hi = rows[r].w, magnitude = std::abs(double(rows[r].w));
     for (int a = 0; a < 3; ++a) {
       const double u = w[a] * b.lo[a], v = w[a] * b.hi[a];
       lo += std::min(u, v), hi += std::max(u, v);
+      magnitude += std::max(std::abs(u), std::abs(v));
     }
-    out.lo[r] = lo, out.hi[r] = hi;
+    // The reference's float sum of products errs by a few ulps of its largest terms, which
+    // can exceed a margin relative to the (cancelled) result.
+    const double rounding = 1e-6 * magnitude;
+    out.lo[r] = lo - rounding, out.hi[r] = hi + rounding;
   }
   return pad(out);
 }
@@ -165,6 +161,33 @@ Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Bo
 }
 
 }  // namespace
+
+bool BoundsBox::finite() const {
+  for (int a = 0; a < 3; ++a)
+    if (!std::isfinite(lo[a]) || !std::isfinite(hi[a])) return false;
+  return true;
+}
+
+BoundsBox BoundsBox::everything() { return {glm::dvec3(-kInf), glm::dvec3(kInf)}; }
+
+BoundsBox padBounds(const BoundsBox& box) { return pad(box); }
+
+BoundsBox warpBounds(const blobtree::Program& program, const layout::WarpRecord& warp,
+                     const BoundsBox& box) {
+  return warpBox(program, warp, box);
+}
+
+bool primitiveIsZeroOver(const blobtree::Program& program, const layout::PrimitiveRecord& prim,
+                         const BoundsBox& box) {
+  if (prim.meta.x > layout::PRIM_QUADRIC) return true;  // the reference returns 0 for these
+  const Box local = prim.meta.y != 0u ? transform(program.matrices[prim.meta.y], box) : pad(box);
+  if (!local.finite()) return false;
+  glm::dvec3 lo, hi;
+  skeletonBox(prim, lo, hi);
+  // The kernel is 0 exactly when the float dd >= 1; a 1e-3 margin on top of the padded boxes
+  // keeps rounding of dd from ever landing below 1.
+  return boxDistance2(local, lo, hi) >= 1.001;
+}
 
 FieldInterval fieldBounds(const blobtree::Program& program, const glm::dvec3& lo,
                           const glm::dvec3& hi) {

@@ -17,6 +17,26 @@ struct FieldInterval {
   double lo = 0.0, hi = 0.0;
 };
 
+// A box of point-register coordinates in double; may be infinite (unbounded warps).
+struct BoundsBox {
+  glm::dvec3 lo, hi;
+  bool finite() const;
+  static BoundsBox everything();
+};
+
+// The box grown by a margin larger than float rounding of coordinates of its magnitude.
+BoundsBox padBounds(const BoundsBox& box);
+
+// Conservative box of warp(p) for every p in `box` (padded; infinite for bends).
+BoundsBox warpBounds(const blobtree::Program& program, const layout::WarpRecord& warp,
+                     const BoundsBox& box);
+
+// True when the reference's float evaluation of `prim` is exactly 0 at every point of `box`
+// (in the coordinates of the primitive's point register): the skeleton is farther than the
+// support radius, with margins well above float rounding.
+bool primitiveIsZeroOver(const blobtree::Program& program, const layout::PrimitiveRecord& prim,
+                         const BoundsBox& box);
+
 // Interval containing blobtree::evaluate(program, p) for every p in [lo, hi] (float rounding
 // included by a small outward margin).
 FieldInterval fieldBounds(const blobtree::Program& program, const glm::dvec3& lo,

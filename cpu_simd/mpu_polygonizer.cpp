@@ -17,6 +17,7 @@
 #include "cpu_simd/mpu_polygonizer.h"
 
 #include "cpu_simd/field_bounds.h"
+#include "cpu_simd/tape_pruning.h"
 #include "mesh/marching_cubes.h"
 
 #include <tbb/combinable.h>
@@ -67,7 +68,8 @@ struct MpuResult {
 struct ThreadStats {
   std::uint64_t grid = 0, edge = 0, attribute = 0, blocks = 0;
   std::uint64_t discardedEmpty = 0, discardedFull = 0, empty = 0, full = 0, crossed = 0;
-  double discard = 0, field = 0, cells = 0, vertices = 0, attributes = 0;
+  std::uint64_t tapeInstructions = 0, subBlocks = 0, subBlocksClassified = 0;
+  double discard = 0, prune = 0, field = 0, cells = 0, vertices = 0, attributes = 0;
 };
 
 struct Scratch {
@@ -79,6 +81,9 @@ struct Scratch {
   std::vector<float> t, lo, hi, flo, fhi, f, px, py, pz, nx, ny, nz, cr, cg, cb;
   std::vector<int> kept, active;
   std::vector<std::uint32_t> localToGlobal;
+  std::vector<std::uint8_t> need;      // sparse field cache: points of unclassified sub-blocks
+  std::vector<std::uint32_t> gather;   // evaluated point -> local point index
+  std::unique_ptr<blobtree::Program> fieldTape, colourTape;  // this thread's pruned tapes
 };
 
 struct Context {
@@ -107,7 +112,8 @@ struct Context {
 
 // Illinois regula falsi on all edges of an MPU at once, step by step, mirroring
 // reference_polygonizer.cpp's crossingParameter (same operations, same early stop).
-void refineEdges(Context& ctx, Scratch& s, std::size_t count, const float* ax, const float* ay,
+void refineEdges(Context& ctx, const blobtree::Program& program, Scratch& s, std::size_t count,
+                 const float* ax, const float* ay,
                  const float* az, const float* length, ThreadStats& st) {
   const float iso = layout::ISO_VALUE;
   for (int step = 0; step < ctx.options.refineSteps; ++step) {
@@ -121,8 +127,7 @@ void refineEdges(Context& ctx, Scratch& s, std::size_t count, const float* ax, c
       ++n;
     }
     if (n == 0) break;
-    evaluateFieldBatch(ctx.program, s.px.data(), s.py.data(), s.pz.data(), s.f.data(), n,
-                       ctx.level);
+    evaluateFieldBatch(program, s.px.data(), s.py.data(), s.pz.data(), s.f.data(), n, ctx.level);
     st.edge += n;
     st.blocks += ctx.blocks(n);
     for (std::size_t b = 0; b < n; ++b) {
@@ -174,30 +179,102 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
     }
   }
 
+  // ---- the MPU's tapes: the code specialised to its box (tape_pruning.h) ----
+  t0 = Clock::now();
+  const blobtree::Program* fieldProgram = &ctx.program;
+  const blobtree::Program* colourProgram = &ctx.program;
+  if (ctx.options.pruneTapes) {
+    if (!s.fieldTape) {
+      s.fieldTape = std::make_unique<blobtree::Program>(makeTapeProgram(ctx.program));
+      s.colourTape = std::make_unique<blobtree::Program>(*s.fieldTape);
+    }
+    // Every point evaluated for this MPU: grid points, edge points and normal samples p +- h.
+    const glm::dvec3 margin(2.0 * double(ctx.options.normalStep));
+    const glm::dvec3 blo = glm::dvec3(grid.point(lo.x, lo.y, lo.z)) - margin;
+    const glm::dvec3 bhi = glm::dvec3(grid.point(hiCell.x, hiCell.y, hiCell.z)) + margin;
+    specialiseTapes(ctx.program, blo, bhi, *s.fieldTape,
+                    ctx.options.colours ? s.colourTape.get() : nullptr);
+    fieldProgram = s.fieldTape.get();
+    if (ctx.options.colours) colourProgram = s.colourTape.get();
+    st.tapeInstructions += fieldProgram->code.size();
+  }
+  st.prune += msSince(t0);
+
   // ---- field cache, x fastest ----
   t0 = Clock::now();
   const std::size_t sx = 1, sy = std::size_t(pts.x), sz = std::size_t(pts.x) * std::size_t(pts.y);
   const std::size_t N = sz * std::size_t(pts.z);
   s.x.resize(N), s.y.resize(N), s.z.resize(N), s.field.resize(N), s.inside.resize(N);
+  if (s.f.size() < N) s.f.resize(N);
   float cx[65], cy[65], cz[65];  // the grid's own coordinate expression, per axis
   for (int i = 0; i < pts.x; ++i) cx[i] = grid.point(lo.x + i, 0, 0).x;
   for (int j = 0; j < pts.y; ++j) cy[j] = grid.point(0, lo.y + j, 0).y;
   for (int k = 0; k < pts.z; ++k) cz[k] = grid.point(0, 0, lo.z + k).z;
-  {
+  const int B = ctx.options.subBlockCells;
+  const glm::ivec3 cellsHere = pts - 1;
+  if (B > 0 && B < std::max({cellsHere.x, cellsHere.y, cellsHere.z})) {
+    // Sparse: sub-blocks of B^3 cells whose interval bound is entirely outside or inside get
+    // their points' side from the bound; the points of the other sub-blocks are evaluated.
+    // Every grid edge lies in some sub-block and a classified one has no crossing edge, so
+    // every field value a vertex needs is evaluated.
+    s.need.assign(N, 0);
+    const glm::ivec3 nb = (cellsHere + B - 1) / B;
+    for (int bz = 0; bz < nb.z; ++bz)
+      for (int by = 0; by < nb.y; ++by)
+        for (int bx = 0; bx < nb.x; ++bx) {
+          const glm::ivec3 c0 = glm::ivec3(bx, by, bz) * B;
+          const glm::ivec3 c1 = glm::min(c0 + B, cellsHere);
+          const FieldInterval f =
+              fieldBounds(*fieldProgram, glm::dvec3(cx[c0.x], cy[c0.y], cz[c0.z]),
+                          glm::dvec3(cx[c1.x], cy[c1.y], cz[c1.z]));
+          ++st.subBlocks;
+          const int side = f.hi < iso ? 0 : f.lo >= iso ? 1 : -1;
+          if (side >= 0) ++st.subBlocksClassified;
+          for (int k = c0.z; k <= c1.z; ++k)
+            for (int j = c0.y; j <= c1.y; ++j) {
+              const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
+              for (int i = c0.x; i <= c1.x; ++i) {
+                if (side < 0) {
+                  s.need[row + std::size_t(i)] = 1;
+                } else {
+                  s.inside[row + std::size_t(i)] = std::uint8_t(side);
+                  s.field[row + std::size_t(i)] = float(side);
+                }
+              }
+            }
+        }
+    std::size_t n = 0;
+    s.gather.resize(N);
+    for (int k = 0; k < pts.z; ++k)
+      for (int j = 0; j < pts.y; ++j) {
+        const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
+        for (int i = 0; i < pts.x; ++i)
+          if (s.need[row + std::size_t(i)]) {
+            s.x[n] = cx[i], s.y[n] = cy[j], s.z[n] = cz[k];
+            s.gather[n++] = std::uint32_t(row + std::size_t(i));
+          }
+      }
+    evaluateFieldBatch(*fieldProgram, s.x.data(), s.y.data(), s.z.data(), s.f.data(), n,
+                       ctx.level);
+    for (std::size_t e = 0; e < n; ++e) {
+      s.field[s.gather[e]] = s.f[e];
+      s.inside[s.gather[e]] = s.f[e] >= iso ? 1 : 0;
+    }
+    st.grid += n;
+    st.blocks += ctx.blocks(n);
+  } else {
     std::size_t p = 0;
     for (int k = 0; k < pts.z; ++k)
       for (int j = 0; j < pts.y; ++j)
         for (int i = 0; i < pts.x; ++i, ++p) s.x[p] = cx[i], s.y[p] = cy[j], s.z[p] = cz[k];
+    evaluateFieldBatch(*fieldProgram, s.x.data(), s.y.data(), s.z.data(), s.field.data(), N,
+                       ctx.level);
+    st.grid += N;
+    st.blocks += ctx.blocks(N);
+    for (std::size_t p2 = 0; p2 < N; ++p2) s.inside[p2] = s.field[p2] >= iso ? 1 : 0;
   }
-  evaluateFieldBatch(ctx.program, s.x.data(), s.y.data(), s.z.data(), s.field.data(), N, ctx.level);
-  st.grid += N;
-  st.blocks += ctx.blocks(N);
   std::size_t insideCount = 0;
-  for (std::size_t p = 0; p < N; ++p) {
-    const std::uint8_t in = s.field[p] >= iso ? 1 : 0;
-    s.inside[p] = in;
-    insideCount += in;
-  }
+  for (std::size_t p = 0; p < N; ++p) insideCount += s.inside[p];
   st.field += msSince(t0);
   if (insideCount == 0) {
     ++st.empty;
@@ -266,7 +343,7 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
     s.lo[e] = 0.0f, s.hi[e] = 1.0f, s.flo[e] = fa, s.fhi[e] = fb, s.active[e] = 1;
     r->keys[e] = grid.edgeKey(lo.x + i, lo.y + j, lo.z + k, axis);
   }
-  if (ctx.options.refineSteps > 0) refineEdges(ctx, s, nv, ax.data(), ay.data(), az.data(), length.data(), st);
+  if (ctx.options.refineSteps > 0) refineEdges(ctx, *fieldProgram, s, nv, ax.data(), ay.data(), az.data(), length.data(), st);
   r->positions.resize(nv);
   for (std::size_t e = 0; e < nv; ++e) {
     float q[3] = {ax[e], ay[e], az[e]};
@@ -303,7 +380,7 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
   // ---- attributes in SIMD batches ----
   t0 = Clock::now();
   if (ctx.options.normals) {
-    evaluateNormalBatch(ctx.program, s.px.data(), s.py.data(), s.pz.data(), s.nx.data(),
+    evaluateNormalBatch(*fieldProgram, s.px.data(), s.py.data(), s.pz.data(), s.nx.data(),
                         s.ny.data(), s.nz.data(), nv, ctx.options.normalStep, ctx.level);
     st.attribute += 6 * nv;
     st.blocks += 6 * ctx.blocks(nv);
@@ -311,7 +388,7 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
     for (std::size_t e = 0; e < nv; ++e) r->normals[e] = {s.nx[e], s.ny[e], s.nz[e]};
   }
   if (ctx.options.colours) {
-    evaluateFieldColourBatch(ctx.program, s.px.data(), s.py.data(), s.pz.data(), s.f.data(),
+    evaluateFieldColourBatch(*colourProgram, s.px.data(), s.py.data(), s.pz.data(), s.f.data(),
                              s.cr.data(), s.cg.data(), s.cb.data(), nv, ctx.level);
     st.attribute += nv;
     st.blocks += ctx.blocks(nv);
@@ -521,7 +598,9 @@ mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::Gr
     st.simdBlocks += t.blocks;
     st.discardedEmpty += t.discardedEmpty, st.discardedFull += t.discardedFull;
     st.empty += t.empty, st.full += t.full, st.crossed += t.crossed;
-    st.cpuDiscard += t.discard, st.cpuField += t.field, st.cpuCells += t.cells;
+    st.tapeInstructions += t.tapeInstructions;
+    st.subBlocks += t.subBlocks, st.subBlocksClassified += t.subBlocksClassified;
+    st.cpuDiscard += t.discard, st.cpuPrune += t.prune, st.cpuField += t.field, st.cpuCells += t.cells;
     st.cpuVertices += t.vertices, st.cpuAttributes += t.attributes;
   });
   st.pointEvaluations = st.gridEvaluations + st.edgeEvaluations + st.attributeEvaluations;

@@ -24,6 +24,11 @@ struct MpuOptions {
   bool colours = true;
   int refineSteps = 0;        // as ReferenceOptions::refineSteps (Illinois steps per edge)
   bool earlyDiscard = true;   // the conservative interval test per MPU
+  bool pruneTapes = true;     // evaluate each MPU with the code specialised to its box
+  // Sparse field cache: sub-blocks of this many cells whose interval bound classifies them are
+  // not evaluated (0: off, the default: with pruned tapes the bounds cost more than the points
+  // they save; see docs/performance.md).
+  int subBlockCells = 0;
   std::optional<SimdLevel> simd;  // default: bestSimdLevel()
   float normalStep = 1e-4f;   // central-difference step, as blobtree::normal's default
 };
@@ -38,12 +43,15 @@ struct MpuStats {
   double fvept = 0.0;      // point evaluations per triangle
   double fveptSimd = 0.0;  // SIMD calls per triangle (the thesis' count)
   std::uint64_t mpus = 0, discardedEmpty = 0, discardedFull = 0, empty = 0, full = 0, crossed = 0;
+  // Pruned-tape instructions summed over the MPUs that were evaluated; sub-blocks bounded and
+  // how many of them the bound classified (their points were not evaluated).
+  std::uint64_t tapeInstructions = 0, subBlocks = 0, subBlocksClassified = 0;
   int mpuCells = 0, threads = 0;
   SimdLevel simd = SimdLevel::Scalar;
   // Wall-clock per phase (ms).
   double msSetup = 0, msMpus = 0, msPrefix = 0, msScatter = 0, msTotal = 0;
   // CPU time summed over threads inside the MPU phase (ms).
-  double cpuDiscard = 0, cpuField = 0, cpuCells = 0, cpuVertices = 0, cpuAttributes = 0;
+  double cpuDiscard = 0, cpuPrune = 0, cpuField = 0, cpuCells = 0, cpuVertices = 0, cpuAttributes = 0;
 };
 
 mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::GridSpec& grid,

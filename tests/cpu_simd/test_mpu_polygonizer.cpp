@@ -77,15 +77,23 @@ TEST(MpuPolygonizer, EqualsReferenceOnEveryModel) {
     const blobtree::GridSpec grid = gridAround(program, c.cellSize);
     const mesh::TriMesh ref = polygonizeReference(program, grid);
     ASSERT_GT(ref.triangleCount(), 0u);
-    for (int D : {4, 7, 16}) {
-      SCOPED_TRACE("D=" + std::to_string(D));
-      MpuOptions o;
-      o.mpuCells = D;
-      MpuStats st;
-      const mesh::TriMesh m = polygonizeMpu(program, grid, o, &st);
-      expectSameMesh(m, ref, c.cellSize);
-      EXPECT_EQ(st.triangles, ref.triangleCount());
-      EXPECT_EQ(st.mpus, st.discardedEmpty + st.discardedFull + st.empty + st.full + st.crossed);
+    // Tape pruning and the sparse field cache, each alone and together.
+    for (const auto& [prune, subBlock] :
+         {std::pair{false, 0}, std::pair{true, 0}, std::pair{true, 3}}) {
+      for (int D : {4, 7, 16}) {
+        SCOPED_TRACE("D=" + std::to_string(D) + " prune=" + std::to_string(prune) +
+                     " subBlock=" + std::to_string(subBlock));
+        MpuOptions o;
+        o.mpuCells = D;
+        o.pruneTapes = prune;
+        o.subBlockCells = subBlock;
+        MpuStats st;
+        mesh::TriMesh m;
+        ASSERT_NO_THROW(m = polygonizeMpu(program, grid, o, &st));
+        expectSameMesh(m, ref, c.cellSize);
+        EXPECT_EQ(st.triangles, ref.triangleCount());
+        EXPECT_EQ(st.mpus, st.discardedEmpty + st.discardedFull + st.empty + st.full + st.crossed);
+      }
     }
   }
 }

@@ -1,0 +1,206 @@
+// `blobvk render SCENE -o out.png`: headless rendering with the offscreen rasterizer (mesh mode,
+// the mesh from any polygonizer backend; the vk backend draws from the GPU without a read-back)
+// or the compute ray-caster (raycast mode). --turntable N writes N frames around the target.
+#include "render_command.h"
+
+#include "backends.h"
+#include "commands.h"
+#include "model.h"
+#include "progress.h"
+
+#include <CLI/CLI.hpp>
+
+#ifdef BLOBVK_HAVE_VULKAN
+#include "vk/png_io.h"
+#include "vk/raycast.h"
+#include "vk/render_gpu_mesh.h"
+#include "vk/render_mesh.h"
+#include "vk/standalone.h"
+#endif
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace blobvk::app {
+namespace {
+
+std::vector<float> parseNumbers(const std::string& text, const char* what, std::size_t minCount,
+                                std::size_t maxCount) {
+  std::vector<float> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      out.push_back(std::stof(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw CLI::ValidationError(what, "'" + text + "' is not a comma-separated list of numbers");
+    }
+  }
+  if (out.size() < minCount || out.size() > maxCount) {
+    throw CLI::ValidationError(what, "'" + text + "' needs " + std::to_string(minCount) +
+                                         (minCount == maxCount ? "" : " to " + std::to_string(maxCount)) +
+                                         " numbers");
+  }
+  return out;
+}
+
+// out.png -> out_007.png for turntable frames.
+std::string framePath(const std::string& out, int frame, int frames) {
+  if (frames <= 1) return out;
+  const auto dot = out.find_last_of('.');
+  const std::string stem = dot == std::string::npos ? out : out.substr(0, dot);
+  const std::string ext = dot == std::string::npos ? ".png" : out.substr(dot);
+  char index[16];
+  std::snprintf(index, sizeof(index), "_%03d", frame);
+  return stem + index + ext;
+}
+
+}  // namespace
+
+void addRenderCommand(CLI::App& app) {
+  struct Args {
+    std::string scene, out, size = "512x512", camera, eye, target, mode = "mesh";
+    std::optional<float> cellSize, fov;
+    std::optional<int> resolution;
+    PolygonizeSettings settings;
+    int turntable = 1;
+    int samples = 4;
+    bool wireframe = false, quiet = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("render", "Render a scene to PNG (raster of its mesh, or ray-cast field)");
+  cmd->add_option("scene", a->scene, "Scene file (.json, .blob)")->required();
+  cmd->add_option("-o,--output", a->out, "Output PNG (turntable: out_000.png, out_001.png, ...)")->required();
+  cmd->add_option("--size", a->size, "Image size WxH (default 512x512)");
+  auto* cam = cmd->add_option("--camera", a->camera, "Orbit: azimuth,elevation[,distance] in degrees / world units");
+  auto* eye = cmd->add_option("--eye", a->eye, "Camera position x,y,z")->excludes(cam);
+  cmd->add_option("--target", a->target, "Point looked at x,y,z (default: the scene's, else the centre)");
+  cmd->add_option("--fov", a->fov, "Vertical field of view in degrees")->check(CLI::Range(1.0, 170.0));
+  cmd->add_option("--mode", a->mode, "mesh (rasterize the polygonized mesh, default) or raycast")
+      ->check(CLI::IsMember({"mesh", "raycast"}));
+  cmd->add_option("--backend", a->settings.backend, "Polygonizer for mesh mode: cpu (default), reference, vk");
+  auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (mesh mode)")->check(CLI::PositiveNumber);
+  cmd->add_option("--resolution", a->resolution, "Cells along the longest side (mesh mode)")
+      ->check(CLI::Range(1, 4096))
+      ->excludes(cs);
+  cmd->add_option("--turntable", a->turntable, "Frames around the vertical axis (default 1)")
+      ->check(CLI::Range(1, 3600));
+  cmd->add_option("--samples", a->samples, "MSAA samples for mesh mode (1, 2, 4, 8; default 4)")
+      ->check(CLI::IsMember({1, 2, 4, 8}));
+  cmd->add_flag("--wireframe", a->wireframe, "Overlay the mesh edges (mesh mode, cpu/reference backends)");
+  cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
+  cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
+  cmd->add_flag("-q,--quiet", a->quiet, "Print nothing on success");
+  (void)eye;
+  cmd->callback([a] {
+#ifndef BLOBVK_HAVE_VULKAN
+    throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF): no renderer");
+#else
+    unsigned width = 0, height = 0;
+    char x = 0;
+    std::stringstream ss(a->size);
+    if (!(ss >> width >> x >> height) || x != 'x' || width < 1 || height < 1 || width > 16384 || height > 16384 ||
+        !ss.eof()) {
+      throw CLI::ValidationError("--size", "'" + a->size + "' is not WxH with 1 <= W, H <= 16384");
+    }
+    const Model model = loadModel(a->scene);
+    vk::CameraRequest request;
+    if (!a->camera.empty()) {
+      const auto v = parseNumbers(a->camera, "--camera", 2, 3);
+      request.azimuthDeg = v[0];
+      request.elevationDeg = v[1];
+      if (v.size() == 3) request.distance = v[2];
+    }
+    if (!a->eye.empty()) {
+      const auto v = parseNumbers(a->eye, "--eye", 3, 3);
+      request.eye = glm::vec3(v[0], v[1], v[2]);
+    }
+    if (!a->target.empty()) {
+      const auto v = parseNumbers(a->target, "--target", 3, 3);
+      request.target = glm::vec3(v[0], v[1], v[2]);
+    }
+    request.fovYDeg = a->fov;
+    const vk::Camera camera =
+        vk::resolveCamera(model.program.bounds, model.scene.camera, request, float(width) / float(height));
+
+    vk::StandaloneOptions options;
+    options.device = a->settings.device;
+    options.validation = a->settings.validation;
+    vk::StandaloneContext ctx(options);
+    auto& device = ctx.device();
+
+    std::unique_ptr<vk::MeshRenderer> renderer;
+    std::unique_ptr<vk::Raycaster> raycaster;
+    vk::UploadedMesh uploaded;
+    vk::GpuMesh gpuMesh;
+    vk::MeshView view;
+    std::string what;
+    double prepareSeconds = 0.0;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (a->mode == "mesh") {
+      vk::RenderStyle style;
+      style.wireframe = a->wireframe;
+      style.samples = std::uint32_t(a->samples);
+      const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
+      if (a->settings.backend == "vk") {
+        gpuMesh = vk::polygonizeForDrawing(device, model.program, grid);
+        view = gpuMesh.view();
+        what = "mesh, vk backend (drawn from the GPU, " +
+               std::string(gpuMesh.fromReadback ? "multi-slab grid: read back)" : "no read-back)");
+      } else {
+        PolygonizeStats stats;
+        const mesh::TriMesh mesh = polygonize(model.program, grid, a->settings, &stats);
+        uploaded = vk::uploadMesh(device, mesh, style);
+        view = uploaded.view();
+        what = "mesh, " + a->settings.backend + " backend, " + std::to_string(mesh.triangleCount()) + " triangles";
+      }
+      renderer = std::make_unique<vk::MeshRenderer>(device, width, height, style);
+      what += ", " + std::to_string(renderer->samples()) + "x MSAA";
+    } else {
+      raycaster = std::make_unique<vk::Raycaster>(device, model.program);
+      char buf[64];
+      std::snprintf(buf, sizeof(buf), "ray-cast, Lipschitz bound %.3g", raycaster->lipschitz());
+      what = buf;
+    }
+    prepareSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    Progress progress("render", a->turntable);
+    double renderSeconds = 0.0, pngSeconds = 0.0;
+    for (int frame = 0; frame < a->turntable; ++frame) {
+      const vk::Camera c = vk::turned(camera, 360.0f * float(frame) / float(a->turntable));
+      vk::Image image;
+      if (renderer) {
+        image = renderer->render(view, c);
+        renderSeconds += renderer->lastSeconds();
+      } else {
+        vk::RaycastStats stats;
+        image = raycaster->render(c, width, height, &stats);
+        renderSeconds += stats.seconds;
+      }
+      const auto tp = std::chrono::steady_clock::now();
+      vk::writePng(framePath(a->out, frame, a->turntable), image);
+      pngSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count();
+      if (a->turntable > 1) progress.update(frame + 1);
+    }
+    if (ctx.validationMessages() > 0) {
+      throw std::runtime_error(std::to_string(ctx.validationMessages()) + " Vulkan validation message(s)");
+    }
+    if (!a->quiet) {
+      std::printf("%s: %ux%u, %s on %s\n", framePath(a->out, 0, a->turntable).c_str(), width, height,
+                  what.c_str(), device.info().name.c_str());
+      std::printf("prepare %.3f s, render %.3f s (%d frame%s, PNG encoding excluded), PNG %.3f s\n",
+                  prepareSeconds, renderSeconds, a->turntable, a->turntable > 1 ? "s" : "", pngSeconds);
+    }
+#endif
+  });
+}
+
+}  // namespace blobvk::app

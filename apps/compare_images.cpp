@@ -1,0 +1,101 @@
+// `blobvk compare --images`: the CPU mesh and the GPU mesh through the same raster pipeline, and
+// the ray-cast field, all from the same camera at one sample per pixel (so the three sample the
+// same pixel centres), compared pairwise.
+#include "compare_images.h"
+
+#include "backends.h"
+
+#include <nlohmann/json.hpp>
+
+#ifdef BLOBVK_HAVE_VULKAN
+#include "vk/png_io.h"
+#include "vk/raycast.h"
+#include "vk/render_gpu_mesh.h"
+#include "vk/render_mesh.h"
+#include "vk/standalone.h"
+#endif
+
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+
+namespace blobvk::app {
+
+bool compareImages(const Model& model, const blobtree::GridSpec& grid, const ImageCompareSettings& settings,
+                   nlohmann::json& report) {
+#ifndef BLOBVK_HAVE_VULKAN
+  (void)model;
+  (void)grid;
+  (void)settings;
+  (void)report;
+  throw std::runtime_error("compare --images needs the Vulkan backend (built with BLOBVK_WITH_VULKAN=OFF)");
+#else
+  if (settings.width < 1 || settings.height < 1) throw std::invalid_argument("image size must be positive");
+  const auto width = std::uint32_t(settings.width), height = std::uint32_t(settings.height);
+  vk::StandaloneOptions options;
+  options.device = settings.device;
+  options.validation = settings.validation;
+  vk::StandaloneContext ctx(options);
+  auto& device = ctx.device();
+  const vk::Camera camera = vk::resolveCamera(model.program.bounds, model.scene.camera, {},
+                                              float(width) / float(height));
+  vk::RenderStyle style;
+  style.samples = 1;
+  vk::MeshRenderer renderer(device, width, height, style);
+
+  PolygonizeSettings cpuSettings;
+  cpuSettings.backend = "cpu";
+  const vk::Image cpuMesh = renderer.render(polygonize(model.program, grid, cpuSettings), camera);
+  const vk::GpuMesh gpu = vk::polygonizeForDrawing(device, model.program, grid);
+  const vk::Image gpuMesh = renderer.render(gpu.view(), camera);
+  vk::RaycastOptions rayOptions;
+  rayOptions.background = style.background;
+  vk::RaycastStats rayStats;
+  const vk::Image raycast = vk::Raycaster(device, model.program, rayOptions).render(camera, width, height, &rayStats);
+
+  struct Named {
+    const char* name;
+    const vk::Image* image;
+  };
+  const Named images[3] = {{"cpu_mesh", &cpuMesh}, {"gpu_mesh", &gpuMesh}, {"raycast", &raycast}};
+  const std::pair<int, int> pairs[2] = {{0, 1}, {0, 2}};
+  report["width"] = width;
+  report["height"] = height;
+  report["tolerance"] = settings.tolerance;
+  report["max_fraction_over"] = settings.maxFractionOver;
+  report["device"] = device.info().name;
+  report["raycast_lipschitz"] = rayStats.lipschitz;
+  report["gpu_mesh_drawn_without_readback"] = !gpu.fromReadback;
+  bool pass = true;
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& [i, j] : pairs) {
+    const auto d = vk::compareImages(*images[i].image, *images[j].image, settings.tolerance);
+    const bool ok = d.fractionOver <= settings.maxFractionOver;
+    pass = pass && ok;
+    nlohmann::json entry;
+    entry["a"] = images[i].name;
+    entry["b"] = images[j].name;
+    entry["max_difference"] = d.maxDifference;
+    entry["fraction_over_tolerance"] = d.fractionOver;
+    entry["mean_difference"] = d.meanDifference;
+    entry["psnr_db"] = std::isinf(d.psnr) ? nlohmann::json("inf") : nlohmann::json(d.psnr);
+    entry["pass"] = ok;
+    list.push_back(entry);
+    if (!settings.writeDir.empty()) {
+      std::filesystem::create_directories(settings.writeDir);
+      vk::writePng(settings.writeDir + "/diff_" + images[i].name + "_" + images[j].name + ".png",
+                   vk::differenceImage(*images[i].image, *images[j].image));
+    }
+  }
+  if (!settings.writeDir.empty()) {
+    for (const auto& n : images) vk::writePng(settings.writeDir + "/" + n.name + ".png", *n.image);
+  }
+  report["pairs"] = list;
+  report["validation_messages"] = ctx.validationMessages();
+  if (ctx.validationMessages() > 0) pass = false;
+  report["pass"] = pass;
+  return pass;
+#endif
+}
+
+}  // namespace blobvk::app

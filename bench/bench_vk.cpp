@@ -1,0 +1,134 @@
+// The Vulkan backend on the machine's default device (lavapipe here), validation off: field
+// evaluations per second for both traversals (the thesis' Table 4.2 comparison) and the whole
+// GPU polygonization, on the shipped tower and random128 scenes. Arguments: {resolution}.
+// A scalar CPU baseline (blobtree::evaluate, one thread) over the same grid is included.
+//   LP_NUM_THREADS=2 bench_vk --benchmark_filter='field'      # evals/s, both traversals
+//   LP_NUM_THREADS=2 bench_vk --benchmark_filter='polygonize/.*/128'
+// Run from the repository root (scenes/ is read relative to it) or set BLOBVK_SCENES.
+#include "blobtree/evaluate.h"
+#include "blobtree/grid.h"
+#include "blobtree/program.h"
+#include "blobtree/scene_io.h"
+#include "vk/field.h"
+#include "vk/polygonize.h"
+#include "vk/standalone.h"
+
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+
+namespace {
+
+using namespace blobvk;
+
+vk::StandaloneContext& context() {
+  static std::unique_ptr<vk::StandaloneContext> ctx = [] {
+    vk::StandaloneOptions o;
+    if (const char* d = std::getenv("BLOBVK_BENCH_DEVICE")) o.device = d;
+    return std::make_unique<vk::StandaloneContext>(o);
+  }();
+  return *ctx;
+}
+
+struct Model {
+  blobtree::Program program;
+  blobtree::GridSettings bounds;
+};
+
+const Model& model(const std::string& name) {
+  static std::map<std::string, Model> cache;
+  auto it = cache.find(name);
+  if (it != cache.end()) return it->second;
+  const char* dir = std::getenv("BLOBVK_SCENES");
+  const blobtree::Scene scene = blobtree::loadScene(std::string(dir ? dir : "scenes") + "/" + name + ".json");
+  return cache.emplace(name, Model{blobtree::compile(scene.root), scene.grid}).first->second;
+}
+
+blobtree::GridSpec gridFor(const Model& m, int resolution) {
+  blobtree::GridRequest r;
+  r.resolution = resolution;
+  return blobtree::chooseGrid(m.program, m.bounds, r);
+}
+
+void field(benchmark::State& state, const std::string& scene, vk::Traversal traversal) {
+  const Model& m = model(scene);
+  const auto grid = gridFor(m, int(state.range(0)));
+  vk::FieldOptions o;
+  o.traversal = traversal;
+  if (const char* wg = std::getenv("BLOBVK_BENCH_WORKGROUP")) o.workgroupSize = std::uint32_t(std::atoi(wg));
+  vk::evaluateFieldOnGrid(context().device(), m.program, grid, o);  // JIT at first dispatch
+  double seconds = 0.0, evals = 0.0;
+  for (auto _ : state) {
+    vk::FieldStats s;
+    auto f = vk::evaluateFieldOnGrid(context().device(), m.program, grid, o, &s);
+    benchmark::DoNotOptimize(f.data());
+    seconds += s.seconds;
+    evals += double(s.evaluations);
+  }
+  state.counters["Mevals_per_s_gpu"] = evals / seconds * 1e-6;
+  state.counters["instructions"] = double(m.program.code.size());
+  state.counters["registers"] = double(m.program.fieldRegisters);
+}
+
+void cpuScalarField(benchmark::State& state, const std::string& scene) {
+  const Model& m = model(scene);
+  const auto grid = gridFor(m, int(state.range(0)));
+  const auto pts = grid.points();
+  double evals = 0.0;
+  for (auto _ : state) {
+    float sum = 0.0f;
+    for (int k = 0; k < pts.z; ++k)
+      for (int j = 0; j < pts.y; ++j)
+        for (int i = 0; i < pts.x; ++i) sum += blobtree::evaluate(m.program, grid.point(i, j, k));
+    benchmark::DoNotOptimize(sum);
+    evals += double(grid.pointCount());
+  }
+  state.counters["Mevals_per_s"] = benchmark::Counter(evals * 1e-6, benchmark::Counter::kIsRate);
+}
+
+void polygonize(benchmark::State& state, const std::string& scene) {
+  const Model& m = model(scene);
+  const auto grid = gridFor(m, int(state.range(0)));
+  vk::polygonize(context().device(), m.program, grid);  // JIT at first dispatch
+  vk::GpuStats s;
+  std::size_t triangles = 0;
+  for (auto _ : state) {
+    auto mesh = vk::polygonize(context().device(), m.program, grid, {}, &s);
+    triangles = mesh.triangleCount();
+  }
+  state.counters["triangles"] = double(triangles);
+  state.counters["classify_s"] = s.classifySeconds;
+  state.counters["emit_s"] = s.emitSeconds;
+}
+
+void registerAll() {
+  for (const char* scene : {"tower", "random128"}) {
+    const std::string s = scene;
+    for (int res : {64, 128}) {
+      benchmark::RegisterBenchmark(("field/stackless/" + s).c_str(), field, s,
+                                   vk::Traversal::Stackless)
+          ->Arg(res)->Unit(benchmark::kMillisecond)->UseRealTime();
+      benchmark::RegisterBenchmark(("field/stack_based/" + s).c_str(), field, s,
+                                   vk::Traversal::StackBased)
+          ->Arg(res)->Unit(benchmark::kMillisecond)->UseRealTime();
+      benchmark::RegisterBenchmark(("cpu_scalar_field/" + s).c_str(), cpuScalarField, s)
+          ->Arg(res)->Unit(benchmark::kMillisecond)->UseRealTime();
+    }
+    benchmark::RegisterBenchmark(("polygonize/" + s).c_str(), polygonize, s)
+        ->Arg(64)->Arg(128)->Unit(benchmark::kMillisecond)->UseRealTime();
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  setenv("LP_NUM_THREADS", "2", 0);
+  registerAll();
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

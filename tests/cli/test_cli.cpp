@@ -1,0 +1,146 @@
+// Runs the blobvk binary as a user would and checks what it prints, returns and writes.
+#include "mesh/checks.h"
+#include "mesh/io.h"
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+struct Run {
+  int status = -1;
+  std::string output;  // stdout and stderr together
+};
+
+Run run(const std::string& args) {
+  const std::string command = std::string(BLOBVK_CLI) + " " + args + " 2>&1";
+  Run r;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buf{};
+  while (std::fgets(buf.data(), int(buf.size()), pipe)) r.output += buf.data();
+  const int raw = pclose(pipe);
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return r;
+}
+
+std::string source(const std::string& rel) { return std::string(BLOBVK_SOURCE_DIR) + "/" + rel; }
+
+std::filesystem::path scratch(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("blobvk_cli_" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  return dir / name;
+}
+
+std::size_t lines(const std::string& s) {
+  std::size_t n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
+}  // namespace
+
+TEST(Cli, MeshOfTheTowerIsClosedAndManifold) {
+  const auto out = scratch("tower.ply");
+  const Run r = run("mesh " + source("scenes/tower.json") + " -o " + out.string() + " --resolution 64");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const blobvk::mesh::MeshReport report = blobvk::mesh::checkMesh(blobvk::mesh::readPly(out.string()));
+  EXPECT_GT(report.triangles, 1000u);
+  EXPECT_TRUE(report.watertight()) << report.summary();
+  EXPECT_GT(report.volume, 0.0);
+}
+
+TEST(Cli, BackendsAndThreadCountsWriteIdenticalFiles) {
+  const auto a = scratch("a.ply"), b = scratch("b.ply"), c = scratch("c.ply");
+  const std::string scene = source("scenes/twisted_column.json");
+  ASSERT_EQ(run("mesh " + scene + " -o " + a.string() + " --resolution 48 --threads 1 -q").status, 0);
+  ASSERT_EQ(run("mesh " + scene + " -o " + b.string() + " --resolution 48 --threads 2 -q").status, 0);
+  ASSERT_EQ(run("mesh " + scene + " -o " + c.string() + " --resolution 48 --backend reference -q").status, 0);
+  auto bytes = [](const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  EXPECT_EQ(bytes(a), bytes(b));
+  EXPECT_EQ(bytes(a), bytes(c));
+}
+
+TEST(Cli, BadInputGivesOneLineAndNonZeroExit) {
+  const auto bad = scratch("bad.json");
+  std::ofstream(bad) << R"({"blobvk": 1, "root": {"type": "point", "support": -1}})";
+  const Run r = run("mesh " + bad.string() + " -o " + scratch("x.ply").string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_EQ(lines(r.output), 1u) << r.output;
+  EXPECT_NE(r.output.find(bad.string()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("/root/support"), std::string::npos) << r.output;
+
+  const Run missing = run("info " + scratch("does_not_exist.json").string());
+  EXPECT_NE(missing.status, 0);
+  EXPECT_EQ(lines(missing.output), 1u) << missing.output;
+
+  const Run backend = run("mesh " + source("scenes/tower.json") + " -o " + scratch("y.ply").string() + " --backend nope");
+  EXPECT_NE(backend.status, 0);
+  EXPECT_NE(backend.output.find("unknown backend"), std::string::npos) << backend.output;
+}
+
+TEST(Cli, ResourceLimitsRefuseEarly) {
+  const Run mem = run("mesh " + source("scenes/tower.json") + " -o " + scratch("m.ply").string() +
+                      " --resolution 4000 --max-memory 64M");
+  EXPECT_NE(mem.status, 0);
+  EXPECT_NE(mem.output.find("--max-memory"), std::string::npos) << mem.output;
+  EXPECT_FALSE(std::filesystem::exists(scratch("m.ply")));
+
+  const Run tris = run("mesh " + source("scenes/tower.json") + " -o " + scratch("t.ply").string() +
+                       " --resolution 32 --max-triangles 10");
+  EXPECT_NE(tris.status, 0);
+  EXPECT_NE(tris.output.find("--max-triangles"), std::string::npos) << tris.output;
+  EXPECT_FALSE(std::filesystem::exists(scratch("t.ply")));
+}
+
+TEST(Cli, GenerateConvertInfoRoundTrip) {
+  const auto tower = scratch("gen_tower.json");
+  Run r = run("generate tower --levels 2 --pillars 4 --grid 2 -o " + tower.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = run("info " + tower.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("field registers"), std::string::npos);
+
+  const auto converted = scratch("peanut.json");
+  r = run("convert " + source("scenes/legacy/peanut.blob") + " " + converted.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = run("mesh " + converted.string() + " -o " + scratch("peanut.ply").string() + " --resolution 32");
+  EXPECT_EQ(r.status, 0) << r.output;
+}
+
+TEST(Cli, SimulateAndCutTheSoftPeanut) {
+  const auto frames = scratch("sim");
+  Run r = run("simulate " + source("scenes/soft_peanut.json") + " -o " + frames.string() + " --steps 20");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(frames / "frame_00002.ply")) << r.output;
+  const auto cut = scratch("cut");
+  r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 10");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("self-check ok"), std::string::npos) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(cut / "frame_00001.ply")) << r.output;
+}
+
+TEST(Cli, NoVulkanDriverGivesAClearError) {
+  // Point the loader at a driver manifest that does not exist: no device at all.
+  const std::string env = "VK_ICD_FILENAMES=/nonexistent/icd.json VK_DRIVER_FILES=/nonexistent/icd.json ";
+  const std::string command = env + BLOBVK_CLI + " mesh " + source("scenes/tower.json") + " -o " +
+                              scratch("novk.ply").string() + " --backend vk --resolution 16 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string output;
+  std::array<char, 4096> buf{};
+  while (std::fgets(buf.data(), int(buf.size()), pipe)) output += buf.data();
+  const int raw = pclose(pipe);
+  EXPECT_TRUE(WIFEXITED(raw) && WEXITSTATUS(raw) == 1) << output;
+  EXPECT_NE(output.find("mesa-vulkan-drivers"), std::string::npos) << output;
+  EXPECT_FALSE(std::filesystem::exists(scratch("novk.ply")));
+}
