@@ -1,5 +1,6 @@
 // blobvk: implicit models to meshes and images. See README.md and `blobvk --help`.
 #include "commands.h"
+#include "render_command.h"
 
 #include <CLI/CLI.hpp>
 
@@ -19,6 +20,7 @@ int main(int argc, char** argv) {
   blobvk::app::addCutCommand(app);
   blobvk::app::addDevicesCommand(app);
   blobvk::app::addCompareCommand(app);
+  blobvk::app::addRenderCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

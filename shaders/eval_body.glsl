@@ -1,99 +1,126 @@
 // Body of the stackless evaluator, included twice by eval_program.glsl (EVAL_COLOUR 0 / 1).
 // No include guard on purpose.
+//
+// Shaped for SIMD execution (llvmpipe's 8-wide lanes, GPU subgroups):
+// - the instruction counter stays uniform across the subgroup, so every lane reads the same
+//   instruction (a scalar load) and runs the same opcode. An OP_SKIP whose box some lanes are
+//   inside and others outside does not branch per lane: the outside lanes write 0, become
+//   inactive until the skip target (`resume`) and have their register writes masked; the whole
+//   subgroup jumps only when every lane is outside (subgroupAll);
+// - registers live in scalar variables selected by index (eval_registers.glsl), not a scratch
+//   array; opcodes, primitive and warp types the program lacks fold away (OP_MASK, PRIM_MASK,
+//   WARP_MASK).
+// Results are those of blobtree/evaluate.cpp operation for operation.
 float EVAL_NAME(EVAL_PARAMS) {
-  float reg[MAX_FIELD_REGISTERS];
+  REG_DECL(float, r, 0.0)
 #if EVAL_COLOUR
-  vec3 col[MAX_FIELD_REGISTERS];
+  REG_DECL(vec3, c, vec3(0.0))
 #endif
-  vec3 pts[MAX_POINT_REGISTERS];
+  vec3 pts[MAX_POINT_REGISTERS];  // only read when the program has warps
   pts[0] = p;
-  reg[0] = 0.0;
-#if EVAL_COLOUR
-  col[0] = vec3(0.0);
-#endif
+  uint resume = 0u;  // this lane skips the instructions before `resume`
   for (uint pc = 0u; pc < n; ++pc) {
     uvec4 in_ = programCode[pc].code;
     uint op = in_.x & 0xffu;
     uint dst = in_.x >> 8;
-    switch (op) {
-      case OP_PRIM:
-        reg[dst] = primitiveField(in_.y, pts[in_.z]);
+    vec3 at = HAS_OP(OP_WARP) ? pts[min(in_.z, MAX_POINT_REGISTERS - 1u)] : p;
+    float a, b;
+    REG_READ(a, r, dst)
+    REG_READ(b, r, in_.y)
+    float v = a;
 #if EVAL_COLOUR
-        col[dst] = unpackColour(programPrims[in_.y].meta.z);
+    vec3 ca, cb;
+    REG_READ(ca, c, dst)
+    REG_READ(cb, c, in_.y)
+    vec3 cv = ca;
 #endif
-        break;
-      case OP_ADD: {
-        float a = reg[dst], b = reg[in_.y];
+    if (HAS_OP(OP_PRIM) && op == OP_PRIM) {
+      v = primitiveField(in_.y, at);
 #if EVAL_COLOUR
-        float wa = max(a, 0.0), wb = max(b, 0.0);
-        float w = wa + wb;
-        if (w > 0.0) col[dst] = (col[dst] * wa + col[in_.y] * wb) / w;
+      cv = unpackColour(programPrims[in_.y].meta.z);
 #endif
-        reg[dst] = a + b;
-        break;
-      }
-      case OP_MAX:
-#if EVAL_COLOUR
-        if (reg[in_.y] > reg[dst]) col[dst] = col[in_.y];
-#endif
-        reg[dst] = max(reg[dst], reg[in_.y]);
-        break;
-      case OP_MIN:
-#if EVAL_COLOUR
-        if (reg[in_.y] < reg[dst]) col[dst] = col[in_.y];
-#endif
-        reg[dst] = min(reg[dst], reg[in_.y]);
-        break;
-      case OP_DIFF: {
-        float cut = 1.0 - reg[in_.y];
-#if EVAL_COLOUR
-        if (cut < reg[dst]) col[dst] = col[in_.y];
-#endif
-        reg[dst] = min(reg[dst], cut);
-        break;
-      }
-      case OP_SDIFF: {
-        float keep = 1.0 - reg[in_.y];
-#if EVAL_COLOUR
-        if (keep < reg[dst]) col[dst] = col[in_.y];
-#endif
-        reg[dst] = reg[dst] * keep;
-        break;
-      }
-      case OP_ONE_MINUS:
-        reg[dst] = 1.0 - reg[dst];
-        break;
-      case OP_MUL:
-#if EVAL_COLOUR
-        if (reg[in_.y] < reg[dst]) col[dst] = col[in_.y];
-#endif
-        reg[dst] = reg[dst] * reg[in_.y];
-        break;
-      case OP_POW:
-      {
-        // GLSL leaves pow(0, y) undefined; the C++ std::pow gives 0 for y > 0 (Ricci: y > 0).
-        float base = max(reg[dst], 0.0);
-        reg[dst] = base > 0.0 ? pow(base, uintBitsToFloat(in_.w)) : 0.0;
-      }
-        break;
-      case OP_WARP:
-        pts[dst] = applyWarp(in_.y, pts[in_.z]);
-        break;
-      case OP_SKIP:
-        if (outsideBox(programBoxes[in_.y], pts[in_.z])) {
-          reg[dst] = 0.0;
-#if EVAL_COLOUR
-          col[dst] = vec3(0.0);
-#endif
-          pc = in_.w - 1u;  // the loop's ++pc lands on the target
-        }
-        break;
-      default:
-        break;
     }
+    if (HAS_OP(OP_ADD) && op == OP_ADD) {
+#if EVAL_COLOUR
+      float wa = max(a, 0.0), wb = max(b, 0.0);
+      float w = wa + wb;
+      if (w > 0.0) cv = (ca * wa + cb * wb) / w;
+#endif
+      v = a + b;
+    }
+    if (HAS_OP(OP_MAX) && op == OP_MAX) {
+#if EVAL_COLOUR
+      if (b > a) cv = cb;
+#endif
+      v = max(a, b);
+    }
+    if (HAS_OP(OP_MIN) && op == OP_MIN) {
+#if EVAL_COLOUR
+      if (b < a) cv = cb;
+#endif
+      v = min(a, b);
+    }
+    if (HAS_OP(OP_DIFF) && op == OP_DIFF) {
+      float cut = 1.0 - b;
+#if EVAL_COLOUR
+      if (cut < a) cv = cb;
+#endif
+      v = min(a, cut);
+    }
+    if (HAS_OP(OP_SDIFF) && op == OP_SDIFF) {
+      float keep = 1.0 - b;
+#if EVAL_COLOUR
+      if (keep < a) cv = cb;
+#endif
+      v = a * keep;
+    }
+    if (HAS_OP(OP_ONE_MINUS) && op == OP_ONE_MINUS) v = 1.0 - a;
+    if (HAS_OP(OP_MUL) && op == OP_MUL) {
+#if EVAL_COLOUR
+      if (b < a) cv = cb;
+#endif
+      v = a * b;
+    }
+    if (HAS_OP(OP_POW) && op == OP_POW) {
+      // GLSL leaves pow(0, y) undefined; the C++ std::pow gives 0 for y > 0 (Ricci: y > 0).
+      float base = max(a, 0.0);
+      v = base > 0.0 ? pow(base, uintBitsToFloat(in_.w)) : 0.0;
+    }
+    bool live = true;
+    if (HAS_OP(OP_SKIP)) {
+      live = pc >= resume;
+      if (op == OP_SKIP) {
+        bool outside = live && outsideBoxAt(in_.y, at);
+        if (outside) {
+          v = 0.0;
+#if EVAL_COLOUR
+          cv = vec3(0.0);
+#endif
+          resume = in_.w;
+        }
+        // Lanes already inactive sit in an enclosing skipped subtree whose target is at or
+        // after this one, so the jump is safe for them too.
+        if (subgroupAll(outside || !live)) pc = in_.w - 1u;  // the loop's ++pc lands on w
+      }
+    }
+    if (HAS_OP(OP_WARP) && op == OP_WARP) {
+      // Writes a point register; the field register write below rewrites reg[dst] unchanged.
+      vec3 q = applyWarp(in_.y, at);
+      if (live) pts[min(dst, MAX_POINT_REGISTERS - 1u)] = q;
+    }
+    if (HAS_OP(OP_SKIP) && !live) {
+      v = a;
+#if EVAL_COLOUR
+      cv = ca;
+#endif
+    }
+    REG_WRITE(r, dst, v)
+#if EVAL_COLOUR
+    REG_WRITE(c, dst, cv)
+#endif
   }
 #if EVAL_COLOUR
-  colour = col[0];
+  colour = c0;
 #endif
-  return reg[0];
+  return r0;
 }

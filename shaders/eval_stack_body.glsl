@@ -34,7 +34,7 @@ float EVAL_NAME(EVAL_PARAMS) {
     } else if (kind == TREE_BOX || kind == TREE_WARP) {
       if (state != 0u) {
         --sp;
-      } else if (kind == TREE_BOX && outsideBox(programBoxes[h.y], pts[h.z])) {
+      } else if (kind == TREE_BOX && outsideBoxAt(h.y, pts[h.z])) {
         vals[vsp] = 0.0;
 #if EVAL_COLOUR
         cols[vsp] = vec3(0.0);

@@ -19,7 +19,7 @@ std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& gri
 void recordFieldSlab(Recorder& rec, const GpuProgram& program, Traversal traversal,
                      std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
                      std::uint32_t k0, std::uint32_t layers, const Buffer& out) {
-  const std::array<std::uint32_t, 2> spec{workgroupSize, traversal == Traversal::StackBased ? 1u : 0u};
+  const auto spec = program.specs(workgroupSize, traversal);
   const Kernel& k = rec.device().kernel("field_grid", 6, spec);
   const auto pts = grid.points();
   struct {

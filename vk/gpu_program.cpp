@@ -2,11 +2,14 @@
 
 #include "vk/stack_program.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
 namespace blobvk::vk {
 namespace {
+constexpr std::uint32_t kMaskHasMatrix = 0x80000000u;  // MASK_HAS_MATRIX in eval_program.glsl
+
 template <class T>
 Buffer uploadArray(Device& device, const std::vector<T>& v) {
   Buffer b = device.createBuffer(std::max<std::size_t>(v.size(), 1) * sizeof(T));
@@ -30,6 +33,21 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
   } else {
     g.code = uploadArray(device, program.code);
     g.codeLength = std::uint32_t(program.code.size());
+  }
+  // Masks describe the register code, which the stack encoding is rebuilt from: both
+  // traversals meet the same primitive and warp types.
+  g.fieldRegisters = std::max<std::uint32_t>(program.fieldRegisters, 1);
+  g.opMask = 0;
+  for (const auto& in : program.code) g.opMask |= 1u << (in.code.x & 0x1fu);
+  g.primitiveMask = 0;
+  for (const auto& prim : program.primitives) {
+    g.primitiveMask |= 1u << (prim.meta.x & 0x1fu);
+    if (prim.meta.y != 0) g.primitiveMask |= kMaskHasMatrix;
+  }
+  g.warpMask = 0;
+  for (const auto& warp : program.warps) {
+    g.warpMask |= 1u << (warp.meta.x & 0x1fu);
+    if (warp.meta.w != 0) g.warpMask |= kMaskHasMatrix;
   }
   g.primitives = uploadArray(device, program.primitives);
   g.matrices = uploadArray(device, program.matrices);

@@ -18,6 +18,16 @@ enum class Traversal {
 struct GpuProgram {
   Buffer code, primitives, matrices, boxes, warps;
   std::uint32_t codeLength = 0;
+  // What the program uses, for the evaluator's specialization constants 2-5 (see
+  // shaders/eval_program.glsl): the shader drops every opcode, primitive and warp type it lacks.
+  std::uint32_t fieldRegisters = layout::MAX_FIELD_REGISTERS;
+  std::uint32_t opMask = ~0u, primitiveMask = ~0u, warpMask = ~0u;
+
+  // Specialization constants 0-5 of every kernel that includes eval_program.glsl.
+  std::array<std::uint32_t, 6> specs(std::uint32_t workgroupSize, Traversal traversal) const {
+    return {workgroupSize, traversal == Traversal::StackBased ? 1u : 0u, fieldRegisters, opMask,
+            primitiveMask, warpMask};
+  }
   // The five bindings in shader order.
   std::array<BufferRange, 5> bindings() const {
     return {BufferRange(code), BufferRange(primitives), BufferRange(matrices), BufferRange(boxes),

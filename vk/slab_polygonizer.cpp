@@ -120,7 +120,7 @@ void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_
   const std::uint32_t nx = std::uint32_t(pts.x), ny = std::uint32_t(pts.y);
   const std::uint32_t wg = options_.workgroupSize;
   {
-    const std::array<std::uint32_t, 2> spec{wg, options_.traversal == Traversal::StackBased ? 1u : 0u};
+    const auto spec = program_.specs(wg, options_.traversal);
     const Kernel& k = device_.kernel("vertices", 12, spec);
     struct {
       float origin[3], cell;

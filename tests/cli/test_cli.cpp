@@ -13,14 +13,14 @@
 
 namespace {
 
-struct Run {
+struct CliRun {
   int status = -1;
   std::string output;  // stdout and stderr together
 };
 
-Run run(const std::string& args) {
+CliRun run(const std::string& args) {
   const std::string command = std::string(BLOBVK_CLI) + " " + args + " 2>&1";
-  Run r;
+  CliRun r;
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return r;
   std::array<char, 4096> buf{};
@@ -48,7 +48,7 @@ std::size_t lines(const std::string& s) {
 
 TEST(Cli, MeshOfTheTowerIsClosedAndManifold) {
   const auto out = scratch("tower.ply");
-  const Run r = run("mesh " + source("scenes/tower.json") + " -o " + out.string() + " --resolution 64");
+  const CliRun r = run("mesh " + source("scenes/tower.json") + " -o " + out.string() + " --resolution 64");
   ASSERT_EQ(r.status, 0) << r.output;
   const blobvk::mesh::MeshReport report = blobvk::mesh::checkMesh(blobvk::mesh::readPly(out.string()));
   EXPECT_GT(report.triangles, 1000u);
@@ -73,29 +73,29 @@ TEST(Cli, BackendsAndThreadCountsWriteIdenticalFiles) {
 TEST(Cli, BadInputGivesOneLineAndNonZeroExit) {
   const auto bad = scratch("bad.json");
   std::ofstream(bad) << R"({"blobvk": 1, "root": {"type": "point", "support": -1}})";
-  const Run r = run("mesh " + bad.string() + " -o " + scratch("x.ply").string());
+  const CliRun r = run("mesh " + bad.string() + " -o " + scratch("x.ply").string());
   EXPECT_NE(r.status, 0);
   EXPECT_EQ(lines(r.output), 1u) << r.output;
   EXPECT_NE(r.output.find(bad.string()), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("/root/support"), std::string::npos) << r.output;
 
-  const Run missing = run("info " + scratch("does_not_exist.json").string());
+  const CliRun missing = run("info " + scratch("does_not_exist.json").string());
   EXPECT_NE(missing.status, 0);
   EXPECT_EQ(lines(missing.output), 1u) << missing.output;
 
-  const Run backend = run("mesh " + source("scenes/tower.json") + " -o " + scratch("y.ply").string() + " --backend nope");
+  const CliRun backend = run("mesh " + source("scenes/tower.json") + " -o " + scratch("y.ply").string() + " --backend nope");
   EXPECT_NE(backend.status, 0);
   EXPECT_NE(backend.output.find("unknown backend"), std::string::npos) << backend.output;
 }
 
 TEST(Cli, ResourceLimitsRefuseEarly) {
-  const Run mem = run("mesh " + source("scenes/tower.json") + " -o " + scratch("m.ply").string() +
+  const CliRun mem = run("mesh " + source("scenes/tower.json") + " -o " + scratch("m.ply").string() +
                       " --resolution 4000 --max-memory 64M");
   EXPECT_NE(mem.status, 0);
   EXPECT_NE(mem.output.find("--max-memory"), std::string::npos) << mem.output;
   EXPECT_FALSE(std::filesystem::exists(scratch("m.ply")));
 
-  const Run tris = run("mesh " + source("scenes/tower.json") + " -o " + scratch("t.ply").string() +
+  const CliRun tris = run("mesh " + source("scenes/tower.json") + " -o " + scratch("t.ply").string() +
                        " --resolution 32 --max-triangles 10");
   EXPECT_NE(tris.status, 0);
   EXPECT_NE(tris.output.find("--max-triangles"), std::string::npos) << tris.output;
@@ -104,7 +104,7 @@ TEST(Cli, ResourceLimitsRefuseEarly) {
 
 TEST(Cli, GenerateConvertInfoRoundTrip) {
   const auto tower = scratch("gen_tower.json");
-  Run r = run("generate tower --levels 2 --pillars 4 --grid 2 -o " + tower.string());
+  CliRun r = run("generate tower --levels 2 --pillars 4 --grid 2 -o " + tower.string());
   ASSERT_EQ(r.status, 0) << r.output;
   r = run("info " + tower.string());
   ASSERT_EQ(r.status, 0) << r.output;
@@ -119,13 +119,14 @@ TEST(Cli, GenerateConvertInfoRoundTrip) {
 
 TEST(Cli, SimulateAndCutTheSoftPeanut) {
   const auto frames = scratch("sim");
-  Run r = run("simulate " + source("scenes/soft_peanut.json") + " -o " + frames.string() + " --steps 20");
+  CliRun r = run("simulate " + source("scenes/soft_peanut.json") + " -o " + frames.string() + " --steps 20");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_TRUE(std::filesystem::exists(frames / "frame_00002.ply")) << r.output;
   const auto cut = scratch("cut");
   r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 10");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("self-check ok"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(", 2 parts"), std::string::npos) << r.output;  // the blade cuts it in two
   EXPECT_TRUE(std::filesystem::exists(cut / "frame_00001.ply")) << r.output;
 }
 

@@ -1,0 +1,22 @@
+// blobvk — BlobTree implicit models to meshes and images. Public entry header of the core
+// (no Vulkan): build a tree or load a scene, compile it to a Program, evaluate or polygonize it.
+//
+//   #include <blobvk/blobvk.h>
+//   auto scene   = blobvk::blobtree::loadScene("tower.json");
+//   auto program = blobvk::blobtree::compile(scene.root);          // the flat, stackless tape
+//   auto grid    = blobvk::blobtree::chooseGrid(program, scene.grid, {});
+//   float f      = blobvk::blobtree::evaluate(program, {0, 1, 0}); // inside where f >= 0.5
+//
+// CMake: find_package(blobvk) then target_link_libraries(app PRIVATE blobvk::blobtree blobvk::mesh)
+// (blobvk::vk for the GPU, see <blobvk/vulkan.h>).
+//
+// Thread safety: Program, Tree and GridSpec are plain values; evaluating one Program from many
+// threads at once is safe (const access only). There is no global state anywhere in the library.
+#pragma once
+
+#include "blobtree/evaluate.h"
+#include "blobtree/grid.h"
+#include "blobtree/program.h"
+#include "blobtree/scene_io.h"
+#include "blobtree/tree.h"
+#include "mesh/trimesh.h"

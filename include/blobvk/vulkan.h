@@ -1,0 +1,63 @@
+// blobvk's Vulkan embedding API: polygonize and render implicit models inside a host engine.
+// Style of VulkanMemoryAllocator and Dear ImGui's Vulkan backend: the host owns every Vulkan
+// object it passes in, the library records into the host's command buffers, and the host
+// submits. examples/embed_host/main.cpp is a complete, tested host in ~400 lines.
+//
+// ---- 1. Hand over the device --------------------------------------------------------------
+//   blobvk::vk::HostContext host;            // all handles stay the host's; they must outlive
+//   host.instance = ...; host.physicalDevice = ...; host.device = ...;     // the Device below
+//   host.queueFamilyIndex = family;          // compute (and graphics, for the mesh renderer)
+//   host.queue = queue;                      // only for blobvk's upload/one-shot helpers
+//   host.getInstanceProcAddr = vkGetInstanceProcAddr;   // any loader: volk, static, dynamic
+//   blobvk::vk::Device device(host);         // private dispatch table, allocator, pipelines
+// Requirements: Vulkan 1.1, no extension and no optional feature. The library loads its own
+// function pointers through getInstanceProcAddr; it never calls global vk* prototypes.
+//
+// ---- 2. Record the polygonizer into your command buffer -------------------------------------
+//   blobvk::vk::SlabPolygonizer poly(device, program, grid, {});   // single slab: plan(0)
+//   blobvk::vk::Recorder rec(device, cmd);   // keep alive until cmd has executed (descriptors)
+//   poly.recordClassify(rec, 0, 0, 0);       // field, flags, scans, draw arguments
+//   poly.recordEmit(rec, 0, 0, {positions, normals, colours, keys, indices});
+//   // then vkCmdDrawIndexedIndirect(cmd, poly.drawArgs().handle(), 0, 1, 0) in your pass.
+// Capacity: the emit pass writes at most 3 vertices per grid point and 5 triangles per cell
+// (SlabPlan::ownedPoints, SlabPlan::cells); allocate that, or read back drawArgs() words 5 and 6
+// after recordClassify to size the buffers exactly (vk/render_gpu_mesh.h does both).
+//
+// ---- 3. Barriers: what the library expects and leaves --------------------------------------
+//  - Expects: nothing pending on the buffers it is given (your earlier writes to them finished
+//    with a barrier to COMPUTE_SHADER); Program buffers are uploaded at construction.
+//  - Leaves (after every record* call): its shader writes made available to COMPUTE_SHADER,
+//    TRANSFER and DRAW_INDIRECT (SHADER_READ|WRITE, TRANSFER_READ|WRITE, INDIRECT_COMMAND_READ).
+//    To draw, add VERTEX_INPUT (VERTEX_ATTRIBUTE_READ | INDEX_READ) yourself, as embed_host does.
+//  - Images: the headless mesh renderer (vk/render_mesh.h: MeshPipeline::recordDraw) records
+//    inside YOUR render pass when you pass it at construction; OffscreenTarget documents its own
+//    layouts (attachments from UNDEFINED, resolved colour left in TRANSFER_SRC_OPTIMAL).
+//  - The ray-caster (vk/raycast.h: Raycaster::recordRaycast) writes packed RGBA8 into a buffer
+//    you give it and leaves the same compute barrier.
+//
+// ---- 4. Threads ------------------------------------------------------------------------------
+//  - No global state: two Devices (even on the same VkDevice) are independent.
+//  - A Device, and everything created from it, is externally synchronised: use it from one
+//    thread at a time (it caches pipelines and sub-allocates memory without locks).
+//  - Recording with different Devices into different command buffers from different threads is
+//    safe. Device::submitAndWait/run/upload/download use host.queue: the host must not submit
+//    to that queue concurrently (Vulkan requires external synchronisation of queues).
+//
+// ---- 5. Headless convenience -------------------------------------------------------------------
+//   blobvk::vk::StandaloneContext ctx({.validation = true});   // own instance + device
+//   blobvk::vk::MeshRenderer renderer(ctx.device(), 512, 512); // MSAA, Blinn-Phong, PNG-ready
+//   auto image = renderer.render(mesh, camera);  blobvk::vk::writePng("out.png", image);
+//
+// CMake: find_package(blobvk) then target_link_libraries(app PRIVATE blobvk::vk).
+#pragma once
+
+#include "blobvk/blobvk.h"
+#include "vk/context.h"
+#include "vk/png_io.h"
+#include "vk/polygonize.h"
+#include "vk/raycast.h"
+#include "vk/render_camera.h"
+#include "vk/render_gpu_mesh.h"
+#include "vk/render_mesh.h"
+#include "vk/slab_polygonizer.h"
+#include "vk/standalone.h"

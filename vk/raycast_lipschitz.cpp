@@ -1,0 +1,142 @@
+#include "vk/raycast_lipschitz.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace blobvk::vk {
+namespace {
+
+namespace L = blobvk::layout;
+
+// Largest singular value of the 3x3 part: the square root of the largest eigenvalue of A^T A,
+// in closed form for a symmetric 3x3 matrix (Smith 1961), rounded up by a relative 1e-4 so the
+// bound stays an upper bound; never above the Frobenius norm.
+float matrixStretch(const L::MatrixRecord& m) {
+  const double a[3][3] = {{m.r0.x, m.r0.y, m.r0.z}, {m.r1.x, m.r1.y, m.r1.z}, {m.r2.x, m.r2.y, m.r2.z}};
+  double s[3][3] = {};
+  double frobenius = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      for (int k = 0; k < 3; ++k) s[i][j] += a[k][i] * a[k][j];
+      frobenius += a[i][j] * a[i][j];
+    }
+  }
+  const double p1 = s[0][1] * s[0][1] + s[0][2] * s[0][2] + s[1][2] * s[1][2];
+  const double q = (s[0][0] + s[1][1] + s[2][2]) / 3.0;
+  double largest = 0.0;
+  if (p1 <= 1e-30 * (1.0 + q * q)) {
+    largest = std::max({s[0][0], s[1][1], s[2][2]});
+  } else {
+    const double p2 = (s[0][0] - q) * (s[0][0] - q) + (s[1][1] - q) * (s[1][1] - q) +
+                      (s[2][2] - q) * (s[2][2] - q) + 2.0 * p1;
+    const double p = std::sqrt(p2 / 6.0);
+    double b[3][3];
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) b[i][j] = (s[i][j] - (i == j ? q : 0.0)) / p;
+    }
+    const double det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) -
+                       b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0]) +
+                       b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
+    const double r = std::clamp(det / 2.0, -1.0, 1.0);
+    largest = q + 2.0 * p * std::cos(std::acos(r) / 3.0);
+  }
+  return float(std::min(std::sqrt(std::max(largest, 0.0)) * (1.0 + 1e-4), std::sqrt(frobenius)));
+}
+
+float matrixTranslation(const L::MatrixRecord& m) {
+  return std::sqrt(m.r0.w * m.r0.w + m.r1.w * m.r1.w + m.r2.w * m.r2.w);
+}
+
+}  // namespace
+
+LipschitzBound lipschitzBound(const blobtree::Program& program, const blobtree::Aabb& region) {
+  constexpr float kWyvillSlope = 1.7173f;  // 96 / (25 sqrt 5), rounded up
+  constexpr float kQuadricSlope = 1.5397f;  // 8 / (3 sqrt 3), rounded up
+  std::array<float, L::MAX_FIELD_REGISTERS> lip{}, value{};
+  // Per point register: stretch (product of warp Jacobian bounds) and the largest coordinate
+  // magnitude a point in the region can have there.
+  std::array<float, L::MAX_POINT_REGISTERS> stretch{}, reach{};
+  stretch[0] = 1.0f;
+  for (int c = 0; c < 3; ++c) {
+    reach[0] = std::max({reach[0], std::abs(region.lo[c]), std::abs(region.hi[c])});
+  }
+  reach[0] *= std::sqrt(3.0f);
+  const auto identity = [&](std::uint32_t m) { return m == 0 || m >= program.matrices.size(); };
+
+  for (const auto& in : program.code) {
+    const std::uint32_t op = in.code.x & 0xffu, dst = in.code.x >> 8, y = in.code.y, z = in.code.z;
+    if (op == L::OP_WARP) {
+      if (dst >= stretch.size() || z >= stretch.size() || y >= program.warps.size()) continue;
+      const auto& w = program.warps[y];
+      float s = stretch[z], r = reach[z];
+      if (!identity(w.meta.w)) {
+        const auto& m = program.matrices[w.meta.w];
+        s *= matrixStretch(m);
+        r = r * matrixStretch(m) + matrixTranslation(m);
+      }
+      const float k = std::abs(w.params.x);
+      float j = 1.0f;
+      switch (w.meta.x) {
+        case L::WARP_TWIST: j = 1.0f + k * r; break;
+        case L::WARP_TAPER: j = 1.0f + 2.0f * k * r; r *= 1.0f + k * r; break;
+        case L::WARP_BEND: j = 2.0f + k * r; r = r + (k > 0 ? 2.0f / k : 0.0f); break;
+        case L::WARP_SHEAR: j = 1.0f + k; r *= 1.0f + k; break;
+        default: break;
+      }
+      stretch[dst] = s * j;
+      reach[dst] = r;
+      continue;
+    }
+    if (dst >= lip.size() || (op != L::OP_PRIM && op != L::OP_SKIP && op != L::OP_ONE_MINUS &&
+                              op != L::OP_POW && y >= lip.size())) {
+      continue;
+    }
+    switch (op) {
+      case L::OP_PRIM: {
+        if (y >= program.primitives.size() || z >= stretch.size()) break;
+        const auto& p = program.primitives[y];
+        const float m = identity(p.meta.y) ? 1.0f : matrixStretch(program.matrices[p.meta.y]);
+        const bool quadric = p.meta.x == L::PRIM_QUADRIC;
+        const float scale = quadric ? std::abs(p.p0.w) : 1.0f;
+        lip[dst] = (quadric ? kQuadricSlope : kWyvillSlope) * scale * m * stretch[z];
+        value[dst] = scale;
+        break;
+      }
+      case L::OP_ADD:
+        lip[dst] += lip[y];
+        value[dst] += value[y];
+        break;
+      case L::OP_MAX:
+      case L::OP_MIN:
+        lip[dst] = std::max(lip[dst], lip[y]);
+        value[dst] = std::max(value[dst], value[y]);
+        break;
+      case L::OP_DIFF:
+        lip[dst] = std::max(lip[dst], lip[y]);
+        value[dst] = std::max(value[dst], 1.0f + value[y]);
+        break;
+      case L::OP_SDIFF:
+        lip[dst] = value[dst] * lip[y] + (1.0f + value[y]) * lip[dst];
+        value[dst] = value[dst] * (1.0f + value[y]);
+        break;
+      case L::OP_MUL:
+        lip[dst] = value[dst] * lip[y] + value[y] * lip[dst];
+        value[dst] = value[dst] * value[y];
+        break;
+      case L::OP_ONE_MINUS:
+        value[dst] = 1.0f + value[dst];
+        break;
+      case L::OP_POW:  // the Ricci pair; see the header
+      case L::OP_SKIP:  // the skipped subtree is 0 outside its support box: continuous
+      default:
+        break;
+    }
+  }
+  LipschitzBound b;
+  b.lipschitz = program.code.empty() ? 0.0f : lip[0];
+  b.maxValue = program.code.empty() ? 0.0f : value[0];
+  return b;
+}
+
+}  // namespace blobvk::vk

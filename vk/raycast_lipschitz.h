@@ -1,0 +1,27 @@
+// A Lipschitz bound of a compiled Program's field over a region: |f(p) - f(q)| <= L |p - q| for
+// p, q in `region`. The ray-caster steps (iso - f) / L, which can never step over the surface.
+// Derivation (docs/rendering.md, "Ray-casting"):
+//  - a primitive is (1 - d^2)^3 of a 1-Lipschitz distance d in its unit frame: slope at most
+//    max 6 d (1 - d^2)^2 = 96 / (25 sqrt 5) ~ 1.717, times the largest stretch of its world->local
+//    matrix (bounded by the Frobenius norm of its 3x3 part); quadrics S (1 - d^2)^2: 8 S / (3 sqrt 3);
+//  - blend (add) sums bounds; union, intersection, difference keep the larger; products
+//    (smooth difference) use |a b|' <= |a| L_b + |b| L_a with value bounds tracked alongside;
+//    the Ricci pair pow(., p) ... pow(., 1/p) is the p-norm of the children, no steeper than
+//    their sum, so pow is treated as transparent and add sums;
+//  - a warp multiplies the bound of everything evaluated at its output point by the largest
+//    stretch of the warp over the region (twist 1 + |k| R, taper 1 + 2 |k| R, bend 2 + |k| R,
+//    shear 1 + |k|, R the largest coordinate magnitude reachable in the region).
+#pragma once
+
+#include "blobtree/program.h"
+
+namespace blobvk::vk {
+
+struct LipschitzBound {
+  float lipschitz = 0.0f;  // L over the region
+  float maxValue = 0.0f;   // bound of |f|
+};
+
+LipschitzBound lipschitzBound(const blobtree::Program& program, const blobtree::Aabb& region);
+
+}  // namespace blobvk::vk
