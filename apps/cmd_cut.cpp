@@ -5,6 +5,7 @@
 // The FEM is rebuilt once from the cut mesh (cutting::CutResult change sets allow an
 // incremental rebuild; the CLI does not use them yet).
 #include "commands.h"
+#include "frame_writer.h"
 #include "model.h"
 #include "progress.h"
 #include "soft_body.h"
@@ -54,6 +55,8 @@ void addCutCommand(CLI::App& app) {
     std::string scene, out, blade;
     int steps = 0, frameEvery = 0, threads = 0;
     std::optional<int> resolution;
+    bool noPng = false;
+    int imageSize = 384;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("cut", "Cut the scene's soft body along a blade path, then simulate");
@@ -64,6 +67,8 @@ void addCutCommand(CLI::App& app) {
   cmd->add_option("--frame-every", a->frameEvery, "Write a frame every K steps")->check(CLI::Range(1, 1000000));
   cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(CLI::Range(4, 4096));
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
+  cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)");
+  cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, 4096));
   cmd->callback([a] {
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, std::nullopt, a->resolution.value_or(48));
@@ -83,13 +88,8 @@ void addCutCommand(CLI::App& app) {
     fem::Simulation sim(std::move(cut.mesh), body.config.settings);
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 60);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
-    std::filesystem::create_directories(a->out);
-    int frame = 0;
-    auto writeFrame = [&] {
-      char name[64];
-      std::snprintf(name, sizeof name, "frame_%05d.ply", frame++);
-      mesh::writePly(fem::boundarySurface(sim.mesh()), (std::filesystem::path(a->out) / name).string());
-    };
+    FrameWriter frames(a->out, !a->noPng, a->imageSize, model.program.bounds, model.scene.camera);
+    auto writeFrame = [&] { frames.write(fem::boundarySurface(sim.mesh())); };
     writeFrame();
     Progress progress("simulate", steps);
     for (int s = 1; s <= steps; ++s) {
@@ -103,7 +103,7 @@ void addCutCommand(CLI::App& app) {
       progress.update(s);
     }
     std::printf("%zu cut events, %zu parts, %zu tets; %d steps, %d frames in %s\n", cut.events.size(), cut.parts.size(),
-                sim.mesh().tetCount(), steps, frame, a->out.c_str());
+                sim.mesh().tetCount(), steps, frames.frames(), a->out.c_str());
   });
 }
 

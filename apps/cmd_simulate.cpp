@@ -1,6 +1,7 @@
 // `blobvk simulate SCENE --steps N -o frames/`: the scene as a soft body pressed by its tools;
 // one PLY of the render surface per frame.
 #include "commands.h"
+#include "frame_writer.h"
 #include "model.h"
 #include "progress.h"
 #include "soft_body.h"
@@ -22,6 +23,8 @@ void addSimulateCommand(CLI::App& app) {
     int steps = 0, threads = 0, frameEvery = 0;
     std::optional<float> cellSize;
     std::optional<int> resolution;
+    bool noPng = false;
+    int imageSize = 384;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("simulate", "Run the scene's soft-body simulation, writing frames");
@@ -32,6 +35,8 @@ void addSimulateCommand(CLI::App& app) {
   cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(CLI::Range(4, 4096));
   cmd->add_option("--cell-size", a->cellSize, "Polygonization cell size")->check(CLI::PositiveNumber);
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
+  cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)");
+  cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, 4096));
   cmd->callback([a] {
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution ? a->resolution : std::optional<int>(48));
@@ -39,16 +44,13 @@ void addSimulateCommand(CLI::App& app) {
     fem::Simulation& sim = *body.simulation;
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 100);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
-    std::filesystem::create_directories(a->out);
+    FrameWriter frames(a->out, !a->noPng, a->imageSize, model.program.bounds, model.scene.camera);
     std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.2f s, tets %.2f s\n",
                  a->scene.c_str(), body.surface.triangleCount(), sim.mesh().tetCount(), sim.mesh().nodeCount(),
                  body.config.mesher.c_str(), body.meshSeconds, body.tetSeconds);
     Progress progress("simulate", steps);
     double totalMs = 0, maxForce = 0;
-    int frame = 0;
-    char name[64];
-    std::snprintf(name, sizeof name, "frame_%05d.ply", frame++);
-    mesh::writePly(sim.renderSurface(), (std::filesystem::path(a->out) / name).string());
+    frames.write(sim.renderSurface());
     for (int s = 1; s <= steps; ++s) {
       sim.step();
       totalMs += sim.lastStats().totalMs;
@@ -60,16 +62,13 @@ void addSimulateCommand(CLI::App& app) {
           throw std::runtime_error("the simulation diverged at step " + std::to_string(s) + " (NaN); reduce timeStep or tool stiffness");
         }
       }
-      if (s % every == 0 || s == steps) {
-        std::snprintf(name, sizeof name, "frame_%05d.ply", frame++);
-        mesh::writePly(sim.renderSurface(), (std::filesystem::path(a->out) / name).string());
-      }
+      if (s % every == 0 || s == steps) frames.write(sim.renderSurface());
       char note[64];
       std::snprintf(note, sizeof note, "%.2f ms/step", totalMs / s);
       progress.update(s, note);
     }
-    std::printf("%d steps, %d frames in %s; %.3f ms/step; max tool force %.4g N; volume %.4g (rest %.4g)\n", steps,
-                frame, a->out.c_str(), totalMs / steps, maxForce, sim.currentVolume(), sim.restVolume());
+    std::printf("%d steps, %d frames (%s) in %s; %.3f ms/step; max tool force %.4g N; volume %.4g (rest %.4g)\n", steps,
+                frames.frames(), frames.writesPng() ? "PLY + PNG" : "PLY", a->out.c_str(), totalMs / steps, maxForce, sim.currentVolume(), sim.restVolume());
   });
 }
 

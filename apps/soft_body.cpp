@@ -8,6 +8,7 @@
 #include "fem/voxel_mesher.h"
 
 #include <chrono>
+#include <memory>
 #include <stdexcept>
 
 namespace blobvk::app {
@@ -83,7 +84,8 @@ TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int t
     fem::assignRegions(tets, [&program](const mesh::Double3& c) { return dominantPrimitive(program, c); });
   }
   if (config.fixedSelector) {
-    const blobtree::Program* selector = &*config.fixedSelector;
+    // The lambda owns its copy: the config (and its optional Program) is moved around later.
+    auto selector = std::make_shared<const blobtree::Program>(*config.fixedSelector);
     config.settings.fixed = [selector](const mesh::Double3& p) {
       return blobtree::evaluate(*selector, glm::vec3(float(p.x), float(p.y), float(p.z))) >= 0.5f;
     };

@@ -53,7 +53,8 @@ void Raycaster::recordRaycast(Recorder& rec, const Camera& camera, std::uint32_t
          {region_.hi.x, region_.hi.y, region_.hi.z, 0.0f},
          {width, height, program_.codeLength, packBackground(options_.background)}};
   static_assert(sizeof(push) == 112);
-  const std::array<std::uint32_t, 2> spec{options_.workgroupSize, 0u};
+  // The program's masks and register count let the shader drop what this Program never uses.
+  const auto spec = program_.specs(options_.workgroupSize, Traversal::Stackless);
   const Kernel& k = device_.kernel("raycast", 6, spec);
   const auto pb = program_.bindings();
   const BufferRange bind[6] = {pb[0], pb[1], pb[2], pb[3], pb[4], pixels};

@@ -1,0 +1,69 @@
+#include "frame_writer.h"
+
+#include "mesh/io.h"
+
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+
+#ifdef BLOBVK_HAVE_VULKAN
+#include "vk/png_io.h"
+#include "vk/render_camera.h"
+#include "vk/render_mesh.h"
+#include "vk/standalone.h"
+#endif
+
+namespace blobvk::app {
+
+#ifdef BLOBVK_HAVE_VULKAN
+struct FrameWriter::Renderer {
+  vk::StandaloneContext context;
+  vk::MeshRenderer renderer;
+  vk::Camera camera;
+  Renderer(int size, const blobtree::Aabb& bounds, const std::optional<blobtree::Camera>& sceneCamera)
+      : context(vk::StandaloneOptions{}),
+        renderer(context.device(), std::uint32_t(size), std::uint32_t(size)),
+        camera(vk::resolveCamera(bounds, sceneCamera, {}, 1.0f)) {}
+};
+#else
+struct FrameWriter::Renderer {};
+#endif
+
+FrameWriter::FrameWriter(std::string folder, bool png, int size, const blobtree::Aabb& bounds,
+                         const std::optional<blobtree::Camera>& camera)
+    : folder_(std::move(folder)) {
+  std::filesystem::create_directories(folder_);
+#ifdef BLOBVK_HAVE_VULKAN
+  if (png) {
+    try {
+      renderer_ = std::make_unique<Renderer>(size, bounds, camera);
+    } catch (const std::exception& e) {
+      // PNG frames are a bonus; the PLY frames are the product.
+      std::fprintf(stderr, "blobvk: warning: no PNG frames: %s\n", e.what());
+    }
+  }
+#else
+  (void)png;
+  (void)size;
+  (void)bounds;
+  (void)camera;
+#endif
+}
+
+FrameWriter::~FrameWriter() = default;
+
+bool FrameWriter::writesPng() const { return renderer_ != nullptr; }
+
+void FrameWriter::write(const mesh::TriMesh& surface) {
+  char name[64];
+  std::snprintf(name, sizeof name, "frame_%05d", frame_++);
+  const std::filesystem::path base = std::filesystem::path(folder_) / name;
+  mesh::writePly(surface, base.string() + ".ply");
+#ifdef BLOBVK_HAVE_VULKAN
+  if (renderer_ && surface.triangleCount() > 0) {
+    vk::writePng(base.string() + ".png", renderer_->renderer.render(surface, renderer_->camera));
+  }
+#endif
+}
+
+}  // namespace blobvk::app

@@ -1,0 +1,31 @@
+// Writes the frames of `simulate` and `cut`: frame_NNNNN.ply always and, where a Vulkan device
+// is available, frame_NNNNN.png rendered headless with a camera fixed from the first frame.
+#pragma once
+
+#include "blobtree/program.h"
+#include "blobtree/tree.h"
+#include "mesh/trimesh.h"
+
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace blobvk::app {
+
+class FrameWriter {
+ public:
+  FrameWriter(std::string folder, bool png, int size, const blobtree::Aabb& bounds,
+              const std::optional<blobtree::Camera>& camera);
+  ~FrameWriter();
+  void write(const mesh::TriMesh& surface);
+  int frames() const { return frame_; }
+  bool writesPng() const;
+
+ private:
+  struct Renderer;
+  std::string folder_;
+  int frame_ = 0;
+  std::unique_ptr<Renderer> renderer_;
+};
+
+}  // namespace blobvk::app
