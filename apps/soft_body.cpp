@@ -63,9 +63,13 @@ TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int t
     embedding = fem::identityEmbedding(body.surface.vertexCount());
   } else {
     fem::VoxelMesherSettings voxel;
+    // The scene's grid box when it gives one (it is where the surface is), else the Program's.
     const auto& b = program.bounds;
-    voxel.boundsMin = {b.lo.x, b.lo.y, b.lo.z};
-    voxel.boundsMax = {b.hi.x, b.hi.y, b.hi.z};
+    const auto& g = model.scene.grid;
+    voxel.boundsMin = g.boundsLo ? mesh::Double3{g.boundsLo->x, g.boundsLo->y, g.boundsLo->z}
+                                 : mesh::Double3{b.lo.x, b.lo.y, b.lo.z};
+    voxel.boundsMax = g.boundsHi ? mesh::Double3{g.boundsHi->x, g.boundsHi->y, g.boundsHi->z}
+                                 : mesh::Double3{b.hi.x, b.hi.y, b.hi.z};
     voxel.cellSize = config.voxelCellSize > 0 ? config.voxelCellSize : 2.0 * grid.cellSize;
     tets = fem::voxelTetrahedralize(
         [&program](double x, double y, double z) {
