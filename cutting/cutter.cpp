@@ -1,5 +1,6 @@
 #include "cutting/cutter.h"
 
+#include "cutting/flat_hash.h"
 #include "cutting/predicates.h"
 #include "cutting/vec.h"
 
@@ -8,8 +9,6 @@
 #include <chrono>
 #include <numeric>
 #include <stdexcept>
-#include <unordered_map>
-#include <unordered_set>
 
 namespace blobvk::cutting {
 namespace {
@@ -86,10 +85,18 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   std::sort(candidates.begin(), candidates.end());
   candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
 
+  auto lap = [&, last = start](int phase) mutable {
+    const auto now = std::chrono::steady_clock::now();
+    result.phaseSeconds[std::size_t(phase)] += std::chrono::duration<double>(now - last).count();
+    last = now;
+  };
+  lap(0);
+
   // 2. Cut edges (each mesh edge tested once) and nodes lying on the surface.
-  std::unordered_map<std::uint64_t, CutEdge> cutEdges;
-  std::unordered_set<std::uint64_t> tested;
-  std::unordered_set<std::uint32_t> cutNodes, seenNodes;
+  // Flat open-addressing tables sized to this event (never to the mesh).
+  FlatHashMap<std::uint64_t, CutEdge, U64Hash> cutEdges(kNoEdge, candidates.size());
+  FlatHashSet<std::uint64_t, U64Hash> tested(kNoEdge, 2 * candidates.size());
+  FlatHashSet<std::uint32_t, U32Hash> cutNodes(kNone, candidates.size()), seenNodes(kNone, candidates.size());
   // Unit normals of the swept triangles: a tet strictly on one side of every triangle's plane
   // (farther than the on-surface tolerance) can neither be crossed nor touch the surface.
   std::vector<Double3> normals;
@@ -119,48 +126,51 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       if (a > b) std::swap(a, b);
       // Irrelevant triangles have both ends of every edge of the tet on one side, so one test
       // per edge (against the triangles relevant to the first tet that reaches it) is exact.
-      if (!tested.insert(edgeKey(a, b)).second) continue;
+      if (!tested.insert(edgeKey(a, b))) continue;
       bool hitAny = false;
       for (std::size_t i = 0; i < swept.size() && !hitAny; ++i) {
         if (!relevant[i] || !overlaps(boxes[i], pos[a], pos[b])) continue;
         const SegmentHit hit = segmentCrossesTriangle(pos[a], pos[b], swept[i][0], swept[i][1], swept[i][2]);
         if (hit.hit) {
-          cutEdges.emplace(edgeKey(a, b), CutEdge{a, b, hit.t});
+          cutEdges.insert(edgeKey(a, b), CutEdge{a, b, hit.t});
           hitAny = true;
         }
       }
     }
     for (std::uint32_t n : tet)
-      if (seenNodes.insert(n).second && distanceToSurface(pos[n], swept) <= tolAbs) cutNodes.insert(n);
+      if (seenNodes.insert(n) && distanceToSurface(pos[n], swept) <= tolAbs) cutNodes.insert(n);
   }
 
   result.candidateTets = near.size();
 
   // 3. Cut nodes by the thesis' rule, then drop every cut edge touching a cut node.
-  for (const auto& [key, ce] : cutEdges) {
+  cutEdges.forEach([&](std::uint64_t, const CutEdge& ce) {
     if (ce.t < tau) cutNodes.insert(ce.a);
     if (ce.t > 1.0 - tau) cutNodes.insert(ce.b);
-  }
+  });
   std::vector<CutEdge> kept;
-  for (const auto& [key, ce] : cutEdges)
-    if (!cutNodes.count(ce.a) && !cutNodes.count(ce.b)) kept.push_back(ce);
+  cutEdges.forEach([&](std::uint64_t, const CutEdge& ce) {
+    if (!cutNodes.contains(ce.a) && !cutNodes.contains(ce.b)) kept.push_back(ce);
+  });
   std::sort(kept.begin(), kept.end(), [](const CutEdge& x, const CutEdge& y) {
     return x.a != y.a ? x.a < y.a : x.b < y.b;
   });
   result.cutEdges = kept.size();
   result.cutNodes = cutNodes.size();
 
+  lap(1);
+
   // 4. Codes per touched tet.
   struct Codes {
     std::uint8_t edges = 0, nodes = 0;
   };
-  std::unordered_map<std::uint32_t, Codes> touched;
-  std::unordered_map<std::uint64_t, std::uint32_t> edgePoint;
+  FlatHashMap<std::uint32_t, Codes, U32Hash> touched(kNone, 8 * (kept.size() + cutNodes.size()));
+  FlatHashMap<std::uint64_t, std::uint32_t, U64Hash> edgePoint(kNoEdge, kept.size());
   for (const CutEdge& ce : kept) {
     const std::uint32_t node = topology_.addNode(lerp(topology_.mesh().positions[ce.a], topology_.mesh().positions[ce.b], ce.t),
                                                  lerp(topology_.mesh().restPositions[ce.a],
                                                       topology_.mesh().restPositions[ce.b], ce.t));
-    edgePoint[edgeKey(ce.a, ce.b)] = node;
+    edgePoint.insert(edgeKey(ce.a, ce.b), node);
     NewNode nn;
     nn.index = node;
     nn.kind = NewNode::Kind::EdgePoint;
@@ -174,21 +184,21 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
           touched[slot].edges |= std::uint8_t(1u << e);
     }
   }
-  for (std::uint32_t n : cutNodes)
+  cutNodes.forEach([&](std::uint32_t n) {
     for (std::uint32_t slot : topology_.tetsOfNode(n)) {
       const Tet& tet = topology_.tet(slot);
       for (int i = 0; i < 4; ++i)
         if (tet[i] == n) touched[slot].nodes |= std::uint8_t(1u << i);
     }
+  });
   std::vector<std::uint32_t> order;
-  for (const auto& [slot, codes] : touched) order.push_back(slot);
+  touched.forEach([&](std::uint32_t slot, const Codes&) { order.push_back(slot); });
   std::sort(order.begin(), order.end());
 
   // 5. Split, 6. collect crack faces.
-  std::unordered_set<FaceKey, FaceKeyHash> crack;
-  std::vector<std::uint32_t> changed;
+  FlatHashSet<FaceKey, FaceKeyHash> crack(kNoFace, 2 * order.size());
   for (std::uint32_t slot : order) {
-    const Codes codes = touched[slot];
+    const Codes codes = *touched.find(slot);
     const Tet parent = topology_.tet(slot);
     if (codes.edges == 0) {
       const CutCase kind = std::popcount(unsigned(codes.nodes)) >= 3 ? CutCase::Z : CutCase::NodesOnly;
@@ -221,7 +231,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
           const Tet& nodes = topology_.tet(t);
           double best = 0.0;
           for (std::uint32_t v : nodes)
-            if (!cutNodes.count(v)) {
+            if (!cutNodes.contains(v)) {
               const double value = orient3dValue(plane[0], plane[1], plane[2], pos[v]);
               if (std::fabs(value) > std::fabs(best)) best = value;
             }
@@ -240,7 +250,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     for (int e = 0; e < 6; ++e) {
       keys[kEdgePointBase + e] = ~0ull - 1;
       if (codes.edges >> e & 1) {
-        global[kEdgePointBase + e] = edgePoint.at(edgeKey(parent[kTetEdges[e][0]], parent[kTetEdges[e][1]]));
+        global[kEdgePointBase + e] = *edgePoint.find(edgeKey(parent[kTetEdges[e][0]], parent[kTetEdges[e][1]]));
         keys[kEdgePointBase + e] = global[kEdgePointBase + e];
       }
     }
@@ -325,75 +335,89 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   }
   result.crackFaces = crack.size();
 
+  lap(2);
+
   // 7. Open the crack: around each crack vertex, tets connected through non-crack faces stay
-  // together; every further group gets its own copy of the vertex.
+  // together; every further group gets its own copy of the vertex. All groups are found on the
+  // topology before any renumbering, then each tet is rewritten once: two tets glued by a
+  // non-crack face lie in the same group around each of that face's vertices, so they receive
+  // the same copies and stay glued, whatever the order of the vertices.
   std::vector<std::uint32_t> crackVertices;
-  for (const FaceKey& f : crack) crackVertices.insert(crackVertices.end(), {f.a, f.b, f.c});
+  crackVertices.reserve(3 * crack.size());
+  crack.forEach([&](const FaceKey& f) { crackVertices.insert(crackVertices.end(), {f.a, f.b, f.c}); });
   std::sort(crackVertices.begin(), crackVertices.end());
   crackVertices.erase(std::unique(crackVertices.begin(), crackVertices.end()), crackVertices.end());
-  std::unordered_set<std::uint32_t> renumbered;
+  struct Rename {
+    std::uint32_t slot, from, to;
+  };
+  std::vector<Rename> renames;
+  std::vector<std::uint32_t> around, groupSize, copyOfRoot;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> links;
   for (std::uint32_t v : crackVertices) {
-    const std::vector<std::uint32_t> around = topology_.tetsOfNode(v);
-    if (around.size() < 2) continue;
-    Components comps(around.size());
+    const auto incident = topology_.tetsOfNode(v);
+    if (incident.size() < 2) continue;
+    around.assign(incident.begin(), incident.end());
+    // Two tets around v are glued when they share a non-crack face through v, i.e. the same two
+    // other nodes: match those pairs locally (sorted), no global face lookups.
+    links.clear();
     for (std::size_t i = 0; i < around.size(); ++i) {
       const Tet& t = topology_.tet(around[i]);
-      for (const auto& f : kTetFaces) {
-        const std::uint32_t a = t[f[0]], b = t[f[1]], c = t[f[2]];
-        if (a != v && b != v && c != v) continue;
-        if (crack.count(makeFaceKey(a, b, c))) continue;
-        const auto pair = topology_.tetsOfFace(a, b, c);
-        const std::uint32_t other = pair[0] == around[i] ? pair[1] : pair[0];
-        if (other == kNone) continue;
-        const auto j = std::find(around.begin(), around.end(), other) - around.begin();
-        comps.unite(int(i), int(j));
+      std::array<std::uint32_t, 3> others{};
+      int k = 0;
+      for (std::uint32_t n : t)
+        if (n != v && k < 3) others[std::size_t(k++)] = n;
+      for (const auto& [x, y] : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}}) {
+        const std::uint32_t b = others[std::size_t(x)], c = others[std::size_t(y)];
+        if (crack.contains(makeFaceKey(v, b, c))) continue;
+        links.push_back({edgeKey(b, c), std::uint32_t(i)});
       }
     }
-    std::unordered_map<int, std::uint32_t> copyOf;
-    const int keep = comps.find(0);
+    std::sort(links.begin(), links.end());
+    Components comps(around.size());
+    for (std::size_t l = 1; l < links.size(); ++l)
+      if (links[l].first == links[l - 1].first) comps.unite(int(links[l].second), int(links[l - 1].second));
+    // The largest group keeps the vertex (fewest tets renumbered).
+    groupSize.assign(around.size(), 0);
+    for (std::size_t i = 0; i < around.size(); ++i) ++groupSize[std::size_t(comps.find(int(i)))];
+    std::size_t keep = 0;
+    for (std::size_t r = 1; r < around.size(); ++r)
+      if (groupSize[r] > groupSize[keep]) keep = r;
+    copyOfRoot.assign(around.size(), kNone);
     for (std::size_t i = 0; i < around.size(); ++i) {
-      const int root = comps.find(int(i));
+      const std::size_t root = std::size_t(comps.find(int(i)));
       if (root == keep) continue;
-      auto it = copyOf.find(root);
-      if (it == copyOf.end()) {
-        const std::uint32_t copy = topology_.addNode(topology_.mesh().positions[v], topology_.mesh().restPositions[v]);
-        it = copyOf.emplace(root, copy).first;
+      if (copyOfRoot[root] == kNone) {
+        copyOfRoot[root] = topology_.addNode(topology_.mesh().positions[v], topology_.mesh().restPositions[v]);
         NewNode nn;
-        nn.index = copy;
+        nn.index = copyOfRoot[root];
         nn.kind = NewNode::Kind::Duplicate;
         nn.sources = {v, kNone, kNone, kNone};
         nn.weights = {1.0, 0.0, 0.0, 0.0};
         result.newNodes.push_back(nn);
         ++result.duplicatedNodes;
       }
-      Tet t = topology_.tet(around[i]);
-      if (renumbered.insert(around[i]).second) changed.push_back(around[i]);
-      for (auto& n : t)
-        if (n == v) n = it->second;
-      topology_.setTet(around[i], t);
+      renames.push_back({around[i], v, copyOfRoot[root]});
     }
   }
-  // Renumbered tets that were not split are reported as removed and re-added. Their removed
-  // node lists are their pre-cut contents, which the duplicate records let the FEM reconstruct;
-  // for simplicity we report the current nodes mapped back through the duplicate sources.
-  std::unordered_set<std::uint32_t> split(result.addedTets.begin(), result.addedTets.end());
-  std::unordered_map<std::uint32_t, std::uint32_t> original;
-  for (const NewNode& nn : result.newNodes)
-    if (nn.kind == NewNode::Kind::Duplicate) original[nn.index] = nn.sources[0];
-  for (std::uint32_t slot : changed) {
-    if (split.count(slot)) continue;
-    Tet before = topology_.tet(slot);
-    for (auto& n : before) {
-      auto it = original.find(n);
-      while (it != original.end()) {
-        n = it->second;
-        it = original.find(n);
-      }
-    }
+  std::sort(renames.begin(), renames.end(), [](const Rename& x, const Rename& y) { return x.slot < y.slot; });
+  // Renumbered tets that were not split are reported as removed (with their nodes before the
+  // opening) and re-added.
+  FlatHashSet<std::uint32_t, U32Hash> split(kNone, result.addedTets.size());
+  for (std::uint32_t slot : result.addedTets) split.insert(slot);
+  for (std::size_t i = 0; i < renames.size();) {
+    const std::uint32_t slot = renames[i].slot;
+    const Tet before = topology_.tet(slot);
+    Tet after = before;
+    for (; i < renames.size() && renames[i].slot == slot; ++i)
+      for (auto& n : after)
+        if (n == renames[i].from) n = renames[i].to;
+    topology_.setTet(slot, after);
+    if (split.contains(slot)) continue;
     result.removedTets.push_back(slot);
     result.removedTetNodes.push_back(before);
     result.addedTets.push_back(slot);
   }
+  lap(3);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

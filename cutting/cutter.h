@@ -55,6 +55,9 @@ struct CutResult {
   std::size_t crackFaces = 0, duplicatedNodes = 0;
   double minChildVolumeRatio = 1.0;  // smallest child rest volume / its parent's, this event
   double seconds = 0.0;
+  // Wall time of the phases: candidates (spatial hash), cut edges and cut nodes, codes + splits
+  // + crack faces, crack opening.
+  std::array<double, 4> phaseSeconds{};
   std::size_t count(CutCase c) const { return caseCounts[std::size_t(c)]; }
 };
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <sstream>
 #include <stdexcept>
+#include <unordered_map>
 
 namespace blobvk::cutting {
 
@@ -30,21 +31,26 @@ CutTopology::CutTopology(mesh::TetMesh mesh) : mesh_(std::move(mesh)) {
   if (!mesh_.regions.empty() && mesh_.regions.size() != mesh_.tets.size())
     throw std::invalid_argument("CutTopology: regions must be empty or one per tet");
   if (mesh_.regions.empty()) mesh_.regions.assign(mesh_.tets.size(), 0);
-  tetsOfNode_.resize(mesh_.positions.size());
   alive_.assign(mesh_.tets.size(), 1);
+  // Incidence runs sized to each node's degree plus room for the tets a few cuts add.
+  std::vector<std::uint32_t> degree(mesh_.positions.size(), 0);
+  for (const Tet& t : mesh_.tets)
+    for (std::uint32_t n : t) {
+      if (n >= mesh_.positions.size()) throw std::invalid_argument("CutTopology: tet node index out of range");
+      ++degree[n];
+    }
+  for (auto& d : degree) d += 4;
+  tetsOfNode_.layout(degree);
+  // Euler: about 1.2 edges and 2 faces per tet in a solid mesh; room for the growth of cutting.
   edges_.reserve(mesh_.tets.size() * 2);
   faces_.reserve(mesh_.tets.size() * 3);
-  for (std::uint32_t t = 0; t < mesh_.tets.size(); ++t) {
-    for (std::uint32_t n : mesh_.tets[t])
-      if (n >= mesh_.positions.size()) throw std::invalid_argument("CutTopology: tet node index out of range");
-    attach(t);
-  }
+  for (std::uint32_t t = 0; t < mesh_.tets.size(); ++t) attach(t);
 }
 
 std::uint32_t CutTopology::addNode(mesh::Double3 position, mesh::Double3 rest) {
   mesh_.positions.push_back(position);
   mesh_.restPositions.push_back(rest);
-  tetsOfNode_.emplace_back();
+  tetsOfNode_.addNode();
   return std::uint32_t(mesh_.positions.size() - 1);
 }
 
@@ -68,9 +74,9 @@ std::uint32_t CutTopology::addTet(const Tet& nodes, std::uint32_t region) {
 
 void CutTopology::setTet(std::uint32_t slot, const Tet& nodes) {
   if (!alive(slot)) throw std::logic_error("CutTopology::setTet on a dead slot");
-  detach(slot);
+  const Tet before = mesh_.tets[slot];
   mesh_.tets[slot] = nodes;
-  attach(slot);
+  retarget(slot, before, nodes);
 }
 
 void CutTopology::removeTet(std::uint32_t slot) {
@@ -108,52 +114,100 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CutTopology::compact() {
 }
 
 std::array<std::uint32_t, 2> CutTopology::tetsOfFace(std::uint32_t a, std::uint32_t b, std::uint32_t c) const {
-  const auto it = faces_.find(makeFaceKey(a, b, c));
-  if (it == faces_.end()) return {kNone, kNone};
-  return {it->second.tets[0], it->second.tets[1]};
+  const FaceRecord* r = faces_.find(makeFaceKey(a, b, c));
+  if (r == nullptr) return {kNone, kNone};
+  return {r->tets[0], r->tets[1]};
+}
+
+void CutTopology::addFaceUse(const FaceKey& key, std::uint32_t slot) {
+  FaceRecord& r = faces_[key];
+  if (r.tets[0] == kNone) r.tets[0] = slot;
+  else if (r.tets[1] == kNone) r.tets[1] = slot;
+  else ++r.extra;
+}
+
+void CutTopology::removeFaceUse(const FaceKey& key, std::uint32_t slot) {
+  FaceRecord* record = faces_.find(key);
+  if (record == nullptr) return;
+  FaceRecord& r = *record;
+  // Beyond two tets (a conformity error) the record only counts; selfCheck reports it.
+  if (r.tets[0] == slot) {
+    r.tets[0] = r.tets[1];
+    r.tets[1] = kNone;
+  } else if (r.tets[1] == slot) {
+    r.tets[1] = kNone;
+  } else if (r.extra > 0) {
+    --r.extra;
+  }
+  if (r.tets[0] == kNone && r.extra == 0) faces_.erase(key);
+}
+
+void CutTopology::removeEdgeUse(std::uint64_t key) {
+  std::uint32_t* count = edges_.find(key);
+  if (count != nullptr && --*count == 0) edges_.erase(key);
 }
 
 void CutTopology::attach(std::uint32_t slot) {
   const Tet& t = mesh_.tets[slot];
-  for (std::uint32_t n : t) tetsOfNode_[n].push_back(slot);
-  for (const auto& e : kTetEdges) ++edges_[edgeKey(t[e[0]], t[e[1]])];
-  for (const auto& f : kTetFaces) {
-    FaceRecord& r = faces_[makeFaceKey(t[f[0]], t[f[1]], t[f[2]])];
-    if (r.tets[0] == kNone) r.tets[0] = slot;
-    else if (r.tets[1] == kNone) r.tets[1] = slot;
-    else ++r.extra;
-  }
+  std::array<std::uint64_t, 6> edgeKeys{};
+  std::array<FaceKey, 4> faceKeys{};
+  for (int e = 0; e < 6; ++e) edges_.prefetch(edgeKeys[e] = edgeKey(t[kTetEdges[e][0]], t[kTetEdges[e][1]]));
+  for (int f = 0; f < 4; ++f)
+    faces_.prefetch(faceKeys[f] = makeFaceKey(t[kTetFaces[f][0]], t[kTetFaces[f][1]], t[kTetFaces[f][2]]));
+  for (std::uint32_t n : t) tetsOfNode_.push(n, slot);
+  for (std::uint64_t k : edgeKeys) ++edges_[k];
+  for (const FaceKey& k : faceKeys) addFaceUse(k, slot);
 }
 
 void CutTopology::detach(std::uint32_t slot) {
   const Tet& t = mesh_.tets[slot];
-  for (std::uint32_t n : t) {
-    auto& list = tetsOfNode_[n];
-    const auto it = std::find(list.begin(), list.end(), slot);
-    if (it != list.end()) {
-      *it = list.back();
-      list.pop_back();
-    }
+  std::array<std::uint64_t, 6> edgeKeys{};
+  std::array<FaceKey, 4> faceKeys{};
+  for (int e = 0; e < 6; ++e) edges_.prefetch(edgeKeys[e] = edgeKey(t[kTetEdges[e][0]], t[kTetEdges[e][1]]));
+  for (int f = 0; f < 4; ++f)
+    faces_.prefetch(faceKeys[f] = makeFaceKey(t[kTetFaces[f][0]], t[kTetFaces[f][1]], t[kTetFaces[f][2]]));
+  for (std::uint32_t n : t) tetsOfNode_.remove(n, slot);
+  for (std::uint64_t k : edgeKeys) removeEdgeUse(k);
+  for (const FaceKey& k : faceKeys) removeFaceUse(k, slot);
+}
+
+void CutTopology::retarget(std::uint32_t slot, const Tet& before, const Tet& after) {
+  // Only the incidences that differ are touched: crack opening renumbers one or two nodes of a
+  // tet, which leaves one face and three edges in place, and a split's first child often keeps
+  // a face of its parent.
+  auto contains = [](const Tet& t, std::uint32_t n) { return t[0] == n || t[1] == n || t[2] == n || t[3] == n; };
+  auto repeats = [](const Tet& t) {
+    return t[0] == t[1] || t[0] == t[2] || t[0] == t[3] || t[1] == t[2] || t[1] == t[3] || t[2] == t[3];
+  };
+  if (repeats(before) || repeats(after)) {  // degenerate (a caller error selfCheck reports): by the book
+    mesh_.tets[slot] = before;
+    detach(slot);
+    mesh_.tets[slot] = after;
+    attach(slot);
+    return;
   }
-  for (const auto& e : kTetEdges) {
-    const auto it = edges_.find(edgeKey(t[e[0]], t[e[1]]));
-    if (it != edges_.end() && --it->second == 0) edges_.erase(it);
+  std::array<std::uint64_t, 6> oldEdges{}, newEdges{};
+  for (int e = 0; e < 6; ++e) {
+    edges_.prefetch(oldEdges[e] = edgeKey(before[kTetEdges[e][0]], before[kTetEdges[e][1]]));
+    edges_.prefetch(newEdges[e] = edgeKey(after[kTetEdges[e][0]], after[kTetEdges[e][1]]));
   }
-  for (const auto& f : kTetFaces) {
-    const auto it = faces_.find(makeFaceKey(t[f[0]], t[f[1]], t[f[2]]));
-    if (it == faces_.end()) continue;
-    FaceRecord& r = it->second;
-    // Beyond two tets (a conformity error) the record only counts; selfCheck reports it.
-    if (r.tets[0] == slot) {
-      r.tets[0] = r.tets[1];
-      r.tets[1] = kNone;
-    } else if (r.tets[1] == slot) {
-      r.tets[1] = kNone;
-    } else if (r.extra > 0) {
-      --r.extra;
-    }
-    if (r.tets[0] == kNone && r.extra == 0) faces_.erase(it);
+  std::array<FaceKey, 4> oldFaces{}, newFaces{};
+  for (int f = 0; f < 4; ++f) {
+    faces_.prefetch(oldFaces[f] = makeFaceKey(before[kTetFaces[f][0]], before[kTetFaces[f][1]], before[kTetFaces[f][2]]));
+    faces_.prefetch(newFaces[f] = makeFaceKey(after[kTetFaces[f][0]], after[kTetFaces[f][1]], after[kTetFaces[f][2]]));
   }
+  for (std::uint32_t n : before)
+    if (!contains(after, n)) tetsOfNode_.remove(n, slot);
+  for (std::uint32_t n : after)
+    if (!contains(before, n)) tetsOfNode_.push(n, slot);
+  for (std::uint64_t k : oldEdges)
+    if (std::find(newEdges.begin(), newEdges.end(), k) == newEdges.end()) removeEdgeUse(k);
+  for (std::uint64_t k : newEdges)
+    if (std::find(oldEdges.begin(), oldEdges.end(), k) == oldEdges.end()) ++edges_[k];
+  for (const FaceKey& k : oldFaces)
+    if (std::find(newFaces.begin(), newFaces.end(), k) == newFaces.end()) removeFaceUse(k, slot);
+  for (const FaceKey& k : newFaces)
+    if (std::find(oldFaces.begin(), oldFaces.end(), k) == oldFaces.end()) addFaceUse(k, slot);
 }
 
 SelfCheckReport CutTopology::selfCheck() const {
@@ -193,7 +247,7 @@ SelfCheckReport CutTopology::selfCheck() const {
     std::sort(sorted.begin(), sorted.end());
     if (++tetSet[sorted] > 1) ++report.duplicateTets;
     for (std::uint32_t n : t) {
-      const auto& list = tetsOfNode_[n];
+      const auto list = tetsOfNode_.of(n);
       if (std::find(list.begin(), list.end(), s) == list.end()) ++report.incidenceMismatches;
     }
     incidenceEntries += 4;
@@ -207,8 +261,8 @@ SelfCheckReport CutTopology::selfCheck() const {
     }
   }
   std::size_t listed = 0;
-  for (const auto& list : tetsOfNode_) listed += list.size();
-  if (listed != incidenceEntries) ++report.incidenceMismatches;
+  for (std::uint32_t n = 0; n < tetsOfNode_.nodeCount(); ++n) listed += tetsOfNode_.of(n).size();
+  if (listed != incidenceEntries || listed != tetsOfNode_.totalEntries()) ++report.incidenceMismatches;
   if (faces.size() != faces_.size()) ++report.incidenceMismatches;
   for (const auto& [key, use] : faces) {
     if (use.count == 1) ++report.boundaryFaces;
@@ -222,12 +276,12 @@ SelfCheckReport CutTopology::selfCheck() const {
       while (f1[0] != f0[0]) std::rotate(f1.begin(), f1.begin() + 1, f1.end());
       if (!(f1[1] == f0[2] && f1[2] == f0[1])) ++report.misorientedFaces;
     }
-    const auto it = faces_.find(key);
-    if (it == faces_.end()) {
+    const FaceRecord* record = faces_.find(key);
+    if (record == nullptr) {
       ++report.incidenceMismatches;
       continue;
     }
-    const std::uint32_t known = (it->second.tets[0] != kNone) + (it->second.tets[1] != kNone) + it->second.extra;
+    const std::uint32_t known = (record->tets[0] != kNone) + (record->tets[1] != kNone) + record->extra;
     if (known != use.count) ++report.incidenceMismatches;
   }
   return report;
@@ -244,8 +298,8 @@ mesh::TetMesh CutTopology::toTetMesh() const {
   }
   for (const auto& t : out.tets)
     for (const auto& f : kTetFaces) {
-      const auto it = faces_.find(makeFaceKey(t[f[0]], t[f[1]], t[f[2]]));
-      if (it != faces_.end() && it->second.tets[1] == kNone && it->second.extra == 0)
+      const FaceRecord* r = faces_.find(makeFaceKey(t[f[0]], t[f[1]], t[f[2]]));
+      if (r != nullptr && r->tets[1] == kNone && r->extra == 0)
         out.boundaryFaces.push_back({t[f[0]], t[f[1]], t[f[2]]});
     }
   return out;

@@ -3,13 +3,15 @@
 // std::map). Tet slots are reused; deleted tets leave holes until compact().
 #pragma once
 
+#include "cutting/flat_hash.h"
+#include "cutting/incidence_lists.h"
 #include "mesh/tetmesh.h"
 #include "mesh/trimesh.h"
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -35,13 +37,12 @@ struct FaceKey {
 };
 FaceKey makeFaceKey(std::uint32_t a, std::uint32_t b, std::uint32_t c);
 struct FaceKeyHash {
-  std::size_t operator()(const FaceKey& k) const {
-    std::uint64_t h = k.a * 0x9E3779B97F4A7C15ull;
-    h ^= (k.b + 0x7F4A7C159E3779B9ull + (h << 6) + (h >> 2));
-    h ^= (k.c * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2));
-    return std::size_t(h);
+  std::uint64_t operator()(const FaceKey& k) const {
+    return mix64(((std::uint64_t(k.a) << 32) | k.b) ^ mix64(std::uint64_t(k.c) + 0x9E3779B97F4A7C15ull));
   }
 };
+inline constexpr FaceKey kNoFace{kNone, kNone, kNone};
+inline constexpr std::uint64_t kNoEdge = ~0ull;  // edgeKey(kNone, kNone): never a real edge
 
 struct SelfCheckReport {
   std::size_t tets = 0, nodes = 0, interiorFaces = 0, boundaryFaces = 0;
@@ -83,16 +84,16 @@ class CutTopology {
   // Fills holes with tets from the end; returns (from, to) slot moves. Nodes are never removed.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> compact();
 
-  // Incidence queries, O(1) expected.
-  const std::vector<std::uint32_t>& tetsOfNode(std::uint32_t node) const { return tetsOfNode_[node]; }
-  bool hasEdge(std::uint32_t a, std::uint32_t b) const { return edges_.count(edgeKey(a, b)) != 0; }
+  // Incidence queries, O(1) expected. The span is invalidated by the next change to the mesh.
+  std::span<const std::uint32_t> tetsOfNode(std::uint32_t node) const { return tetsOfNode_.of(node); }
+  bool hasEdge(std::uint32_t a, std::uint32_t b) const { return edges_.contains(edgeKey(a, b)); }
   std::size_t edgeCount() const { return edges_.size(); }
   std::size_t faceCount() const { return faces_.size(); }
   // The (up to two) tets sharing the face, kNone where absent.
   std::array<std::uint32_t, 2> tetsOfFace(std::uint32_t a, std::uint32_t b, std::uint32_t c) const;
   template <typename F>
   void forEachEdge(F&& f) const {
-    for (const auto& [key, count] : edges_) f(std::uint32_t(key >> 32), std::uint32_t(key & 0xffffffffu));
+    edges_.forEach([&](std::uint64_t key, std::uint32_t) { f(std::uint32_t(key >> 32), std::uint32_t(key & 0xffffffffu)); });
   }
 
   // Full O(n) verification against a from-scratch rebuild.
@@ -108,13 +109,17 @@ class CutTopology {
   };
   void attach(std::uint32_t slot);
   void detach(std::uint32_t slot);
+  void retarget(std::uint32_t slot, const Tet& before, const Tet& after);
+  void addFaceUse(const FaceKey& key, std::uint32_t slot);
+  void removeFaceUse(const FaceKey& key, std::uint32_t slot);
+  void removeEdgeUse(std::uint64_t key);
 
   mesh::TetMesh mesh_;
   std::vector<std::uint8_t> alive_;
   std::vector<std::uint32_t> freeSlots_;
-  std::vector<std::vector<std::uint32_t>> tetsOfNode_;
-  std::unordered_map<std::uint64_t, std::uint32_t> edges_;  // edge key -> number of tets using it
-  std::unordered_map<FaceKey, FaceRecord, FaceKeyHash> faces_;
+  IncidenceLists tetsOfNode_;
+  FlatHashMap<std::uint64_t, std::uint32_t, U64Hash> edges_{kNoEdge};  // edge key -> number of tets using it
+  FlatHashMap<FaceKey, FaceRecord, FaceKeyHash> faces_{kNoFace};
 };
 
 }  // namespace blobvk::cutting

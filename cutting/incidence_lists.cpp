@@ -1,0 +1,68 @@
+#include "cutting/incidence_lists.h"
+
+#include <algorithm>
+
+namespace blobvk::cutting {
+
+void IncidenceLists::layout(const std::vector<std::uint32_t>& capacities) {
+  runs_.assign(capacities.size(), Run{});
+  std::size_t offset = 0;
+  for (std::size_t n = 0; n < capacities.size(); ++n) {
+    runs_[n].offset = std::uint32_t(offset);
+    runs_[n].capacity = capacities[n];
+    offset += capacities[n];
+  }
+  pool_.assign(offset, 0);
+  abandoned_ = entries_ = 0;
+}
+
+void IncidenceLists::push(std::uint32_t node, std::uint32_t item) {
+  Run& r = runs_[node];
+  if (r.size == r.capacity) {
+    // Move the run to the end of the pool with room to grow (8 fits a voxel node's 6-24 tets
+    // in one or two moves; split nodes gain a few).
+    const std::uint32_t capacity = std::max<std::uint32_t>(8, 2 * r.capacity);
+    if (abandoned_ + r.capacity > pool_.size() / 2 && pool_.size() > 4096) {
+      compact();
+    }
+    Run& run = runs_[node];  // compact() rewrote offsets
+    const std::size_t offset = pool_.size();
+    pool_.resize(offset + capacity);
+    std::copy_n(pool_.begin() + run.offset, run.size, pool_.begin() + std::ptrdiff_t(offset));
+    abandoned_ += run.capacity;
+    run.offset = std::uint32_t(offset);
+    run.capacity = capacity;
+  }
+  Run& run = runs_[node];
+  pool_[run.offset + run.size++] = item;
+  ++entries_;
+}
+
+bool IncidenceLists::remove(std::uint32_t node, std::uint32_t item) {
+  Run& r = runs_[node];
+  std::uint32_t* begin = pool_.data() + r.offset;
+  std::uint32_t* end = begin + r.size;
+  std::uint32_t* it = std::find(begin, end, item);
+  if (it == end) return false;
+  *it = *(end - 1);
+  --r.size;
+  --entries_;
+  return true;
+}
+
+void IncidenceLists::compact() {
+  std::vector<std::uint32_t> packed;
+  std::size_t total = 0;
+  for (const Run& r : runs_) total += r.capacity;
+  packed.reserve(total + total / 2 + 64);
+  for (Run& r : runs_) {
+    const std::size_t offset = packed.size();
+    packed.insert(packed.end(), pool_.begin() + r.offset, pool_.begin() + r.offset + r.size);
+    packed.resize(offset + r.capacity);
+    r.offset = std::uint32_t(offset);
+  }
+  pool_.swap(packed);
+  abandoned_ = 0;
+}
+
+}  // namespace blobvk::cutting
