@@ -17,6 +17,7 @@
 #include "cpu_simd/mpu_polygonizer.h"
 
 #include "cpu_simd/field_bounds.h"
+#include "cpu_simd/row_bits.h"
 #include "cpu_simd/tape_pruning.h"
 #include "mesh/marching_cubes.h"
 
@@ -74,7 +75,8 @@ struct ThreadStats {
 
 struct Scratch {
   std::vector<float> x, y, z, field;
-  std::vector<std::uint8_t> inside, config;
+  std::vector<std::uint8_t> inside;
+  std::vector<detail::RowBits> rows;  // per point row (k, j): inside flags as bits
   std::vector<std::uint32_t> vertexId;  // per (local point * 3 + axis); valid for crossing edges
   std::vector<std::uint32_t> edgePoint;
   std::vector<std::uint8_t> edgeAxis;
@@ -84,6 +86,9 @@ struct Scratch {
   std::vector<std::uint8_t> need;      // sparse field cache: points of unclassified sub-blocks
   std::vector<std::uint32_t> gather;   // evaluated point -> local point index
   std::unique_ptr<blobtree::Program> fieldTape, colourTape;  // this thread's pruned tapes
+  // Tapes of the current group of MPUs (from the Program), and the MPUs' tapes when they are
+  // pruned from the group's (a tape of a tape: makeTapeProgram of the group's records).
+  std::unique_ptr<blobtree::Program> groupTape, groupColourTape, childTape, childColourTape;
 };
 
 struct Context {
@@ -152,7 +157,16 @@ void refineEdges(Context& ctx, const blobtree::Program& program, Scratch& s, std
   }
 }
 
-std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadStats& st) {
+// `bounds`: the Program or a tape exact over a box containing this MPU (its group's), for the
+// early discard. `group`: when set, the MPU's tapes are pruned from the group's tapes (field,
+// and colour when colours are on) instead of from the whole Program.
+struct GroupTapes {
+  const blobtree::Program* field = nullptr;
+  const blobtree::Program* colour = nullptr;
+};
+
+std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Program& bounds,
+                                      const GroupTapes& group, Scratch& s, ThreadStats& st) {
   const blobtree::GridSpec& grid = ctx.grid;
   const int D = ctx.D;
   const glm::ivec3 mi(m % ctx.mpus.x, (m / ctx.mpus.x) % ctx.mpus.y, m / (ctx.mpus.x * ctx.mpus.y));
@@ -167,7 +181,7 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
   auto t0 = Clock::now();
   if (ctx.options.earlyDiscard) {
     const glm::vec3 blo = grid.point(lo.x, lo.y, lo.z), bhi = grid.point(hiCell.x, hiCell.y, hiCell.z);
-    const FieldInterval f = fieldBounds(ctx.program, glm::dvec3(blo), glm::dvec3(bhi));
+    const FieldInterval f = fieldBounds(bounds, glm::dvec3(blo), glm::dvec3(bhi));
     st.discard += msSince(t0);
     if (f.hi < iso) {
       ++st.discardedEmpty;
@@ -192,10 +206,24 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
     const glm::dvec3 margin(2.0 * double(ctx.options.normalStep));
     const glm::dvec3 blo = glm::dvec3(grid.point(lo.x, lo.y, lo.z)) - margin;
     const glm::dvec3 bhi = glm::dvec3(grid.point(hiCell.x, hiCell.y, hiCell.z)) + margin;
-    specialiseTapes(ctx.program, blo, bhi, *s.fieldTape,
-                    ctx.options.colours ? s.colourTape.get() : nullptr);
-    fieldProgram = s.fieldTape.get();
-    if (ctx.options.colours) colourProgram = s.colourTape.get();
+    if (group.field) {
+      // The group's tapes are exact over this MPU's box too; pruning them is much shorter.
+      if (!s.childTape) {
+        s.childTape = std::make_unique<blobtree::Program>(makeTapeProgram(*group.field));
+        s.childColourTape = std::make_unique<blobtree::Program>(*s.childTape);
+      }
+      specialiseTape(*group.field, blo, bhi, TapeUse::Field, *s.childTape);
+      fieldProgram = s.childTape.get();
+      if (ctx.options.colours) {
+        specialiseTape(*group.colour, blo, bhi, TapeUse::FieldColour, *s.childColourTape);
+        colourProgram = s.childColourTape.get();
+      }
+    } else {
+      specialiseTapes(ctx.program, blo, bhi, *s.fieldTape,
+                      ctx.options.colours ? s.colourTape.get() : nullptr);
+      fieldProgram = s.fieldTape.get();
+      if (ctx.options.colours) colourProgram = s.colourTape.get();
+    }
     st.tapeInstructions += fieldProgram->code.size();
   }
   st.prune += msSince(t0);
@@ -204,7 +232,8 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
   t0 = Clock::now();
   const std::size_t sx = 1, sy = std::size_t(pts.x), sz = std::size_t(pts.x) * std::size_t(pts.y);
   const std::size_t N = sz * std::size_t(pts.z);
-  s.x.resize(N), s.y.resize(N), s.z.resize(N), s.field.resize(N), s.inside.resize(N);
+  s.x.resize(N), s.y.resize(N), s.z.resize(N), s.field.resize(N);
+  s.inside.resize(N + 16);  // packRow reads up to 15 bytes past a row
   if (s.f.size() < N) s.f.resize(N);
   float cx[65], cy[65], cz[65];  // the grid's own coordinate expression, per axis
   for (int i = 0; i < pts.x; ++i) cx[i] = grid.point(lo.x + i, 0, 0).x;
@@ -271,19 +300,35 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
                        ctx.level);
     st.grid += N;
     st.blocks += ctx.blocks(N);
-    for (std::size_t p2 = 0; p2 < N; ++p2) s.inside[p2] = s.field[p2] >= iso ? 1 : 0;
+    // Restrict: bytes may alias anything, and without it this loop is not vectorised.
+    const float* __restrict field = s.field.data();
+    std::uint8_t* __restrict inside = s.inside.data();
+    for (std::size_t p2 = 0; p2 < N; ++p2) inside[p2] = field[p2] >= iso ? 1 : 0;
   }
-  std::size_t insideCount = 0;
-  for (std::size_t p = 0; p < N; ++p) insideCount += s.inside[p];
+  // Inside flags as one bit mask per point row: crossing edges and mixed cells of a row are
+  // then a few word operations, and only their set bits are visited below.
+  const std::size_t rowCount = std::size_t(pts.y) * std::size_t(pts.z);
+  s.rows.resize(rowCount);
+  const detail::RowBits fullRow = detail::lowBits(pts.x);
+  bool anyInside = false, allInside = true;
+  for (std::size_t row = 0; row < rowCount; ++row) {
+    const detail::RowBits bits = detail::packRow(s.inside.data() + row * sy, pts.x);
+    s.rows[row] = bits;
+    anyInside |= bits != 0;
+    allInside &= bits == fullRow;
+  }
   st.field += msSince(t0);
-  if (insideCount == 0) {
+  if (!anyInside) {
     ++st.empty;
     return nullptr;
   }
-  if (insideCount == N) {
+  if (allInside) {
     ++st.full;
     return nullptr;
   }
+  const auto rowBits = [&](int j, int k) {
+    return s.rows[std::size_t(k) * std::size_t(pts.y) + std::size_t(j)];
+  };
   ++st.crossed;
 
   // ---- vertices on owned crossing edges, in edge-key order ----
@@ -294,25 +339,30 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
   s.edgePoint.clear(), s.edgeAxis.clear();
   r->vertexRowStart.resize(std::size_t(owned.y) * std::size_t(owned.z) + 1);
   const std::size_t strides[3] = {sx, sy, sz};
+  const detail::RowBits ownedMask = detail::lowBits(owned.x);
+  const detail::RowBits xEdgeMask = detail::lowBits(std::min(owned.x, pts.x - 1));
   for (int k = 0; k < owned.z; ++k) {
     for (int j = 0; j < owned.y; ++j) {
       const std::size_t row = std::size_t(k) * std::size_t(owned.y) + std::size_t(j);
       const std::uint32_t rowBegin = std::uint32_t(s.edgePoint.size());
       r->vertexRowStart[row] = rowBegin;
       const std::size_t base = std::size_t(k) * sz + std::size_t(j) * sy;
-      const bool yEdge = j + 1 < pts.y, zEdge = k + 1 < pts.z;
-      for (int i = 0; i < owned.x; ++i) {
+      const detail::RowBits here = rowBits(j, k);
+      // Edge (i, axis) crosses when its two end points differ; i < owned.x, and an x edge
+      // also needs i + 1 < pts.x.
+      const detail::RowBits cross[3] = {
+          (here ^ (here >> 1)) & xEdgeMask,
+          j + 1 < pts.y ? (here ^ rowBits(j + 1, k)) & ownedMask : detail::RowBits(0),
+          k + 1 < pts.z ? (here ^ rowBits(j, k + 1)) & ownedMask : detail::RowBits(0)};
+      detail::forEachBit(cross[0] | cross[1] | cross[2], [&](int i) {
         const std::size_t p = base + std::size_t(i);
-        const std::uint8_t in = s.inside[p];
-        const bool cross[3] = {i + 1 < pts.x && s.inside[p + sx] != in,
-                               yEdge && s.inside[p + sy] != in, zEdge && s.inside[p + sz] != in};
         for (int axis = 0; axis < 3; ++axis) {
-          if (!cross[axis]) continue;
+          if (!((cross[axis] >> i) & 1u)) continue;
           s.vertexId[p * 3 + std::size_t(axis)] = std::uint32_t(s.edgePoint.size());
           s.edgePoint.push_back(std::uint32_t(p));
           s.edgeAxis.push_back(std::uint8_t(axis));
         }
-      }
+      });
       ctx.vertexRows[ctx.vertexRow(lo.z + k, lo.y + j, mi.x)] =
           std::uint32_t(s.edgePoint.size()) - rowBegin;
     }
@@ -401,7 +451,7 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
   t0 = Clock::now();
   const auto& cases = mesh::marchingCubesCases();
   const int ncx = pts.x - 1, ncy = pts.y - 1, ncz = pts.z - 1;
-  s.config.resize(std::size_t(ncx));
+  const detail::RowBits cellMask = detail::lowBits(ncx);
   r->triangleRowStart.resize(std::size_t(ncy) * std::size_t(ncz) + 1);
   for (int k = 0; k < ncz; ++k) {
     for (int j = 0; j < ncy; ++j) {
@@ -411,15 +461,17 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
       const std::uint8_t* r10 = r00 + sy;
       const std::uint8_t* r01 = r00 + sz;
       const std::uint8_t* r11 = r01 + sy;
-      std::uint8_t* cfg = s.config.data();
-      // Corner c at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1) sets bit c; vectorised by the
-      // compiler over the row.
-      for (int i = 0; i < ncx; ++i)
-        cfg[i] = std::uint8_t(r00[i] | (r00[i + 1] << 1) | (r10[i] << 2) | (r10[i + 1] << 3) |
-                              (r01[i] << 4) | (r01[i + 1] << 5) | (r11[i] << 6) | (r11[i + 1] << 7));
-      for (int i = 0; i < ncx; ++i) {
-        if (cfg[i] == 0 || cfg[i] == 255) continue;
-        const mesh::McCase& mc = cases[cfg[i]];
+      // Mixed cells (case neither 0 nor 255): some corner is inside and some is not.
+      const detail::RowBits any4 = rowBits(j, k) | rowBits(j + 1, k) | rowBits(j, k + 1) |
+                                   rowBits(j + 1, k + 1);
+      const detail::RowBits all4 = rowBits(j, k) & rowBits(j + 1, k) & rowBits(j, k + 1) &
+                                   rowBits(j + 1, k + 1);
+      const detail::RowBits mixed = (any4 | (any4 >> 1)) & ~(all4 & (all4 >> 1)) & cellMask;
+      detail::forEachBit(mixed, [&](int i) {
+        // Corner c at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1) sets bit c.
+        const int config = r00[i] | (r00[i + 1] << 1) | (r10[i] << 2) | (r10[i + 1] << 3) |
+                           (r01[i] << 4) | (r01[i + 1] << 5) | (r11[i] << 6) | (r11[i + 1] << 7);
+        const mesh::McCase& mc = cases[std::size_t(config)];
         for (int t = 0; t < mc.triangleCount; ++t) {
           std::array<std::uint32_t, 3> tri{};
           for (int v = 0; v < 3; ++v) {
@@ -437,7 +489,7 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
           }
           r->triangles.push_back(tri);
         }
-      }
+      });
       ctx.triangleRows[ctx.triangleRow(lo.z + k, lo.y + j, mi.x)] =
           std::uint32_t(r->triangles.size()) - rowBegin;
     }
@@ -445,6 +497,52 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, Scratch& s, ThreadSta
   r->triangleRowStart.back() = std::uint32_t(r->triangles.size());
   st.cells += msSince(t0);
   return r;
+}
+
+// Hierarchical discard: a group of kGroupMpus^3 MPUs is bounded first with the whole Program;
+// when it has no surface all its MPUs are discarded, otherwise their own bounds run on the
+// group's pruned field tape (a few instructions instead of the whole Program). The tape is
+// exact inside the group's box, so the bounds stay conservative and the mesh is unchanged.
+constexpr int kGroupMpus = 2;
+
+void processGroup(Context& ctx, int g, Scratch& s, ThreadStats& st) {
+  const glm::ivec3 groups = (ctx.mpus + kGroupMpus - 1) / kGroupMpus;
+  const glm::ivec3 gi(g % groups.x, (g / groups.x) % groups.y, g / (groups.x * groups.y));
+  const glm::ivec3 m0 = gi * kGroupMpus, m1 = glm::min(m0 + kGroupMpus, ctx.mpus);
+  const blobtree::Program* bounds = &ctx.program;
+  GroupTapes tapes;
+  const bool single = (m1 - m0) == glm::ivec3(1);
+  if (ctx.options.earlyDiscard && !single) {
+    const auto t0 = Clock::now();
+    const glm::ivec3 c0 = m0 * ctx.D, c1 = glm::min(m1 * ctx.D, ctx.grid.cells);
+    const glm::dvec3 blo(ctx.grid.point(c0.x, c0.y, c0.z)), bhi(ctx.grid.point(c1.x, c1.y, c1.z));
+    const FieldInterval f = fieldBounds(ctx.program, blo, bhi);
+    const float iso = layout::ISO_VALUE;
+    if (f.hi < iso || f.lo >= iso) {
+      const std::uint64_t count = std::uint64_t((m1 - m0).x) * std::uint64_t((m1 - m0).y) *
+                                  std::uint64_t((m1 - m0).z);
+      (f.hi < iso ? st.discardedEmpty : st.discardedFull) += count;
+      st.discard += msSince(t0);
+      return;  // results stay null
+    }
+    if (!s.groupTape) {
+      s.groupTape = std::make_unique<blobtree::Program>(makeTapeProgram(ctx.program));
+      s.groupColourTape = std::make_unique<blobtree::Program>(*s.groupTape);
+    }
+    const glm::dvec3 margin(2.0 * double(ctx.options.normalStep));
+    const bool colourTape = ctx.options.pruneTapes && ctx.options.colours;
+    specialiseTapes(ctx.program, blo - margin, bhi + margin, *s.groupTape,
+                    colourTape ? s.groupColourTape.get() : nullptr);
+    bounds = s.groupTape.get();
+    if (ctx.options.pruneTapes) tapes = {s.groupTape.get(), s.groupColourTape.get()};
+    st.discard += msSince(t0);
+  }
+  for (int z = m0.z; z < m1.z; ++z)
+    for (int y = m0.y; y < m1.y; ++y)
+      for (int x = m0.x; x < m1.x; ++x) {
+        const int m = (z * ctx.mpus.y + y) * ctx.mpus.x + x;
+        ctx.results[std::size_t(m)] = processMpu(ctx, m, *bounds, tapes, s, st);
+      }
 }
 
 // Global index of an edge owned by a neighbour above (x, y or z past the owned range).
@@ -561,12 +659,13 @@ mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::Gr
   tbb::combinable<ThreadStats> perThread;
   tbb::combinable<Scratch> scratch;
   auto t0 = Clock::now();
+  const glm::ivec3 groups = (ctx.mpus + kGroupMpus - 1) / kGroupMpus;
+  const std::size_t groupCount = std::size_t(groups.x) * std::size_t(groups.y) * std::size_t(groups.z);
   arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mpuCount, 1), [&](const auto& range) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groupCount, 1), [&](const auto& range) {
       ThreadStats& ts = perThread.local();
       Scratch& s = scratch.local();
-      for (std::size_t m = range.begin(); m != range.end(); ++m)
-        ctx.results[m] = processMpu(ctx, int(m), s, ts);
+      for (std::size_t g = range.begin(); g != range.end(); ++g) processGroup(ctx, int(g), s, ts);
     });
   });
   st.msMpus = msSince(t0);

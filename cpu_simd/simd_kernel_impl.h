@@ -97,15 +97,17 @@ V triangleDd(const Vec3V<V>& p, const layout::PrimitiveRecord& prim) {
   return dot3(ex, ey, ez, ex, ey, ez);
 }
 
-template <class V>
-V primitiveFieldV(const blobtree::Program& program, const layout::PrimitiveRecord& prim,
-                  Vec3V<V> p) {
+// One primitive type (a compile-time constant, so the switch folds away); forced inline so the
+// per-type loops in primitiveFieldK keep the record's broadcasts out of the block loop.
+template <class V, std::uint32_t Type>
+[[gnu::always_inline]] inline V primitiveOfType(const blobtree::Program& program,
+                                                const layout::PrimitiveRecord& prim, Vec3V<V> p) {
   if (prim.meta.y != 0u) p = toLocal(program.matrices[prim.meta.y], p);
   const V zero(0.0f), one(1.0f);
   const V dx = p.x - V(prim.p0.x), dy = p.y - V(prim.p0.y), dz = p.z - V(prim.p0.z);
   const V nx(prim.p1.x), ny(prim.p1.y), nz(prim.p1.z);
   V dd = zero;
-  switch (prim.meta.x) {
+  switch (Type) {
     case layout::PRIM_POINT:
       dd = dot3(dx, dy, dz, dx, dy, dz);
       break;
@@ -157,6 +159,30 @@ V primitiveFieldV(const blobtree::Program& program, const layout::PrimitiveRecor
       return zero;
   }
   return wyvillV(dd);
+}
+
+// The primitive at K blocks of points: one dispatch on the type for all of them.
+template <class V, int K>
+void primitiveFieldK(const blobtree::Program& program, const layout::PrimitiveRecord& prim,
+                     const Vec3V<V>* p, V* out) {
+#define BLOBVK_PRIM_CASE(T)                                                        \
+  case T:                                                                          \
+    for (int b = 0; b < K; ++b) out[b] = primitiveOfType<V, T>(program, prim, p[b]); \
+    return;
+  switch (prim.meta.x) {
+    BLOBVK_PRIM_CASE(layout::PRIM_POINT)
+    BLOBVK_PRIM_CASE(layout::PRIM_LINE)
+    BLOBVK_PRIM_CASE(layout::PRIM_CYLINDER)
+    BLOBVK_PRIM_CASE(layout::PRIM_DISC)
+    BLOBVK_PRIM_CASE(layout::PRIM_RING)
+    BLOBVK_PRIM_CASE(layout::PRIM_CUBE)
+    BLOBVK_PRIM_CASE(layout::PRIM_TRIANGLE)
+    BLOBVK_PRIM_CASE(layout::PRIM_QUADRIC)
+    default:
+      for (int b = 0; b < K; ++b) out[b] = V(0.0f);
+      return;
+  }
+#undef BLOBVK_PRIM_CASE
 }
 
 // Warps need sin/cos; each lane calls the same libm functions as the reference (correctness
@@ -217,130 +243,161 @@ V powV(const V& base, float exponent) {
   return V::load(lanes);
 }
 
-// One block of V::W points. Registers live in the caller's frame; a taken skip for only some
-// lanes evaluates the subtree for all and zeroes the skipped lanes where the subtree ends.
-template <class V, bool kColour>
-void runBlock(const blobtree::Program& program, const Vec3V<V>& p, V& outField, V* outColour) {
+// K blocks of V::W points through the code at once: each instruction is decoded once and applied
+// to every block (the interpreter's dispatch and the records' broadcasts are paid once per K
+// blocks). Per lane the operations are those of the one-point reference, in the same order.
+// Skips: when every active lane of all K blocks is outside, jump; when some are, evaluate the
+// subtree for all and zero the skipped lanes where the subtree ends.
+template <class V, bool kColour, int K>
+void runBlocks(const blobtree::Program& program, const Vec3V<V>* p, V* outField, V* outColour) {
   using M = typename V::Mask;
-  V reg[layout::MAX_FIELD_REGISTERS];
-  V cr[kColour ? layout::MAX_FIELD_REGISTERS : 1], cg[kColour ? layout::MAX_FIELD_REGISTERS : 1],
-      cb[kColour ? layout::MAX_FIELD_REGISTERS : 1];
-  Vec3V<V> pts[layout::MAX_POINT_REGISTERS];
-  pts[0] = p;
+  constexpr std::size_t kC = kColour ? layout::MAX_FIELD_REGISTERS : 1;
+  V reg[layout::MAX_FIELD_REGISTERS][K];
+  V cr[kC][K], cg[kC][K], cb[kC][K];
+  Vec3V<V> pts[layout::MAX_POINT_REGISTERS][K];
+  for (int b = 0; b < K; ++b) pts[0][b] = p[b];
   // Pending partial skips: at instruction `target`, lanes in `out` get 0 in register `dst`.
-  struct Pending {
-    std::uint32_t target, dst;
-    M out;
-  };
   struct Frame {
-    Pending skip;
-    M enclosingActive;
+    std::uint32_t target, dst;
+    M out[K];
+    M enclosingActive[K];
   };
   // Nesting depth is bounded by the code length; the stack is per thread and grows once.
   thread_local std::vector<Frame> stack;
   if (stack.size() < program.code.size() + 1) stack.resize(program.code.size() + 1);
   Frame* frames = stack.data();
   int pendingCount = 0;
-  M active = ~M::none();  // lanes not yet known to be skipped by an enclosing pending skip
+  M active[K];  // lanes not yet known to be skipped by an enclosing pending skip
+  for (int b = 0; b < K; ++b) active[b] = ~M::none();
   const V zero(0.0f), one(1.0f);
   const std::size_t n = program.code.size();
   const layout::Instruction* code = program.code.data();
+  // The next pc where something other than the next instruction happens: the end of the code
+  // or the innermost pending skip's target (nested skips end no later than enclosing ones).
+  std::size_t stop = n;
   std::size_t pc = 0;
   for (;;) {
-    while (pendingCount > 0 && frames[pendingCount - 1].skip.target <= pc) {
+    while (pc >= stop) {
+      if (pendingCount == 0) break;
       --pendingCount;
-      const Pending& s = frames[pendingCount].skip;
-      reg[s.dst] = select(s.out, zero, reg[s.dst]);
-      if constexpr (kColour) {
-        cr[s.dst] = select(s.out, zero, cr[s.dst]);
-        cg[s.dst] = select(s.out, zero, cg[s.dst]);
-        cb[s.dst] = select(s.out, zero, cb[s.dst]);
+      const Frame& f = frames[pendingCount];
+      for (int b = 0; b < K; ++b) {
+        reg[f.dst][b] = select(f.out[b], zero, reg[f.dst][b]);
+        if constexpr (kColour) {
+          cr[f.dst][b] = select(f.out[b], zero, cr[f.dst][b]);
+          cg[f.dst][b] = select(f.out[b], zero, cg[f.dst][b]);
+          cb[f.dst][b] = select(f.out[b], zero, cb[f.dst][b]);
+        }
+        active[b] = f.enclosingActive[b];
       }
-      active = frames[pendingCount].enclosingActive;
+      stop = pendingCount > 0 ? std::min<std::size_t>(n, frames[pendingCount - 1].target) : n;
     }
     if (pc >= n) break;
     const layout::uvec4 in = code[pc].code;
     const std::uint32_t op = in.x & 0xffu;
     const std::uint32_t dst = in.x >> 8;
+    V* rd = reg[dst];
+    const V* rs = reg[in.y < layout::MAX_FIELD_REGISTERS ? in.y : 0];
     switch (op) {
       case layout::OP_PRIM: {
         const auto& prim = program.primitives[in.y];
-        reg[dst] = primitiveFieldV<V>(program, prim, pts[in.z]);
+        primitiveFieldK<V, K>(program, prim, pts[in.z], rd);
         if constexpr (kColour) {
           const std::uint32_t rgba = prim.meta.z;
-          cr[dst] = V(float(rgba & 0xffu) / 255.0f);
-          cg[dst] = V(float((rgba >> 8) & 0xffu) / 255.0f);
-          cb[dst] = V(float((rgba >> 16) & 0xffu) / 255.0f);
+          const V r(float(rgba & 0xffu) / 255.0f), g(float((rgba >> 8) & 0xffu) / 255.0f),
+              bl(float((rgba >> 16) & 0xffu) / 255.0f);
+          for (int b = 0; b < K; ++b) cr[dst][b] = r, cg[dst][b] = g, cb[dst][b] = bl;
         }
         break;
       }
-      case layout::OP_ADD: {
-        const V a = reg[dst], b = reg[in.y];
-        if constexpr (kColour) {
-          const V wa = vmax(a, zero), wb = vmax(b, zero);
-          const V w = wa + wb;
-          const M m = w > zero;
-          cr[dst] = select(m, (cr[dst] * wa + cr[in.y] * wb) / w, cr[dst]);
-          cg[dst] = select(m, (cg[dst] * wa + cg[in.y] * wb) / w, cg[dst]);
-          cb[dst] = select(m, (cb[dst] * wa + cb[in.y] * wb) / w, cb[dst]);
+      case layout::OP_ADD:
+        for (int b = 0; b < K; ++b) {
+          const V a = rd[b], c = rs[b];
+          if constexpr (kColour) {
+            const V wa = vmax(a, zero), wb = vmax(c, zero);
+            const V w = wa + wb;
+            const M m = w > zero;
+            cr[dst][b] = select(m, (cr[dst][b] * wa + cr[in.y][b] * wb) / w, cr[dst][b]);
+            cg[dst][b] = select(m, (cg[dst][b] * wa + cg[in.y][b] * wb) / w, cg[dst][b]);
+            cb[dst][b] = select(m, (cb[dst][b] * wa + cb[in.y][b] * wb) / w, cb[dst][b]);
+          }
+          rd[b] = a + c;
         }
-        reg[dst] = a + b;
         break;
-      }
       case layout::OP_MAX:
-        if constexpr (kColour) {
-          const M m = reg[in.y] > reg[dst];
-          cr[dst] = select(m, cr[in.y], cr[dst]);
-          cg[dst] = select(m, cg[in.y], cg[dst]);
-          cb[dst] = select(m, cb[in.y], cb[dst]);
+        for (int b = 0; b < K; ++b) {
+          if constexpr (kColour) {
+            const M m = rs[b] > rd[b];
+            cr[dst][b] = select(m, cr[in.y][b], cr[dst][b]);
+            cg[dst][b] = select(m, cg[in.y][b], cg[dst][b]);
+            cb[dst][b] = select(m, cb[in.y][b], cb[dst][b]);
+          }
+          rd[b] = vmax(rd[b], rs[b]);
         }
-        reg[dst] = vmax(reg[dst], reg[in.y]);
         break;
       case layout::OP_MIN:
       case layout::OP_MUL:
-        if constexpr (kColour) {
-          const M m = reg[in.y] < reg[dst];
-          cr[dst] = select(m, cr[in.y], cr[dst]);
-          cg[dst] = select(m, cg[in.y], cg[dst]);
-          cb[dst] = select(m, cb[in.y], cb[dst]);
+        for (int b = 0; b < K; ++b) {
+          if constexpr (kColour) {
+            const M m = rs[b] < rd[b];
+            cr[dst][b] = select(m, cr[in.y][b], cr[dst][b]);
+            cg[dst][b] = select(m, cg[in.y][b], cg[dst][b]);
+            cb[dst][b] = select(m, cb[in.y][b], cb[dst][b]);
+          }
+          rd[b] = op == layout::OP_MIN ? vmin(rd[b], rs[b]) : rd[b] * rs[b];
         }
-        reg[dst] = op == layout::OP_MIN ? vmin(reg[dst], reg[in.y]) : reg[dst] * reg[in.y];
         break;
       case layout::OP_DIFF:
-      case layout::OP_SDIFF: {
-        const V cut = one - reg[in.y];
-        if constexpr (kColour) {
-          const M m = cut < reg[dst];
-          cr[dst] = select(m, cr[in.y], cr[dst]);
-          cg[dst] = select(m, cg[in.y], cg[dst]);
-          cb[dst] = select(m, cb[in.y], cb[dst]);
+      case layout::OP_SDIFF:
+        for (int b = 0; b < K; ++b) {
+          const V cut = one - rs[b];
+          if constexpr (kColour) {
+            const M m = cut < rd[b];
+            cr[dst][b] = select(m, cr[in.y][b], cr[dst][b]);
+            cg[dst][b] = select(m, cg[in.y][b], cg[dst][b]);
+            cb[dst][b] = select(m, cb[in.y][b], cb[dst][b]);
+          }
+          rd[b] = op == layout::OP_DIFF ? vmin(rd[b], cut) : rd[b] * cut;
         }
-        reg[dst] = op == layout::OP_DIFF ? vmin(reg[dst], cut) : reg[dst] * cut;
         break;
-      }
       case layout::OP_ONE_MINUS:
-        reg[dst] = one - reg[dst];
+        for (int b = 0; b < K; ++b) rd[b] = one - rd[b];
         break;
       case layout::OP_POW:
-        reg[dst] = powV(reg[dst], std::bit_cast<float>(in.w));
+        for (int b = 0; b < K; ++b) rd[b] = powV(rd[b], std::bit_cast<float>(in.w));
         break;
       case layout::OP_WARP:
-        pts[dst] = applyWarpV<V>(program, program.warps[in.y], pts[in.z]);
+        for (int b = 0; b < K; ++b)
+          pts[dst][b] = applyWarpV<V>(program, program.warps[in.y], pts[in.z][b]);
         break;
       case layout::OP_SKIP: {
         const layout::BoxRecord& box = program.boxes[in.y];
-        const Vec3V<V>& q = pts[in.z];
-        const M out = (q.x < V(box.lo.x)) | (q.y < V(box.lo.y)) | (q.z < V(box.lo.z)) |
-                      (q.x > V(box.hi.x)) | (q.y > V(box.hi.y)) | (q.z > V(box.hi.z));
-        if (all(out | ~active)) {
-          reg[dst] = zero;
-          if constexpr (kColour) cr[dst] = zero, cg[dst] = zero, cb[dst] = zero;
+        const V lx(box.lo.x), ly(box.lo.y), lz(box.lo.z), hx(box.hi.x), hy(box.hi.y), hz(box.hi.z);
+        M out[K];
+        bool allOut = true, anyOut = false;
+        for (int b = 0; b < K; ++b) {
+          const Vec3V<V>& q = pts[in.z][b];
+          out[b] = (q.x < lx) | (q.y < ly) | (q.z < lz) | (q.x > hx) | (q.y > hy) | (q.z > hz);
+          allOut = allOut && all(out[b] | ~active[b]);
+          anyOut = anyOut || any(out[b]);
+        }
+        if (allOut) {
+          for (int b = 0; b < K; ++b) {
+            rd[b] = zero;
+            if constexpr (kColour) cr[dst][b] = zero, cg[dst][b] = zero, cb[dst][b] = zero;
+          }
           pc = in.w;
           continue;
         }
-        if (any(out)) {
-          frames[pendingCount++] = {{in.w, dst, out}, active};
-          active = active & ~out;
+        if (anyOut) {
+          Frame& f = frames[pendingCount++];
+          f.target = in.w, f.dst = dst;
+          for (int b = 0; b < K; ++b) {
+            f.out[b] = out[b];
+            f.enclosingActive[b] = active[b];
+            active[b] = active[b] & ~out[b];
+          }
+          stop = std::min<std::size_t>(n, in.w);
         }
         break;
       }
@@ -349,46 +406,62 @@ void runBlock(const blobtree::Program& program, const Vec3V<V>& p, V& outField, 
     }
     ++pc;
   }
-  outField = n ? reg[0] : zero;
-  if constexpr (kColour) {
-    if (n) {
-      outColour[0] = cr[0], outColour[1] = cg[0], outColour[2] = cb[0];
-    } else {
-      outColour[0] = outColour[1] = outColour[2] = zero;
+  for (int b = 0; b < K; ++b) {
+    outField[b] = n ? reg[0][b] : zero;
+    if constexpr (kColour) {
+      outColour[3 * b + 0] = n ? cr[0][b] : zero;
+      outColour[3 * b + 1] = n ? cg[0][b] : zero;
+      outColour[3 * b + 2] = n ? cb[0][b] : zero;
     }
   }
 }
 
-// Any n: full blocks straight from the arrays, the tail padded by repeating the last point.
+// Any n: chunks of kChunkBlocks blocks, then single blocks, straight from the arrays; the tail
+// padded by repeating the last point.
+template <class V, int K>
+void evaluateBlocks(const blobtree::Program& program, const float* x, const float* y,
+                    const float* z, float* field, float* r, float* g, float* b, std::size_t i) {
+  Vec3V<V> p[K];
+  for (int k = 0; k < K; ++k) {
+    const std::size_t o = i + std::size_t(k) * V::W;
+    p[k] = {V::loadu(x + o), V::loadu(y + o), V::loadu(z + o)};
+  }
+  V f[K];
+  if (r) {
+    V c[3 * K];
+    runBlocks<V, true, K>(program, p, f, c);
+    for (int k = 0; k < K; ++k) {
+      const std::size_t o = i + std::size_t(k) * V::W;
+      V::storeu(r + o, c[3 * k]), V::storeu(g + o, c[3 * k + 1]), V::storeu(b + o, c[3 * k + 2]);
+    }
+  } else {
+    runBlocks<V, false, K>(program, p, f, nullptr);
+  }
+  for (int k = 0; k < K; ++k) V::storeu(field + i + std::size_t(k) * V::W, f[k]);
+}
+
+// Blocks per chunk: 64 points (8 AVX2 blocks, 4 AVX-512 blocks; measured better than 32 on the
+// tower and random128, see docs/performance.md). More amortises the dispatch further but a chunk
+// only jumps over a skipped subtree when all of its points are outside.
+template <class V>
+inline constexpr int kChunkBlocks = 64 / V::W > 0 ? 64 / V::W : 1;
+
 template <class V>
 void evaluateArrays(const blobtree::Program& program, const float* x, const float* y,
                     const float* z, float* field, float* r, float* g, float* b, std::size_t n) {
-  const bool colour = r != nullptr;
+  constexpr int K = kChunkBlocks<V>;
+  constexpr std::size_t chunk = std::size_t(K) * V::W;
   std::size_t i = 0;
-  auto one = [&](const Vec3V<V>& p, float* f, float* cr, float* cg, float* cb) {
-    V fv(0.0f);
-    if (colour) {
-      V c[3] = {V(0.0f), V(0.0f), V(0.0f)};
-      runBlock<V, true>(program, p, fv, c);
-      V::storeu(cr, c[0]);
-      V::storeu(cg, c[1]);
-      V::storeu(cb, c[2]);
-    } else {
-      runBlock<V, false>(program, p, fv, nullptr);
-    }
-    V::storeu(f, fv);
-  };
-  for (; i + V::W <= n; i += V::W) {
-    const Vec3V<V> p{V::loadu(x + i), V::loadu(y + i), V::loadu(z + i)};
-    one(p, field + i, colour ? r + i : nullptr, colour ? g + i : nullptr, colour ? b + i : nullptr);
-  }
+  for (; i + chunk <= n; i += chunk) evaluateBlocks<V, K>(program, x, y, z, field, r, g, b, i);
+  for (; i + V::W <= n; i += V::W) evaluateBlocks<V, 1>(program, x, y, z, field, r, g, b, i);
   if (i < n) {
     alignas(64) float t[7][V::W];
     for (int l = 0; l < V::W; ++l) {
       const std::size_t s = std::min(i + std::size_t(l), n - 1);
       t[0][l] = x[s], t[1][l] = y[s], t[2][l] = z[s];
     }
-    one({V::load(t[0]), V::load(t[1]), V::load(t[2])}, t[3], t[4], t[5], t[6]);
+    const bool colour = r != nullptr;
+    evaluateBlocks<V, 1>(program, t[0], t[1], t[2], t[3], colour ? t[4] : nullptr, t[5], t[6], 0);
     for (std::size_t l = 0; i + l < n; ++l) {
       field[i + l] = t[3][l];
       if (colour) r[i + l] = t[4][l], g[i + l] = t[5][l], b[i + l] = t[6][l];

@@ -27,6 +27,9 @@ struct Reg {
   Kind kind = Kind::Unknown;
   float c = 0.0f;         // the value when Const (always +0 or 1)
   std::size_t start = 0;  // where the code of the current value begins in the output
+  // Colour tapes: the field is exactly +0 at every point of the region (null twins, constant 0,
+  // combines of such). Then every combine keeps its first operand's field and colour per lane.
+  bool zeroField = false;
 };
 
 struct OpenSkip {
@@ -126,6 +129,7 @@ class Pruner {
     push(layout::OP_SKIP, r, emptyBox_, 0, std::uint32_t(out_.size() + 1));
     if (reg_[r].c == 1.0f) push(layout::OP_ONE_MINUS, r, 0, 0, 0);
     reg_[r].kind = Kind::Nonneg;
+    reg_[r].zeroField = reg_[r].c != 1.0f;
   }
   // The code from `from` on computes register `oldReg`; make it compute `newReg` instead.
   void rename(std::size_t from, std::uint32_t oldReg, std::uint32_t newReg) {
@@ -150,7 +154,7 @@ class Pruner {
       }
       // Colour tapes: the same field (+0) and colour from a null primitive that costs nothing.
       push(layout::OP_PRIM, dst, std::uint32_t(program_.primitives.size()) + in.code.y, 0, 0);
-      reg_[dst] = {Kind::Nonneg, 0.0f, start};
+      reg_[dst] = {Kind::Nonneg, 0.0f, start, true};
       return;
     }
     out_.push_back(in);
@@ -203,6 +207,7 @@ class Pruner {
       materialise(dst);
     }
     out_.push_back(in);
+    r.zeroField = false;  // 1 - 0 and pow(0, 0) are 1
     // pow(x >= +0) is >= +0 and not NaN for the finite exponents compile() emits.
     if (op == layout::OP_ONE_MINUS || r.kind != Kind::Nonneg) r.kind = Kind::Unknown;
   }
@@ -218,6 +223,15 @@ class Pruner {
         a = {Kind::Const, v, start};
         return;
       }
+    }
+    // Colour tapes, both fields +0 everywhere: every combine leaves its first operand as it is,
+    // field and colour, lane by lane (add: w = 0 keeps the colour; max/min/mul: 0 > 0 and
+    // 0 < 0 are false; diff/sdiff: 1 - 0 < 0 is false; the field +0 + +0, max, min, +0 * +0,
+    // min(+0, 1), +0 * 1 are +0). So the second operand's code goes; only when it comes last.
+    if (!fieldOnly_ && a.zeroField && b.zeroField && b.start > a.start) {
+      truncate(b.start);
+      a.start = start;
+      return;
     }
     const bool aNonneg = a.kind == Kind::Nonneg, bNonneg = b.kind == Kind::Nonneg;
     const bool aZero = isConst(d, 0.0f), bZero = isConst(y, 0.0f);

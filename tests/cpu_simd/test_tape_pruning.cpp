@@ -80,6 +80,47 @@ TEST(TapePruning, SameBitsAsTheFullProgramInsideTheRegion) {
   }
 }
 
+// The MPU polygonizer prunes an MPU's tapes from its group's tapes (a tape of a tape): the
+// result must still give the full Program's bits inside the sub-region, colours included.
+TEST(TapePruning, ATapeOfATapeKeepsTheBitsInsideTheSubRegion) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (const auto& [name, node] : allModels()) {
+    SCOPED_TRACE(name);
+    const blobtree::Program program = blobtree::compile(node);
+    blobtree::Program groupField = makeTapeProgram(program), groupColour = groupField;
+    blobtree::Program childField = makeTapeProgram(groupField), childColour = childField;
+    const bool finite = program.bounds.finite();
+    const glm::vec3 lo = finite ? program.bounds.lo : glm::vec3(-2.5f);
+    const glm::vec3 hi = finite ? program.bounds.hi : glm::vec3(2.5f);
+    for (int region = 0; region < 30; ++region) {
+      const glm::vec3 extent = (hi - lo) * (0.1f + 0.5f * u(rng));
+      const glm::vec3 glo = lo + glm::vec3(u(rng), u(rng), u(rng)) * (hi - lo - extent);
+      const glm::vec3 ghi = glo + extent;
+      specialiseTapes(program, glo, ghi, groupField, &groupColour);
+      // A sub-box of the group's box (an MPU of a group), sometimes touching its faces.
+      const glm::vec3 a(u(rng), u(rng), u(rng)), b(u(rng), u(rng), u(rng));
+      const glm::vec3 slo = glo + glm::min(a, b) * (ghi - glo) * (region % 3 == 0 ? 0.0f : 1.0f);
+      const glm::vec3 shi = glo + glm::max(a, b) * (ghi - glo);
+      specialiseTape(groupField, slo, shi, TapeUse::Field, childField);
+      specialiseTape(groupColour, slo, shi, TapeUse::FieldColour, childColour);
+      for (int i = 0; i < 64; ++i) {
+        const glm::vec3 q = i < 8 ? glm::vec3(i & 1, (i >> 1) & 1, (i >> 2) & 1)
+                                  : glm::vec3(u(rng), u(rng), u(rng));
+        const glm::vec3 p = slo + q * (shi - slo);
+        ASSERT_EQ(bits(blobtree::evaluate(childField, p)), bits(blobtree::evaluate(program, p)))
+            << "region " << region;
+        const blobtree::FieldColour fc = blobtree::evaluateWithColour(program, p);
+        const blobtree::FieldColour tc = blobtree::evaluateWithColour(childColour, p);
+        ASSERT_EQ(bits(tc.field), bits(fc.field)) << "region " << region;
+        ASSERT_EQ(bits(tc.colour.x), bits(fc.colour.x)) << "region " << region;
+        ASSERT_EQ(bits(tc.colour.y), bits(fc.colour.y));
+        ASSERT_EQ(bits(tc.colour.z), bits(fc.colour.z));
+      }
+    }
+  }
+}
+
 TEST(TapePruning, ASmallRegionOfALargeBlendKeepsAFewPrimitives) {
   const blobtree::Program program = blobtree::compile(testmodels::randomBlobs(128));
   blobtree::Program tape = makeTapeProgram(program);
