@@ -5,7 +5,9 @@
 #include "blobtree/grid.h"
 #include "blobtree/program.h"
 #include "blobtree/scene_io.h"
+#include "cpu_simd/reference_polygonizer.h"
 #include "vk/field.h"
+#include "vk/polygonize.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
@@ -57,6 +59,30 @@ TEST_P(SceneFieldTest, BothTraversalsMatchScalarReference) {
                             << (traversal == vk::Traversal::Stackless ? " stackless" : " stack-based");
     EXPECT_GT(nonZero, 0u) << "the grid misses the model";
   }
+}
+
+// The GPU mesh against the CPU reference mesh, index by index: same edge keys (vertex order),
+// same triangles, positions within 1e-4 of a cell, on every shipped scene.
+TEST_P(SceneFieldTest, GpuMeshEqualsReferenceMesh) {
+  const auto scene =
+      blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + GetParam() + ".json");
+  const auto program = blobtree::compile(scene.root);
+  blobtree::GridRequest request;
+  request.resolution = 24;
+  const auto grid = blobtree::chooseGrid(program, scene.grid, request);
+  const mesh::TriMesh cpu = cpu::polygonizeReference(program, grid);
+  const mesh::TriMesh gpu = vk::polygonize(device(), program, grid);
+  ASSERT_GT(cpu.triangleCount(), 0u) << GetParam();
+  EXPECT_EQ(gpu.edgeKeys, cpu.edgeKeys) << GetParam();
+  EXPECT_EQ(gpu.triangles, cpu.triangles) << GetParam();
+  ASSERT_EQ(gpu.positions.size(), cpu.positions.size());
+  float worst = 0.0f;
+  for (std::size_t i = 0; i < cpu.positions.size(); ++i) {
+    worst = std::max({worst, std::abs(gpu.positions[i].x - cpu.positions[i].x),
+                      std::abs(gpu.positions[i].y - cpu.positions[i].y),
+                      std::abs(gpu.positions[i].z - cpu.positions[i].z)});
+  }
+  EXPECT_LE(worst, 1e-4f * grid.cellSize) << GetParam();
 }
 
 INSTANTIATE_TEST_SUITE_P(Shipped, SceneFieldTest, ::testing::ValuesIn(shippedScenes()),

@@ -1,0 +1,45 @@
+// Every shipped scene polygonizes into a closed, edge-manifold, consistently oriented mesh with
+// positive volume, at two resolutions.
+#include "blobtree/scene_io.h"
+#include "cpu_simd/reference_polygonizer.h"
+#include "mesh/checks.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace {
+
+std::vector<std::string> shippedScenes() {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(std::string(BLOBVK_SOURCE_DIR) + "/scenes"))
+    if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+class ShippedMesh : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ShippedMesh, WatertightAtTwoResolutions) {
+  using namespace blobvk;
+  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + GetParam() + ".json");
+  const auto program = blobtree::compile(scene.root);
+  for (int resolution : {24, 41}) {
+    blobtree::GridRequest request;
+    request.resolution = resolution;
+    const auto grid = blobtree::chooseGrid(program, scene.grid, request);
+    const mesh::MeshReport report = mesh::checkMesh(cpu::polygonizeReference(program, grid));
+    EXPECT_GT(report.triangles, 0u) << GetParam() << " at " << resolution;
+    EXPECT_TRUE(report.watertight()) << GetParam() << " at " << resolution << ": " << report.summary();
+    EXPECT_GT(report.volume, 0.0) << GetParam() << " at " << resolution;
+    EXPECT_EQ(report.eulerCharacteristic % 2, 0) << GetParam() << ": a closed orientable surface has even V - E + F";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, ShippedMesh, ::testing::ValuesIn(shippedScenes()),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
