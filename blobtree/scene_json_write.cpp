@@ -29,36 +29,11 @@ Json direction(const Vec3& d) {
   return array(d);
 }
 
+// The JSON type names are the toString() names of tree.h.
 const char* typeName(const Node& n) {
-  if (const auto* p = std::get_if<Primitive>(&n.kind)) {
-    switch (p->type) {
-      case PrimitiveType::Point: return "point";
-      case PrimitiveType::Line: return "line";
-      case PrimitiveType::Cylinder: return "cylinder";
-      case PrimitiveType::Disc: return "disc";
-      case PrimitiveType::Ring: return "ring";
-      case PrimitiveType::Cube: return "cube";
-      case PrimitiveType::Triangle: return "triangle";
-      case PrimitiveType::QuadricPoint: return "quadricPoint";
-    }
-  } else if (const auto* o = std::get_if<Operator>(&n.kind)) {
-    switch (o->type) {
-      case OperatorType::Blend: return "blend";
-      case OperatorType::Ricci: return "ricci";
-      case OperatorType::Union: return "union";
-      case OperatorType::Intersection: return "intersection";
-      case OperatorType::Difference: return "difference";
-      case OperatorType::SmoothDifference: return "smoothDifference";
-    }
-  } else {
-    switch (std::get<Warp>(n.kind).type) {
-      case WarpType::Twist: return "twist";
-      case WarpType::Taper: return "taper";
-      case WarpType::Bend: return "bend";
-      case WarpType::Shear: return "shear";
-    }
-  }
-  throw std::invalid_argument("writeSceneJson: node with an unknown type");
+  if (const auto* p = std::get_if<Primitive>(&n.kind)) return toString(p->type);
+  if (const auto* o = std::get_if<Operator>(&n.kind)) return toString(o->type);
+  return toString(std::get<Warp>(n.kind).type);
 }
 
 Json transform(const Transform& t) {

@@ -1,4 +1,6 @@
 // Runs the blobvk binary as a user would and checks what it prints, returns and writes.
+#include "run_cli.h"
+
 #include "mesh/checks.h"
 #include "mesh/io.h"
 
@@ -14,22 +16,9 @@
 
 namespace {
 
-struct CliRun {
-  int status = -1;
-  std::string output;  // stdout and stderr together
-};
+using blobvk::testing::CliRun;
 
-CliRun run(const std::string& args) {
-  const std::string command = std::string(BLOBVK_CLI) + " " + args + " 2>&1";
-  CliRun r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf{};
-  while (std::fgets(buf.data(), int(buf.size()), pipe)) r.output += buf.data();
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
+CliRun run(const std::string& args) { return blobvk::testing::runCli(args); }
 
 std::string source(const std::string& rel) { return std::string(BLOBVK_SOURCE_DIR) + "/" + rel; }
 

@@ -3,6 +3,7 @@
 // self-check, the simulation stays finite (the CLI fails on NaN) and the freed part moves away.
 // The craniotomy's tissue materials (materialFromPrimitive) are checked against the tissue
 // geometry, with the library's own evaluator.
+#include "tests/cli/run_cli.h"
 #include "blobtree/evaluate.h"
 #include "blobtree/scene_json.h"
 #include "mesh/io.h"
@@ -27,22 +28,9 @@ namespace {
 
 using namespace blobvk;
 
-struct CliRun {
-  int status = -1;
-  std::string output;  // stdout and stderr together
-};
+using blobvk::testing::CliRun;
 
-CliRun run(const std::string& args) {
-  const std::string command = std::string(BLOBVK_CLI) + " " + args + " 2>&1";
-  CliRun r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf{};
-  while (std::fgets(buf.data(), int(buf.size()), pipe)) r.output += buf.data();
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
+CliRun run(const std::string& args) { return blobvk::testing::runCli(args); }
 
 std::string source(const std::string& rel) { return std::string(BLOBVK_SOURCE_DIR) + "/" + rel; }
 
