@@ -12,6 +12,7 @@
 //     log2 N for a balanced one. A subtree with a finite box starts with OP_SKIP, which jumps
 //     past it and writes 0 when the point is outside (the escape link of stackless BVH walks).
 #include "blobtree/program.h"
+#include "blobtree/scene_limits.h"
 #include "blobtree/tree.h"
 
 #include <glm/geometric.hpp>
@@ -31,7 +32,9 @@ namespace {
 
 using Mat4 = glm::dmat4;
 constexpr double kInf = 1e30;
-constexpr std::size_t kMaxDepth = 100000;
+// The readers' limit: lowering recurses (~0.7 KB of stack per level), so 100000 levels
+// overflowed an 8 MB stack at ~12000; 4096 levels need ~3 MB.
+constexpr std::size_t kMaxDepth = limits::kMaxDepth;
 
 struct Box {
   glm::dvec3 lo{kInf}, hi{-kInf};
@@ -156,7 +159,7 @@ class Compiler {
   }
 
   Lowered lower(const Node& node, const Mat4& parent, std::size_t depth) {
-    if (depth > kMaxDepth) throw std::invalid_argument("tree deeper than 100000 levels");
+    if (depth > kMaxDepth) throw std::invalid_argument("tree deeper than " + std::to_string(kMaxDepth) + " levels");
     const Mat4 frame = node.transform.isIdentity() ? parent : parent * toMatrix(node.transform);
     if (const auto* prim = std::get_if<Primitive>(&node.kind)) return lowerPrimitive(*prim, frame);
     if (const auto* warp = std::get_if<Warp>(&node.kind)) return lowerWarp(node, *warp, frame, depth);

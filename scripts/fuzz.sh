@@ -18,9 +18,14 @@ for t in "${targets[@]}"; do
   case "$t" in
     fuzz_scene_json) seeds=(scenes tests/data/bad) ;;
     fuzz_scene_blob) seeds=(scenes/legacy tests/data/bad) ;;
+    fuzz_mesh_readers) seeds=(tests/fuzz/seeds/mesh) ;;  # first byte: 0 .ply, 1 .obj, 2 .stl
     *) seeds=() ;;
   esac
-  echo "== $t for $minutes min"
+  log="build/fuzz/logs/$t.log"
+  mkdir -p build/fuzz/logs
+  echo "== $t for $minutes min (full log: $log)"
+  # -timeout: an input that runs 10 s counts as a hang; -rss_limit_mb: 2 GB is a leak/blow-up.
   "build/fuzz/tests/fuzz/$t" "$corpus" "${seeds[@]}" -max_total_time=$((minutes * 60)) \
-    -artifact_prefix="$crashes/" -print_final_stats=1 2>&1 | grep -E "stat::number_of_executed_units|stat::peak_rss|SUMMARY|Done" || true
+    -timeout=10 -rss_limit_mb=2048 -artifact_prefix="$crashes/" -print_final_stats=1 >"$log" 2>&1 || true
+  grep -E "INITED|DONE|stat::number_of_executed_units|stat::peak_rss|SUMMARY|Done|artifact" "$log" || true
 done
