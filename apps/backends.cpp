@@ -47,6 +47,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     vk::StandaloneContext context(deviceOptions);
     vk::GpuPolygonizeOptions options;
     options.refineSteps = settings.refineSteps;
+    options.traversal = settings.stackBased ? vk::Traversal::StackBased : vk::Traversal::Stackless;
     vk::GpuStats gpu;
     mesh = vk::polygonize(context.device(), program, grid, options, &gpu);
     evaluations = double(gpu.fieldEvaluations);

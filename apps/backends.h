@@ -17,6 +17,7 @@ struct PolygonizeSettings {
   int mpuSize = 0;              // cpu: cells per MPU side, 0 = default
   std::string device;           // vk: name substring or index
   bool validation = false;      // vk: Khronos validation layer
+  bool stackBased = false;      // vk: the stack-based traversal instead of the stackless code
 };
 
 struct PolygonizeStats {

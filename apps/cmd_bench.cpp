@@ -33,6 +33,7 @@ void addBenchCommand(CLI::App& app) {
     std::vector<int> threads{0};
     int repeats = 5, warmup = 1, mpuSize = 0;
     std::string device;
+    std::vector<std::string> traversals{"stackless"};
     bool json = false;
   };
   auto a = std::make_shared<Args>();
@@ -47,6 +48,8 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--warmup", a->warmup, "Untimed runs first")->check(CLI::Range(0, 100));
   cmd->add_option("--mpu", a->mpuSize, "Cells per MPU side (cpu; 0 = default)")->check(CLI::Range(0, 64));
   cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
+  cmd->add_option("--traversal", a->traversals, "vk: stackless and/or stack (the thesis' Table 4.2 comparison)")
+      ->check(CLI::IsMember({"stackless", "stack"}));
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a] {
     std::vector<Row> rows;
@@ -55,13 +58,17 @@ void addBenchCommand(CLI::App& app) {
       for (int resolution : a->resolutions) {
         const blobtree::GridSpec grid = gridFor(model, std::nullopt, resolution);
         for (const std::string& backend : a->backends) {
-          for (int threads : a->threads) {
+          for (int threads : a->threads)
+          for (const std::string& traversal : a->traversals) {
+            // The traversal only matters on the GPU; CPU backends run once.
+            if (backend != "vk" && traversal != a->traversals.front()) continue;
             PolygonizeSettings settings;
             settings.backend = backend;
             settings.threads = threads;
             settings.mpuSize = a->mpuSize;
             settings.device = a->device;
-            Row row{path, backend, resolution, threads};
+            settings.stackBased = traversal == "stack";
+            Row row{path, backend == "vk" ? backend + (settings.stackBased ? "-stack" : "") : backend, resolution, threads};
             std::vector<double> times;
             for (int i = 0; i < a->warmup + a->repeats; ++i) {
               PolygonizeStats stats;
