@@ -83,6 +83,14 @@ if ! "$blobvk" bench $scenes --resolution $resolutions --backend vk --repeats 3 
   echo "[]" >"$work/bench_vk.json"
 fi
 
+# The thesis' Table 4.2: the stackless register code against the stack-based traversal, on the
+# GPU backend (small grids: the stack-based kernel is slow on lavapipe).
+# shellcheck disable=SC2086
+if ! "$blobvk" bench $scenes --resolution 32 48 64 --backend vk --traversal stackless stack --repeats 1 --warmup 1 \
+  --json >"$work/bench_traversal.json" 2>"$work/bench_traversal.err"; then
+  echo "[]" >"$work/bench_traversal.json"
+fi
+
 python3 "$root/tests/evaluation/write_report.py" "$work" "$out" "$root/docs/evaluation.md"
 
 if command -v gnuplot >/dev/null; then

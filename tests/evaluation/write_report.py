@@ -102,8 +102,21 @@ w("|---|---|---|---|---|---|---|")
 for b in bench:
     w(f"| {os.path.basename(b['scene'])} | {b['resolution']} | {b['backend']} | {b['threads']} | {1000 * b['median_s']:.2f} | {b['triangles']} | {b['fvept']:.2f} |")
 w("")
-w("Stackless against stack-based evaluation: no CLI option selects the evaluator's traversal, so")
-w("this comparison is not measured here (needs a `--evaluator stackless|stack` switch in `bench`).\n")
+traversal = json.load(open(os.path.join(work, "bench_traversal.json")))
+w("### Stackless against stack-based traversal (thesis Table 4.2), Vulkan, `blobvk bench --traversal stackless stack`\n")
+if traversal:
+    w("| scene | resolution | stackless ms | stack-based ms | speed-up |")
+    w("|---|---|---|---|---|")
+    pairs = {}
+    for b in traversal:
+        pairs.setdefault((os.path.basename(b["scene"]), b["resolution"]), {})[b["backend"]] = 1000 * b["median_s"]
+    for (scene, res), t in sorted(pairs.items()):
+        if "vk" in t and "vk-stack" in t:
+            w(f"| {scene} | {res} | {t['vk']:.1f} | {t['vk-stack']:.1f} | {t['vk-stack'] / t['vk']:.2f}x |")
+    w("")
+    w("![stackless against stack-based](evaluation/traversal.png)\n")
+else:
+    w("Not measured: no Vulkan device.\n")
 w("## Charts\n")
 w("![time per FEM step](evaluation/step_time.png)\n")
 w("![polygonization time against resolution](evaluation/resolution.png)\n")
@@ -141,8 +154,7 @@ w("  flap. A capsule retractor then enters the opening and presses the CSF and b
 w("  brain stem. Not modelled: contact between parts (the flap, skull and brain pass through each other")
 w("  if pushed together), fluid CSF (a very soft solid), a skull base, face and neck, cutting during")
 w("  the simulation (the CLI cuts the rest mesh first, then simulates).")
-w("* `blobvk simulate` currently fixes no node (the fixed selector is lost when the soft body is moved;")
-w("  see the lead's notes), so its runs here fall freely apart from the tools; `blobvk cut` fixes them.")
+
 
 with open(report, "w") as f:
     f.write("\n".join(L) + "\n")
@@ -168,7 +180,7 @@ for b in bench:
     series.setdefault(key, []).append((b["resolution"], 1000 * b["median_s"]))
 plots = []
 for (scene, backend, threads), rows in sorted(series.items()):
-    if backend == "vk" or threads > 0:
+    if backend.startswith("vk") or threads > 0:
         p = data(f"res_{scene}_{backend}_{threads}.dat", sorted(rows))
         label = f"{scene} {backend}" + (f" {threads} threads" if backend == "cpu" else "")
         plots.append(f"'{p}' using 1:2 with linespoints title '{label}'")
@@ -185,3 +197,15 @@ for scene in sorted({os.path.basename(b["scene"]).replace(".json", "") for b in 
 with open(os.path.join(work, "threads.gp"), "w") as f:
     f.write(common + f"set output '{chart_dir}/threads.png'\nset xlabel 'CPU threads'\nset xtics 1\n"
             "set ylabel 'median ms'\nplot " + ", ".join(plots) + "\n")
+
+if traversal:
+    plots = []
+    for scene in sorted({os.path.basename(b["scene"]).replace(".json", "") for b in traversal}):
+        for backend, label in (("vk", "stackless"), ("vk-stack", "stack-based")):
+            rows = sorted((b["resolution"], 1000 * b["median_s"]) for b in traversal
+                          if b["backend"] == backend and os.path.basename(b["scene"]).startswith(scene))
+            p = data(f"traversal_{scene}_{backend}.dat", rows)
+            plots.append(f"'{p}' using 1:2 with linespoints title '{scene} {label}'")
+    with open(os.path.join(work, "traversal.gp"), "w") as f:
+        f.write(common + f"set output '{chart_dir}/traversal.png'\nset logscale y\nset xlabel 'cells along the longest side'\n"
+                "set ylabel 'median ms (GPU polygonize, lavapipe)'\nplot " + ", ".join(plots) + "\n")
