@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace blobvk::mesh::detail {
 
@@ -47,5 +48,8 @@ bool parseInt64(std::string_view token, long long& value);
 
 // Lower-cased extension including the dot (".ply"), or "" when there is none.
 std::string lowerExtension(const std::string& path);
+
+// Whitespace-separated words of a text line (spaces, tabs, a trailing CR).
+std::vector<std::string_view> splitWords(std::string_view line);
 
 }  // namespace blobvk::mesh::detail

@@ -49,19 +49,6 @@ void writeObj(const TriMesh& mesh, const std::string& path) {
 
 namespace {
 
-std::vector<std::string_view> splitWords(std::string_view line) {
-  std::vector<std::string_view> words;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-    std::size_t j = i;
-    while (j < line.size() && line[j] != ' ' && line[j] != '\t' && line[j] != '\r') ++j;
-    if (j > i) words.push_back(line.substr(i, j - i));
-    i = j;
-  }
-  return words;
-}
-
 // Resolves a 1-based (or negative, relative) OBJ index against `count` items; -1 when invalid.
 long long resolveIndex(std::string_view token, std::size_t count) {
   long long i = 0;
@@ -88,7 +75,7 @@ TriMesh readObj(const std::string& path) {
     const std::string_view line = all.substr(pos, eol - pos);
     pos = eol + 1;
     ++lineNo;
-    const auto words = splitWords(line);
+    const auto words = detail::splitWords(line);
     if (words.empty() || words[0].front() == '#') continue;
     const std::string where = "OBJ line " + std::to_string(lineNo) + ": ";
     const auto readFloats = [&](std::size_t first, std::size_t n, float* out) {

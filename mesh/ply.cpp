@@ -127,19 +127,6 @@ struct Element {
   std::vector<Property> properties;
 };
 
-std::vector<std::string_view> splitWords(std::string_view line) {
-  std::vector<std::string_view> words;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-    std::size_t j = i;
-    while (j < line.size() && line[j] != ' ' && line[j] != '\t' && line[j] != '\r') ++j;
-    if (j > i) words.push_back(line.substr(i, j - i));
-    i = j;
-  }
-  return words;
-}
-
 // Reads scalar values from the body, ascii or binary, never past the end.
 class BodyReader {
  public:
@@ -231,7 +218,7 @@ TriMesh readPly(const std::string& path) {
     const std::string_view line = all.substr(pos, eol - pos);
     pos = std::min(all.size(), eol + 1);
     ++lineNo;
-    const auto words = splitWords(line);
+    const auto words = detail::splitWords(line);
     const std::string where = "PLY header line " + std::to_string(lineNo) + ": ";
     if (lineNo == 1) {
       if (words.size() != 1 || words[0] != "ply") detail::fail(path, "not a PLY file (first line is not 'ply')");
