@@ -107,6 +107,11 @@ class CutTopology {
     std::uint32_t tets[2] = {kNone, kNone};
     std::uint32_t extra = 0;  // tets beyond two (a conformity error, reported by selfCheck)
   };
+  struct TetKeys {
+    std::array<std::uint64_t, 6> edges{};
+    std::array<FaceKey, 4> faces{};
+  };
+  TetKeys prefetchKeys(const Tet& t) const;
   void attach(std::uint32_t slot);
   void detach(std::uint32_t slot);
   void retarget(std::uint32_t slot, const Tet& before, const Tet& after);
