@@ -217,6 +217,90 @@ void Simulation::step() {
   d.stats = stats;
 }
 
+// Reference implementation of the contract in simulation.h: validates the whole change before
+// touching the state, applies it, then rebuilds the per-element data, masses and matrix pattern.
+void Simulation::applyTopologyChange(const TopologyChange& c) {
+  Impl& d = *impl_;
+  auto fail = [](const std::string& why) { throw std::invalid_argument("topology change: " + why); };
+  if (c.tetNodes.size() != c.tetSlots.size() || c.tetRegions.size() != c.tetSlots.size())
+    fail("tetSlots, tetNodes and tetRegions differ in length");
+  const std::size_t oldNodes = d.mesh.nodeCount();
+  const std::size_t nodes = oldNodes + c.newNodes.size();
+  std::vector<Double3> rest(c.newNodes.size()), pos(c.newNodes.size()), vel(c.newNodes.size());
+  std::vector<unsigned char> fixedNew(c.newNodes.size(), 0);
+  for (std::size_t k = 0; k < c.newNodes.size(); ++k) {
+    const NodeOrigin& o = c.newNodes[k];
+    bool allFixed = true, any = false;
+    for (int i = 0; i < 4; ++i) {
+      const std::uint32_t s = o.sources[std::size_t(i)];
+      if (s == kNoSource) continue;
+      if (s >= oldNodes + k) fail("new node " + std::to_string(oldNodes + k) + " has source " + std::to_string(s) + ", not an earlier node");
+      const double w = o.weights[std::size_t(i)];
+      if (!std::isfinite(w)) fail("new node " + std::to_string(oldNodes + k) + " has a non-finite weight");
+      const bool isNew = s >= oldNodes;
+      const Double3& r = isNew ? rest[s - oldNodes] : d.mesh.restPositions[s];
+      const Double3& p = isNew ? pos[s - oldNodes] : d.mesh.positions[s];
+      const Double3& v = isNew ? vel[s - oldNodes] : d.velocity[s];
+      rest[k] = {rest[k].x + w * r.x, rest[k].y + w * r.y, rest[k].z + w * r.z};
+      pos[k] = {pos[k].x + w * p.x, pos[k].y + w * p.y, pos[k].z + w * p.z};
+      vel[k] = {vel[k].x + w * v.x, vel[k].y + w * v.y, vel[k].z + w * v.z};
+      allFixed = allFixed && (isNew ? fixedNew[s - oldNodes] != 0 : d.fixed[s] != 0);
+      any = true;
+    }
+    if (!any) fail("new node " + std::to_string(oldNodes + k) + " has no source");
+    fixedNew[k] = (allFixed || (d.settings.fixed && d.settings.fixed(rest[k]))) ? 1 : 0;
+  }
+  std::size_t tetCount = d.mesh.tetCount();
+  for (std::size_t k = 0; k < c.tetSlots.size(); ++k) {
+    const std::uint32_t slot = c.tetSlots[k];
+    if (slot > tetCount) fail("tet slot " + std::to_string(slot) + " is past the end (" + std::to_string(tetCount) + " tets)");
+    if (slot == tetCount) ++tetCount;
+    if (c.tetRegions[k] >= d.settings.materials.size()) fail("tet slot " + std::to_string(slot) + " has region " + std::to_string(c.tetRegions[k]) + " without a material");
+    const auto& t = c.tetNodes[k];
+    for (std::uint32_t v : t)
+      if (v >= nodes) fail("tet slot " + std::to_string(slot) + " references node " + std::to_string(v) + " of " + std::to_string(nodes));
+    if (t[0] == t[1] || t[0] == t[2] || t[0] == t[3] || t[1] == t[2] || t[1] == t[3] || t[2] == t[3])
+      fail("tet slot " + std::to_string(slot) + " repeats a node");
+    auto at = [&](std::uint32_t v) -> const Double3& { return v < oldNodes ? d.mesh.restPositions[v] : rest[v - oldNodes]; };
+    const Double3 &a = at(t[0]), &b = at(t[1]), &cc = at(t[2]), &e = at(t[3]);
+    const Double3 u{b.x - a.x, b.y - a.y, b.z - a.z}, v{cc.x - a.x, cc.y - a.y, cc.z - a.z}, w{e.x - a.x, e.y - a.y, e.z - a.z};
+    const double vol = (u.x * (v.y * w.z - v.z * w.y) - u.y * (v.x * w.z - v.z * w.x) + u.z * (v.x * w.y - v.y * w.x)) / 6.0;
+    if (!(vol > 0)) fail("tet slot " + std::to_string(slot) + " has a non-positive rest volume");
+  }
+
+  // Apply.
+  for (std::size_t k = 0; k < c.newNodes.size(); ++k) {
+    d.mesh.restPositions.push_back(rest[k]);
+    d.mesh.positions.push_back(pos[k]);
+    d.velocity.push_back(vel[k]);
+    d.fixed.push_back(fixedNew[k]);
+  }
+  if (d.mesh.regions.empty() && !c.tetSlots.empty()) d.mesh.regions.assign(d.mesh.tetCount(), 0);
+  for (std::size_t k = 0; k < c.tetSlots.size(); ++k) {
+    const std::uint32_t slot = c.tetSlots[k];
+    if (slot == d.mesh.tetCount()) {
+      d.mesh.tets.push_back(c.tetNodes[k]);
+      d.mesh.regions.push_back(c.tetRegions[k]);
+    } else {
+      d.mesh.tets[slot] = c.tetNodes[k];
+      d.mesh.regions[slot] = c.tetRegions[k];
+    }
+  }
+  d.mesh.boundaryFaces = findBoundaryFaces(d.mesh);
+  d.elements.build(d.mesh, d.settings.materials);
+  d.matrix.build(nodes, d.mesh.tets);
+  d.mass = d.elements.lumpedMass(nodes);
+  d.freeDof.resize(3 * nodes);
+  for (std::size_t i = 0; i < 3 * nodes; ++i) d.freeDof[i] = d.fixed[i / 3] ? 0 : 1;
+  d.force.assign(3 * nodes, 0);
+  d.rhs.assign(3 * nodes, 0);
+  d.solution.assign(3 * nodes, 0);
+  d.contactDepth.assign(nodes, 0);
+  d.contactNormal.assign(nodes, {});
+  d.embedded = false;
+  d.renderMesh = boundarySurface(d.mesh);
+}
+
 void Simulation::run(int steps) {
   for (int i = 0; i < steps; ++i) step();
 }

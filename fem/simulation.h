@@ -10,6 +10,8 @@
 #include "mesh/tetmesh.h"
 #include "mesh/trimesh.h"
 
+#include <array>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -59,6 +61,27 @@ struct ToolContactReport {
   double maxDepth = 0;     // deepest penetration of a node inside the iso surface
 };
 
+// Where a node added by a topology change comes from: its rest position, position and velocity
+// are sum(weights[i] * value(sources[i])) over the used entries (unused sources are kNoSource).
+// A node duplicated by a crack has one source with weight 1.
+inline constexpr std::uint32_t kNoSource = 0xffffffffu;
+struct NodeOrigin {
+  std::array<std::uint32_t, 4> sources{kNoSource, kNoSource, kNoSource, kNoSource};
+  std::array<double, 4> weights{};
+};
+
+// A local change of the mesh, as one cut event makes it (`cutting::CutResult` converts to it):
+// `newNodes` are appended in order (existing node indices never change); slot `tetSlots[k]`
+// becomes `tetNodes[k]` with material region `tetRegions[k]` — an existing slot rewritten in
+// place, or the next slot past the current end. A new node is fixed when the fixed selector
+// picks its rest position or all its sources are fixed.
+struct TopologyChange {
+  std::vector<NodeOrigin> newNodes;
+  std::vector<std::uint32_t> tetSlots;
+  std::vector<std::array<std::uint32_t, 4>> tetNodes;
+  std::vector<std::uint32_t> tetRegions;
+};
+
 struct Energies {
   double kinetic = 0, elastic = 0, gravitational = 0;  // gravitational = -sum m g.x
   double total() const { return kinetic + elastic + gravitational; }
@@ -75,6 +98,12 @@ class Simulation {
 
   void step();
   void run(int steps);
+
+  // Applies a topology change (a cut) to the running simulation, keeping its state: validates
+  // the change (indices, positive rest volumes; throws std::invalid_argument with the reason)
+  // and rebuilds the element data, masses and matrix pattern of what it touched. Boundary
+  // faces and the render surface become the new tet boundary.
+  void applyTopologyChange(const TopologyChange& change);
 
   double time() const;
   const mesh::TetMesh& mesh() const;                  // positions are the current state
