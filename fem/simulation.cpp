@@ -320,6 +320,17 @@ void Simulation::setPositions(const std::vector<mesh::Double3>& p) {
   impl_->mesh.positions = p;
 }
 
+void Simulation::setFixed(const std::vector<std::uint32_t>& nodes, bool fixed) {
+  Impl& d = *impl_;
+  for (std::uint32_t i : nodes)
+    if (i >= d.mesh.nodeCount()) throw std::invalid_argument("setFixed: node " + std::to_string(i) + " out of range");
+  for (std::uint32_t i : nodes) {
+    d.fixed[i] = fixed ? 1 : 0;
+    for (int c = 0; c < 3; ++c) d.freeDof[3 * std::size_t(i) + std::size_t(c)] = fixed ? 0 : 1;
+    if (fixed) d.velocity[i] = {};
+  }
+}
+
 void Simulation::setVelocities(const std::vector<mesh::Double3>& v) {
   if (v.size() != impl_->mesh.nodeCount()) throw std::invalid_argument("setVelocities: wrong node count");
   impl_->velocity = v;

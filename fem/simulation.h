@@ -113,6 +113,10 @@ class Simulation {
   void setVelocities(const std::vector<mesh::Double3>& velocities);
   const std::vector<double>& nodeMasses() const;
   const std::vector<unsigned char>& fixedMask() const;  // 1 per fixed node
+  // Pins (fixed = true) or releases nodes after construction. A pinned node is not moved by the
+  // solver and keeps what setPositions gives it, so a caller can drive it along a scripted path
+  // (e.g. a bone flap lifted away by a grasping tool); its velocity is set to zero.
+  void setFixed(const std::vector<std::uint32_t>& nodes, bool fixed);
   const SimulationSettings& settings() const;
 
   // Elastic forces at the current positions (3 per node; rotations re-extracted first).
