@@ -1,7 +1,10 @@
 // The Vulkan backend on the machine's default device (lavapipe here), validation off: field
 // evaluations per second for both traversals (the thesis' Table 4.2 comparison) and the whole
 // GPU polygonization, on the shipped tower and random128 scenes. Arguments: {resolution}.
-// A scalar CPU baseline (blobtree::evaluate, one thread) over the same grid is included.
+// CPU baselines over the same grid points: scalar (blobtree::evaluate, one thread) and the AVX
+// evaluator on all threads (cpu_simd::evaluateFieldBatch on rows of points, TBB), the issue's
+// "lavapipe against the AVX path on the same cores" comparison (the full Program at every point,
+// no MPU discard or tape pruning, like the GPU field pass).
 //   LP_NUM_THREADS=2 bench_vk --benchmark_filter='field'      # evals/s, both traversals
 //   LP_NUM_THREADS=2 bench_vk --benchmark_filter='polygonize/.*/128'
 // Run from the repository root (scenes/ is read relative to it) or set BLOBVK_SCENES.
@@ -9,11 +12,13 @@
 #include "blobtree/grid.h"
 #include "blobtree/program.h"
 #include "blobtree/scene_io.h"
+#include "cpu_simd/simd_evaluator.h"
 #include "vk/field.h"
 #include "vk/polygonize.h"
 #include "vk/standalone.h"
 
 #include <benchmark/benchmark.h>
+#include <tbb/parallel_for.h>
 
 #include <cstdlib>
 #include <map>
@@ -89,6 +94,36 @@ void cpuScalarField(benchmark::State& state, const std::string& scene) {
   state.counters["Mevals_per_s"] = benchmark::Counter(evals * 1e-6, benchmark::Counter::kIsRate);
 }
 
+void cpuSimdField(benchmark::State& state, const std::string& scene) {
+  const Model& m = model(scene);
+  const auto grid = gridFor(m, int(state.range(0)));
+  const auto pts = grid.points();
+  std::vector<float> field(grid.pointCount());
+  const cpu::SimdLevel level = cpu::bestSimdLevel();
+  double evals = 0.0;
+  for (auto _ : state) {
+    // One task per (j, k) row of points: x varies, y and z are constant.
+    tbb::parallel_for(tbb::blocked_range<int>(0, pts.y * pts.z), [&](const tbb::blocked_range<int>& r) {
+      std::vector<float> x(std::size_t(pts.x)), y(std::size_t(pts.x)), z(std::size_t(pts.x));
+      for (int row = r.begin(); row != r.end(); ++row) {
+        const int j = row % pts.y, k = row / pts.y;
+        for (int i = 0; i < pts.x; ++i) {
+          const auto p = grid.point(i, j, k);
+          x[std::size_t(i)] = p.x;
+          y[std::size_t(i)] = p.y;
+          z[std::size_t(i)] = p.z;
+        }
+        cpu::evaluateFieldBatch(m.program, x.data(), y.data(), z.data(),
+                                field.data() + std::size_t(row) * std::size_t(pts.x), std::size_t(pts.x), level);
+      }
+    });
+    benchmark::DoNotOptimize(field.data());
+    evals += double(grid.pointCount());
+  }
+  state.counters["Mevals_per_s"] = benchmark::Counter(evals * 1e-6, benchmark::Counter::kIsRate);
+  state.SetLabel(cpu::toString(level));
+}
+
 void polygonize(benchmark::State& state, const std::string& scene) {
   const Model& m = model(scene);
   const auto grid = gridFor(m, int(state.range(0)));
@@ -110,6 +145,11 @@ void registerAll() {
     for (int res : {64, 128}) {
       benchmark::RegisterBenchmark(("field/stackless/" + s).c_str(), field, s,
                                    vk::Traversal::Stackless)
+          ->Arg(res)->Unit(benchmark::kMillisecond)->UseRealTime();
+      benchmark::RegisterBenchmark(("field/specialised/" + s).c_str(), field, s,
+                                   vk::Traversal::Specialised)
+          ->Arg(res)->Unit(benchmark::kMillisecond)->UseRealTime();
+      benchmark::RegisterBenchmark(("cpu_avx_field/" + s).c_str(), cpuSimdField, s)
           ->Arg(res)->Unit(benchmark::kMillisecond)->UseRealTime();
       benchmark::RegisterBenchmark(("field/stack_based/" + s).c_str(), field, s,
                                    vk::Traversal::StackBased)

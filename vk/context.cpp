@@ -150,16 +150,39 @@ void Device::download(const Buffer& src, void* data, VkDeviceSize bytes, VkDevic
   std::memcpy(data, staging.mapped(), bytes);
 }
 
-const Kernel& Device::kernel(const std::string& shader, std::uint32_t bindings,
-                             std::span<const std::uint32_t> specs) {
-  std::string key = shader;
+namespace {
+std::string kernelKey(const std::string& name, std::span<const std::uint32_t> specs) {
+  std::string key = name;
   for (auto s : specs) {
     key.push_back(':');
     key.append(std::to_string(s));
   }
-  if (auto it = kernels_.find(key); it != kernels_.end()) return it->second;
+  return key;
+}
+}  // namespace
 
-  const auto code = shaderCode(shader);
+const Kernel& Device::kernel(const std::string& shader, std::uint32_t bindings,
+                             std::span<const std::uint32_t> specs) {
+  const std::string key = kernelKey(shader, specs);
+  if (auto it = kernels_.find(key); it != kernels_.end()) return it->second;
+  return createKernel(key, shader, shaderCode(shader), bindings, specs);
+}
+
+const Kernel* Device::findKernel(const std::string& name, std::span<const std::uint32_t> specs) const {
+  auto it = kernels_.find(kernelKey(name, specs));
+  return it == kernels_.end() ? nullptr : &it->second;
+}
+
+const Kernel& Device::kernel(const std::string& name, std::span<const std::uint32_t> code,
+                             std::uint32_t bindings, std::span<const std::uint32_t> specs) {
+  const std::string key = kernelKey(name, specs);
+  if (auto it = kernels_.find(key); it != kernels_.end()) return it->second;
+  return createKernel(key, name, code, bindings, specs);
+}
+
+const Kernel& Device::createKernel(const std::string& key, const std::string& shader,
+                                   std::span<const std::uint32_t> code, std::uint32_t bindings,
+                                   std::span<const std::uint32_t> specs) {
   Kernel k;
   k.bindings = bindings;
   k.workgroupSize = specs.empty() ? 0 : specs[0];

@@ -93,6 +93,12 @@ class Device {
   // (constant_id i = specs[i]; constant 0 is the workgroup size by convention).
   const Kernel& kernel(const std::string& shader, std::uint32_t bindings,
                        std::span<const std::uint32_t> specs);
+  // The same for SPIR-V made at run time (vk/runtime_compiler.h); `name` must identify the code
+  // (e.g. shader + a hash of the source), since pipelines are cached by name and specs.
+  const Kernel& kernel(const std::string& name, std::span<const std::uint32_t> code,
+                       std::uint32_t bindings, std::span<const std::uint32_t> specs);
+  // A cached pipeline, or null (lets callers skip generating code that is already built).
+  const Kernel* findKernel(const std::string& name, std::span<const std::uint32_t> specs) const;
 
   // Records with `record`, submits to the host queue and waits. Throws on device loss.
   void submitAndWait(const std::function<void(VkCommandBuffer)>& record);
@@ -105,6 +111,9 @@ class Device {
  private:
   friend class Buffer;
   void destroyBuffer(Buffer& b);
+  const Kernel& createKernel(const std::string& key, const std::string& shader,
+                             std::span<const std::uint32_t> code, std::uint32_t bindings,
+                             std::span<const std::uint32_t> specs);
 
   HostContext host_;
   Dispatch d_;

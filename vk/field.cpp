@@ -19,8 +19,7 @@ std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& gri
 void recordFieldSlab(Recorder& rec, const GpuProgram& program, Traversal traversal,
                      std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
                      std::uint32_t k0, std::uint32_t layers, const Buffer& out) {
-  const auto spec = program.specs(workgroupSize, traversal);
-  const Kernel& k = rec.device().kernel("field_grid", 6, spec);
+  const Kernel& k = evaluatorKernel(rec.device(), program, "field_grid", 6, workgroupSize, traversal);
   const auto pts = grid.points();
   struct {
     float origin[3], cell;
@@ -40,7 +39,7 @@ std::vector<float> evaluateFieldOnGrid(Device& device, const blobtree::Program& 
   const auto pts = grid.points();
   std::vector<float> field(grid.pointCount());
   if (field.empty()) return field;
-  const GpuProgram gpu = uploadProgram(device, program, options.traversal);
+  const GpuProgram gpu = uploadProgram(device, program, options.traversal, options.codegen);
   const std::uint32_t brickLayers = layersPerBrick(device, grid, options.maxBrickBytes, 4);
   const std::uint64_t layerPoints = std::uint64_t(pts.x) * std::uint64_t(pts.y);
   Buffer out = device.createBuffer(layerPoints * std::min<std::uint32_t>(brickLayers, pts.z) * 4);

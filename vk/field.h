@@ -15,6 +15,8 @@ struct FieldOptions {
   Traversal traversal = Traversal::Stackless;
   std::uint32_t workgroupSize = 64;
   std::uint64_t maxBrickBytes = 64ull << 20;  // field floats per brick (also capped by the device)
+  // Traversal::Specialised: code generation options (default: chosen for the device).
+  const CodegenOptions* codegen = nullptr;
 };
 
 struct FieldStats {

@@ -1,8 +1,11 @@
 #include "vk/gpu_program.h"
 
+#include "vk/program_codegen.h"
+#include "vk/runtime_compiler.h"
 #include "vk/stack_program.h"
 
 #include <algorithm>
+#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -18,7 +21,17 @@ Buffer uploadArray(Device& device, const std::vector<T>& v) {
 }
 }  // namespace
 
-GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Traversal traversal) {
+const char* traversalName(Traversal traversal) {
+  switch (traversal) {
+    case Traversal::Stackless: return "stackless";
+    case Traversal::StackBased: return "stack-based";
+    case Traversal::Specialised: return "specialised";
+  }
+  return "?";
+}
+
+GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Traversal traversal,
+                         const CodegenOptions* codegenOverride) {
   if (program.fieldRegisters > layout::MAX_FIELD_REGISTERS ||
       program.pointRegisters > layout::MAX_POINT_REGISTERS) {
     throw std::invalid_argument("Program needs " + std::to_string(program.fieldRegisters) +
@@ -49,11 +62,33 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
     g.warpMask |= 1u << (warp.meta.x & 0x1fu);
     if (warp.meta.w != 0) g.warpMask |= kMaskHasMatrix;
   }
+  if (traversal == Traversal::Specialised && canSpecialise(program)) {
+    CodegenOptions codegen;
+    codegen.branchOnSkips = device.info().type != VK_PHYSICAL_DEVICE_TYPE_CPU;
+    if (codegenOverride) codegen = *codegenOverride;
+    g.specialisedSource = generateSpecialisedEvaluator(program, codegen);
+    g.specialisedName = "specialised:" + std::to_string(std::hash<std::string>{}(g.specialisedSource)) + ":" +
+                        std::to_string(g.specialisedSource.size());
+  }
   g.primitives = uploadArray(device, program.primitives);
   g.matrices = uploadArray(device, program.matrices);
   g.boxes = uploadArray(device, program.boxes);
   g.warps = uploadArray(device, program.warps);
   return g;
+}
+
+const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
+                              std::uint32_t bindings, std::uint32_t workgroupSize, Traversal traversal) {
+  if (traversal != Traversal::Specialised || program.specialisedSource.empty())
+    return device.kernel(shader, bindings, program.specs(workgroupSize, traversal == Traversal::StackBased
+                                                                            ? Traversal::StackBased
+                                                                            : Traversal::Stackless));
+  // Only the workgroup size (constant 0) matters to the generated evaluator.
+  const std::array<std::uint32_t, 1> specs{workgroupSize};
+  const std::string name = shader + "/" + program.specialisedName;
+  if (const Kernel* k = device.findKernel(name, specs)) return *k;
+  const auto code = compileComputeShader(shader + ".comp", {{"eval_program.glsl", program.specialisedSource}});
+  return device.kernel(name, code, bindings, specs);
 }
 
 }  // namespace blobvk::vk

@@ -7,13 +7,22 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 
 namespace blobvk::vk {
 
 enum class Traversal {
   Stackless,   // the compiled register code with box skips (the thesis' stackless traversal)
   StackBased,  // a tree walk with an explicit node stack (Table 4.2's comparison)
+  // The stackless register code compiled into the kernel itself (vk/program_codegen.h): one
+  // pipeline per program, built at run time; programs too large for it use Stackless.
+  Specialised,
 };
+
+// "stackless", "stack-based", "specialised".
+const char* traversalName(Traversal traversal);
+
+struct CodegenOptions;
 
 struct GpuProgram {
   Buffer code, primitives, matrices, boxes, warps;
@@ -22,6 +31,10 @@ struct GpuProgram {
   // shaders/eval_program.glsl): the shader drops every opcode, primitive and warp type it lacks.
   std::uint32_t fieldRegisters = layout::MAX_FIELD_REGISTERS;
   std::uint32_t opMask = ~0u, primitiveMask = ~0u, warpMask = ~0u;
+  // Traversal::Specialised: the generated evaluator (empty when the program could not be
+  // specialised and runs on the stackless interpreter) and a name for its pipelines.
+  std::string specialisedSource;
+  std::string specialisedName;
 
   // Specialization constants 0-5 of every kernel that includes eval_program.glsl.
   std::array<std::uint32_t, 6> specs(std::uint32_t workgroupSize, Traversal traversal) const {
@@ -35,10 +48,18 @@ struct GpuProgram {
   }
 };
 
+// The pipeline of an evaluating kernel (an embedded shaders/<shader>.comp that includes
+// eval_program.glsl) for this program and traversal: for Traversal::Specialised the kernel is
+// compiled at run time with the program's generated evaluator (once per device and program).
+const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
+                              std::uint32_t bindings, std::uint32_t workgroupSize, Traversal traversal);
+
 // Uploads the records; Traversal::StackBased uploads the tree encoding (stack_program.h) in
 // place of the register code. Throws std::invalid_argument for a Program over the register
 // limits of the layout.
+// For Traversal::Specialised the evaluator is generated here, with `codegen` when given, else
+// with branches on skips except on CPU devices (vk/program_codegen.h).
 GpuProgram uploadProgram(Device& device, const blobtree::Program& program,
-                         Traversal traversal = Traversal::Stackless);
+                         Traversal traversal = Traversal::Stackless, const CodegenOptions* codegen = nullptr);
 
 }  // namespace blobvk::vk

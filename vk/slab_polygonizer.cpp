@@ -120,8 +120,7 @@ void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_
   const std::uint32_t nx = std::uint32_t(pts.x), ny = std::uint32_t(pts.y);
   const std::uint32_t wg = options_.workgroupSize;
   {
-    const auto spec = program_.specs(wg, options_.traversal);
-    const Kernel& k = device_.kernel("vertices", 12, spec);
+    const Kernel& k = evaluatorKernel(device_, program_, "vertices", 12, wg, options_.traversal);
     struct {
       float origin[3], cell;
       std::uint32_t nx, ny, count, k0, codeLength, refineSteps, attributes;

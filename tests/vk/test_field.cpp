@@ -3,6 +3,7 @@
 #include "blobtree/program.h"
 #include "models.h"
 #include "vk/field.h"
+#include "vk/program_codegen.h"
 #include "vk/stack_program.h"
 #include "vk_fixture.h"
 
@@ -81,8 +82,52 @@ TEST_P(FieldTest, WithoutBoxSkipsGivesTheSameField) {
             1e-6f);
 }
 
+// The specialised evaluator (generated GLSL) with both skip styles: real branches (what GPUs
+// get) and masked straight-line code (what CPU drivers get) give the interpreter's field.
+TEST_P(FieldTest, SpecialisedMatchesStacklessWithAndWithoutBranches) {
+  const auto model = testModels()[GetParam()];
+  const auto program = blobtree::compile(model.root);
+  ASSERT_TRUE(vk::canSpecialise(program));
+  const auto grid = gridFor(program, 20);
+  const auto cpu = cpuField(program, grid);
+  const auto stackless = vk::evaluateFieldOnGrid(device(), program, grid);
+  for (bool branch : {true, false}) {
+    vk::CodegenOptions codegen;
+    codegen.branchOnSkips = branch;
+    vk::FieldOptions o;
+    o.traversal = vk::Traversal::Specialised;
+    o.codegen = &codegen;
+    const auto gpu = vk::evaluateFieldOnGrid(device(), program, grid, o);
+    EXPECT_LT(maxDiff(gpu, cpu), 1e-5f) << model.name << (branch ? " branches" : " masked");
+    EXPECT_LT(maxDiff(gpu, stackless), 1e-6f) << model.name << (branch ? " branches" : " masked");
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Models, FieldTest, ::testing::Range<std::size_t>(0, testModels().size()),
                          [](const auto& info) { return testModels()[info.param].name; });
+
+// A program over the specialisation limit runs on the stackless interpreter instead.
+TEST_F(VulkanTest, OversizedProgramFallsBackToTheInterpreter) {
+  std::vector<blobtree::Node> blobs;
+  for (int i = 0; i < 2100; ++i) blobs.push_back(pointAt({0.001 * i - 1.0, 0.0005 * i, 0.0}));
+  const auto program = blobtree::compile(combine(blobtree::OperatorType::Blend, std::move(blobs)));
+  ASSERT_GT(program.code.size(), vk::kMaxSpecialisedInstructions);
+  EXPECT_FALSE(vk::canSpecialise(program));
+  EXPECT_THROW(vk::generateSpecialisedEvaluator(program), std::invalid_argument);
+  const auto grid = gridFor(program, 8);
+  vk::FieldOptions o;
+  o.traversal = vk::Traversal::Specialised;
+  EXPECT_EQ(vk::evaluateFieldOnGrid(device(), program, grid, o), vk::evaluateFieldOnGrid(device(), program, grid));
+}
+
+TEST(ProgramCodegen, GeneratesOneStatementPerInstructionWithLiterals) {
+  const auto program = blobtree::compile(combine(blobtree::OperatorType::Blend, {pointAt({0.25, 0, 0}), pointAt({-0.5, 0, 0})}));
+  const std::string glsl = vk::generateSpecialisedEvaluator(program);
+  EXPECT_NE(glsl.find("float evaluateField(vec3 p, uint n)"), std::string::npos);
+  EXPECT_NE(glsl.find("float evaluateFieldColour(vec3 p, uint n, out vec3 colour)"), std::string::npos);
+  EXPECT_NE(glsl.find("vec3(0.25, 0.0, 0.0)"), std::string::npos) << glsl;  // the first centre, exact
+  EXPECT_EQ(glsl.find("programCode"), std::string::npos);                  // no Program buffer is read
+}
 
 TEST(StackProgram, TreeEncodingHasOneNodePairPerNode) {
   const auto program = blobtree::compile(testModels()[2].root);

@@ -31,7 +31,7 @@ std::vector<std::string> shippedScenes() {
 
 class SceneFieldTest : public VulkanTest, public ::testing::WithParamInterface<std::string> {};
 
-TEST_P(SceneFieldTest, BothTraversalsMatchScalarReference) {
+TEST_P(SceneFieldTest, EveryTraversalMatchesScalarReference) {
   const auto scene =
       blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + GetParam() + ".json");
   const auto program = blobtree::compile(scene.root);
@@ -44,7 +44,7 @@ TEST_P(SceneFieldTest, BothTraversalsMatchScalarReference) {
     for (int j = 0; j < pts.y; ++j)
       for (int i = 0; i < pts.x; ++i)
         cpu[grid.pointIndex(i, j, k)] = blobtree::evaluate(program, grid.point(i, j, k));
-  for (auto traversal : {vk::Traversal::Stackless, vk::Traversal::StackBased}) {
+  for (auto traversal : {vk::Traversal::Stackless, vk::Traversal::StackBased, vk::Traversal::Specialised}) {
     vk::FieldOptions o;
     o.traversal = traversal;
     const auto gpu = vk::evaluateFieldOnGrid(device(), program, grid, o);
@@ -55,8 +55,7 @@ TEST_P(SceneFieldTest, BothTraversalsMatchScalarReference) {
       worst = std::max(worst, std::abs(gpu[n] - cpu[n]));
       nonZero += cpu[n] != 0.0f;
     }
-    EXPECT_LT(worst, 1e-5f) << GetParam()
-                            << (traversal == vk::Traversal::Stackless ? " stackless" : " stack-based");
+    EXPECT_LT(worst, 1e-5f) << GetParam() << " " << vk::traversalName(traversal);
     EXPECT_GT(nonZero, 0u) << "the grid misses the model";
   }
 }
@@ -71,18 +70,23 @@ TEST_P(SceneFieldTest, GpuMeshEqualsReferenceMesh) {
   request.resolution = 24;
   const auto grid = blobtree::chooseGrid(program, scene.grid, request);
   const mesh::TriMesh cpu = cpu::polygonizeReference(program, grid);
-  const mesh::TriMesh gpu = vk::polygonize(device(), program, grid);
   ASSERT_GT(cpu.triangleCount(), 0u) << GetParam();
-  EXPECT_EQ(gpu.edgeKeys, cpu.edgeKeys) << GetParam();
-  EXPECT_EQ(gpu.triangles, cpu.triangles) << GetParam();
-  ASSERT_EQ(gpu.positions.size(), cpu.positions.size());
-  float worst = 0.0f;
-  for (std::size_t i = 0; i < cpu.positions.size(); ++i) {
-    worst = std::max({worst, std::abs(gpu.positions[i].x - cpu.positions[i].x),
-                      std::abs(gpu.positions[i].y - cpu.positions[i].y),
-                      std::abs(gpu.positions[i].z - cpu.positions[i].z)});
+  for (auto traversal : {vk::Traversal::Stackless, vk::Traversal::Specialised}) {
+    vk::GpuPolygonizeOptions options;
+    options.traversal = traversal;
+    const mesh::TriMesh gpu = vk::polygonize(device(), program, grid, options);
+    const std::string what = GetParam() + " " + vk::traversalName(traversal);
+    EXPECT_EQ(gpu.edgeKeys, cpu.edgeKeys) << what;
+    EXPECT_EQ(gpu.triangles, cpu.triangles) << what;
+    ASSERT_EQ(gpu.positions.size(), cpu.positions.size()) << what;
+    float worst = 0.0f;
+    for (std::size_t i = 0; i < cpu.positions.size(); ++i) {
+      worst = std::max({worst, std::abs(gpu.positions[i].x - cpu.positions[i].x),
+                        std::abs(gpu.positions[i].y - cpu.positions[i].y),
+                        std::abs(gpu.positions[i].z - cpu.positions[i].z)});
+    }
+    EXPECT_LE(worst, 1e-4f * grid.cellSize) << what;
   }
-  EXPECT_LE(worst, 1e-4f * grid.cellSize) << GetParam();
 }
 
 INSTANTIATE_TEST_SUITE_P(Shipped, SceneFieldTest, ::testing::ValuesIn(shippedScenes()),

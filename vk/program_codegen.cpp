@@ -1,0 +1,245 @@
+#include "vk/program_codegen.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace blobvk::vk {
+namespace {
+
+using layout::Instruction;
+
+// A float literal that parses back to exactly `v` (9 significant digits round-trip a float).
+std::string lit(float v) {
+  if (!std::isfinite(v)) {
+    std::uint32_t bits;
+    std::memcpy(&bits, &v, 4);
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "uintBitsToFloat(0x%08xu)", bits);
+    return buf;
+  }
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.9g", double(v));
+  std::string s = buf;
+  if (s.find_first_of(".e") == std::string::npos) s += ".0";
+  return s;
+}
+
+std::string vec3Lit(const layout::vec4& v) { return "vec3(" + lit(v.x) + ", " + lit(v.y) + ", " + lit(v.z) + ")"; }
+std::string vec4Lit(const layout::vec4& v) {
+  return "vec4(" + lit(v.x) + ", " + lit(v.y) + ", " + lit(v.z) + ", " + lit(v.w) + ")";
+}
+
+class Generator {
+ public:
+  Generator(const blobtree::Program& program, const CodegenOptions& options, bool colour)
+      : p_(program), options_(options), colour_(colour) {}
+
+  std::string function() {
+    out_ += colour_ ? "float evaluateFieldColour(vec3 p, uint n, out vec3 colour) {\n"
+                    : "float evaluateField(vec3 p, uint n) {\n";
+    const std::uint32_t regs = std::max<std::uint32_t>(p_.fieldRegisters, 1);
+    for (std::uint32_t r = 0; r < regs; ++r) {
+      line(1, "float " + reg(r) + " = 0.0;");
+      if (colour_) line(1, "vec3 " + col(r) + " = vec3(0.0);");
+    }
+    for (std::uint32_t q = 1; q < p_.pointRegisters; ++q) line(1, "vec3 " + point(q) + " = p;");
+    emitRange(0, std::uint32_t(p_.code.size()), 1);
+    if (colour_) out_ += "  colour = c0;\n";
+    out_ += "  return r0;\n}\n\n";
+    return std::move(out_);
+  }
+
+ private:
+  // Built by append: gcc 12's -Wrestrict misfires on `"x" + std::to_string(n)`.
+  static std::string named(char prefix, std::uint32_t n) {
+    std::string s(1, prefix);
+    s.append(std::to_string(n));
+    return s;
+  }
+  static std::string reg(std::uint32_t r) { return named('r', r); }
+  static std::string col(std::uint32_t r) { return named('c', r); }
+  static std::string point(std::uint32_t q) { return q == 0 ? std::string("p") : named('q', q); }
+  void line(int depth, const std::string& s) { out_ += std::string(std::size_t(depth) * 2, ' ') + s + "\n"; }
+
+  void checkRegister(std::uint32_t r, std::uint32_t limit, const char* what) const {
+    if (r >= limit) throw std::invalid_argument(std::string("specialised evaluator: ") + what + " register out of range");
+  }
+
+  std::string localPoint(std::uint32_t matrix, std::uint32_t q) const {
+    if (matrix == 0) return point(q);
+    if (matrix >= p_.matrices.size()) throw std::invalid_argument("specialised evaluator: matrix index out of range");
+    const auto& m = p_.matrices[matrix];
+    return "toLocalRows(" + vec4Lit(m.r0) + ", " + vec4Lit(m.r1) + ", " + vec4Lit(m.r2) + ", " + point(q) + ")";
+  }
+
+  std::string primitiveField(const layout::PrimitiveRecord& r, const std::string& at) const {
+    const std::string p0 = vec3Lit(r.p0);
+    switch (r.meta.x) {
+      case layout::PRIM_POINT: return "wyvill(ddPoint(" + at + ", " + p0 + "))";
+      case layout::PRIM_LINE: return "wyvill(ddLine(" + at + ", " + p0 + ", " + vec4Lit(r.p1) + "))";
+      case layout::PRIM_CYLINDER:
+        return "wyvill(ddCylinder(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + ", " + lit(r.p2.x) + ", " + lit(r.p2.y) + "))";
+      case layout::PRIM_DISC: return "wyvill(ddDisc(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + ", " + lit(r.p2.x) + "))";
+      case layout::PRIM_RING: return "wyvill(ddRing(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + ", " + lit(r.p2.x) + "))";
+      case layout::PRIM_CUBE: return "wyvill(ddCube(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + "))";
+      case layout::PRIM_TRIANGLE:
+        return "wyvill(triangleDistance2(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + ", " + vec3Lit(r.p2) + "))";
+      case layout::PRIM_QUADRIC: return "quadricField(" + at + ", " + p0 + ", " + lit(r.p0.w) + ")";
+      default: return "wyvill(1.0)";  // the interpreter's "no field for an unknown type"
+    }
+  }
+
+  std::string warp(const layout::WarpRecord& w, const std::string& at) const {
+    const std::string a = std::to_string(w.meta.y) + "u", b = std::to_string(w.meta.z) + "u";
+    switch (w.meta.x) {
+      case layout::WARP_TWIST: return "warpTwist(" + at + ", " + a + ", " + lit(w.params.x) + ")";
+      case layout::WARP_TAPER: return "warpTaper(" + at + ", " + a + ", " + b + ", " + lit(w.params.x) + ")";
+      case layout::WARP_SHEAR: return "warpShear(" + at + ", " + a + ", " + b + ", " + lit(w.params.x) + ")";
+      case layout::WARP_BEND: return "warpBend(" + at + ", " + a + ", " + b + ", " + vec4Lit(w.params) + ")";
+      default: return at;
+    }
+  }
+
+  // Instructions [begin, end) at nesting `depth`. A skip's subtree [pc + 1, w) becomes a block
+  // the subgroup enters unless all its lanes are outside the box (with branchOnSkips; else it is
+  // always run); lanes outside get field and colour 0 in the skip's register afterwards. The subtree only writes its own register and the
+  // ones above it (the register code is a stack discipline), which are dead once it is done, so
+  // letting outside lanes run it when their neighbours need it changes nothing they keep.
+  void emitRange(std::uint32_t begin, std::uint32_t end, int depth) {
+    const std::uint32_t regs = std::max<std::uint32_t>(p_.fieldRegisters, 1);
+    for (std::uint32_t pc = begin; pc < end; ++pc) {
+      const auto& in = p_.code[pc].code;
+      const std::uint32_t op = in.x & 0xffu, dst = in.x >> 8;
+      const std::string d = reg(dst), c = col(dst);
+      switch (op) {
+        case layout::OP_PRIM: {
+          checkRegister(dst, regs, "field");
+          checkRegister(in.z, p_.pointRegisters, "point");
+          if (in.y >= p_.primitives.size()) throw std::invalid_argument("specialised evaluator: primitive index out of range");
+          const auto& prim = p_.primitives[in.y];
+          line(depth, d + " = " + primitiveField(prim, localPoint(prim.meta.y, in.z)) + ";");
+          if (colour_) line(depth, c + " = unpackColour(" + std::to_string(prim.meta.z) + "u);");
+          break;
+        }
+        case layout::OP_ADD:
+        case layout::OP_MAX:
+        case layout::OP_MIN:
+        case layout::OP_DIFF:
+        case layout::OP_SDIFF:
+        case layout::OP_MUL: {
+          checkRegister(dst, regs, "field");
+          checkRegister(in.y, regs, "field");
+          const std::string b = reg(in.y), cb = col(in.y);
+          if (op == layout::OP_ADD) {
+            if (colour_)
+              line(depth, "{ float wa = max(" + d + ", 0.0), wb = max(" + b + ", 0.0); float w = wa + wb; if (w > 0.0) " + c +
+                              " = (" + c + " * wa + " + cb + " * wb) / w; }");
+            line(depth, d + " = " + d + " + " + b + ";");
+          } else if (op == layout::OP_MAX) {
+            if (colour_) line(depth, "if (" + b + " > " + d + ") " + c + " = " + cb + ";");
+            line(depth, d + " = max(" + d + ", " + b + ");");
+          } else if (op == layout::OP_MIN) {
+            if (colour_) line(depth, "if (" + b + " < " + d + ") " + c + " = " + cb + ";");
+            line(depth, d + " = min(" + d + ", " + b + ");");
+          } else if (op == layout::OP_DIFF) {
+            line(depth, "{ float cut = 1.0 - " + b + ";");
+            if (colour_) line(depth, "  if (cut < " + d + ") " + c + " = " + cb + ";");
+            line(depth, "  " + d + " = min(" + d + ", cut); }");
+          } else if (op == layout::OP_SDIFF) {
+            line(depth, "{ float keep = 1.0 - " + b + ";");
+            if (colour_) line(depth, "  if (keep < " + d + ") " + c + " = " + cb + ";");
+            line(depth, "  " + d + " = " + d + " * keep; }");
+          } else {
+            if (colour_) line(depth, "if (" + b + " < " + d + ") " + c + " = " + cb + ";");
+            line(depth, d + " = " + d + " * " + b + ";");
+          }
+          break;
+        }
+        case layout::OP_ONE_MINUS:
+          checkRegister(dst, regs, "field");
+          line(depth, d + " = 1.0 - " + d + ";");
+          break;
+        case layout::OP_POW: {
+          checkRegister(dst, regs, "field");
+          float e;
+          std::memcpy(&e, &in.w, 4);
+          // GLSL leaves pow(0, y) undefined; std::pow gives 0 for y > 0 (as in eval_body.glsl).
+          line(depth, "{ float base = max(" + d + ", 0.0); " + d + " = base > 0.0 ? pow(base, " + lit(e) + ") : 0.0; }");
+          break;
+        }
+        case layout::OP_WARP: {
+          checkRegister(dst, p_.pointRegisters, "point");
+          checkRegister(in.z, p_.pointRegisters, "point");
+          if (dst == 0) throw std::invalid_argument("specialised evaluator: a warp writes point register 0");
+          if (in.y >= p_.warps.size()) throw std::invalid_argument("specialised evaluator: warp index out of range");
+          const auto& w = p_.warps[in.y];
+          line(depth, point(dst) + " = " + warp(w, localPoint(w.meta.w, in.z)) + ";");
+          break;
+        }
+        case layout::OP_SKIP: {
+          checkRegister(dst, regs, "field");
+          checkRegister(in.z, p_.pointRegisters, "point");
+          if (in.y >= p_.boxes.size()) throw std::invalid_argument("specialised evaluator: box index out of range");
+          const std::uint32_t target = in.w;
+          if (target <= pc || target > end) throw std::invalid_argument("specialised evaluator: skip target out of its range");
+          const auto& box = p_.boxes[in.y];
+          std::string o = "out";
+          o.append(std::to_string(pc));
+          line(depth, "{");
+          line(depth + 1, "bool " + o + " = outsideBoxBounds(" + vec3Lit(box.lo) + ", " + vec3Lit(box.hi) + ", " +
+                              point(in.z) + ");");
+          if (options_.branchOnSkips) {
+            // A loop rather than an `if`: the subgroup leaves it as soon as no lane is active.
+            line(depth + 1, "while (!subgroupAll(" + o + ")) {");
+            emitRange(pc + 1, target, depth + 2);
+            line(depth + 2, "break;");
+            line(depth + 1, "}");
+          } else {
+            emitRange(pc + 1, target, depth + 1);
+          }
+          line(depth + 1, "if (" + o + ") { " + d + " = 0.0;" + (colour_ ? " " + c + " = vec3(0.0);" : std::string()) + " }");
+          line(depth, "}");
+          pc = target - 1;
+          break;
+        }
+        default:
+          throw std::invalid_argument("specialised evaluator: unknown opcode " + std::to_string(op));
+      }
+    }
+  }
+
+  const blobtree::Program& p_;
+  CodegenOptions options_;
+  bool colour_;
+  std::string out_;
+};
+
+}  // namespace
+
+bool canSpecialise(const blobtree::Program& program) {
+  return !program.code.empty() && program.code.size() <= kMaxSpecialisedInstructions &&
+         program.fieldRegisters <= layout::MAX_FIELD_REGISTERS && program.pointRegisters >= 1 &&
+         program.pointRegisters <= layout::MAX_POINT_REGISTERS;
+}
+
+std::string generateSpecialisedEvaluator(const blobtree::Program& program, const CodegenOptions& options) {
+  if (!canSpecialise(program))
+    throw std::invalid_argument("specialised evaluator: the program has " + std::to_string(program.code.size()) +
+                                " instructions (1.." + std::to_string(kMaxSpecialisedInstructions) +
+                                " can be specialised) or too many registers");
+  std::string s =
+      "// Generated by vk/program_codegen.cpp: the specialised evaluator of one Program, in place of\n"
+      "// shaders/eval_program.glsl (same interface).\n"
+      "#ifndef BLOBVK_EVAL_PROGRAM_GLSL\n#define BLOBVK_EVAL_PROGRAM_GLSL\n"
+      "#extension GL_KHR_shader_subgroup_vote : require\n"
+      "#include \"program_layout.h\"\n#include \"eval_formulas.glsl\"\n\n";
+  s += Generator(program, options, false).function();
+  s += Generator(program, options, true).function();
+  s += "#endif\n";
+  return s;
+}
+
+}  // namespace blobvk::vk

@@ -1,0 +1,41 @@
+// The specialised evaluator: a compiled Program turned into GLSL straight-line code (the
+// Traversal::Specialised path). Each instruction of the stackless register code becomes a few
+// statements with the records' values as literals, registers become local variables, and every
+// OP_SKIP becomes a branch the whole subgroup takes when all its lanes are outside the box (or,
+// on CPU drivers, code every lane runs, its result masked).
+//
+// Why: an interpreter pays, per instruction and lane, for loading the instruction and records and
+// for selecting registers by index; llvmpipe (lavapipe) additionally runs both sides of every
+// `if` and turns each storage-buffer load into a per-lane loop. Straight-line code leaves LLVM
+// nothing to interpret. The formulas are those of shaders/eval_formulas.glsl, the same ones the
+// interpreter calls, so results stay operation-for-operation those of blobtree/evaluate.cpp.
+#pragma once
+
+#include "blobtree/program.h"
+
+#include <cstddef>
+#include <string>
+
+namespace blobvk::vk {
+
+// Programs above this many instructions keep the interpreter: their generated shader would take
+// longer to compile than it saves (and could exceed driver limits).
+inline constexpr std::size_t kMaxSpecialisedInstructions = 4096;
+
+struct CodegenOptions {
+  // true: each OP_SKIP becomes a loop the subgroup leaves when all its lanes are outside the box
+  // (GPUs, where a uniform branch is cheap). false: the subtree always runs and outside lanes
+  // get 0 afterwards — faster on llvmpipe, where loops and subgroup votes cost more than the
+  // straight-line code they would skip (measured: tower 2x, random128 even; docs/vulkan.md).
+  bool branchOnSkips = true;
+};
+
+// True when generateSpecialisedEvaluator accepts the program.
+bool canSpecialise(const blobtree::Program& program);
+
+// GLSL that replaces shaders/eval_program.glsl for this program: it defines
+// evaluateField(vec3 p, uint n) and evaluateFieldColour(vec3 p, uint n, out vec3 colour) (n is
+// ignored) and needs no Program buffers. Throws std::invalid_argument when !canSpecialise.
+std::string generateSpecialisedEvaluator(const blobtree::Program& program, const CodegenOptions& options = {});
+
+}  // namespace blobvk::vk
