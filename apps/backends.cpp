@@ -9,6 +9,8 @@
 #endif
 
 #include <chrono>
+#include <map>
+#include <memory>
 #include <stdexcept>
 
 namespace blobvk::app {
@@ -20,6 +22,31 @@ std::vector<std::string> backendNames() {
 #endif
   return names;
 }
+
+std::vector<std::string> traversalNames() { return {"specialised", "stackless", "stack"}; }
+
+#ifdef BLOBVK_HAVE_VULKAN
+namespace {
+vk::Traversal traversalFromName(const std::string& name) {
+  if (name == "specialised") return vk::Traversal::Specialised;
+  if (name == "stackless") return vk::Traversal::Stackless;
+  if (name == "stack") return vk::Traversal::StackBased;
+  throw std::invalid_argument("unknown traversal '" + name + "' (known: specialised, stackless, stack)");
+}
+
+vk::StandaloneContext& sharedContext(const std::string& device, bool validation) {
+  static std::map<std::pair<std::string, bool>, std::unique_ptr<vk::StandaloneContext>> contexts;
+  auto& slot = contexts[{device, validation}];
+  if (!slot) {
+    vk::StandaloneOptions options;
+    options.device = device;
+    options.validation = validation;
+    slot = std::make_unique<vk::StandaloneContext>(options);
+  }
+  return *slot;
+}
+}  // namespace
+#endif
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats) {
@@ -41,19 +68,17 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     evaluations = double(grid.pointCount());
 #ifdef BLOBVK_HAVE_VULKAN
   } else if (settings.backend == "vk") {
-    vk::StandaloneOptions deviceOptions;
-    deviceOptions.device = settings.device;
-    deviceOptions.validation = settings.validation;
-    vk::StandaloneContext context(deviceOptions);
+    vk::StandaloneContext& context = sharedContext(settings.device, settings.validation);
+    const std::uint64_t messagesBefore = context.validationMessages();
     vk::GpuPolygonizeOptions options;
     options.refineSteps = settings.refineSteps;
-    options.traversal = settings.stackBased ? vk::Traversal::StackBased : vk::Traversal::Stackless;
+    options.traversal = traversalFromName(settings.traversal);
     vk::GpuStats gpu;
     mesh = vk::polygonize(context.device(), program, grid, options, &gpu);
     evaluations = double(gpu.fieldEvaluations);
-    if (context.validationMessages() != 0) {
+    if (context.validationMessages() != messagesBefore) {
       throw std::runtime_error("the Vulkan validation layer reported " +
-                               std::to_string(context.validationMessages()) + " message(s)");
+                               std::to_string(context.validationMessages() - messagesBefore) + " message(s)");
     }
 #endif
   } else {

@@ -1,4 +1,6 @@
-// The polygonizer backends behind `mesh`, `bench` and `compare`, chosen by name.
+// The polygonizer backends behind `mesh`, `bench` and `compare`, chosen by name. The vk backend
+// keeps one device per (device, validation) for the life of the process, so repeated calls
+// (bench repeats, compare) reuse its compiled pipelines.
 #pragma once
 
 #include "blobtree/grid.h"
@@ -17,7 +19,9 @@ struct PolygonizeSettings {
   int mpuSize = 0;              // cpu: cells per MPU side, 0 = default
   std::string device;           // vk: name substring or index
   bool validation = false;      // vk: Khronos validation layer
-  bool stackBased = false;      // vk: the stack-based traversal instead of the stackless code
+  // vk: specialised (the Program compiled into the kernel; default), stackless (the register
+  // code interpreted) or stack (the stack-based tree walk: the thesis' Table 4.2 comparison).
+  std::string traversal = "specialised";
 };
 
 struct PolygonizeStats {
@@ -26,6 +30,7 @@ struct PolygonizeStats {
 };
 
 std::vector<std::string> backendNames();
+std::vector<std::string> traversalNames();  // for --traversal
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats = nullptr);

@@ -80,7 +80,7 @@ void addCompareCommand(CLI::App& app) {
     std::optional<int> resolution;
     std::optional<float> cellSize;
     std::string cpuBackend = "cpu";
-    std::string device;
+    std::string device, traversal = "specialised";
     bool validation = false, json = false, images = false;
     double maxFieldDiff = 1e-4, maxHausdorffCells = 0.05;
     ImageCompareSettings imageSettings;
@@ -93,6 +93,8 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference");
   cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
   cmd->add_flag("--validation", a->validation, "Run the Vulkan side under the validation layer");
+  cmd->add_option("--traversal", a->traversal, "Vulkan evaluator: specialised (default), stackless or stack")
+      ->check(CLI::IsMember(traversalNames()));
   cmd->add_option("--max-field-diff", a->maxFieldDiff, "Fail above this max |field difference| (default 1e-4)");
   cmd->add_option("--max-hausdorff", a->maxHausdorffCells, "Fail above this Hausdorff distance, in cells (default 0.05)");
   cmd->add_flag("--images", a->images, "Also render CPU mesh, GPU mesh and ray-cast and compare pixels");
@@ -105,7 +107,7 @@ void addCompareCommand(CLI::App& app) {
 #else
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->cellSize ? a->resolution : a->resolution.value_or(64));
-    nlohmann::json report{{"scene", a->scene},
+    nlohmann::json report{{"scene", a->scene}, {"traversal", a->traversal},
                           {"grid", {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cellSize", grid.cellSize}}}};
 
     // Fields.
@@ -113,7 +115,11 @@ void addCompareCommand(CLI::App& app) {
     deviceOptions.device = a->device;
     deviceOptions.validation = a->validation;
     vk::StandaloneContext context(deviceOptions);
-    const std::vector<float> gpu = vk::evaluateFieldOnGrid(context.device(), model.program, grid);
+    vk::FieldOptions fieldOptions;
+    fieldOptions.traversal = a->traversal == "stack" ? vk::Traversal::StackBased
+                             : a->traversal == "stackless" ? vk::Traversal::Stackless
+                                                           : vk::Traversal::Specialised;
+    const std::vector<float> gpu = vk::evaluateFieldOnGrid(context.device(), model.program, grid, fieldOptions);
     const std::vector<float> cpu = cpuField(model.program, grid);
     double maxDiff = 0, sumDiff = 0;
     for (std::size_t i = 0; i < cpu.size(); ++i) {
@@ -133,6 +139,7 @@ void addCompareCommand(CLI::App& app) {
     gpuSettings.backend = "vk";
     gpuSettings.device = a->device;
     gpuSettings.validation = a->validation;
+    gpuSettings.traversal = a->traversal;
     const mesh::TriMesh cpuMesh = polygonize(model.program, grid, cpuSettings);
     const mesh::TriMesh gpuMesh = polygonize(model.program, grid, gpuSettings);
     const bool sameTopology = cpuMesh.edgeKeys == gpuMesh.edgeKeys && cpuMesh.triangles == gpuMesh.triangles;

@@ -43,6 +43,8 @@ void addMeshCommand(CLI::App& app) {
       ->check(CLI::Range(0, 16));
   cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
+  cmd->add_option("--traversal", a->settings.traversal, "vk: specialised (default), stackless or stack")
+      ->check(CLI::IsMember(traversalNames()));
   cmd->add_option("--max-memory", a->maxMemory, "Refuse jobs needing more (e.g. 2G; default: available)");
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
   cmd->add_flag("--ascii", a->ascii, "Write ASCII PLY instead of binary");

@@ -7,6 +7,7 @@
 // no MPU discard or tape pruning, like the GPU field pass).
 //   LP_NUM_THREADS=2 bench_vk --benchmark_filter='field'      # evals/s, both traversals
 //   LP_NUM_THREADS=2 bench_vk --benchmark_filter='polygonize/.*/128'
+//   LP_NUM_THREADS=2 bench_vk --benchmark_filter='field/specialised|cpu_avx'  # the ratio
 // Run from the repository root (scenes/ is read relative to it) or set BLOBVK_SCENES.
 #include "blobtree/evaluate.h"
 #include "blobtree/grid.h"
@@ -124,14 +125,16 @@ void cpuSimdField(benchmark::State& state, const std::string& scene) {
   state.SetLabel(cpu::toString(level));
 }
 
-void polygonize(benchmark::State& state, const std::string& scene) {
+void polygonize(benchmark::State& state, const std::string& scene, vk::Traversal traversal) {
   const Model& m = model(scene);
   const auto grid = gridFor(m, int(state.range(0)));
-  vk::polygonize(context().device(), m.program, grid);  // JIT at first dispatch
+  vk::GpuPolygonizeOptions o;
+  o.traversal = traversal;
+  vk::polygonize(context().device(), m.program, grid, o);  // JIT at first dispatch
   vk::GpuStats s;
   std::size_t triangles = 0;
   for (auto _ : state) {
-    auto mesh = vk::polygonize(context().device(), m.program, grid, {}, &s);
+    auto mesh = vk::polygonize(context().device(), m.program, grid, o, &s);
     triangles = mesh.triangleCount();
   }
   state.counters["triangles"] = double(triangles);
@@ -157,8 +160,10 @@ void registerAll() {
       benchmark::RegisterBenchmark(("cpu_scalar_field/" + s).c_str(), cpuScalarField, s)
           ->Arg(res)->Unit(benchmark::kMillisecond)->UseRealTime();
     }
-    benchmark::RegisterBenchmark(("polygonize/" + s).c_str(), polygonize, s)
-        ->Arg(64)->Arg(128)->Unit(benchmark::kMillisecond)->UseRealTime();
+    for (auto traversal : {vk::Traversal::Specialised, vk::Traversal::Stackless})
+      benchmark::RegisterBenchmark(("polygonize/" + std::string(vk::traversalName(traversal)) + "/" + s).c_str(),
+                                   polygonize, s, traversal)
+          ->Arg(64)->Arg(128)->Unit(benchmark::kMillisecond)->UseRealTime();
   }
 }
 

@@ -1,7 +1,9 @@
 #version 450
 // One invocation: turns a slab's scan totals into a VkDrawIndexedIndirectCommand (words 0-4)
 // followed by the running vertex and triangle counts (words 5, 6), so an engine can draw the
-// mesh without reading counts back.
+// mesh without reading counts back, and a VkDispatchIndirectCommand (words 7-9) with one lane
+// per vertex of the slab for the vertex pass (2-D when it needs more than 65535 groups, as
+// vk::groupsFor does).
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 1) in;
 
@@ -13,6 +15,7 @@ layout(push_constant) uniform Push {
   uint ownedPoints;   // points whose vertices this slab owns
   uint lastSlab;      // 1: the slab owns every classified point
   uint vertexBase, triangleBase;
+  uint workgroupSize;  // of the vertex pass
 } pc;
 
 void main() {
@@ -25,4 +28,9 @@ void main() {
   args[4] = 0u;
   args[5] = pc.vertexBase + vertices;
   args[6] = pc.triangleBase + triangles;
+  uint groups = (vertices + pc.workgroupSize - 1u) / pc.workgroupSize;
+  uint x = min(groups, 65535u);
+  args[7] = x;
+  args[8] = x == 0u ? 0u : (groups + x - 1u) / x;
+  args[9] = 1u;
 }

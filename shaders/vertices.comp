@@ -1,6 +1,8 @@
 #version 450
-// Per grid point of a slab: one vertex per crossing upper edge, at the scanned offset (global
-// edge-key order). Position, refinement, normal and colour by the rules of
+// One invocation per vertex of a slab (dispatched indirectly from the draw_args pass): the vertex
+// of slab-local index v belongs to the last owned point whose scanned offset is <= v (a binary
+// search over the exclusive scan), on its (v - offset)-th crossing upper edge, so vertices stay
+// in global edge-key order. Position, refinement, normal and colour by the rules of
 // cpu_simd/reference_polygonizer.cpp: t = (iso - fa) / (fb - fa) from the edge's lower point,
 // optional Illinois regula-falsi steps, normal = -gradient by central differences
 // (blobtree::normal), colour from the colour evaluator.
@@ -17,16 +19,18 @@ layout(std430, set = 0, binding = 8) writeonly buffer Positions { float position
 layout(std430, set = 0, binding = 9) writeonly buffer Normals { float normals[]; };
 layout(std430, set = 0, binding = 10) writeonly buffer Colours { float colours[]; };
 layout(std430, set = 0, binding = 11) writeonly buffer Keys { uint keys[]; };
+layout(std430, set = 0, binding = 12) readonly buffer Args { uint args[]; };  // draw_args.comp
 
 layout(push_constant) uniform Push {
   vec4 originCell;
   uint nx, ny;
-  uint count;        // owned points of the slab
+  uint ownedPoints;  // owned points of the slab
   uint k0;
   uint codeLength;
   uint refineSteps;
   uint attributes;   // bit 0 normals, bit 1 colours
   float normalStep;  // central-difference step h
+  uint vertexBase;   // vertices of the slabs before this one
 } pc;
 
 vec3 gridPoint(uint i, uint j, uint k) {
@@ -34,16 +38,30 @@ vec3 gridPoint(uint i, uint j, uint k) {
 }
 
 void main() {
-  uint idx = linearInvocation();
-  if (idx >= pc.count) return;
+  uint v = linearInvocation();
+  if (v >= args[5] - pc.vertexBase) return;
+  uint lo = 0u, hi = pc.ownedPoints;  // vertexOffsets[lo] <= v < vertexOffsets[hi] (or the end)
+  while (hi - lo > 1u) {
+    uint mid = (lo + hi) / 2u;
+    if (vertexOffsets[mid] <= v) lo = mid; else hi = mid;
+  }
+  uint idx = lo;
   uint bits = flags[idx];
-  if (bits == 0u) return;
+  uint rank = v - vertexOffsets[idx];
+  uint axis = findLSB(bits);
+  if (rank > 0u) {
+    bits &= bits - 1u;
+    axis = findLSB(bits);
+  }
+  if (rank > 1u) {
+    bits &= bits - 1u;
+    axis = findLSB(bits);
+  }
   uint i = idx % pc.nx, j = (idx / pc.nx) % pc.ny, k = pc.k0 + idx / (pc.nx * pc.ny);
-  uint out_ = vertexOffsets[idx];
+  uint out_ = v;
   vec3 pa = gridPoint(i, j, k);
   float fa = field[idx];
-  for (uint axis = 0u; axis < 3u; ++axis) {
-    if ((bits & (1u << axis)) == 0u) continue;
+  {
     uvec3 step_ = uvec3(axis == 0u ? 1u : 0u, axis == 1u ? 1u : 0u, axis == 2u ? 1u : 0u);
     uint nb = idx + (axis == 0u ? 1u : (axis == 1u ? pc.nx : pc.nx * pc.ny));
     vec3 pb = gridPoint(i + step_.x, j + step_.y, k + step_.z);
@@ -97,6 +115,5 @@ void main() {
       colours[v + 2u] = colour.z;
     }
     keys[out_] = idx * 3u + axis;
-    ++out_;
   }
 }

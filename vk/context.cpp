@@ -292,9 +292,8 @@ VkDescriptorSet Recorder::allocateSet(VkDescriptorSetLayout layout) {
   return set;
 }
 
-void Recorder::dispatch(const Kernel& kernel, std::span<const BufferRange> buffers,
-                        const void* push, std::uint32_t pushSize, std::uint32_t groupsX,
-                        std::uint32_t groupsY) {
+void Recorder::bind(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,
+                    std::uint32_t pushSize) {
   if (buffers.size() != kernel.bindings) throw VulkanError("kernel binding count mismatch");
   if (pushSize > 128) throw VulkanError("push constants above 128 bytes");
   const auto& d = device_.d();
@@ -318,7 +317,19 @@ void Recorder::dispatch(const Kernel& kernel, std::span<const BufferRange> buffe
   if (pushSize) {
     d.vkCmdPushConstants(cmd_, kernel.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushSize, push);
   }
-  if (groupsX && groupsY) d.vkCmdDispatch(cmd_, groupsX, groupsY, 1);
+}
+
+void Recorder::dispatch(const Kernel& kernel, std::span<const BufferRange> buffers,
+                        const void* push, std::uint32_t pushSize, std::uint32_t groupsX,
+                        std::uint32_t groupsY) {
+  bind(kernel, buffers, push, pushSize);
+  if (groupsX && groupsY) device_.d().vkCmdDispatch(cmd_, groupsX, groupsY, 1);
+}
+
+void Recorder::dispatchIndirect(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,
+                                std::uint32_t pushSize, const Buffer& args, VkDeviceSize offset) {
+  bind(kernel, buffers, push, pushSize);
+  device_.d().vkCmdDispatchIndirect(cmd_, args.handle(), offset);
 }
 
 void Recorder::computeBarrier() {

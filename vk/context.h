@@ -152,6 +152,10 @@ class Recorder {
   // Dispatches groups (x, y) of `kernel`; pushSize <= 128.
   void dispatch(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,
                 std::uint32_t pushSize, std::uint32_t groupsX, std::uint32_t groupsY = 1);
+  // The same with the group counts read on the device from a VkDispatchIndirectCommand in
+  // `args` at `offset` (counts that never come back to the host).
+  void dispatchIndirect(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,
+                        std::uint32_t pushSize, const Buffer& args, VkDeviceSize offset);
   // Compute writes -> compute reads/writes, transfers and indirect reads (one global barrier:
   // cheap on every driver and what lavapipe does anyway).
   void computeBarrier();
@@ -161,6 +165,7 @@ class Recorder {
 
  private:
   VkDescriptorSet allocateSet(VkDescriptorSetLayout layout);
+  void bind(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push, std::uint32_t pushSize);
   Device& device_;
   VkCommandBuffer cmd_;
   std::vector<VkDescriptorPool> pools_;

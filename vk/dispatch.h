@@ -51,6 +51,7 @@ namespace blobvk::vk {
   X(vkCmdBindDescriptorSets)           \
   X(vkCmdPushConstants)                \
   X(vkCmdDispatch)                     \
+  X(vkCmdDispatchIndirect)             \
   X(vkCmdPipelineBarrier)              \
   X(vkCmdCopyBuffer)                   \
   X(vkCmdFillBuffer)                   \

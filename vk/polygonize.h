@@ -18,7 +18,7 @@ struct GpuPolygonizeOptions {
   bool colours = true;
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation
   float normalStep = 1e-4f;    // central-difference step (blobtree::normal's default)
-  Traversal traversal = Traversal::Stackless;
+  Traversal traversal = Traversal::Specialised;
   std::uint32_t workgroupSize = 64;
   std::uint64_t maxBrickBytes = 32ull << 20;  // per-slab field bytes; smaller means more slabs
 };

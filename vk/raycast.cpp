@@ -22,7 +22,7 @@ std::uint32_t packBackground(const std::array<float, 3>& c) {
 }  // namespace
 
 Raycaster::Raycaster(Device& device, const blobtree::Program& program, const RaycastOptions& options)
-    : device_(device), options_(options), program_(uploadProgram(device, program)) {
+    : device_(device), options_(options), program_(uploadProgram(device, program, options.traversal)) {
   region_ = program.bounds;
   if (!region_.finite()) {
     // An unbounded warp at the root: march the unit-ish box around the primitives instead.
@@ -53,9 +53,7 @@ void Raycaster::recordRaycast(Recorder& rec, const Camera& camera, std::uint32_t
          {region_.hi.x, region_.hi.y, region_.hi.z, 0.0f},
          {width, height, program_.codeLength, packBackground(options_.background)}};
   static_assert(sizeof(push) == 112);
-  // The program's masks and register count let the shader drop what this Program never uses.
-  const auto spec = program_.specs(options_.workgroupSize, Traversal::Stackless);
-  const Kernel& k = device_.kernel("raycast", 6, spec);
+  const Kernel& k = evaluatorKernel(device_, program_, "raycast", 6, options_.workgroupSize, options_.traversal);
   const auto pb = program_.bindings();
   const BufferRange bind[6] = {pb[0], pb[1], pb[2], pb[3], pb[4], pixels};
   const Groups g = groupsFor(std::uint64_t(width) * height, options_.workgroupSize);

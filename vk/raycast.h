@@ -24,6 +24,7 @@ struct RaycastOptions {
   std::uint32_t maxSteps = 4096;    // per ray; a ray that runs out is background
   std::uint32_t bisections = 12;
   std::uint32_t workgroupSize = 64;
+  Traversal traversal = Traversal::Specialised;  // the field evaluator (vk/gpu_program.h)
 };
 
 struct RaycastStats {

@@ -54,7 +54,7 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
   pointScratch_ = std::uint32_t(scanScratchWords(points));
   scratch_ = device.createBuffer((pointScratch_ + scanScratchWords(cells) + 1) * 4);
   totals_ = device.createBuffer(16);
-  args_ = device.createBuffer(7 * 4, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  args_ = device.createBuffer(10 * 4, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
 }
 
 SlabPlan SlabPolygonizer::plan(std::uint32_t slab) const {
@@ -105,8 +105,8 @@ void SlabPolygonizer::recordClassify(Recorder& rec, std::uint32_t slab, std::uin
   rec.computeBarrier();
   {
     const Kernel& k = device_.kernel("draw_args", 3, {});
-    const std::uint32_t push[4] = {std::uint32_t(p.ownedPoints), p.last ? 1u : 0u, vertexBase,
-                                   triangleBase};
+    const std::uint32_t push[5] = {std::uint32_t(p.ownedPoints), p.last ? 1u : 0u, vertexBase,
+                                   triangleBase, wg};
     const BufferRange bind[3] = {vertexOffsets_, totals_, args_};
     rec.dispatch(k, bind, push, sizeof(push), 1);
   }
@@ -120,20 +120,23 @@ void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_
   const std::uint32_t nx = std::uint32_t(pts.x), ny = std::uint32_t(pts.y);
   const std::uint32_t wg = options_.workgroupSize;
   {
-    const Kernel& k = evaluatorKernel(device_, program_, "vertices", 12, wg, options_.traversal);
+    // One lane per vertex (indirect: the count is on the device), so every lane of a SIMD
+    // group evaluates; a lane per grid point would leave most lanes idle and, on llvmpipe, pay
+    // for every masked-off evaluation too.
+    const Kernel& k = evaluatorKernel(device_, program_, "vertices", 13, wg, options_.traversal);
     struct {
       float origin[3], cell;
-      std::uint32_t nx, ny, count, k0, codeLength, refineSteps, attributes;
+      std::uint32_t nx, ny, ownedPoints, k0, codeLength, refineSteps, attributes;
       float normalStep;
+      std::uint32_t vertexBase;
     } push{{grid_.origin.x, grid_.origin.y, grid_.origin.z}, grid_.cellSize, nx, ny,
            std::uint32_t(p.ownedPoints), p.k0, program_.codeLength,
            std::uint32_t(std::max(options_.refineSteps, 0)),
-           (options_.normals ? 1u : 0u) | (options_.colours ? 2u : 0u), options_.normalStep};
+           (options_.normals ? 1u : 0u) | (options_.colours ? 2u : 0u), options_.normalStep, vertexBase};
     const auto pb = program_.bindings();
-    const BufferRange bind[12] = {pb[0], pb[1], pb[2], pb[3], pb[4], field_, flags_, vertexOffsets_,
-                                  out.positions, out.normals, out.colours, out.keys};
-    const Groups g = groupsFor(p.ownedPoints, wg);
-    rec.dispatch(k, bind, &push, sizeof(push), g.x, g.y);
+    const BufferRange bind[13] = {pb[0], pb[1], pb[2], pb[3], pb[4], field_, flags_, vertexOffsets_,
+                                  out.positions, out.normals, out.colours, out.keys, args_};
+    rec.dispatchIndirect(k, bind, &push, sizeof(push), args_, 7 * 4);
   }
   {
     const std::array<std::uint32_t, 1> spec{wg};

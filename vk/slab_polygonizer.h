@@ -6,7 +6,7 @@
 // earlier writes to them finished: a compute->compute or transfer->compute barrier) and ends
 // with its own writes made visible to compute, transfer and indirect reads (computeBarrier).
 // drawArgs() then holds a VkDrawIndexedIndirectCommand for the triangles up to this slab, then
-// the running vertex and triangle counts (words 5 and 6).
+// the running vertex and triangle counts (words 5 and 6), then the vertex pass's dispatch (words 7-9).
 #pragma once
 
 #include "blobtree/grid.h"
