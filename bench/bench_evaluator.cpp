@@ -1,5 +1,9 @@
 // Evaluator throughput: scalar reference vs AVX2 vs AVX-512, per node type and for whole scenes,
-// one thread. Points are random in the model's bounds; items/s is points per second.
+// one thread; items/s is points per second. Two point sets:
+// - random points in the model's bounds (incoherent: a SIMD chunk rarely takes a box skip whole);
+// - grid/: every point of a 64^3 grid over the bounds, one row of 64 points per batch call, which
+//   is what the polygonizer's field cache evaluates (coherent points; the full Program, without
+//   the polygonizer's per-MPU pruning or discard).
 //   bench_evaluator --benchmark_filter=scene
 #include "blobtree/evaluate.h"
 #include "cpu_simd/simd_evaluator.h"
@@ -7,6 +11,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <random>
 #include <vector>
 
@@ -52,6 +57,34 @@ void run(benchmark::State& state, const blobtree::Node& node, cpu::SimdLevel lev
   state.SetItemsProcessed(std::int64_t(state.iterations()) * std::int64_t(b.f.size()));
 }
 
+// Every point of a res^3 grid over the model's bounds, as rows of res points along x.
+void runGrid(benchmark::State& state, const blobtree::Node& node, cpu::SimdLevel level, int res = 64) {
+  if (!cpu::simdLevelSupported(level)) {
+    state.SkipWithError("not supported by this CPU");
+    return;
+  }
+  const blobtree::Program program = blobtree::compile(node);
+  const glm::vec3 lo = program.bounds.lo, size = program.bounds.hi - program.bounds.lo;
+  const std::size_t n = std::size_t(res);
+  std::vector<float> x(n), y(n), z(n), f(n);
+  for (std::size_t i = 0; i < n; ++i) x[i] = lo.x + size.x * (float(i) + 0.5f) / float(res);
+  for (auto _ : state) {
+    for (int k = 0; k < res; ++k) {
+      for (int j = 0; j < res; ++j) {
+        std::fill(y.begin(), y.end(), lo.y + size.y * (float(j) + 0.5f) / float(res));
+        std::fill(z.begin(), z.end(), lo.z + size.z * (float(k) + 0.5f) / float(res));
+        if (level == cpu::SimdLevel::Scalar) {
+          for (std::size_t i = 0; i < n; ++i) f[i] = blobtree::evaluate(program, glm::vec3(x[i], y[i], z[i]));
+        } else {
+          cpu::evaluateFieldBatch(program, x.data(), y.data(), z.data(), f.data(), n, level);
+        }
+        benchmark::DoNotOptimize(f.data());
+      }
+    }
+  }
+  state.SetItemsProcessed(std::int64_t(state.iterations()) * std::int64_t(n * n * n));
+}
+
 void registerAll() {
   using cpu::SimdLevel;
   std::vector<std::pair<std::string, blobtree::Node>> models;
@@ -64,6 +97,13 @@ void registerAll() {
     for (SimdLevel l : {SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512})
       benchmark::RegisterBenchmark((name + "/" + cpu::toString(l)).c_str(),
                                    [node = node, l](benchmark::State& s) { run(s, node, l); });
+  for (const auto& [name, node] : models) {
+    if (name.rfind("scene/", 0) != 0) continue;
+    for (SimdLevel l : {SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512})
+      benchmark::RegisterBenchmark(("grid/" + name + "/" + cpu::toString(l)).c_str(),
+                                   [node = node, l](benchmark::State& s) { runGrid(s, node, l); })
+          ->Unit(benchmark::kMillisecond);
+  }
 }
 
 }  // namespace

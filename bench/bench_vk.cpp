@@ -16,6 +16,8 @@
 #include "cpu_simd/simd_evaluator.h"
 #include "vk/field.h"
 #include "vk/polygonize.h"
+#include "vk/program_codegen.h"
+#include "vk/runtime_compiler.h"
 #include "vk/standalone.h"
 
 #include <benchmark/benchmark.h>
@@ -142,9 +144,27 @@ void polygonize(benchmark::State& state, const std::string& scene, vk::Traversal
   state.counters["emit_s"] = s.emitSeconds;
 }
 
+// Host side of the specialised path's first use: GLSL generation and glslang to SPIR-V for the
+// field kernel (the driver's own JIT at the first dispatch comes on top; see `first_s` of
+// `blobvk bench --backend vk`).
+void specialiseAndCompile(benchmark::State& state, const std::string& scene) {
+  const Model& m = model(scene);
+  std::size_t words = 0, chars = 0;
+  for (auto _ : state) {
+    const std::string glsl = vk::generateSpecialisedEvaluator(m.program);
+    const auto spirv = vk::compileComputeShader("field_grid.comp", {{"eval_program.glsl", glsl}});
+    words = spirv.size();
+    chars = glsl.size();
+  }
+  state.counters["spirv_words"] = double(words);
+  state.counters["glsl_chars"] = double(chars);
+}
+
 void registerAll() {
   for (const char* scene : {"tower", "random128"}) {
     const std::string s = scene;
+    benchmark::RegisterBenchmark(("specialise_compile/" + s).c_str(), specialiseAndCompile, s)
+        ->Unit(benchmark::kMillisecond);
     for (int res : {64, 128}) {
       benchmark::RegisterBenchmark(("field/stackless/" + s).c_str(), field, s,
                                    vk::Traversal::Stackless)
