@@ -105,6 +105,42 @@ class Reader {
     return t;
   }
 
+  // {"near": [x,y,z], "start": s, "path": [{"t", "translate", "rotate": {"axis", "degrees"}}]}
+  LiftConfig lift(const Json& j, const std::string& ptr) const {
+    keys(j, ptr, {"near", "start", "path"});
+    LiftConfig l;
+    if (!j.contains("near")) fail(ptr, "a lift needs \"near\": a point next to the part to lift");
+    l.near = vec3(j["near"], ptr + "/near");
+    if (j.contains("start")) l.start = number(j["start"], ptr + "/start", 0, 1e9);
+    if (!j.contains("path")) fail(ptr, "a lift needs a \"path\" of keyframes");
+    const Json& path = j["path"];
+    if (!path.is_array() || path.empty()) fail(ptr + "/path", "expected a non-empty array of keyframes {t, translate, rotate}");
+    double last = -1e300;
+    for (std::size_t i = 0; i < path.size(); ++i) {
+      const std::string kp = ptr + "/path/" + std::to_string(i);
+      keys(path[i], kp, {"t", "translate", "rotate"});
+      if (!path[i].contains("t")) fail(kp, "a keyframe needs \"t\" (seconds after the lift starts)");
+      LiftKeyframe k;
+      k.time = number(path[i]["t"], kp + "/t", 0, 1e9);
+      if (k.time < last) fail(kp + "/t", "keyframe times must not decrease");
+      last = k.time;
+      if (path[i].contains("translate")) k.translation = vec3(path[i]["translate"], kp + "/translate");
+      if (path[i].contains("rotate")) {
+        const Json& r = path[i]["rotate"];
+        keys(r, kp + "/rotate", {"axis", "degrees"});
+        if (!r.contains("axis") || !r.contains("degrees")) fail(kp + "/rotate", "a rotation needs \"axis\" and \"degrees\"");
+        const mesh::Double3 axis = vec3(r["axis"], kp + "/rotate/axis");
+        const double n = std::sqrt(axis.x * axis.x + axis.y * axis.y + axis.z * axis.z);
+        if (n < 1e-12) fail(kp + "/rotate/axis", "the rotation axis must not be zero");
+        // The rotation since the start, blended by normalized lerp: kept below a half turn.
+        const double half = 0.5 * number(r["degrees"], kp + "/rotate/degrees", -179, 179) * 3.14159265358979323846 / 180;
+        k.rotation = {std::cos(half), std::sin(half) * axis.x / n, std::sin(half) * axis.y / n, std::sin(half) * axis.z / n};
+      }
+      l.path.push_back(k);
+    }
+    return l;
+  }
+
   std::string file_;
 };
 
@@ -133,7 +169,7 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
     r.fail(p, "malformed JSON");
   }
   r.keys(j, p, {"mesher", "tetgen", "voxel", "materials", "materialFromPrimitive", "timeStep",
-                "gravity", "damping", "solver", "fixed", "floor", "tools", "blade", "steps",
+                "gravity", "damping", "solver", "fixed", "floor", "tools", "blade", "lift", "steps",
                 "frameEvery"});
   if (j.contains("mesher")) {
     c.mesher = j["mesher"].is_string() ? j["mesher"].get<std::string>() : "";
@@ -206,6 +242,7 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
       c.blade.push_back(k);
     }
   }
+  if (j.contains("lift")) c.lift = r.lift(j["lift"], p + "/lift");
   if (j.contains("steps")) c.steps = r.integer(j["steps"], p + "/steps", 1, 10000000);
   if (j.contains("frameEvery")) c.frameEvery = r.integer(j["frameEvery"], p + "/frameEvery", 1, 1000000);
   return c;

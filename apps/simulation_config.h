@@ -6,6 +6,7 @@
 #include "fem/simulation.h"
 #include "fem/tetgen_mesher.h"
 
+#include <array>
 #include <optional>
 #include <string>
 
@@ -16,6 +17,22 @@ struct BladeKeyframe {
   mesh::Double3 a, b;  // blade segment end points
 };
 
+// A scripted rigid "lift" for `blobvk cut` (docs/scene-format.md): once cutting has freed the
+// part nearest `near` (it no longer holds a fixed node) and the time is at least `start`, that
+// part's nodes are pinned and carried along `path` (times relative to the lift's start; the
+// rotation turns about the part's centroid at the start, then the translation is added), as a
+// grasping tool would lift a bone flap away.
+struct LiftKeyframe {
+  double time = 0;
+  mesh::Double3 translation;
+  std::array<double, 4> rotation{1, 0, 0, 0};  // unit quaternion (w, x, y, z)
+};
+struct LiftConfig {
+  mesh::Double3 near;
+  double start = 0;
+  std::vector<LiftKeyframe> path;
+};
+
 struct SimulationConfig {
   std::string mesher = "voxel";  // voxel | tetgen
   fem::TetgenOptions tetgen;
@@ -24,6 +41,7 @@ struct SimulationConfig {
   std::optional<blobtree::Program> fixedSelector;  // nodes where this field >= 0.5 are fixed
   bool materialFromPrimitive = false;
   std::vector<BladeKeyframe> blade;  // optional scalpel path for `blobvk cut`
+  std::optional<LiftConfig> lift;   // optional scripted lift of a cut-free part (`blobvk cut`)
   int steps = 0;                     // default step count (0: the CLI's)
   int frameEvery = 1;
 };

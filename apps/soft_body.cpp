@@ -37,13 +37,14 @@ std::uint32_t dominantPrimitive(const blobtree::Program& program, const mesh::Do
 
 }  // namespace
 
-TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int threads) {
+TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int threads, std::optional<double> voxelCell) {
   if (model.scene.simulationJson.empty()) {
     throw std::runtime_error(model.path + ": the scene has no \"simulation\" section (see docs/fem.md)");
   }
   TetModel body;
   body.config = parseSimulationConfig(model.scene.simulationJson, model.path);
   SimulationConfig& config = body.config;
+  if (voxelCell) config.voxelCellSize = *voxelCell;
 
   auto start = std::chrono::steady_clock::now();
   PolygonizeSettings poly;

@@ -9,6 +9,7 @@
 #include "fem/surface_embedding.h"
 
 #include <memory>
+#include <optional>
 
 namespace blobvk::app {
 
@@ -27,7 +28,9 @@ struct TetModel {
   fem::SurfaceEmbedding embedding;
   double meshSeconds = 0, tetSeconds = 0;
 };
-TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int threads);
+// `voxelCell` overrides the scene's simulation.voxel.cellSize (a coarser body for quick runs).
+TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int threads,
+                       std::optional<double> voxelCell = std::nullopt);
 
 SoftBody buildSoftBody(const Model& model, const blobtree::GridSpec& grid, int threads);
 

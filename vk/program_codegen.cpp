@@ -191,7 +191,7 @@ class Generator {
           line(depth, "{");
           line(depth + 1, "bool " + o + " = outsideBoxBounds(" + vec3Lit(box.lo) + ", " + vec3Lit(box.hi) + ", " +
                               point(in.z) + ");");
-          if (options_.branchOnSkips) {
+          if (options_.branchOnSkips && target - pc - 1 >= options_.minBranchInstructions) {
             // A loop rather than an `if`: the subgroup leaves it as soon as no lane is active.
             line(depth + 1, "while (!subgroupAll(" + o + ")) {");
             emitRange(pc + 1, target, depth + 2);

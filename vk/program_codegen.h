@@ -14,6 +14,7 @@
 #include "blobtree/program.h"
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 
 namespace blobvk::vk {
@@ -28,6 +29,9 @@ struct CodegenOptions {
   // get 0 afterwards — faster on llvmpipe, where loops and subgroup votes cost more than the
   // straight-line code they would skip (measured: tower 2x, random128 even; docs/vulkan.md).
   bool branchOnSkips = true;
+  // With branchOnSkips, only subtrees of at least this many instructions get a branch; smaller
+  // ones run masked (a branch costs more than a short subtree).
+  std::uint32_t minBranchInstructions = 0;
 };
 
 // True when generateSpecialisedEvaluator accepts the program.

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <sys/wait.h>
 
@@ -120,11 +121,38 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
   };
   EXPECT_GT(lowest("frame_00002.ply"), lowest("frame_00000.ply") - 0.02f);
   const auto cut = scratch("cut");
-  r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 10");
+  // The blade's keyframes are simulation times (0.05 .. 0.2 s): it cuts while the body moves.
+  r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 25 --no-png");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("self-check ok"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(", 2 parts"), std::string::npos) << r.output;  // the blade cuts it in two
   EXPECT_TRUE(std::filesystem::exists(cut / "frame_00001.ply")) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(cut / "stats.csv")) << r.output;
+}
+
+// A malformed simulation.lift is refused before any work, naming the file and the JSON pointer.
+TEST(Cli, CutRejectsAMalformedLiftNamingTheKey) {
+  std::ifstream in(source("scenes/soft_peanut.json"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string anchor = "\"steps\": 100";
+  ASSERT_NE(text.find(anchor), std::string::npos);
+  auto withLift = [&](const std::string& lift) {
+    std::string scene = text;
+    scene.replace(scene.find(anchor), anchor.size(), "\"lift\": " + lift + ", " + anchor);
+    const auto file = scratch("lift.json");
+    std::ofstream(file) << scene;
+    return run("cut " + file.string() + " -o " + scratch("lift_out").string() + " --steps 1 --no-png");
+  };
+  CliRun r = withLift(R"({"near": [0, 1], "path": [{"t": 0}]})");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("lift.json"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("/simulation/lift/near"), std::string::npos) << r.output;
+  r = withLift(R"({"near": [0, 1, 0], "path": [{"t": 0}, {"t": 0.1, "rotate": {"axis": [0, 0, 0], "degrees": 30}}]})");
+  EXPECT_NE(r.output.find("/simulation/lift/path/1/rotate/axis"), std::string::npos) << r.output;
+  r = withLift(R"({"near": [0, 1, 0], "path": [{"t": 0.2}, {"t": 0.1}]})");
+  EXPECT_NE(r.output.find("/simulation/lift/path/1/t"), std::string::npos) << r.output;
+  r = withLift(R"({"near": [0, 1, 0], "grip": 1, "path": [{"t": 0}]})");
+  EXPECT_NE(r.output.find("/simulation/lift/grip"), std::string::npos) << r.output;
 }
 
 TEST(Cli, NoVulkanDriverGivesAClearError) {

@@ -53,7 +53,8 @@ def radial(d, semi):  # distance along unit direction d to the ellipsoid with th
 
 # The bone flap: an oval on the crown, cut by a radial saw blade that reaches from the middle of
 # the epidural gap to outside the scalp. A radial cut makes the flap a wedge that narrows
-# inwards, so it can only leave outwards.
+# inwards, so it can only leave outwards. Keyframe times are simulation times: the saw closes
+# the oval in 0.2 s while the head is simulated.
 blade, n = [], 40
 for i in range(n + 2):  # two keyframes past the start so the ring closes
     th = 2 * math.pi * i / n
@@ -63,6 +64,8 @@ for i in range(n + 2):  # two keyframes past the start so the ring closes
     ra = 0.5 * (radial(d, SKULL_IN) + radial(d, CSF))
     rb = radial(d, SCALP) + 0.15
     blade.append({"t": round(i / n * 0.2, 5), "a": [round(c * ra, 5) for c in d], "b": [round(c * rb, 5) for c in d]})
+
+LIFT_START = 0.22          # the flap is lifted once it is free, from this time on
 
 gap_mid = [0.5 * (a + b) / 0.4542 for a, b in zip(SKULL_IN, CSF)]
 fixed = {"type": "union", "id": "clamp and brain stem", "children": [
@@ -85,21 +88,26 @@ scene = {
         "materials": materials,
         "materialFromPrimitive": True,
         "timeStep": 0.01,
-        # The head hangs crown-down in a clamp: in the head's frame gravity points to +y, so the
-        # freed flap falls away from the skull (the CLI's tools only push, and parts do not
-        # collide with each other, so gravity is what lifts it).
-        "gravity": [0, 9.81, 0],
+        "gravity": [0, -9.81, 0],
         "damping": {"mass": 0.5, "stiffness": 0.01},
         "solver": {"maxIterations": 100, "tolerance": 1e-6},
         "fixed": fixed,
+        # The retractor waits above the crown until the flap has been lifted out of its way,
+        # then enters the opening and presses the CSF and brain (held at the brain stem).
         "tools": [{"shape": "capsule", "radius": 0.06, "halfLength": 0.12, "stiffness": 20000,
-                   "path": [{"t": 0, "position": [1.2, 1.2, 0.05], "orientation": [0.7071068, 0.7071068, 0, 0]},
-                            {"t": 0.5, "position": [0.15, 0.8, 0.05]},  # the flap has gone by now
-                            {"t": 0.7, "position": [0.15, 0.36, 0.05]},
-                            {"t": 0.9, "position": [0.15, 0.36, 0.05]}]}],
+                   "path": [{"t": 0, "position": [0.15, 1.6, 0.05], "orientation": [0.7071068, 0.7071068, 0, 0]},
+                            {"t": LIFT_START + 0.2, "position": [0.15, 1.6, 0.05]},
+                            {"t": LIFT_START + 0.4, "position": [0.15, 0.36, 0.05]},
+                            {"t": LIFT_START + 0.6, "position": [0.15, 0.36, 0.05]}]}],
         "blade": blade,
-        "steps": 90,
-        "frameEvery": 10}}
+        # Once the saw has closed the oval the flap is free: grasp it and lift it up and aside
+        # (towards -x, away from the retractor's way in), tilting it.
+        "lift": {"near": [0.15, 0.85, 0.05], "start": LIFT_START,
+                 "path": [{"t": 0, "translate": [0, 0, 0]},
+                          {"t": 0.1, "translate": [0, 0.25, 0]},
+                          {"t": 0.25, "translate": [-1.0, 0.5, 0], "rotate": {"axis": [0, 0, 1], "degrees": 40}}]},
+        "steps": 80,
+        "frameEvery": 5}}
 out = sys.argv[1] if len(sys.argv) > 1 else "scenes/craniotomy.json"
 with open(out, "w") as f:
     f.write(json.dumps(scene, indent=1) + "\n")

@@ -43,16 +43,25 @@ def simulate(name):
 
 def cut(name):
     text = read(f"{name}.txt")
-    c = re.search(r"cut: (\d+) events in ([0-9.]+) ms, (\d+) parts; self-check (\S+)", text)
+    c = re.search(r"cut: (\d+) events in ([0-9.]+) ms, (\d+) parts; self-check (\w+).*cutter ([0-9.]+) ms, FEM updates ([0-9.]+) ms", text)
     before = re.search(r"quality before: (\d+) tets", text)
     after = re.search(r"quality after:\s+(\d+) tets.*dihedral \[([0-9.e+-]+), ([0-9.e+-]+)\]", text)
-    return {"events": int(c[1]), "ms": float(c[2]), "parts": int(c[3]), "check": c[4], "tets_before": int(before[1]),
-            "tets_after": int(after[1]), "min_dihedral": float(after[2]), "wall": float(read(f"{name}.wall"))}
+    lift = re.search(r"lift: a part of (\d+) tets \((\d+) nodes\) came free and was lifted from t = ([0-9.]+) s; it ends ([0-9.e+-]+) from its rest place \(path ([0-9.e+-]+)\)", text)
+    tool = re.search(r"tool 0: max force (\S+) N, (\S+) N after the lift; up to (\d+) nodes", text)
+    tail = re.search(r"(\d+) steps, (\d+) frames[^;]* in \S+; ([0-9.]+) ms/step", text)
+    return {"events": int(c[1]), "ms": float(c[2]), "parts": int(c[3]), "check": c[4], "cutter_ms": float(c[5]),
+            "update_ms": float(c[6]), "tets_before": int(before[1]), "tets_after": int(after[1]),
+            "min_dihedral": float(after[2]), "wall": float(read(f"{name}.wall")),
+            "lift_tets": int(lift[1]) if lift else 0, "lift_t": float(lift[3]) if lift else float("nan"),
+            "lift_distance": float(lift[4]) if lift else 0.0, "lift_path": float(lift[5]) if lift else 0.0,
+            "max_force": float(tool[1]) if tool else 0.0, "force_after_lift": float(tool[2]) if tool else 0.0,
+            "steps": int(tail[1]), "ms_per_step": float(tail[3])}
 
 
-def frames(name):
-    rows = [line.split() for line in read(f"{name}_frames.txt").splitlines()]
-    return [[float(v) for v in r[3:]] for r in rows]  # lo xyz, hi xyz
+def stats(name):  # stats.csv of a cut run: one dict per frame
+    lines = read(f"{name}_stats.csv").splitlines()
+    header = lines[0].split(",")
+    return [dict(zip(header, map(float, line.split(",")))) for line in lines[1:]]
 
 
 egg, cran = info("eggshell_sim"), info("craniotomy")
@@ -62,7 +71,7 @@ tissues = {os.path.basename(p)[len("mesh_tissue_"):-4].replace("_", " "): mesh(o
            for p in sorted(glob.glob(os.path.join(work, "mesh_tissue_*.txt")))}
 egg_mesh, cran_mesh = mesh("eggshell_sim"), mesh("craniotomy")
 bench = json.load(open(os.path.join(work, "bench_cpu.json"))) + json.load(open(os.path.join(work, "bench_vk.json")))
-cran_frames, egg_frames = frames("cran"), frames("egg")
+egg_stats, cran_stats = stats("egg"), stats("cran")
 
 L = []
 w = L.append
@@ -88,13 +97,16 @@ w("| phase | eggshell | craniotomy |")
 w("|---|---|---|")
 w(f"| polygonize (CLI `simulate`, CPU) | {egg_sim['mesh_s']:.2f} s | {cran_sim['mesh_s']:.2f} s |")
 w(f"| tetrahedralize (voxel mesher, incl. materials and fixed nodes) | {egg_sim['tet_s']:.2f} s ({egg_sim['tets']} tets) | {cran_sim['tet_s']:.2f} s ({cran_sim['tets']} tets) |")
-w(f"| cut (all blade events) | {egg_cut['ms']:.0f} ms, {egg_cut['events']} events, self-check {egg_cut['check']} | {cran_cut['ms']:.0f} ms, {cran_cut['events']} events, self-check {cran_cut['check']} |")
-w(f"| cut: per event | {egg_cut['ms'] / max(1, egg_cut['events']):.1f} ms | {cran_cut['ms'] / max(1, cran_cut['events']):.1f} ms |")
+w(f"| cut events during the run (cutter + FEM updates) | {egg_cut['ms']:.0f} ms, {egg_cut['events']} events, self-check {egg_cut['check']} | {cran_cut['ms']:.0f} ms, {cran_cut['events']} events, self-check {cran_cut['check']} |")
+w(f"| &nbsp;&nbsp;cutter (`Cutter::cut`), per event | {egg_cut['cutter_ms'] / max(1, egg_cut['events']):.1f} ms | {cran_cut['cutter_ms'] / max(1, cran_cut['events']):.1f} ms |")
+w(f"| &nbsp;&nbsp;FEM update (`applyTopologyChange`), per event | {egg_cut['update_ms'] / max(1, egg_cut['events']):.1f} ms | {cran_cut['update_ms'] / max(1, cran_cut['events']):.1f} ms |")
 w(f"| min dihedral after the cut | {egg_cut['min_dihedral']:.2f} deg | {cran_cut['min_dihedral']:.2f} deg |")
 w(f"| FEM step (uncut body, `simulate`) | {egg_sim['ms_per_step']:.1f} ms | {cran_sim['ms_per_step']:.1f} ms |")
-w(f"| whole `cut` run (mesh, cut, same steps as below) | {egg_cut['wall']:.1f} s | {cran_cut['wall']:.1f} s |")
-w(f"| whole `simulate` run | {egg_sim['wall']:.1f} s ({egg_sim['steps']} steps) | {cran_sim['wall']:.1f} s ({cran_sim['steps']} steps) |")
-w(f"| max probe / retractor force (`simulate`) | {egg_sim['max_force']:.4g} N | {cran_sim['max_force']:.4g} N |")
+w(f"| FEM step during the `cut` run (mean) | {egg_cut['ms_per_step']:.1f} ms | {cran_cut['ms_per_step']:.1f} ms |")
+w(f"| whole `cut` run (mesh, cut while simulating, lift; {egg_cut['steps']} / {cran_cut['steps']} steps, PNG frames) | {egg_cut['wall']:.1f} s | {cran_cut['wall']:.1f} s |")
+w(f"| whole `simulate` run (uncut) | {egg_sim['wall']:.1f} s ({egg_sim['steps']} steps) | {cran_sim['wall']:.1f} s ({cran_sim['steps']} steps) |")
+w(f"| lifted part (`simulation.lift`) | cap, {egg_cut['lift_tets']} tets, from t = {egg_cut['lift_t']:.2f} s, ends {egg_cut['lift_distance']:.3f} from rest (path {egg_cut['lift_path']:.3f}) | bone flap, {cran_cut['lift_tets']} tets, from t = {cran_cut['lift_t']:.2f} s, ends {cran_cut['lift_distance']:.3f} from rest (path {cran_cut['lift_path']:.3f}) |")
+w(f"| max probe / retractor force (`cut`) | {egg_cut['max_force']:.4g} N | {cran_cut['max_force']:.4g} N ({cran_cut['force_after_lift']:.4g} N after the lift) |")
 w("")
 w("### Polygonization: CPU (AVX2 + TBB) and Vulkan (lavapipe), `blobvk bench --json`\n")
 w("| scene | resolution | backend | threads | median ms | triangles | FVEPT |")
@@ -119,41 +131,47 @@ else:
     w("Not measured: no Vulkan device.\n")
 w("## Charts\n")
 w("![time per FEM step](evaluation/step_time.png)\n")
+w("![tool force and lift during the cut runs](evaluation/procedure.png)\n")
 w("![polygonization time against resolution](evaluation/resolution.png)\n")
 w("![polygonization time against threads](evaluation/threads.png)\n")
 w("## The procedures, frame by frame\n")
 images = sorted(glob.glob(os.path.join(chart_dir, "*_frame_*.png")))
 if images:
     w("`blobvk cut` writes a PNG (rendered on the Vulkan device) next to each PLY frame; a few of them:\n")
-    for prefix, title in (("eggshell", "Eggshell: probe, then the cut-off cap falls"), ("craniotomy", "Craniotomy: the bone flap leaves, the retractor presses")):
+    for prefix, title in (("eggshell", "Eggshell: the probe presses, the blade cuts the ring, the cap is lifted away"), ("craniotomy", "Craniotomy: the saw cuts the oval, the bone flap is lifted away, the retractor presses the brain")):
         w(f"**{title}**\n")
         w(" ".join(f"![{os.path.basename(p)}](evaluation/{os.path.basename(p)})" for p in images if os.path.basename(p).startswith(prefix)) + "\n")
 else:
     w("No PNG frames were written (no Vulkan device?); only the PLY frames exist.\n")
-w("The extent of the PLY frames (`blobvk cut SCENE -o DIR`) shows what happens:\n")
-w("| frame | eggshell lowest y (cap falls) | craniotomy highest y (flap leaves; gravity +y, head crown-down) |")
-w("|---|---|---|")
-for i in range(max(len(egg_frames), len(cran_frames))):
-    e = f"{egg_frames[i][1]:.3f}" if i < len(egg_frames) else ""
-    c = f"{cran_frames[i][4]:.3f}" if i < len(cran_frames) else ""
-    w(f"| {i} | {e} | {c} |")
-w("")
+w("Per frame, from the runs' `stats.csv` (`blobvk cut SCENE -o DIR` writes it next to the frames):\n")
+for title, rows, tool in (("Eggshell", egg_stats, "probe"), ("Craniotomy", cran_stats, "retractor")):
+    w(f"**{title}**\n")
+    w(f"| frame | t (s) | cut events | parts | lifted | lift distance | {tool} force (N) | {tool} nodes | FEM ms/step | cut ms |")
+    w("|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        w(f"| {int(r['frame'])} | {r['time']:.2f} | {int(r['cut_events'])} | {int(r['parts'])} | {'yes' if r['lifted'] else 'no'} | "
+          f"{r['lift_distance']:.3f} | {r.get('tool0_force', 0):.4g} | {int(r.get('tool0_nodes', 0))} | {r['fem_ms']:.0f} | {r['cut_ms']:.0f} |")
+    w("")
 w("## What is modelled, and what is not\n")
 w("* **Eggshell**: the thesis' BlobTree (difference of two scaled points), voxel-meshed (TetGen would")
 w("  fill the shell's cavity: the CLI gives it no hole point). Held at the top (fixed selector), pressed")
-w("  on its side by a sphere probe, and its bottom cap is cut off by a radial blade swept once around a")
-w("  horizontal ring; the cap falls away under gravity. The voxel mesher keeps every cell touching the")
-w("  inside, so the meshed shell is thicker (volume larger) than the implicit one.")
+w("  on its side by a sphere probe; then, while the shell still moves, a radial blade cuts a closed")
+w("  horizontal ring around its bottom (the blade's keyframe times are simulation times; every cut")
+w("  event updates the running FEM), the cap comes free and the scene's `lift` carries it down and")
+w("  aside. The voxel mesher keeps every cell touching the inside, so the meshed shell is thicker")
+w("  (volume larger) than the implicit one.")
 w("* **Craniotomy**: scalp, skull, CSF and brain (two hemispheres with six blended gyri) as quadric")
 w("  points; each tissue its own colour and material (`materialFromPrimitive`, by primitive order). The")
 w("  dura is taken as stripped from the bone: an epidural gap separates the scalp+skull shell from the")
-w("  CSF+brain body, so the flap can leave. A radial saw blade cuts a closed oval on the crown through")
-w("  scalp and bone. The head is clamped (shell fixed below y = 0.3) and hangs crown-down (gravity +y in")
-w("  the head's frame): the CLI's tools only push and cut parts do not collide, so gravity lifts the")
-w("  flap. A capsule retractor then enters the opening and presses the CSF and brain, fixed at the")
-w("  brain stem. Not modelled: contact between parts (the flap, skull and brain pass through each other")
-w("  if pushed together), fluid CSF (a very soft solid), a skull base, face and neck, cutting during")
-w("  the simulation (the CLI cuts the rest mesh first, then simulates).")
+w("  CSF+brain body, so the flap can leave. The head is clamped (shell fixed below y = 0.3), the brain")
+w("  held at the brain stem. During the simulation a radial saw blade cuts a closed oval on the crown")
+w("  through scalp and bone; once the flap is free (no fixed node left in it) the scene's `lift` pins it")
+w("  and carries it up and aside along a rigid path, exposing the brain; the capsule retractor, which")
+w("  waited above the head, enters the opening and presses the CSF and brain, its force reported per")
+w("  frame. Not modelled: contact between parts (the flap, skull and brain would pass through each")
+w("  other if pushed together), fluid CSF (a very soft solid), a skull base, face and neck.")
+w("* After the first cut event the frames show the FEM's tet boundary (the polygonized surface is")
+w("  embedded only in the uncut mesh).")
 
 
 with open(report, "w") as f:
@@ -170,10 +188,23 @@ def data(name, rows):
 common = "set terminal pngcairo noenhanced size 640,400 font 'sans,10'\nset key top left\nset grid\n"
 de = data("egg_steps.dat", egg_sim["per_step"])
 dc = data("cran_steps.dat", cran_sim["per_step"])
+dec = data("egg_cut_steps.dat", [(r["time"], r["fem_ms"]) for r in egg_stats[1:]])
+dcc = data("cran_cut_steps.dat", [(r["time"], r["fem_ms"]) for r in cran_stats[1:]])
 with open(os.path.join(work, "step_time.gp"), "w") as f:
-    f.write(common + f"set output '{chart_dir}/step_time.png'\nset xlabel 'step'\nset ylabel 'ms per FEM step'\n"
-            f"plot '{de}' using 1:2 with linespoints title 'eggshell ({egg_sim['tets']} tets)', "
-            f"'{dc}' using 1:2 with linespoints title 'craniotomy ({cran_sim['tets']} tets)'\n")
+    f.write(common + f"set output '{chart_dir}/step_time.png'\nset xlabel 'simulated time (s)'\nset ylabel 'ms per FEM step'\n"
+            f"plot '{dec}' using 1:2 with linespoints title 'eggshell, cut run (cuts from t = 0.35 s)', "
+            f"'{dcc}' using 1:2 with linespoints title 'craniotomy, cut run (cuts until t = 0.2 s)', "
+            f"'{de}' using ($1*0.01):2 with lines title 'eggshell, uncut ({egg_sim['tets']} tets)', "
+            f"'{dc}' using ($1*0.01):2 with lines title 'craniotomy, uncut ({cran_sim['tets']} tets)'\n")
+pe = data("egg_proc.dat", [(r["time"], r.get("tool0_force", 0), r["lift_distance"]) for r in egg_stats])
+pc = data("cran_proc.dat", [(r["time"], r.get("tool0_force", 0), r["lift_distance"]) for r in cran_stats])
+with open(os.path.join(work, "procedure.gp"), "w") as f:
+    f.write(common + f"set output '{chart_dir}/procedure.png'\nset xlabel 'simulated time (s)'\nset ylabel 'tool force on the body (N)'\n"
+            "set y2label 'lifted part: distance from rest'\nset y2tics\nset ytics nomirror\nset logscale y\nset yrange [10:*]\n"
+            f"plot '{pe}' using 1:($2 > 0 ? $2 : 1/0) with linespoints title 'eggshell probe force', "
+            f"'{pc}' using 1:($2 > 0 ? $2 : 1/0) with linespoints title 'craniotomy retractor force', "
+            f"'{pe}' using 1:3 axes x1y2 with lines dt 2 title 'eggshell cap lift', "
+            f"'{pc}' using 1:3 axes x1y2 with lines dt 2 title 'craniotomy flap lift'\n")
 series = {}
 for b in bench:
     key = (os.path.basename(b["scene"]).replace(".json", ""), b["backend"], b["threads"])

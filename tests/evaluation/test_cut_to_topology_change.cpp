@@ -1,0 +1,98 @@
+// apps/cut_to_topology_change: every cut event of a blade moving through a falling, held ball is
+// applied to a running fem::Simulation; after each one the simulation must hold the cutter's
+// mesh (same nodes, tets slot by slot, rest positions and rest volume) and keep stepping finite.
+#include "apps/cut_to_topology_change.h"
+
+#include "cutting/blade.h"
+#include "cutting/cutter.h"
+#include "cutting/parts.h"
+#include "fem/simulation.h"
+#include "fem/voxel_mesher.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace {
+
+using namespace blobvk;
+
+mesh::TetMesh ball() {
+  fem::VoxelMesherSettings voxel;
+  voxel.boundsMin = {-1.1, -1.1, -1.1};
+  voxel.boundsMax = {1.1, 1.1, 1.1};
+  voxel.cellSize = 0.25;
+  return fem::voxelTetrahedralize([](double x, double y, double z) { return x * x + y * y + z * z < 1.0 ? 1.0f : 0.0f; }, voxel);
+}
+
+TEST(CutToTopologyChange, TheSimulationFollowsTheCutterEventByEvent) {
+  const mesh::TetMesh rest = ball();
+  ASSERT_GT(rest.tetCount(), 500u);
+  fem::SimulationSettings settings;
+  settings.materials = {fem::Material{}};
+  settings.materials[0].youngModulus = 5e4;
+  settings.fixed = [](const mesh::Double3& p) { return p.y < -0.7; };  // held at the bottom
+  fem::Simulation sim(rest, settings);
+  cutting::Cutter cutter(rest);
+
+  // A vertical blade crossing the ball in x, moving in z: it cuts the ball in two halves.
+  cutting::BladePath blade;
+  for (int i = 0; i <= 8; ++i) blade.keyframes.push_back({0.02 * i, {0.05, 1.5, -1.5 + 3.0 * i / 8}, {0.05, -1.5, -1.5 + 3.0 * i / 8}});
+  std::size_t changingEvents = 0;
+  for (std::size_t i = 1; i < blade.keyframes.size(); ++i) {
+    std::copy(sim.positions().begin(), sim.positions().end(), cutter.topology().positions().begin());
+    cutter.positionsChanged();
+    auto swept = cutting::sweptTriangles(blade.keyframes[i - 1], blade.keyframes[i]);
+    if (i >= 2) {
+      const auto previous = cutting::sweptTriangles(blade.keyframes[i - 2], blade.keyframes[i - 1]);
+      swept.insert(swept.end(), previous.begin(), previous.end());
+    }
+    const std::size_t nodesBefore = sim.mesh().nodeCount(), tetsBefore = sim.mesh().tetCount();
+    const cutting::CutResult event = cutter.cut(swept);
+    sim.applyTopologyChange(app::toTopologyChange(event, cutter.topology(), nodesBefore, tetsBefore));
+    changingEvents += !event.newNodes.empty();
+
+    const mesh::TetMesh& cut = cutter.topology().mesh();
+    ASSERT_EQ(sim.mesh().nodeCount(), cut.nodeCount()) << "event " << i;
+    ASSERT_EQ(sim.mesh().tetCount(), cutter.topology().liveTetCount()) << "event " << i;
+    EXPECT_NEAR(sim.restVolume(), cutter.topology().totalRestVolume(), 1e-9 * sim.restVolume()) << "event " << i;
+    for (std::size_t t = 0; t < cut.tetCount(); ++t) {
+      ASSERT_EQ(sim.mesh().tets[t], cut.tets[t]) << "slot " << t;
+      ASSERT_EQ(sim.mesh().regions.empty() ? 0u : sim.mesh().regions[t], cut.regions[t]) << "slot " << t;
+    }
+    for (std::size_t v = 0; v < cut.nodeCount(); ++v) {
+      const auto &a = sim.mesh().restPositions[v], &b = cut.restPositions[v];
+      ASSERT_NEAR(a.x, b.x, 1e-12);
+      ASSERT_NEAR(a.y, b.y, 1e-12);
+      ASSERT_NEAR(a.z, b.z, 1e-12);
+    }
+    ASSERT_TRUE(cutter.topology().selfCheck().ok()) << cutter.topology().selfCheck().summary();
+
+    sim.run(2);  // the FEM keeps running on the cut mesh
+    for (const auto& x : sim.positions()) ASSERT_TRUE(std::isfinite(x.x) && std::isfinite(x.y) && std::isfinite(x.z)) << "event " << i;
+  }
+  EXPECT_GT(changingEvents, 3u);
+  // The blade went right through: two big halves (and maybe slivers the crack freed).
+  const auto parts = cutting::disjointParts(cutter.topology());
+  ASSERT_GE(parts.size(), 2u);
+  EXPECT_GT(parts[1].size(), sim.mesh().tetCount() / 4);
+  EXPECT_GT(sim.mesh().tetCount(), rest.tetCount());
+}
+
+TEST(CutToTopologyChange, AnEventItCannotExpressIsRefused) {
+  const mesh::TetMesh rest = ball();
+  const cutting::CutTopology topology(rest);
+  cutting::CutResult removedOnly;  // a slot dropped and never refilled: the FEM has no removal
+  removedOnly.removedTets = {3};
+  removedOnly.removedTetNodes = {rest.tets[3]};
+  EXPECT_THROW(app::toTopologyChange(removedOnly, topology, rest.nodeCount(), rest.tetCount()), std::logic_error);
+  cutting::CutResult phantomNode;  // claims a new node the cutter does not have
+  phantomNode.newNodes.push_back({});
+  EXPECT_THROW(app::toTopologyChange(phantomNode, topology, rest.nodeCount(), rest.tetCount()), std::logic_error);
+  // An event that changed nothing converts to an empty change.
+  const fem::TopologyChange none = app::toTopologyChange(cutting::CutResult{}, topology, rest.nodeCount(), rest.tetCount());
+  EXPECT_TRUE(none.newNodes.empty() && none.tetSlots.empty());
+}
+
+}  // namespace
