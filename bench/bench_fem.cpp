@@ -4,6 +4,7 @@
 // contact, solve (CG + update).
 #include "fem/simulation.h"
 #include "fem/voxel_mesher.h"
+#include "tests/fem/cut_changes.h"  // the same cut-like change builder the topology tests use
 
 #include <benchmark/benchmark.h>
 
@@ -44,7 +45,71 @@ void BM_FemStep(benchmark::State& state) {
   state.counters["assembly_ms"] = assembly / n;
   state.counters["contact_ms"] = contact / n;
   state.counters["solve_ms"] = solve / n;
+  state.counters["rot_iters_per_tet"] = sim.lastStats().rotationIterationsPerTet;
 }
+
+fem::SimulationSettings cutSettings() {
+  fem::SimulationSettings settings;
+  settings.materials = {fem::Material{1e5, 0.45, 1000}};
+  settings.fixed = [](const mesh::Double3& p) { return p.y < 1e-9; };
+  settings.cgMaxIterations = 10;
+  settings.cgTolerance = 0;
+  return settings;
+}
+
+// A cut-like change on the 100k-tet block: every edge crossing the plane y = 0.155 inside a
+// 9 x 9-cell window is split at the plane (as a scalpel sweep's intersection points would be),
+// which rewrites the tets crossing it in place and appends their other pieces.
+fem::TopologyChange cutChange(const mesh::TetMesh& m) {
+  fem::test::ChangeBuilder b(m);
+  const double plane = 0.155;
+  auto inWindow = [](const mesh::Double3& p) { return p.x > 0.045 && p.x < 0.145 && p.z > 0.145 && p.z < 0.245; };
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+  for (const auto& t : m.tets)
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        const auto &a = m.restPositions[t[std::size_t(i)]], &c = m.restPositions[t[std::size_t(j)]];
+        if (a.y < plane && c.y > plane && inWindow(a) && inWindow(c)) edges.emplace_back(t[std::size_t(i)], t[std::size_t(j)]);
+      }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  for (const auto& [a, c] : edges) {
+    const double ya = m.restPositions[a].y, yc = m.restPositions[c].y;
+    b.splitEdge(a, c, (plane - ya) / (yc - ya));
+  }
+  return b.build();
+}
+
+// One applyTopologyChange of the cut above on a running 100k-tet simulation (the simulation is
+// rebuilt outside the timed region for every iteration).
+void BM_FemTopologyChange(benchmark::State& state) {
+  const mesh::TetMesh m = box(19, 20, 45);
+  const fem::TopologyChange change = cutChange(m);
+  std::size_t rewritten = 0;
+  for (auto slot : change.tetSlots) rewritten += slot < m.tetCount() ? 1 : 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    fem::Simulation sim(m, cutSettings());
+    sim.run(1);
+    state.ResumeTiming();
+    sim.applyTopologyChange(change);
+    benchmark::DoNotOptimize(sim.mesh().tetCount());
+  }
+  state.counters["new_nodes"] = double(change.newNodes.size());
+  state.counters["tets_rewritten"] = double(rewritten);
+  state.counters["tets_appended"] = double(change.tetSlots.size() - rewritten);
+}
+BENCHMARK(BM_FemTopologyChange)->Iterations(5)->Unit(benchmark::kMillisecond);
+
+// For comparison: what a full rebuild costs, a fresh Simulation on the 100k-tet block.
+void BM_FemRebuild(benchmark::State& state) {
+  const mesh::TetMesh m = box(19, 20, 45);
+  for (auto _ : state) {
+    fem::Simulation sim(m, cutSettings());
+    benchmark::DoNotOptimize(sim.mesh().tetCount());
+  }
+}
+BENCHMARK(BM_FemRebuild)->Iterations(5)->Unit(benchmark::kMillisecond);
 // 960, 10,368 and 102,600 tets (the last two match the anchors' baseline meshes).
 BENCHMARK(BM_FemStep)->Args({8, 5, 4})->Args({12, 12, 12})->Args({19, 20, 45})->Unit(benchmark::kMillisecond);
 

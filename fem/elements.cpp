@@ -1,9 +1,9 @@
 #include "fem/elements.h"
 
+#include "fem/kernel_dispatch.h"
 #include "fem/rotation.h"
 
-#include <bitset>
-#include <stdexcept>
+#include <chrono>
 
 #include <Eigen/Dense>
 #include <tbb/parallel_for.h>
@@ -13,116 +13,230 @@ namespace {
 
 using RowMat3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
+constexpr std::size_t kTetGrain = 1024, kNodeGrain = 512;
+
 Eigen::Vector3d vec(const mesh::Double3& p) { return {p.x, p.y, p.z}; }
 
-// Ds = [x1 - x0, x2 - x0, x3 - x0] as columns.
-Eigen::Matrix3d edgeMatrix(const std::vector<mesh::Double3>& x, const std::array<std::uint32_t, 4>& t) {
-  const Eigen::Vector3d x0 = vec(x[t[0]]);
-  Eigen::Matrix3d D;
-  D << vec(x[t[1]]) - x0, vec(x[t[2]]) - x0, vec(x[t[3]]) - x0;
-  return D;
+template <class Body>
+void forEach(std::size_t count, std::size_t grain, const Body& body) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, grain), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t k = r.begin(); k != r.end(); ++k) body(k);
+  });
 }
 
 }  // namespace
 
 void ElementSet::build(const mesh::TetMesh& mesh, const std::vector<Material>& materials) {
-  const std::size_t m = mesh.tets.size();
-  tets = mesh.tets;
-  restInverse.resize(m);
-  volume.resize(m);
-  lambda.resize(m);
-  mu.resize(m);
-  density.resize(m);
-  quaternion.assign(m, {1, 0, 0, 0});
-  rotation.assign(m, {1, 0, 0, 0, 1, 0, 0, 0, 1});
-  for (std::size_t e = 0; e < m; ++e) {
-    const Eigen::Matrix3d Dm = edgeMatrix(mesh.restPositions, tets[e]);
-    Eigen::Map<RowMat3>(restInverse[e].data()) = Dm.inverse();
-    volume[e] = Dm.determinant() / 6.0;
-    const Material& mat = materials[mesh.regions.empty() ? 0 : mesh.regions[e]];
-    lambda[e] = mat.lambda();
-    mu[e] = mat.mu();
-    density[e] = mat.density;
-  }
-  // Greedy colouring: the first colour not used yet by any tet sharing a node.
-  std::vector<std::bitset<256>> used(mesh.positions.size());
-  colours.clear();
-  for (std::uint32_t e = 0; e < m; ++e) {
-    std::bitset<256> taken;
-    for (auto n : tets[e]) taken |= used[n];
-    std::size_t c = 0;
-    while (c < 256 && taken[c]) ++c;
-    if (c == 256) throw std::runtime_error("element colouring needs more than 256 colours (node valence too high)");
-    if (c >= colours.size()) colours.resize(c + 1);
-    colours[c].push_back(e);
-    for (auto n : tets[e]) used[n].set(c);
-  }
+  *this = ElementSet();
+  reserve(mesh.tets.size() + mesh.tets.size() / 8 + 64);  // room for cuts without reallocating
+  for (std::size_t e = 0; e < mesh.tets.size(); ++e)
+    writeTet(std::uint32_t(e), mesh.tets[e], mesh.restPositions, materials[mesh.regions.empty() ? 0 : mesh.regions[e]]);
+  incidence_.build(mesh.positions.size(), tets_);  // one pass, with even spare room per row
 }
 
-std::vector<double> ElementSet::lumpedMass(std::size_t nodeCount) const {
-  std::vector<double> mass(nodeCount, 0.0);
-  for (std::size_t e = 0; e < size(); ++e)
-    for (auto n : tets[e]) mass[n] += density[e] * volume[e] / 4.0;
+void ElementSet::setTet(std::uint32_t e, const std::array<std::uint32_t, 4>& nodes, const std::vector<mesh::Double3>& rest,
+                        const Material& mat) {
+  if (e < tets_.size()) incidence_.removeTet(e, tets_[e]);
+  writeTet(e, nodes, rest, mat);
+  incidence_.addTet(e, nodes);
+}
+
+void ElementSet::writeTet(std::uint32_t e, const std::array<std::uint32_t, 4>& nodes, const std::vector<mesh::Double3>& rest,
+                          const Material& mat) {
+  if (e == tets_.size()) {
+    tets_.emplace_back();
+    restInverse_.emplace_back();
+    volume_.push_back(0);
+    lambda_.push_back(0);
+    mu_.push_back(0);
+    density_.push_back(0);
+    quaternion_.emplace_back();
+    rotatedGradients_.emplace_back();
+    tetVectors_.emplace_back();
+    tetDiagonal_.emplace_back();
+    tetEnergy_.push_back(0);
+    tetIterations_.push_back(0);
+  }
+  tets_[e] = nodes;
+  const Eigen::Vector3d x0 = vec(rest[nodes[0]]);
+  Eigen::Matrix3d Dm;
+  Dm << vec(rest[nodes[1]]) - x0, vec(rest[nodes[2]]) - x0, vec(rest[nodes[3]]) - x0;
+  Eigen::Map<RowMat3>(restInverse_[e].data()) = Dm.inverse();
+  volume_[e] = Dm.determinant() / 6.0;
+  lambda_[e] = mat.lambda();
+  mu_[e] = mat.mu();
+  density_[e] = mat.density;
+  quaternion_[e] = {1, 0, 0, 0};
+  rotatedGradients_[e] = {};
+  tetVectors_[e] = {};
+}
+
+void ElementSet::reserve(std::size_t tets) {
+  tets_.reserve(tets);
+  restInverse_.reserve(tets);
+  volume_.reserve(tets);
+  lambda_.reserve(tets);
+  mu_.reserve(tets);
+  density_.reserve(tets);
+  quaternion_.reserve(tets);
+  rotatedGradients_.reserve(tets);
+  tetVectors_.reserve(tets);
+  tetDiagonal_.reserve(tets);
+  tetEnergy_.reserve(tets);
+  tetIterations_.reserve(tets);
+}
+
+double ElementSet::lumpedMass(std::size_t node) const {
+  double m = 0;
+  for (const std::uint32_t* p = incidence_.begin(node); p != incidence_.end(node); ++p) {
+    const std::uint32_t e = NodeIncidence::tetOf(*p);
+    m += density_[e] * volume_[e] / 4.0;
+  }
+  return m;
+}
+
+std::vector<double> ElementSet::lumpedMass() const {
+  std::vector<double> mass(nodeCount());
+  forEach(mass.size(), kNodeGrain, [&](std::size_t r) { mass[r] = lumpedMass(r); });
   return mass;
 }
 
-long long ElementSet::updateRotations(const std::vector<mesh::Double3>& x, int maxIterations) {
-  std::vector<int> iterations(size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), 512), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t e = r.begin(); e != r.end(); ++e) {
-      const RowMat3 F = edgeMatrix(x, tets[e]) * Eigen::Map<const RowMat3>(restInverse[e].data());
-      iterations[e] = extractRotation(F.data(), quaternion[e].data(), maxIterations);
-      const Eigen::Quaterniond q(quaternion[e][0], quaternion[e][1], quaternion[e][2], quaternion[e][3]);
-      Eigen::Map<RowMat3>(rotation[e].data()) = q.toRotationMatrix();
+BLOBVK_FEM_KERNEL void ElementSet::tetPass(std::size_t begin, std::size_t end, const std::vector<mesh::Double3>& x,
+                                           int maxIterations, bool withDiagonal) {
+  for (std::size_t e = begin; e != end; ++e) {
+    const auto& t = tets_[e];
+    const double* B = restInverse_[e].data();
+    const mesh::Double3& p0 = x[t[0]];
+    double D[3][3];  // columns x_k - x_0
+    for (int k = 0; k < 3; ++k) {
+      const mesh::Double3& p = x[t[std::size_t(k + 1)]];
+      D[0][k] = p.x - p0.x;
+      D[1][k] = p.y - p0.y;
+      D[2][k] = p.z - p0.z;
     }
-  });
-  long long total = 0;
-  for (int i : iterations) total += i;
-  return total;
+    double F[9];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) F[a * 3 + b] = D[a][0] * B[b] + D[a][1] * B[3 + b] + D[a][2] * B[6 + b];
+    auto& q = quaternion_[e];
+    tetIterations_[e] = extractRotation(F, q.data(), maxIterations);
+    const RowMat3 R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+    const Eigen::Map<const RowMat3> Fm(F);
+    const Eigen::Matrix3d S = R.transpose() * Fm;
+    const Eigen::Matrix3d eps = 0.5 * (S + S.transpose()) - Eigen::Matrix3d::Identity();
+    const double tr = eps.trace(), V = volume_[e], l = lambda_[e], m = mu_[e];
+    tetEnergy_[e] = V * (m * eps.squaredNorm() + 0.5 * l * tr * tr);
+    const Eigen::Matrix3d sigma = 2 * m * eps + l * tr * Eigen::Matrix3d::Identity();
+    // f_i = -V R sigma g_i = T h_i with T = -V R sigma R^T and h_i = R g_i; g1..g3 are the rows
+    // of Dm^-1 and g0 = -(g1 + g2 + g3), so h0 and f0 follow from the other three.
+    const RowMat3 T = -V * R * sigma * R.transpose();
+    const Eigen::Map<const RowMat3> Bm(B);
+    Eigen::Map<RowMat3> H(rotatedGradients_[e].data());  // row j-1 = h_j
+    H.noalias() = Bm * R.transpose();
+    double* f = tetVectors_[e].data();
+    Eigen::Map<RowMat3>(f + 3).noalias() = H * T;  // rows T h_j (T symmetric)
+    for (int c = 0; c < 3; ++c) f[c] = -(f[3 + c] + f[6 + c] + f[9 + c]);
+    if (!withDiagonal) continue;
+    // Diagonal of block (i, i) = V [mu |h_i|^2 I + (mu + lambda) h_i h_i^T].
+    const double vm = V * m, vml = V * (m + l);
+    double* d = tetDiagonal_[e].data();
+    double h[4][3];
+    for (int c = 0; c < 3; ++c) {
+      h[1][c] = H(0, c);
+      h[2][c] = H(1, c);
+      h[3][c] = H(2, c);
+      h[0][c] = -(h[1][c] + h[2][c] + h[3][c]);
+    }
+    for (int i = 0; i < 4; ++i) {
+      const double hh = vm * (h[i][0] * h[i][0] + h[i][1] * h[i][1] + h[i][2] * h[i][2]);
+      for (int c = 0; c < 3; ++c) d[3 * i + c] = hh + vml * h[i][c] * h[i][c];
+    }
+  }
 }
 
-double ElementSet::addForcesAndStiffness(const std::vector<mesh::Double3>& x, std::vector<double>& force,
-                                         BlockMatrix3* matrix, double scale) const {
-  std::vector<double> energy(size());
-  for (const auto& colour : colours) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, colour.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t k = r.begin(); k != r.end(); ++k) {
-        const std::uint32_t e = colour[k];
-        const auto& t = tets[e];
-        const Eigen::Map<const RowMat3> Bm(restInverse[e].data());
-        const Eigen::Map<const RowMat3> R(rotation[e].data());
-        const Eigen::Matrix3d F = edgeMatrix(x, t) * Bm;
-        const Eigen::Matrix3d S = R.transpose() * F;
-        const Eigen::Matrix3d eps = 0.5 * (S + S.transpose()) - Eigen::Matrix3d::Identity();
-        const double tr = eps.trace(), V = volume[e], l = lambda[e], m = mu[e];
-        const Eigen::Matrix3d P = R * (2 * m * eps + l * tr * Eigen::Matrix3d::Identity());
-        energy[e] = V * (m * eps.squaredNorm() + 0.5 * l * tr * tr);
-        // Shape-function gradients: g1..g3 are the rows of Dm^-1, g0 = -(g1 + g2 + g3).
-        Eigen::Matrix<double, 3, 4> g;
-        g.rightCols<3>() = Bm.transpose();
-        g.col(0) = -(g.col(1) + g.col(2) + g.col(3));
-        const Eigen::Matrix<double, 3, 4> f = -V * P * g;
-        for (int i = 0; i < 4; ++i)
-          for (int c = 0; c < 3; ++c) force[3 * std::size_t(t[i]) + std::size_t(c)] += f(c, i);
-        if (!matrix) continue;
-        // Warped stiffness block (i, j) = V [mu (g_i.g_j) I + mu h_j h_i^T + lambda h_i h_j^T], h = R g.
-        const Eigen::Matrix<double, 3, 4> h = R * g;
-        const double sv = scale * V;
-        for (int i = 0; i < 4; ++i)
-          for (int j = 0; j < 4; ++j) {
-            Eigen::Map<RowMat3> B(matrix->block(matrix->slot(e, i, j)));
-            B.noalias() += sv * (m * h.col(j) * h.col(i).transpose() + l * h.col(i) * h.col(j).transpose());
-            const double d = sv * m * g.col(i).dot(g.col(j));
-            B(0, 0) += d;
-            B(1, 1) += d;
-            B(2, 2) += d;
-          }
+ElasticPassResult ElementSet::computeForces(const std::vector<mesh::Double3>& x, int maxIterations, double* force,
+                                            double* diagonal) {
+  const auto start = std::chrono::steady_clock::now();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kTetGrain), [&](const tbb::blocked_range<std::size_t>& r) {
+    tetPass(r.begin(), r.end(), x, maxIterations, diagonal != nullptr);
+  });
+  lastTetPassMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  gather(force, nullptr, nullptr);
+  if (diagonal) {
+    forEach(nodeCount(), kNodeGrain, [&](std::size_t r) {
+      double d0 = 0, d1 = 0, d2 = 0;
+      for (const std::uint32_t* p = incidence_.begin(r); p != incidence_.end(r); ++p) {
+        const double* d = tetDiagonal_[NodeIncidence::tetOf(*p)].data() + 3 * NodeIncidence::cornerOf(*p);
+        d0 += d[0];
+        d1 += d[1];
+        d2 += d[2];
       }
+      diagonal[3 * r] = d0;
+      diagonal[3 * r + 1] = d1;
+      diagonal[3 * r + 2] = d2;
     });
   }
-  double total = 0;
-  for (double v : energy) total += v;
-  return total;
+  ElasticPassResult result;
+  for (std::size_t e = 0; e < size(); ++e) {  // serial: a fixed summation order
+    result.energy += tetEnergy_[e];
+    result.rotationIterations += tetIterations_[e];
+  }
+  return result;
+}
+
+void ElementSet::gather(double* y, const double* nodeScale, const double* p) const {
+  forEach(nodeCount(), kNodeGrain, [&](std::size_t r) {
+    const double s = nodeScale ? nodeScale[r] : 0.0;
+    double y0 = 0, y1 = 0, y2 = 0;
+    if (nodeScale) {
+      y0 = s * p[3 * r];
+      y1 = s * p[3 * r + 1];
+      y2 = s * p[3 * r + 2];
+    }
+    for (const std::uint32_t* q = incidence_.begin(r); q != incidence_.end(r); ++q) {
+      const double* v = tetVectors_[NodeIncidence::tetOf(*q)].data() + 3 * NodeIncidence::cornerOf(*q);
+      y0 += v[0];
+      y1 += v[1];
+      y2 += v[2];
+    }
+    y[3 * r] = y0;
+    y[3 * r + 1] = y1;
+    y[3 * r + 2] = y2;
+  });
+}
+
+BLOBVK_FEM_KERNEL void ElementSet::stiffnessPass(std::size_t begin, std::size_t end, const double* p, double scale) {
+  for (std::size_t e = begin; e != end; ++e) {
+    const auto& t = tets_[e];
+    const double* h = rotatedGradients_[e].data();  // h1, h2, h3 (h0 = -(h1 + h2 + h3))
+    const double* p0 = p + 3 * std::size_t(t[0]);
+    double X[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};  // sum_j p_j h_j^T = sum_{j>0} (p_j - p_0) h_j^T
+    for (int j = 1; j < 4; ++j) {
+      const double* pj = p + 3 * std::size_t(t[std::size_t(j)]);
+      const double* hj = h + 3 * (j - 1);
+      const double d[3] = {pj[0] - p0[0], pj[1] - p0[1], pj[2] - p0[2]};
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) X[a * 3 + b] += d[a] * hj[b];
+    }
+    const double sm = scale * volume_[e] * mu_[e], sl = scale * volume_[e] * lambda_[e];
+    const double trace = sl * (X[0] + X[4] + X[8]);
+    const double Sxx = 2 * sm * X[0] + trace, Syy = 2 * sm * X[4] + trace, Szz = 2 * sm * X[8] + trace;
+    const double Sxy = sm * (X[1] + X[3]), Sxz = sm * (X[2] + X[6]), Syz = sm * (X[5] + X[7]);
+    double* out = tetVectors_[e].data();
+    for (int j = 1; j < 4; ++j) {
+      const double* hj = h + 3 * (j - 1);
+      out[3 * j] = Sxx * hj[0] + Sxy * hj[1] + Sxz * hj[2];
+      out[3 * j + 1] = Sxy * hj[0] + Syy * hj[1] + Syz * hj[2];
+      out[3 * j + 2] = Sxz * hj[0] + Syz * hj[1] + Szz * hj[2];
+    }
+    for (int c = 0; c < 3; ++c) out[c] = -(out[3 + c] + out[6 + c] + out[9 + c]);
+  }
+}
+
+void ElementSet::applySystem(const double* p, double* y, const double* nodeScale, double scale) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kTetGrain), [&](const tbb::blocked_range<std::size_t>& r) {
+    stiffnessPass(r.begin(), r.end(), p, scale);
+  });
+  gather(y, nodeScale, p);
 }
 
 }  // namespace blobvk::fem

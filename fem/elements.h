@@ -1,10 +1,15 @@
-// Per-element data of the corotational linear tet model and the two per-step passes over it:
-// rotations (embarrassingly parallel) and forces + warped stiffness (parallel per colour: no two
-// tets of one colour share a node, so scatters need no locks and stay deterministic).
+// Per-element data of the corotational linear tet model and the per-step passes over it, all
+// matrix-free and without colouring: one fused per-tet pass (rotation, stress, rotated shape
+// gradients) writes per-tet results, and a per-node gather over the NodeIncidence rows sums
+// them. No two threads write the same value and every sum runs in one fixed order, so results
+// do not depend on the thread count. The stiffness matrix is never assembled:
+// K p is applied element by element, (K p)_i = V [mu (X + X^T) + lambda tr(X) I] h_i with
+// X = sum_j p_j h_j^T and h = R g the rotated shape-function gradients (warped stiffness).
+// Per-tet passes write one 3-vector per corner; the node gather then only adds.
 #pragma once
 
-#include "fem/block_matrix.h"
 #include "fem/material.h"
+#include "fem/node_incidence.h"
 #include "mesh/tetmesh.h"
 
 #include <array>
@@ -13,26 +18,62 @@
 
 namespace blobvk::fem {
 
-struct ElementSet {
-  std::vector<std::array<std::uint32_t, 4>> tets;
-  std::vector<std::array<double, 9>> restInverse;  // Dm^-1, row-major; rows are grad N1..N3
-  std::vector<double> volume, lambda, mu, density;
-  std::vector<std::array<double, 4>> quaternion;   // warm start of the rotation extraction
-  std::vector<std::array<double, 9>> rotation;     // R of the last rotation pass, row-major
-  std::vector<std::vector<std::uint32_t>> colours;
+struct ElasticPassResult {
+  double energy = 0;                 // sum V (mu eps:eps + lambda/2 tr(eps)^2), eps = sym(R^T F) - I
+  long long rotationIterations = 0;  // over all tets
+};
 
+class ElementSet {
+ public:
   // Expects a validated mesh and one material per region index used.
   void build(const mesh::TetMesh& mesh, const std::vector<Material>& materials);
-  std::size_t size() const { return tets.size(); }
-  // rho V / 4 to each node of each tet.
-  std::vector<double> lumpedMass(std::size_t nodeCount) const;
-  // Extracts every element's rotation at positions x; returns the total iterations.
-  long long updateRotations(const std::vector<mesh::Double3>& x, int maxIterations);
-  // Adds the elastic forces -R sigma(eps) grad N V into force (3 per node) and, when matrix is
-  // not null, stiffnessScale * R K_e R^T into its blocks. Returns the elastic energy
-  // sum V (mu eps:eps + lambda/2 tr(eps)^2), eps = sym(R^T F) - I.
-  double addForcesAndStiffness(const std::vector<mesh::Double3>& x, std::vector<double>& force, BlockMatrix3* matrix,
-                               double stiffnessScale) const;
+  std::size_t size() const { return tets_.size(); }
+  std::size_t nodeCount() const { return incidence_.nodeCount(); }
+  const NodeIncidence& incidence() const { return incidence_; }
+
+  // Incremental edits (a topology change): new nodes have no tets yet; `setTet` rewrites slot
+  // `tet` (or appends it when tet == size()) from rest positions and a material, resets its
+  // rotation warm start and updates the incidence rows of the old and new nodes only.
+  void addNodes(std::size_t count) { incidence_.addNodes(count); }
+  void setTet(std::uint32_t tet, const std::array<std::uint32_t, 4>& nodes, const std::vector<mesh::Double3>& rest,
+              const Material& material);
+
+  // rho V / 4 from each incident tet, summed in incidence order.
+  double lumpedMass(std::size_t node) const;
+  std::vector<double> lumpedMass() const;
+
+  // Pass 1 (per tet): rotations at positions x (warm-started), stresses, rotated gradients.
+  // Pass 2 (per node): elastic forces -R sigma grad N V into force (3 per node, overwritten) and,
+  // when stiffnessDiagonal is not null, the diagonal of K (3 per node, overwritten).
+  ElasticPassResult computeForces(const std::vector<mesh::Double3>& x, int maxRotationIterations, double* force,
+                                  double* stiffnessDiagonal);
+  // y = nodeScale[node] * p + stiffnessScale * K p, with K at the rotations of the last
+  // computeForces; p and y hold 3 values per node. nodeScale may be null (treated as 0).
+  void applySystem(const double* p, double* y, const double* nodeScale, double stiffnessScale);
+  double lastTetPassMs() const { return lastTetPassMs_; }  // pass 1 of the last computeForces
+
+ private:
+  void reserve(std::size_t tets);
+  // The per-tet halves of computeForces and applySystem over tets [begin, end).
+  void tetPass(std::size_t begin, std::size_t end, const std::vector<mesh::Double3>& x, int maxIterations,
+               bool withDiagonal);
+  void stiffnessPass(std::size_t begin, std::size_t end, const double* p, double scale);
+  // y_node = nodeScale[node] p_node + sum of tetVectors_ over the node's incidence row.
+  void gather(double* y, const double* nodeScale, const double* p) const;
+  void writeTet(std::uint32_t tet, const std::array<std::uint32_t, 4>& nodes, const std::vector<mesh::Double3>& rest,
+                const Material& material);  // element data only (appends when tet == size())
+
+  std::vector<std::array<std::uint32_t, 4>> tets_;
+  std::vector<std::array<double, 9>> restInverse_;  // Dm^-1, row-major; rows are grad N1..N3
+  std::vector<double> volume_, lambda_, mu_, density_;
+  std::vector<std::array<double, 4>> quaternion_;         // warm start of the rotation extraction
+  std::vector<std::array<double, 9>> rotatedGradients_;   // h_i = R grad N_i, i = 1..3 (h_0 = -sum)
+  std::vector<std::array<double, 12>> tetVectors_;       // per-tet, per-corner results to gather
+  std::vector<std::array<double, 12>> tetDiagonal_;      // per-corner diagonal of K
+  std::vector<double> tetEnergy_;
+  std::vector<int> tetIterations_;
+  NodeIncidence incidence_;
+  double lastTetPassMs_ = 0;
 };
 
 }  // namespace blobvk::fem

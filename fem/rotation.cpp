@@ -1,5 +1,7 @@
 #include "fem/rotation.h"
 
+#include "fem/kernel_dispatch.h"
+
 #include <cmath>
 
 #include <Eigen/Dense>
@@ -7,7 +9,7 @@
 
 namespace blobvk::fem {
 
-int extractRotation(const double Fr[9], double qa[4], int maxIterations, double tolerance) {
+BLOBVK_FEM_KERNEL int extractRotation(const double Fr[9], double qa[4], int maxIterations, double tolerance) {
   const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> F(Fr);
   Eigen::Quaterniond q(qa[0], qa[1], qa[2], qa[3]);
   if (q.squaredNorm() < 0.5) q = Eigen::Quaterniond::Identity();
@@ -23,7 +25,8 @@ int extractRotation(const double Fr[9], double qa[4], int maxIterations, double 
     const double scale = std::abs(trace) + 1e-300;
     const double m1 = H(0, 0), m2 = H(0, 0) * H(1, 1) - H(0, 1) * H(1, 0), m3 = H.determinant();
     Eigen::Vector3d omega;
-    if (m1 > 1e-6 * scale && m2 > 1e-6 * scale * scale && m3 > 1e-6 * scale * scale * scale)
+    const bool newton = m1 > 1e-6 * scale && m2 > 1e-6 * scale * scale && m3 > 1e-6 * scale * scale * scale;
+    if (newton)
       omega = H.inverse() * g;
     else
       omega = g / (scale + 1e-9);
@@ -33,8 +36,18 @@ int extractRotation(const double Fr[9], double qa[4], int maxIterations, double 
       omega /= w;
       w = 1.0;
     }
-    q = Eigen::Quaterniond(Eigen::AngleAxisd(w, omega / w)) * q;
+    // q <- exp(omega / 2) q; small angles use the series (exact to round-off below 1e-4 rad).
+    const double c = w < 1e-4 ? 1.0 - w * w / 8.0 : std::cos(0.5 * w);
+    const double sOverW = w < 1e-4 ? 0.5 - w * w / 48.0 : std::sin(0.5 * w) / w;
+    q = Eigen::Quaterniond(c, sOverW * omega.x(), sOverW * omega.y(), sOverW * omega.z()) * q;
     q.normalize();
+    // Newton converges quadratically: after a short step on a well-conditioned Hessian, the
+    // next step would be far below the tolerance, so the verifying iteration is skipped.
+    const bool wellConditioned = m1 > 0.1 * scale && m2 > 0.01 * scale * scale && m3 > 1e-3 * scale * scale * scale;
+    if (newton && wellConditioned && w < 1e-7) {
+      ++it;
+      break;
+    }
   }
   qa[0] = q.w();
   qa[1] = q.x();

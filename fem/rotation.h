@@ -8,7 +8,9 @@
 
 namespace blobvk::fem {
 
-// q (w, x, y, z) is read as the warm start and overwritten. Returns the iterations used.
+// q (w, x, y, z) is read as the warm start and overwritten. Returns the iterations used. Stops
+// when a step is shorter than `tolerance` (radians), or right after a Newton step shorter than
+// 1e-7 on a well-conditioned Hessian (quadratic convergence: the next one would be ~1e-14).
 int extractRotation(const double F[9], double q[4], int maxIterations = 30, double tolerance = 1e-13);
 
 }  // namespace blobvk::fem

@@ -1,10 +1,11 @@
 #include "fem/simulation.h"
 
-#include "fem/block_matrix.h"
+#include "fem/boundary_faces.h"
 #include "fem/elements.h"
 #include "fem/pcg.h"
 #include "fem/tet_utils.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -24,11 +25,19 @@ struct Simulation::Impl {
   mesh::TetMesh mesh;
   SimulationSettings settings;
   ElementSet elements;
-  BlockMatrix3 matrix;
+  BoundaryFaceSet boundary;
   std::vector<double> mass;
   std::vector<mesh::Double3> velocity;
   std::vector<unsigned char> fixed, freeDof;
   std::vector<double> force, rhs, solution;
+  // The system A = (1 + h alpha) M + (h beta + h^2) K~ + contact, applied matrix-free:
+  // nodeScale = (1 + h alpha) m per node, diagonal = A's diagonal (Jacobi preconditioner).
+  std::vector<double> nodeScale, diagonal;
+  struct ContactBlock {
+    std::uint32_t node;
+    double block[9];  // h^2 k n n^T, row-major
+  };
+  std::vector<ContactBlock> contactBlocks;
   std::vector<ToolContactReport> contacts;
   StepStats stats;
   double time = 0;
@@ -66,9 +75,9 @@ Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_
   d.mesh = std::move(m);
   d.settings = std::move(s);
   if (d.mesh.boundaryFaces.empty()) d.mesh.boundaryFaces = findBoundaryFaces(d.mesh);
+  d.boundary.build(d.mesh.boundaryFaces);
   d.elements.build(d.mesh, d.settings.materials);
-  d.matrix.build(d.mesh.nodeCount(), d.mesh.tets);
-  d.mass = d.elements.lumpedMass(d.mesh.nodeCount());
+  d.mass = d.elements.lumpedMass();
   const std::size_t n = d.mesh.nodeCount();
   d.velocity.assign(n, {});
   d.fixed.assign(n, 0);
@@ -81,12 +90,22 @@ Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_
   d.freeDof.resize(3 * n);
   for (std::size_t i = 0; i < 3 * n; ++i) d.freeDof[i] = d.fixed[i / 3] ? 0 : 1;
   d.force.assign(3 * n, 0);
+  d.nodeScale.assign(n, 0);
+  d.diagonal.assign(3 * n, 0);
   d.rhs.assign(3 * n, 0);
   d.solution.assign(3 * n, 0);
   d.contacts.assign(d.settings.tools.size(), {});
   d.contactDepth.assign(n, 0);
   d.contactNormal.assign(n, {});
-  d.renderMesh = boundarySurface(d.mesh);
+  // Room for the nodes of later cuts, so that a topology change does not copy every array.
+  const std::size_t room = n + n / 8 + 64;
+  for (auto* v : {&d.mesh.positions, &d.mesh.restPositions, &d.velocity, &d.contactNormal}) v->reserve(room);
+  for (auto* v : {&d.mass, &d.contactDepth, &d.nodeScale}) v->reserve(room);
+  for (auto* v : {&d.force, &d.diagonal, &d.rhs, &d.solution}) v->reserve(3 * room);
+  d.fixed.reserve(room);
+  d.freeDof.reserve(3 * room);
+  d.mesh.tets.reserve(d.mesh.tets.size() + d.mesh.tets.size() / 8 + 64);
+  d.mesh.regions.reserve(d.mesh.tets.capacity());
 }
 
 Simulation::~Simulation() = default;
@@ -124,10 +143,13 @@ void Simulation::Impl::addToolContacts(double h) {
       force[3 * i + 1] += f * nn.y;
       force[3 * i + 2] += f * nn.z;
       // Implicit penalty: d f / d x = -k n n^T enters (M + h D + h^2 K) as + h^2 k n n^T.
-      double* B = matrix.block(matrix.diagonal(i));
+      ContactBlock& block = contactBlocks.emplace_back();
+      block.node = std::uint32_t(i);
       const double nv[3] = {nn.x, nn.y, nn.z};
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) B[a * 3 + b] += kh2 * nv[a] * nv[b];
+      for (int a = 0; a < 3; ++a) {
+        for (int b = 0; b < 3; ++b) block.block[a * 3 + b] = kh2 * nv[a] * nv[b];
+        diagonal[3 * i + std::size_t(a)] += block.block[a * 4];
+      }
       ++report.nodesInContact;
       report.force.x += f * nn.x;
       report.force.y += f * nn.y;
@@ -160,32 +182,33 @@ void Simulation::step() {
   const auto start = Clock::now();
   const double h = d.settings.timeStep;
   const std::size_t n = d.mesh.nodeCount();
+  const double stiffnessScale = h * d.settings.rayleighStiffness + h * h;
+  const double massScale = 1.0 + h * d.settings.rayleighMass;
   StepStats stats;
 
-  auto t = Clock::now();
-  const long long rotationIterations = d.elements.updateRotations(d.mesh.positions, d.settings.rotationMaxIterations);
-  stats.rotationIterationsPerTet = double(rotationIterations) / double(d.elements.size());
-  stats.rotationsMs = msSince(t);
-
   // A = (1 + h alpha) M + (h beta + h^2) K~ ; b = M v + h (f_elastic + f_gravity + f_contact).
-  t = Clock::now();
-  d.matrix.setZero();
-  std::fill(d.force.begin(), d.force.end(), 0.0);
-  const double massScale = 1.0 + h * d.settings.rayleighMass;
-  for (std::size_t i = 0; i < n; ++i) {
-    double* B = d.matrix.block(d.matrix.diagonal(i));
-    B[0] = B[4] = B[8] = massScale * d.mass[i];
-  }
-  d.elements.addForcesAndStiffness(d.mesh.positions, d.force, &d.matrix, h * d.settings.rayleighStiffness + h * h);
+  // rotationsMs: the per-tet pass (rotations, stresses, rotated gradients); assemblyMs: the
+  // per-node gather of forces and of A's diagonal, plus mass terms and gravity. No matrix.
+  auto t = Clock::now();
+  const ElasticPassResult pass = d.elements.computeForces(d.mesh.positions, d.settings.rotationMaxIterations, d.force.data(),
+                                                          d.diagonal.data());
+  stats.rotationIterationsPerTet = double(pass.rotationIterations) / double(d.elements.size());
+  stats.rotationsMs = d.elements.lastTetPassMs();
   const auto& g = d.settings.gravity;
   for (std::size_t i = 0; i < n; ++i) {
+    d.nodeScale[i] = massScale * d.mass[i];
+    for (std::size_t c = 0; c < 3; ++c) {
+      double& diagonal = d.diagonal[3 * i + c];  // K's diagonal on entry
+      diagonal = d.nodeScale[i] + stiffnessScale * diagonal;
+    }
     d.force[3 * i] += d.mass[i] * g.x;
     d.force[3 * i + 1] += d.mass[i] * g.y;
     d.force[3 * i + 2] += d.mass[i] * g.z;
   }
-  stats.assemblyMs = msSince(t);
+  stats.assemblyMs = msSince(t) - stats.rotationsMs;
 
   t = Clock::now();
+  d.contactBlocks.clear();
   d.addToolContacts(h);
   stats.contactMs = msSince(t);
 
@@ -198,7 +221,15 @@ void Simulation::step() {
       d.solution[3 * i + c] = d.fixed[i] ? 0.0 : vv[c];  // warm start: the current velocity
     }
   }
-  const PcgResult cg = solvePcg(d.matrix, d.rhs, d.freeDof, d.solution, d.settings.cgMaxIterations, d.settings.cgTolerance);
+  const LinearOperator A = [&d, stiffnessScale](const double* x, double* y) {
+    d.elements.applySystem(x, y, d.nodeScale.data(), stiffnessScale);
+    for (const auto& c : d.contactBlocks) {
+      const double* xi = x + 3 * std::size_t(c.node);
+      double* yi = y + 3 * std::size_t(c.node);
+      for (int a = 0; a < 3; ++a) yi[a] += c.block[a * 3] * xi[0] + c.block[a * 3 + 1] * xi[1] + c.block[a * 3 + 2] * xi[2];
+    }
+  };
+  const PcgResult cg = solvePcg(A, d.diagonal, d.rhs, d.freeDof, d.solution, d.settings.cgMaxIterations, d.settings.cgTolerance);
   stats.cgIterations = cg.iterations;
   stats.cgRelativeResidual = cg.relativeResidual;
   for (std::size_t i = 0; i < n; ++i) {
@@ -217,8 +248,8 @@ void Simulation::step() {
   d.stats = stats;
 }
 
-// Reference implementation of the contract in simulation.h: validates the whole change before
-// touching the state, applies it, then rebuilds the per-element data, masses and matrix pattern.
+// The contract is in simulation.h: validates the whole change before touching the state, then
+// edits only what the change touches (cost proportional to its size plus the boundary copy).
 void Simulation::applyTopologyChange(const TopologyChange& c) {
   Impl& d = *impl_;
   auto fail = [](const std::string& why) { throw std::invalid_argument("topology change: " + why); };
@@ -268,37 +299,59 @@ void Simulation::applyTopologyChange(const TopologyChange& c) {
     if (!(vol > 0)) fail("tet slot " + std::to_string(slot) + " has a non-positive rest volume");
   }
 
-  // Apply.
+  // Apply: only the touched nodes, slots, incidence rows and boundary faces are visited.
+  d.elements.addNodes(c.newNodes.size());
   for (std::size_t k = 0; k < c.newNodes.size(); ++k) {
     d.mesh.restPositions.push_back(rest[k]);
     d.mesh.positions.push_back(pos[k]);
     d.velocity.push_back(vel[k]);
     d.fixed.push_back(fixedNew[k]);
+    d.mass.push_back(0);
   }
   if (d.mesh.regions.empty() && !c.tetSlots.empty()) d.mesh.regions.assign(d.mesh.tetCount(), 0);
+  std::vector<std::uint32_t> touched;  // nodes whose lumped mass changes
+  std::vector<BoundaryFaceSet::Face> removedFaces, addedFaces;
   for (std::size_t k = 0; k < c.tetSlots.size(); ++k) {
     const std::uint32_t slot = c.tetSlots[k];
     if (slot == d.mesh.tetCount()) {
       d.mesh.tets.push_back(c.tetNodes[k]);
       d.mesh.regions.push_back(c.tetRegions[k]);
     } else {
+      const auto& old = d.mesh.tets[slot];
+      touched.insert(touched.end(), old.begin(), old.end());
+      BoundaryFaceSet::collectFaces(old, removedFaces);
       d.mesh.tets[slot] = c.tetNodes[k];
       d.mesh.regions[slot] = c.tetRegions[k];
     }
+    touched.insert(touched.end(), c.tetNodes[k].begin(), c.tetNodes[k].end());
+    BoundaryFaceSet::collectFaces(c.tetNodes[k], addedFaces);
+    d.elements.setTet(slot, c.tetNodes[k], d.mesh.restPositions, d.settings.materials[c.tetRegions[k]]);
   }
-  d.mesh.boundaryFaces = findBoundaryFaces(d.mesh);
-  d.elements.build(d.mesh, d.settings.materials);
-  d.matrix.build(nodes, d.mesh.tets);
-  d.mass = d.elements.lumpedMass(nodes);
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  for (std::uint32_t v : touched) d.mass[v] = d.elements.lumpedMass(v);
+  std::vector<std::uint32_t> slots = c.tetSlots;
+  std::sort(slots.begin(), slots.end());
+  if (std::adjacent_find(slots.begin(), slots.end()) != slots.end()) {
+    // A slot written twice: the faces of its first version are gone again, so the "shared by
+    // two added tets" shortcut does not hold; re-examine every face instead.
+    removedFaces.insert(removedFaces.end(), addedFaces.begin(), addedFaces.end());
+    addedFaces.clear();
+  }
+  d.boundary.update(std::move(removedFaces), std::move(addedFaces), d.mesh.tets, d.elements.incidence());
+  d.mesh.boundaryFaces = d.boundary.faces();  // O(boundary faces): a copy of the kept set
   d.freeDof.resize(3 * nodes);
-  for (std::size_t i = 0; i < 3 * nodes; ++i) d.freeDof[i] = d.fixed[i / 3] ? 0 : 1;
-  d.force.assign(3 * nodes, 0);
-  d.rhs.assign(3 * nodes, 0);
-  d.solution.assign(3 * nodes, 0);
-  d.contactDepth.assign(nodes, 0);
-  d.contactNormal.assign(nodes, {});
-  d.embedded = false;
-  d.renderMesh = boundarySurface(d.mesh);
+  for (std::size_t i = 3 * oldNodes; i < 3 * nodes; ++i) d.freeDof[i] = d.fixed[i / 3] ? 0 : 1;
+  d.force.resize(3 * nodes, 0);
+  d.nodeScale.resize(nodes, 0);
+  d.diagonal.resize(3 * nodes, 0);
+  d.rhs.resize(3 * nodes, 0);
+  d.solution.resize(3 * nodes, 0);
+  d.contactDepth.resize(nodes, 0);
+  d.contactNormal.resize(nodes, {});
+  d.embedded = false;  // the caller's render mesh no longer matches the cut body
+  d.renderMesh = {};
+  d.embedding = {};
 }
 
 void Simulation::run(int steps) {
@@ -338,9 +391,8 @@ void Simulation::setVelocities(const std::vector<mesh::Double3>& v) {
 
 std::vector<mesh::Double3> Simulation::elasticForces() {
   Impl& d = *impl_;
-  d.elements.updateRotations(d.mesh.positions, d.settings.rotationMaxIterations);
   std::vector<double> f(3 * d.mesh.nodeCount(), 0.0);
-  d.elements.addForcesAndStiffness(d.mesh.positions, f, nullptr, 0.0);
+  d.elements.computeForces(d.mesh.positions, d.settings.rotationMaxIterations, f.data(), nullptr);
   std::vector<mesh::Double3> out(d.mesh.nodeCount());
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = {f[3 * i], f[3 * i + 1], f[3 * i + 2]};
   return out;
@@ -349,9 +401,8 @@ std::vector<mesh::Double3> Simulation::elasticForces() {
 Energies Simulation::energies() {
   Impl& d = *impl_;
   Energies e;
-  d.elements.updateRotations(d.mesh.positions, d.settings.rotationMaxIterations);
   std::vector<double> scratch(3 * d.mesh.nodeCount(), 0.0);
-  e.elastic = d.elements.addForcesAndStiffness(d.mesh.positions, scratch, nullptr, 0.0);
+  e.elastic = d.elements.computeForces(d.mesh.positions, d.settings.rotationMaxIterations, scratch.data(), nullptr).energy;
   const auto& g = d.settings.gravity;
   for (std::size_t i = 0; i < d.mesh.nodeCount(); ++i) {
     const auto& v = d.velocity[i];

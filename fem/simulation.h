@@ -1,6 +1,6 @@
 // Soft-body simulation of a tet mesh: corotational linear FEM, lumped mass, Rayleigh damping,
 // implicit backward Euler (one linearised Newton step per time step, Baraff-Witkin), solved
-// with warm-started Jacobi PCG over a fixed-pattern block matrix; fixed nodes, gravity, a floor
+// with warm-started Jacobi PCG on the matrix-free warped stiffness; fixed nodes, gravity, a floor
 // plane and penalty contact with moving implicit tools. Eigen and TBB stay in the .cpp files.
 #pragma once
 
@@ -47,6 +47,9 @@ struct SimulationSettings {
   std::vector<Tool> tools;
 };
 
+// Per-phase wall times of the last step. The stiffness is applied matrix-free, so "rotations" is
+// the fused per-tet pass (rotations, stresses, forces and diagonal per corner) and "assembly"
+// the per-node gather of forces and of the preconditioner diagonal (plus mass and gravity terms).
 struct StepStats {
   double rotationsMs = 0, assemblyMs = 0, contactMs = 0, solveMs = 0, totalMs = 0;
   int cgIterations = 0;
@@ -100,9 +103,12 @@ class Simulation {
   void run(int steps);
 
   // Applies a topology change (a cut) to the running simulation, keeping its state: validates
-  // the change (indices, positive rest volumes; throws std::invalid_argument with the reason)
-  // and rebuilds the element data, masses and matrix pattern of what it touched. Boundary
-  // faces and the render surface become the new tet boundary.
+  // the change (indices, positive rest volumes, materials; throws std::invalid_argument with the
+  // reason and changes nothing) and updates the element data, masses, node incidence and
+  // boundary faces of what it touched only: the cost grows with the change, not with the mesh
+  // (plus an O(boundary faces) copy into mesh().boundaryFaces). Untouched tets keep their
+  // rotation warm start. The result equals a fresh Simulation on the changed mesh with the same
+  // state. The render surface becomes the new tet boundary (a caller embedding is dropped).
   void applyTopologyChange(const TopologyChange& change);
 
   double time() const;

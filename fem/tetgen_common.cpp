@@ -22,6 +22,11 @@ std::string tetgenSwitches(const TetgenOptions& o) {
     s += buf;
   }
   if (o.keepSurface) s += "Y";
+  if (o.optimizeMaxDihedralDegrees > 0) {
+    if (o.optimizeMaxDihedralDegrees >= 180) throw std::invalid_argument("TetGen: the optimization dihedral bound must be < 180 degrees");
+    std::snprintf(buf, sizeof buf, "o/%.6g", o.optimizeMaxDihedralDegrees);
+    s += buf;
+  }
   return s;
 }
 

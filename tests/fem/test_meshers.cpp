@@ -105,6 +105,11 @@ TEST(TetgenMesher, SwitchesReflectOptions) {
   o.maxVolume = 0;
   o.keepSurface = true;
   EXPECT_EQ(tetgenSwitches(o), "pzQY");
+  o.optimizeMaxDihedralDegrees = 150;
+  EXPECT_EQ(tetgenSwitches(o), "pzQYo/150");
+  o.optimizeMaxDihedralDegrees = 180;
+  EXPECT_THROW(tetgenSwitches(o), std::invalid_argument);
+  o.optimizeMaxDihedralDegrees = 0;
   o.quality = true;
   o.maxRadiusEdgeRatio = 0.9;
   EXPECT_THROW(tetgenSwitches(o), std::invalid_argument);

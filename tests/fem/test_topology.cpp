@@ -1,0 +1,266 @@
+// Simulation::applyTopologyChange: an incrementally edited simulation must match a fresh one
+// built on the changed mesh with the same state; invalid changes throw and change nothing.
+#include "cut_changes.h"
+#include "fem/node_incidence.h"
+#include "fem/simulation.h"
+#include "fem/tet_utils.h"
+#include "test_helpers.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace blobvk::fem {
+namespace {
+
+using mesh::Double3;
+
+SimulationSettings settings() {
+  SimulationSettings s;
+  s.materials = {Material{2e4, 0.4, 1000}, Material{8e4, 0.3, 1200}};
+  s.fixed = [](const Double3& p) { return p.y < 1e-9; };
+  s.cgTolerance = 0;  // a fixed number of CG iterations: both simulations do the same work
+  s.cgMaxIterations = 40;
+  s.rayleighMass = 0.1;
+  return s;
+}
+
+mesh::TetMesh twoMaterialBox() {
+  mesh::TetMesh m = test::boxMesh(0.3, 0.3, 0.3, 0.1);
+  assignRegions(m, [](const Double3& c) { return c.x > 0.15 ? 1u : 0u; });
+  return m;
+}
+
+// A simulation that has moved for a while (rotations and velocities are not trivial).
+Simulation runningSimulation() {
+  Simulation sim(twoMaterialBox(), settings());
+  std::vector<Double3> v(sim.mesh().nodeCount());
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = {0.3 * sim.mesh().restPositions[i].y, 0, -0.2 * sim.mesh().restPositions[i].x};
+  sim.setVelocities(v);
+  sim.run(10);
+  return sim;
+}
+
+// Splits tets around two edges and cracks an interior node, as one change.
+TopologyChange cutLikeChange(const mesh::TetMesh& m) {
+  test::ChangeBuilder b(m);
+  const auto& t0 = m.tets[40];
+  b.splitEdge(t0[0], t0[1], 0.3);
+  const auto& t1 = m.tets[100];
+  b.splitEdge(t1[2], t1[3], 0.6);
+  // The interior node nearest the centre, cracked along the plane x = its x.
+  std::uint32_t centre = 0;
+  double best = 1e9;
+  for (std::uint32_t i = 0; i < m.nodeCount(); ++i) {
+    const Double3& p = m.restPositions[i];
+    const double d = std::abs(p.x - 0.1) + std::abs(p.y - 0.2) + std::abs(p.z - 0.1);
+    if (d < best) best = d, centre = i;
+  }
+  const double cx = m.restPositions[centre].x;
+  b.crack(centre, [&](std::size_t t) {
+    double x = 0;
+    for (auto v : b.tet(t)) x += v < m.nodeCount() ? m.restPositions[v].x : cx;
+    return x / 4 > cx;
+  });
+  return b.build();
+}
+
+// A fresh simulation on sim's mesh and state (the reference the incremental edit must match).
+Simulation freshCopy(const Simulation& sim) {
+  mesh::TetMesh m = sim.mesh();
+  m.boundaryFaces.clear();  // recomputed from scratch
+  SimulationSettings s = sim.settings();
+  for (std::uint32_t i = 0; i < sim.fixedMask().size(); ++i)
+    if (sim.fixedMask()[i]) s.fixedNodes.push_back(i);
+  Simulation fresh(std::move(m), s);
+  fresh.setVelocities(sim.velocities());
+  return fresh;
+}
+
+double relativeDifference(const std::vector<Double3>& a, const std::vector<Double3>& b) {
+  double diff = 0, scale = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    diff = std::max({diff, std::abs(a[i].x - b[i].x), std::abs(a[i].y - b[i].y), std::abs(a[i].z - b[i].z)});
+    scale = std::max({scale, std::abs(a[i].x), std::abs(a[i].y), std::abs(a[i].z)});
+  }
+  return diff / scale;
+}
+
+TEST(TopologyChange, IncrementalEditMatchesAFreshSimulation) {
+  Simulation sim = runningSimulation();
+  const std::size_t nodes = sim.mesh().nodeCount(), tets = sim.mesh().tetCount();
+  const TopologyChange change = cutLikeChange(sim.mesh());
+  ASSERT_EQ(change.newNodes.size(), 3u);
+  sim.applyTopologyChange(change);
+  EXPECT_EQ(sim.mesh().nodeCount(), nodes + 3);
+  EXPECT_GT(sim.mesh().tetCount(), tets);
+
+  Simulation fresh = freshCopy(sim);
+  ASSERT_EQ(fresh.mesh().nodeCount(), sim.mesh().nodeCount());
+  // The new nodes interpolate their sources (a split node lies on its edge, at the given weight).
+  const NodeOrigin& o = change.newNodes[0];
+  const Double3 a = sim.positions()[o.sources[0]], b = sim.positions()[o.sources[1]], m = sim.positions()[nodes];
+  EXPECT_NEAR(m.x, 0.7 * a.x + 0.3 * b.x, 1e-15);
+  EXPECT_EQ(sim.mesh().boundaryFaces, fresh.mesh().boundaryFaces);
+  EXPECT_EQ(sim.fixedMask(), fresh.fixedMask());
+  const auto &massA = sim.nodeMasses(), &massB = fresh.nodeMasses();
+  for (std::size_t i = 0; i < massA.size(); ++i) EXPECT_NEAR(massA[i], massB[i], 1e-12 * massB[i]) << "node " << i;
+  EXPECT_LT(relativeDifference(sim.elasticForces(), fresh.elasticForces()), 1e-10);
+  EXPECT_NEAR(sim.energies().total(), fresh.energies().total(), 1e-10 * std::abs(fresh.energies().total()));
+  sim.step();
+  fresh.step();
+  EXPECT_LT(relativeDifference(sim.positions(), fresh.positions()), 1e-10);
+  EXPECT_LT(relativeDifference(sim.velocities(), fresh.velocities()), 1e-10);
+  // Rest volume is conserved by splits and cracks.
+  EXPECT_NEAR(sim.restVolume(), 0.027, 1e-12);
+}
+
+TEST(TopologyChange, ASlotWrittenTwiceKeepsItsLastVersion) {
+  Simulation sim = runningSimulation();
+  TopologyChange change = cutLikeChange(sim.mesh());
+  // Write the first rewritten slot once more, before its final version, with another valid tet.
+  const std::uint32_t slot = change.tetSlots.front();
+  ASSERT_LT(slot, sim.mesh().tetCount());
+  change.tetSlots.insert(change.tetSlots.begin(), slot);
+  change.tetNodes.insert(change.tetNodes.begin(), sim.mesh().tets[(slot + 1) % sim.mesh().tetCount()]);
+  change.tetRegions.insert(change.tetRegions.begin(), 1u);
+  sim.applyTopologyChange(change);
+  Simulation fresh = freshCopy(sim);
+  EXPECT_EQ(sim.mesh().tets[slot], change.tetNodes[1]);
+  EXPECT_EQ(sim.mesh().boundaryFaces, fresh.mesh().boundaryFaces);
+  const auto &massA = sim.nodeMasses(), &massB = fresh.nodeMasses();
+  for (std::size_t i = 0; i < massA.size(); ++i) EXPECT_NEAR(massA[i], massB[i], 1e-12 * massB[i]) << "node " << i;
+  EXPECT_LT(relativeDifference(sim.elasticForces(), fresh.elasticForces()), 1e-10);
+}
+
+TEST(TopologyChange, InvalidChangesThrowAndLeaveTheSimulationUnchanged) {
+  Simulation sim = runningSimulation();
+  const mesh::TetMesh before = sim.mesh();
+  const std::vector<double> masses = sim.nodeMasses();
+  const std::vector<Double3> forces = sim.elasticForces();
+  const TopologyChange good = cutLikeChange(sim.mesh());
+  auto expectRejected = [&](TopologyChange c, const char* what) {
+    try {
+      sim.applyTopologyChange(c);
+      ADD_FAILURE() << "accepted: " << what;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(sim.mesh().tets, before.tets);
+    EXPECT_EQ(sim.mesh().nodeCount(), before.nodeCount());
+    EXPECT_EQ(sim.mesh().boundaryFaces, before.boundaryFaces);
+    EXPECT_EQ(sim.nodeMasses(), masses);
+  };
+  TopologyChange c = good;
+  c.tetSlots.back() = std::uint32_t(before.tetCount() + 1000);
+  expectRejected(c, "past the end");
+  c = good;
+  c.tetNodes.back()[2] = std::uint32_t(before.nodeCount() + 50);
+  expectRejected(c, "references node");
+  c = good;
+  std::swap(c.tetNodes.front()[0], c.tetNodes.front()[1]);
+  expectRejected(c, "non-positive rest volume");
+  c = good;
+  c.tetRegions.back() = 7;
+  expectRejected(c, "without a material");
+  c = good;
+  c.newNodes[0].sources = {kNoSource, kNoSource, kNoSource, kNoSource};
+  expectRejected(c, "no source");
+  EXPECT_LT(relativeDifference(sim.elasticForces(), forces), 1e-12);
+  sim.applyTopologyChange(good);  // the valid change still applies afterwards
+  EXPECT_EQ(sim.mesh().nodeCount(), before.nodeCount() + 3);
+}
+
+TEST(TopologyChange, SequenceOfCutsUnderAPressingToolStaysFinite) {
+  SimulationSettings s = settings();
+  s.cgTolerance = 1e-6;
+  s.cgMaxIterations = 100;
+  Tool tool;
+  tool.radius = 0.05;
+  tool.stiffness = 5e3;
+  tool.path = {{0.0, {0.1, 0.36, 0.1}, {1, 0, 0, 0}}, {1.0, {0.1, 0.29, 0.1}, {1, 0, 0, 0}}};  // over a node
+  s.tools = {tool};
+  Simulation sim(twoMaterialBox(), s);
+  std::size_t contactSteps = 0;
+  for (int i = 0; i < 200; ++i) {
+    if (i % 40 == 10) {  // a cut every 40 steps, on the current mesh
+      test::ChangeBuilder b(sim.mesh());
+      const auto& t = sim.mesh().tets[std::size_t(17 * i) % sim.mesh().tetCount()];
+      b.splitEdge(t[0], t[3], 0.4);
+      const std::uint32_t node = t[1];
+      const double x = sim.mesh().restPositions[node].x;
+      b.crack(node, [&](std::size_t k) {
+        double cx = 0;
+        for (auto v : b.tet(k)) cx += v < sim.mesh().nodeCount() ? sim.mesh().restPositions[v].x : x;
+        return cx / 4 > x;
+      });
+      sim.applyTopologyChange(b.build());
+    }
+    sim.step();
+    if (sim.toolContacts()[0].nodesInContact > 0) ++contactSteps;
+    for (const auto& p : sim.positions()) ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) << "step " << i;
+  }
+  EXPECT_GT(contactSteps, 100u);
+  EXPECT_GT(sim.mesh().nodeCount(), twoMaterialBox().nodeCount() + 5);
+  EXPECT_EQ(sim.mesh().boundaryFaces, freshCopy(sim).mesh().boundaryFaces);
+}
+
+// Rows that outgrow their room move to the end of the storage, several times; the rows must
+// always equal those of a fresh build of the same tets.
+TEST(NodeIncidence, EditedRowsEqualAFreshBuildThroughRowMoves) {
+  std::vector<std::array<std::uint32_t, 4>> tets;
+  for (std::uint32_t k = 0; k < 50; ++k) tets.push_back({k, k + 1, k + 2, k + 3});
+  NodeIncidence incidence;
+  incidence.build(60, tets);
+  incidence.addNodes(3);  // nodes 60..62 start empty with little room
+  for (std::uint32_t round = 0; round < 40; ++round) {
+    const std::uint32_t t = (round * 7) % 50;
+    incidence.removeTet(t, tets[t]);
+    tets[t] = {60 + round % 3, t, (t + 5) % 60, (t + 9) % 60};
+    incidence.addTet(t, tets[t]);
+    tets.push_back({60, 61, 62, round});  // appended: rows 60..62 grow well past their room
+    incidence.addTet(std::uint32_t(tets.size() - 1), tets.back());
+  }
+  NodeIncidence fresh;
+  fresh.build(63, tets);
+  for (std::size_t v = 0; v < 63; ++v) {
+    const std::vector<std::uint32_t> a(incidence.begin(v), incidence.end(v)), b(fresh.begin(v), fresh.end(v));
+    EXPECT_EQ(a, b) << "node " << v;
+  }
+  EXPECT_GT(incidence.count(60), 40u);
+  EXPECT_THROW(incidence.removeTet(0, {59, 58, 57, 56}), std::logic_error);
+}
+
+// The per-tet passes and per-node gathers must give bit-identical results on 1 and on all threads.
+TEST(Determinism, StepsAndCutsDoNotDependOnTheThreadCount) {
+  auto run = [] {
+    SimulationSettings s = settings();
+    Tool tool;
+    tool.radius = 0.05;
+    tool.stiffness = 5e3;
+    tool.path = {{0.0, {0.1, 0.36, 0.1}, {1, 0, 0, 0}}, {0.5, {0.1, 0.28, 0.1}, {1, 0, 0, 0}}};
+    s.tools = {tool};
+    Simulation sim(test::boxMesh(0.3, 0.3, 0.6, 0.05), s);  // 2,592 tets: several parallel chunks
+    sim.run(15);
+    sim.applyTopologyChange(cutLikeChange(sim.mesh()));
+    sim.run(15);
+    return sim.positions();
+  };
+  std::vector<Double3> serial;
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    serial = run();
+  }
+  const std::vector<Double3> parallel = run();
+  ASSERT_EQ(serial.size(), parallel.size());
+  for (std::size_t i = 0; i < serial.size(); ++i) {
+    ASSERT_EQ(serial[i].x, parallel[i].x) << "node " << i;
+    ASSERT_EQ(serial[i].y, parallel[i].y) << "node " << i;
+    ASSERT_EQ(serial[i].z, parallel[i].z) << "node " << i;
+  }
+}
+
+}  // namespace
+}  // namespace blobvk::fem
