@@ -33,6 +33,15 @@ TriBox boxOf(const Triangle& t, double pad) {
   return b;
 }
 
+bool overlaps(const TriBox& b, const std::array<Double3, 4>& c) {
+  Double3 lo = c[0], hi = c[0];
+  for (const Double3& p : c) {
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  return !(hi.x < b.lo.x || hi.y < b.lo.y || hi.z < b.lo.z || lo.x > b.hi.x || lo.y > b.hi.y || lo.z > b.hi.z);
+}
+
 bool overlaps(const TriBox& b, Double3 p, Double3 q) {
   return !(std::max(p.x, q.x) < b.lo.x || std::max(p.y, q.y) < b.lo.y || std::max(p.z, q.z) < b.lo.z ||
            std::min(p.x, q.x) > b.hi.x || std::min(p.y, q.y) > b.hi.y || std::min(p.z, q.z) > b.hi.z);
@@ -44,10 +53,30 @@ double distanceToSurface(Double3 p, const std::vector<Triangle>& swept) {
   return best;
 }
 
+// Position of node n in tet t, -1 when absent.
+int localIndex(const Tet& t, std::uint32_t n) {
+  for (int i = 0; i < 4; ++i)
+    if (t[std::size_t(i)] == n) return i;
+  return -1;
+}
+
+// Local edge (kTetEdges numbering) between local nodes i and j.
+constexpr std::array<std::array<std::uint8_t, 4>, 4> kLocalEdge = [] {
+  std::array<std::array<std::uint8_t, 4>, 4> table{};
+  for (std::size_t e = 0; e < 6; ++e) {
+    table[std::size_t(kTetEdges[e][0])][std::size_t(kTetEdges[e][1])] = std::uint8_t(e);
+    table[std::size_t(kTetEdges[e][1])][std::size_t(kTetEdges[e][0])] = std::uint8_t(e);
+  }
+  return table;
+}();
+
 // Small union-find over local indices.
 struct Components {
   std::vector<int> parent;
-  explicit Components(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  void reset(std::size_t n) {
+    parent.resize(n);
+    std::iota(parent.begin(), parent.end(), 0);
+  }
   int find(int x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
@@ -55,13 +84,57 @@ struct Components {
   void unite(int a, int b) { parent[find(a)] = find(b); }
 };
 
+// Cut codes of one touched tet.
+struct Codes {
+  std::uint8_t edges = 0, nodes = 0;
+};
+
+// A crack face through `vertex`, as the edge of its two other nodes.
+struct CrackLink {
+  std::uint32_t vertex;
+  std::uint64_t edge;
+  bool operator<(const CrackLink& o) const { return vertex != o.vertex ? vertex < o.vertex : edge < o.edge; }
+};
+
+// Crack opening: node `from` of the tet in `slot` becomes `to`.
+struct Rename {
+  std::uint32_t slot, from, to;
+};
+
 }  // namespace
+
+// Per-event working storage, kept between events so that an event allocates nothing once the
+// buffers have grown to the size of the largest event (and touches no fresh pages). Every
+// buffer is emptied where it is first used; the hash tables are sized to the event (their
+// clear() costs their capacity, i.e. the largest event so far, never the mesh).
+struct Cutter::Scratch {
+  std::vector<TriBox> boxes;
+  std::vector<Double3> normals;
+  std::vector<SpatialGrid::Slab> slabs;
+  std::vector<std::uint32_t> candidates, near, order, around, groupSize, copyOfRoot, rootOf, faceTet, usedSlots;
+  std::vector<std::uint8_t> relevant;
+  std::vector<double> nearPlane, distances;
+  std::vector<CutEdge> kept;
+  std::vector<FaceKey> crack;
+  std::vector<CrackLink> crackLinks;
+  std::vector<Rename> renames;
+  std::vector<std::uint64_t> faceKeys;
+  Components comps;
+  FlatHashMap<std::uint64_t, CutEdge, U64Hash> cutEdges{kNoEdge};
+  FlatHashSet<std::uint64_t, U64Hash> tested{kNoEdge};
+  FlatHashSet<std::uint32_t, U32Hash> cutNodes{kNone}, split{kNone};
+  FlatHashMap<std::uint32_t, Codes, U32Hash> touched{kNone};
+  FlatHashMap<std::uint64_t, std::uint32_t, U64Hash> edgePoint{kNoEdge};
+};
+
+void Cutter::ScratchDeleter::operator()(Scratch* scratch) const { delete scratch; }
 
 Cutter::Cutter(mesh::TetMesh mesh, CutOptions options) : topology_(std::move(mesh)), options_(options) {
   if (!(options_.snapFraction >= 0.0 && options_.snapFraction < 0.5))
     throw std::invalid_argument("CutOptions::snapFraction must lie in [0, 0.5)");
   if (!(options_.steinerMargin > 0.0 && options_.steinerMargin <= 0.25))
     throw std::invalid_argument("CutOptions::steinerMargin must lie in (0, 0.25]");
+  scratch_.reset(new Scratch);
   grid_.rebuild(topology_);
   meanEdge_ = grid_.cellSize() / 2.0;
 }
@@ -75,15 +148,26 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   const double tolAbs = options_.onSurfaceTolerance * meanEdge_;
   const double tau = options_.snapFraction;
 
-  // 1. Candidate tets near the swept surface.
-  std::vector<TriBox> boxes;
-  std::vector<std::uint32_t> candidates;
+  // 1. Candidate tets near the swept surface: those registered in the spatial-hash cells that
+  // the triangles' planes cross inside the triangles' boxes.
+  Scratch& scratch = *scratch_;
+  auto& boxes = scratch.boxes;
+  boxes.clear();
+  // Unit normals of the swept triangles: a tet strictly on one side of every triangle's plane
+  // (farther than the on-surface tolerance) can neither be crossed nor touch the surface.
+  auto& normals = scratch.normals;
+  auto& slabs = scratch.slabs;
+  normals.clear();
+  slabs.clear();
   for (const auto& t : swept) {
     boxes.push_back(boxOf(t, tolAbs));
-    grid_.query(topology_, boxes.back().lo, boxes.back().hi, candidates);
+    const Double3 n = cross(t[1] - t[0], t[2] - t[0]);
+    normals.push_back(n * (1.0 / length(n)));
+    slabs.push_back(SpatialGrid::slabAround(t, tolAbs));
   }
-  std::sort(candidates.begin(), candidates.end());
-  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  auto& candidates = scratch.candidates;
+  candidates.clear();
+  grid_.querySlabs(topology_, slabs, candidates);
 
   auto lap = [&, last = start](int phase) mutable {
     const auto now = std::chrono::steady_clock::now();
@@ -94,29 +178,52 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
 
   // 2. Cut edges (each mesh edge tested once) and nodes lying on the surface.
   // Flat open-addressing tables sized to this event (never to the mesh).
-  FlatHashMap<std::uint64_t, CutEdge, U64Hash> cutEdges(kNoEdge, candidates.size());
-  FlatHashSet<std::uint64_t, U64Hash> tested(kNoEdge, 2 * candidates.size());
-  FlatHashSet<std::uint32_t, U32Hash> cutNodes(kNone, candidates.size()), seenNodes(kNone, candidates.size());
-  // Unit normals of the swept triangles: a tet strictly on one side of every triangle's plane
-  // (farther than the on-surface tolerance) can neither be crossed nor touch the surface.
-  std::vector<Double3> normals;
-  for (const auto& t : swept) {
-    const Double3 n = cross(t[1] - t[0], t[2] - t[0]);
-    normals.push_back(n * (1.0 / length(n)));
+  auto& cutEdges = scratch.cutEdges;
+  auto& tested = scratch.tested;
+  auto& cutNodes = scratch.cutNodes;
+  cutEdges.clear();
+  tested.clear();
+  cutNodes.clear();
+  cutEdges.reserve(candidates.size());
+  tested.reserve(2 * candidates.size());
+  cutNodes.reserve(candidates.size());
+  auto& near = scratch.near;
+  auto& relevant = scratch.relevant;
+  near.clear();
+  relevant.assign(swept.size(), 0);
+  // Rounding slack of the plane distances below, per triangle: the computed unit normal's
+  // direction is off by ~eps / sin(smallest angle of the triangle) and the points lie within
+  // `extent` of the origin. A node within tolAbs of the surface is within tolAbs of some
+  // triangle's plane, and a segment crossing a triangle has its ends on opposite sides of its
+  // plane, so distances beyond tolAbs + slack settle both questions without exact tests.
+  double extent = meanEdge_;
+  for (const TriBox& b : boxes)
+    extent = std::max({extent, std::fabs(b.lo.x), std::fabs(b.lo.y), std::fabs(b.lo.z), std::fabs(b.hi.x),
+                       std::fabs(b.hi.y), std::fabs(b.hi.z)});
+  auto& nearPlane = scratch.nearPlane;
+  auto& distances = scratch.distances;
+  nearPlane.assign(swept.size(), 0.0);
+  distances.assign(4 * swept.size(), 0.0);
+  for (std::size_t i = 0; i < swept.size(); ++i) {
+    const Double3 e1 = swept[i][1] - swept[i][0], e2 = swept[i][2] - swept[i][0];
+    const double sine = length(cross(e1, e2)) / (length(e1) * length(e2));
+    nearPlane[i] = tolAbs + 1e-12 * extent + 16.0 * 2.3e-16 * extent / sine;
   }
-  std::vector<std::uint32_t> near;
-  std::vector<std::uint8_t> relevant(swept.size());
   for (std::uint32_t slot : candidates) {
     const Tet& tet = topology_.tet(slot);
     bool any = false;
+    const std::array<Double3, 4> corners{pos[tet[0]], pos[tet[1]], pos[tet[2]], pos[tet[3]]};
+    unsigned onPlane = 0;  // bit c: corner c lies within nearPlane of some triangle's plane
     for (std::size_t i = 0; i < swept.size(); ++i) {
       int above = 0, below = 0;
-      for (std::uint32_t n : tet) {
-        const double d = dot(pos[n] - swept[i][0], normals[i]);
+      for (std::size_t c = 0; c < 4; ++c) {
+        const double d = distances[4 * i + c] = dot(corners[c] - swept[i][0], normals[i]);
         above += d > tolAbs;
         below += d < -tolAbs;
+        onPlane |= unsigned(std::fabs(d) <= nearPlane[i]) << c;
       }
-      relevant[i] = above < 4 && below < 4;
+      // A triangle matters to the tet when the tet straddles its plane and meets its box.
+      relevant[i] = above < 4 && below < 4 && overlaps(boxes[i], corners);
       any |= relevant[i] != 0;
     }
     if (!any) continue;
@@ -129,7 +236,10 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       if (!tested.insert(edgeKey(a, b))) continue;
       bool hitAny = false;
       for (std::size_t i = 0; i < swept.size() && !hitAny; ++i) {
-        if (!relevant[i] || !overlaps(boxes[i], pos[a], pos[b])) continue;
+        if (!relevant[i]) continue;
+        const double da = distances[4 * i + std::size_t(e[0])], db = distances[4 * i + std::size_t(e[1])];
+        if ((da > nearPlane[i] && db > nearPlane[i]) || (da < -nearPlane[i] && db < -nearPlane[i])) continue;
+        if (!overlaps(boxes[i], pos[a], pos[b])) continue;
         const SegmentHit hit = segmentCrossesTriangle(pos[a], pos[b], swept[i][0], swept[i][1], swept[i][2]);
         if (hit.hit) {
           cutEdges.insert(edgeKey(a, b), CutEdge{a, b, hit.t});
@@ -137,8 +247,8 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
         }
       }
     }
-    for (std::uint32_t n : tet)
-      if (seenNodes.insert(n) && distanceToSurface(pos[n], swept) <= tolAbs) cutNodes.insert(n);
+    for (std::size_t c = 0; c < 4; ++c)
+      if ((onPlane >> c & 1) && distanceToSurface(corners[c], swept) <= tolAbs) cutNodes.insert(tet[c]);
   }
 
   result.candidateTets = near.size();
@@ -148,7 +258,8 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     if (ce.t < tau) cutNodes.insert(ce.a);
     if (ce.t > 1.0 - tau) cutNodes.insert(ce.b);
   });
-  std::vector<CutEdge> kept;
+  auto& kept = scratch.kept;
+  kept.clear();
   cutEdges.forEach([&](std::uint64_t, const CutEdge& ce) {
     if (!cutNodes.contains(ce.a) && !cutNodes.contains(ce.b)) kept.push_back(ce);
   });
@@ -161,11 +272,12 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   lap(1);
 
   // 4. Codes per touched tet.
-  struct Codes {
-    std::uint8_t edges = 0, nodes = 0;
-  };
-  FlatHashMap<std::uint32_t, Codes, U32Hash> touched(kNone, 8 * (kept.size() + cutNodes.size()));
-  FlatHashMap<std::uint64_t, std::uint32_t, U64Hash> edgePoint(kNoEdge, kept.size());
+  auto& touched = scratch.touched;
+  auto& edgePoint = scratch.edgePoint;
+  touched.clear();
+  edgePoint.clear();
+  touched.reserve(8 * (kept.size() + cutNodes.size()));
+  edgePoint.reserve(kept.size());
   for (const CutEdge& ce : kept) {
     const std::uint32_t node = topology_.addNode(lerp(topology_.mesh().positions[ce.a], topology_.mesh().positions[ce.b], ce.t),
                                                  lerp(topology_.mesh().restPositions[ce.a],
@@ -179,9 +291,10 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     result.newNodes.push_back(nn);
     for (std::uint32_t slot : topology_.tetsOfNode(ce.a)) {
       const Tet& tet = topology_.tet(slot);
-      for (int e = 0; e < 6; ++e)
-        if (edgeKey(tet[kTetEdges[e][0]], tet[kTetEdges[e][1]]) == edgeKey(ce.a, ce.b))
-          touched[slot].edges |= std::uint8_t(1u << e);
+      const int j = localIndex(tet, ce.b);
+      if (j < 0) continue;
+      const int i = localIndex(tet, ce.a);
+      touched[slot].edges |= std::uint8_t(1u << kLocalEdge[std::size_t(i)][std::size_t(j)]);
     }
   }
   cutNodes.forEach([&](std::uint32_t n) {
@@ -191,12 +304,19 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
         if (tet[i] == n) touched[slot].nodes |= std::uint8_t(1u << i);
     }
   });
-  std::vector<std::uint32_t> order;
+  auto& order = scratch.order;
+  order.clear();
   touched.forEach([&](std::uint32_t slot, const Codes&) { order.push_back(slot); });
   std::sort(order.begin(), order.end());
+  // About 4.5 children per split and 1-2 new nodes per cut edge (sizes of the change set).
+  result.removedTets.reserve(2 * order.size());
+  result.removedTetNodes.reserve(2 * order.size());
+  result.addedTets.reserve(6 * order.size());
+  result.newNodes.reserve(2 * kept.size() + order.size());
 
   // 5. Split, 6. collect crack faces.
-  FlatHashSet<FaceKey, FaceKeyHash> crack(kNoFace, 2 * order.size());
+  auto& crack = scratch.crack;  // sorted and made unique after the splits
+  crack.clear();
   for (std::uint32_t slot : order) {
     const Codes codes = *touched.find(slot);
     const Tet parent = topology_.tet(slot);
@@ -240,7 +360,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
                                  (pos[nodes[0]] + pos[nodes[1]] + pos[nodes[2]] + pos[nodes[3]]) * 0.25);
           return best > 0 ? 1 : (best < 0 ? -1 : 0);
         };
-        if (sideOf(slot) * sideOf(other) < 0) crack.insert(makeFaceKey(a, b, c));
+        if (sideOf(slot) * sideOf(other) < 0) crack.push_back(makeFaceKey(a, b, c));
       }
       continue;
     }
@@ -280,8 +400,11 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     // Steiner point of a partial split: the centroid's closest point on the swept surface when
     // it lies inside the tet with every barycentric weight >= steinerMargin (the crack then
     // continues through it exactly when the blade moves on), else the centroid.
-    const std::array<double, 4> lambda = steinerWeights(parent, swept);
+    // Computed on first use: most splits in a sweep are separating and need no Steiner point.
+    std::array<double, 4> lambda{};
+    bool haveLambda = false;
     auto restOf = [&](std::uint8_t local) -> Double3 {
+      if (local == kSteinerLocal && !haveLambda) lambda = steinerWeights(parent, swept), haveLambda = true;
       if (local == kSteinerLocal)
         return rest[parent[0]] * lambda[0] + rest[parent[1]] * lambda[1] + rest[parent[2]] * lambda[2] +
                rest[parent[3]] * lambda[3];
@@ -295,11 +418,11 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       }
       return worst;
     };
-    Decomposition d = decomposeTet(codes.edges, codes.nodes, keys);
+    Decomposition d = decompositions_.get(codes.edges, codes.nodes, keys);
     double ratio = minRatio(d);
     if (d.separating && !(ratio > 1e-12)) {
       // A strongly non-planar crack quad would invert a child: split without opening instead.
-      d = decomposeTet(codes.edges, codes.nodes, keys, true);
+      d = decompositions_.get(codes.edges, codes.nodes, keys, true);
       ratio = minRatio(d);
       ++result.separatingFallbacks;
     }
@@ -307,9 +430,10 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     result.minChildVolumeRatio = std::min(result.minChildVolumeRatio, ratio);
     if (d.usesSteiner) {
       const auto& p = topology_.mesh().positions;
+      const Double3 steinerRest = restOf(kSteinerLocal);  // also sets lambda
       global[kSteinerLocal] = topology_.addNode(p[parent[0]] * lambda[0] + p[parent[1]] * lambda[1] +
                                                     p[parent[2]] * lambda[2] + p[parent[3]] * lambda[3],
-                                                restOf(kSteinerLocal));
+                                                steinerRest);
       NewNode nn;
       nn.index = global[kSteinerLocal];
       nn.kind = NewNode::Kind::Steiner;
@@ -331,8 +455,13 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       grid_.insert(topology_, s);
     }
     for (int i = 0; i < d.crackCount; ++i)
-      crack.insert(makeFaceKey(global[d.crack[i][0]], global[d.crack[i][1]], global[d.crack[i][2]]));
+      crack.push_back(makeFaceKey(global[d.crack[i][0]], global[d.crack[i][1]], global[d.crack[i][2]]));
   }
+  auto faceLess = [](const FaceKey& x, const FaceKey& y) {
+    return x.a != y.a ? x.a < y.a : (x.b != y.b ? x.b < y.b : x.c < y.c);
+  };
+  std::sort(crack.begin(), crack.end(), faceLess);
+  crack.erase(std::unique(crack.begin(), crack.end()), crack.end());
   result.crackFaces = crack.size();
 
   lap(2);
@@ -342,24 +471,59 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   // topology before any renumbering, then each tet is rewritten once: two tets glued by a
   // non-crack face lie in the same group around each of that face's vertices, so they receive
   // the same copies and stay glued, whatever the order of the vertices.
-  std::vector<std::uint32_t> crackVertices;
-  crackVertices.reserve(3 * crack.size());
-  crack.forEach([&](const FaceKey& f) { crackVertices.insert(crackVertices.end(), {f.a, f.b, f.c}); });
-  std::sort(crackVertices.begin(), crackVertices.end());
-  crackVertices.erase(std::unique(crackVertices.begin(), crackVertices.end()), crackVertices.end());
-  struct Rename {
-    std::uint32_t slot, from, to;
-  };
-  std::vector<Rename> renames;
-  std::vector<std::uint32_t> around, groupSize, copyOfRoot;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> links;
-  for (std::uint32_t v : crackVertices) {
+  // The crack faces through each vertex, as the edge of the two other nodes, sorted by vertex:
+  // the faces through v are then one short run (a few entries) to scan.
+  auto& crackLinks = scratch.crackLinks;
+  crackLinks.clear();
+  crackLinks.reserve(3 * crack.size());
+  for (const FaceKey& f : crack) {
+    crackLinks.push_back({f.a, edgeKey(f.b, f.c)});
+    crackLinks.push_back({f.b, edgeKey(f.a, f.c)});
+    crackLinks.push_back({f.c, edgeKey(f.a, f.b)});
+  }
+  std::sort(crackLinks.begin(), crackLinks.end());
+  auto& renames = scratch.renames;
+  renames.clear();
+  auto& around = scratch.around;
+  auto& groupSize = scratch.groupSize;
+  auto& copyOfRoot = scratch.copyOfRoot;
+  auto& rootOf = scratch.rootOf;
+  // Face matching around one vertex: an open-addressing table keyed by the edge of the face's
+  // two other nodes, holding the first tet seen with it (cleared slot by slot after each vertex).
+  auto& faceKeys = scratch.faceKeys;  // all kNoEdge between vertices (and events)
+  auto& faceTet = scratch.faceTet;
+  auto& usedSlots = scratch.usedSlots;
+  auto& comps = scratch.comps;
+  for (std::size_t run = 0; run < crackLinks.size();) {
+    const std::uint32_t v = crackLinks[run].vertex;
+    std::size_t runEnd = run;
+    while (runEnd < crackLinks.size() && crackLinks[runEnd].vertex == v) ++runEnd;
+    const std::size_t linksBegin = run, linksEnd = runEnd;
+    run = runEnd;
+
     const auto incident = topology_.tetsOfNode(v);
     if (incident.size() < 2) continue;
     around.assign(incident.begin(), incident.end());
+    std::size_t capacity = 16;
+    while (capacity < 2 * (3 * around.size() + (linksEnd - linksBegin))) capacity *= 2;
+    if (faceKeys.size() < capacity) faceKeys.assign(capacity, kNoEdge), faceTet.assign(capacity, 0);
+    const std::size_t mask = capacity - 1;
+    comps.reset(around.size());
+    // The slot of a face key in the table: its entry, or the free slot where it belongs.
+    auto slotOf = [&](std::uint64_t edge) {
+      std::size_t h = std::size_t(mix64(edge)) & mask;
+      while (faceKeys[h] != kNoEdge && faceKeys[h] != edge) h = (h + 1) & mask;
+      return h;
+    };
+    // Crack faces through v first, marked so that no tet is glued across them.
+    for (std::size_t k = linksBegin; k < linksEnd; ++k) {
+      const std::size_t h = slotOf(crackLinks[k].edge);
+      if (faceKeys[h] == kNoEdge) usedSlots.push_back(std::uint32_t(h));
+      faceKeys[h] = crackLinks[k].edge;
+      faceTet[h] = kNone;
+    }
     // Two tets around v are glued when they share a non-crack face through v, i.e. the same two
-    // other nodes: match those pairs locally (sorted), no global face lookups.
-    links.clear();
+    // other nodes: matched locally, no global face lookups.
     for (std::size_t i = 0; i < around.size(); ++i) {
       const Tet& t = topology_.tet(around[i]);
       std::array<std::uint32_t, 3> others{};
@@ -367,24 +531,31 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       for (std::uint32_t n : t)
         if (n != v && k < 3) others[std::size_t(k++)] = n;
       for (const auto& [x, y] : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}}) {
-        const std::uint32_t b = others[std::size_t(x)], c = others[std::size_t(y)];
-        if (crack.contains(makeFaceKey(v, b, c))) continue;
-        links.push_back({edgeKey(b, c), std::uint32_t(i)});
+        const std::uint64_t edge = edgeKey(others[std::size_t(x)], others[std::size_t(y)]);
+        const std::size_t h = slotOf(edge);
+        if (faceKeys[h] == kNoEdge) {
+          faceKeys[h] = edge;
+          faceTet[h] = std::uint32_t(i);
+          usedSlots.push_back(std::uint32_t(h));
+        } else if (faceTet[h] != kNone) {
+          comps.unite(int(faceTet[h]), int(i));
+        }
       }
     }
-    std::sort(links.begin(), links.end());
-    Components comps(around.size());
-    for (std::size_t l = 1; l < links.size(); ++l)
-      if (links[l].first == links[l - 1].first) comps.unite(int(links[l].second), int(links[l - 1].second));
-    // The largest group keeps the vertex (fewest tets renumbered).
+    for (std::uint32_t h : usedSlots) faceKeys[h] = kNoEdge;
+    usedSlots.clear();
+    rootOf.resize(around.size());
+    for (std::size_t i = 0; i < around.size(); ++i) rootOf[i] = std::uint32_t(comps.find(int(i)));
+    // The largest group keeps the vertex (fewest tets renumbered); among equals, the group of
+    // the first tet in the vertex's list (a rule that does not depend on union-find roots).
     groupSize.assign(around.size(), 0);
-    for (std::size_t i = 0; i < around.size(); ++i) ++groupSize[std::size_t(comps.find(int(i)))];
-    std::size_t keep = 0;
-    for (std::size_t r = 1; r < around.size(); ++r)
-      if (groupSize[r] > groupSize[keep]) keep = r;
+    for (std::size_t i = 0; i < around.size(); ++i) ++groupSize[rootOf[i]];
+    std::size_t keep = rootOf[0];
+    for (std::size_t i = 1; i < around.size(); ++i)
+      if (groupSize[rootOf[i]] > groupSize[keep]) keep = rootOf[i];
     copyOfRoot.assign(around.size(), kNone);
     for (std::size_t i = 0; i < around.size(); ++i) {
-      const std::size_t root = std::size_t(comps.find(int(i)));
+      const std::size_t root = rootOf[i];
       if (root == keep) continue;
       if (copyOfRoot[root] == kNone) {
         copyOfRoot[root] = topology_.addNode(topology_.mesh().positions[v], topology_.mesh().restPositions[v]);
@@ -402,7 +573,9 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   std::sort(renames.begin(), renames.end(), [](const Rename& x, const Rename& y) { return x.slot < y.slot; });
   // Renumbered tets that were not split are reported as removed (with their nodes before the
   // opening) and re-added.
-  FlatHashSet<std::uint32_t, U32Hash> split(kNone, result.addedTets.size());
+  auto& split = scratch.split;
+  split.clear();
+  split.reserve(result.addedTets.size());
   for (std::uint32_t slot : result.addedTets) split.insert(slot);
   for (std::size_t i = 0; i < renames.size();) {
     const std::uint32_t slot = renames[i].slot;

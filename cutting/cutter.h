@@ -35,7 +35,9 @@ struct NewNode {
   Kind kind = Kind::EdgePoint;
   // position = sum(weights[i] * positions[sources[i]]) (same for rest positions); unused sources
   // are kNone. EdgePoint: 2 sources; Steiner: the 4 nodes of the split tet; Duplicate: 1 source
-  // (the node it was split from; the two now belong to different sides of the crack).
+  // (the node it was split from; the two now belong to different sides of the crack). A source
+  // is either an existing node or a node created earlier in the same event (a Duplicate of a
+  // cut point or Steiner point), so appending newNodes in order always finds its sources.
   std::array<std::uint32_t, 4> sources{kNone, kNone, kNone, kNone};
   std::array<double, 4> weights{};
 };
@@ -78,7 +80,14 @@ class Cutter {
   CutTopology topology_;
   CutOptions options_;
   SpatialGrid grid_;
+  DecompositionCache decompositions_;
   double meanEdge_ = 1.0;
+  // Per-event buffers reused across events (defined in cutter.cpp); makes Cutter move-only.
+  struct Scratch;
+  struct ScratchDeleter {
+    void operator()(Scratch* scratch) const;
+  };
+  std::unique_ptr<Scratch, ScratchDeleter> scratch_;
 };
 
 // The smallest child/parent volume ratio any split can produce when every cut point lies in

@@ -176,6 +176,27 @@ std::uint8_t caseAEdgeCode(int node) {
   return code;
 }
 
+Decomposition DecompositionCache::get(std::uint8_t edgeMask, std::uint8_t nodeMask,
+                                     const std::array<std::uint64_t, 11>& keys, bool forcePartial) {
+  // rank[i] = number of keys below keys[i]: equal keys share a rank, so every comparison
+  // decomposeTet can make between two keys is answered the same way by their ranks.
+  std::uint64_t pattern = 0;
+  for (int i = 0; i < 11; ++i) {
+    std::uint64_t rank = 0;
+    for (int j = 0; j < 11; ++j) rank += keys[j] < keys[i];
+    pattern |= rank << (4 * i);
+  }
+  pattern |= std::uint64_t(edgeMask & 63u) << 44 | std::uint64_t(nodeMask & 15u) << 50 |
+             std::uint64_t(forcePartial) << 54;
+  if (const std::uint32_t* found = index_.find(pattern)) return entries_[*found];
+  // Decompose the rank pattern itself (throws, uncached, on masks the filtering forbids).
+  std::array<std::uint64_t, 11> ranks{};
+  for (int i = 0; i < 11; ++i) ranks[std::size_t(i)] = pattern >> (4 * i) & 15u;
+  entries_.push_back(decomposeTet(edgeMask, nodeMask, ranks, forcePartial));
+  index_.insert(pattern, std::uint32_t(entries_.size() - 1));
+  return entries_.back();
+}
+
 CutCase classifyCut(std::uint8_t edgeMask, std::uint8_t nodeMask) {
   std::array<std::uint64_t, 11> keys{};
   for (int i = 0; i < 11; ++i) keys[i] = std::uint64_t(i);

@@ -148,6 +148,7 @@ template <typename Key, typename Hash>
 class FlatHashSet {
  public:
   explicit FlatHashSet(Key empty, std::size_t expected = 0) : map_(empty, expected) {}
+  void reserve(std::size_t count) { map_.reserve(count); }
   bool insert(const Key& key) { return map_.insert(key).second; }
   bool contains(const Key& key) const { return map_.contains(key); }
   std::size_t size() const { return map_.size(); }

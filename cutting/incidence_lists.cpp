@@ -12,6 +12,10 @@ void IncidenceLists::layout(const std::vector<std::uint32_t>& capacities) {
     runs_[n].capacity = capacities[n];
     offset += capacities[n];
   }
+  // Room for runs that move (split nodes gain tets) and for new nodes, so that a cutting
+  // session's first events do not reallocate the whole pool.
+  pool_.reserve(offset + offset / 2 + 4096);
+  runs_.reserve(capacities.size() + capacities.size() / 2 + 1024);
   pool_.assign(offset, 0);
   abandoned_ = entries_ = 0;
 }

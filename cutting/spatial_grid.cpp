@@ -4,24 +4,30 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace blobvk::cutting {
 namespace {
 
-void tetBox(const CutTopology& topo, std::uint32_t slot, Double3& lo, Double3& hi) {
-  const auto& p = topo.mesh().positions;
-  const Tet& t = topo.tet(slot);
-  lo = hi = p[t[0]];
-  for (int i = 1; i < 4; ++i) {
-    const Double3 q = p[t[i]];
-    lo = {std::min(lo.x, q.x), std::min(lo.y, q.y), std::min(lo.z, q.z)};
-    hi = {std::max(hi.x, q.x), std::max(hi.y, q.y), std::max(hi.z, q.z)};
-  }
+// Float bounds that contain the double value: the stored boxes stay conservative.
+float floatBelow(double v) {
+  const float f = float(v);
+  return double(f) <= v ? f : std::nextafter(f, -std::numeric_limits<float>::infinity());
+}
+float floatAbove(double v) {
+  const float f = float(v);
+  return double(f) >= v ? f : std::nextafter(f, std::numeric_limits<float>::infinity());
 }
 
 }  // namespace
 
-std::int64_t SpatialGrid::cellOf(double v) const { return std::int64_t(std::floor(v / cell_)); }
+std::int64_t SpatialGrid::cellOf(double v) const {
+  // floor(v / cell) without the libm call (no SSE4.1 round instruction in the baseline ISA);
+  // insertions and queries share this function, so they agree on every border.
+  const double x = v * inverseCell_;
+  const std::int64_t i = std::int64_t(x);
+  return i - std::int64_t(double(i) > x);
+}
 
 std::uint64_t SpatialGrid::key(std::int64_t x, std::int64_t y, std::int64_t z) const {
   const std::uint64_t mask = (1ull << 21) - 1;
@@ -31,6 +37,8 @@ std::uint64_t SpatialGrid::key(std::int64_t x, std::int64_t y, std::int64_t z) c
 void SpatialGrid::rebuild(const CutTopology& topology) {
   cells_.clear();
   cellIndex_.clear();
+  recentCells_.fill({~0ull, 0});
+  boxes_.clear();
   entries_ = 0;
   double sum = 0.0;
   std::size_t count = 0;
@@ -42,79 +50,179 @@ void SpatialGrid::rebuild(const CutTopology& topology) {
     count += 2;
   }
   cell_ = std::max(1e-12, count ? 2.0 * sum / double(count) : 1.0);
+  inverseCell_ = 1.0 / cell_;
+  // Headroom for the tets a cutting session adds (no O(n) copy in the first events).
+  boxes_.reserve(topology.slotCount() + topology.slotCount() / 2 + 4096);
+  stamp_.reserve(boxes_.capacity());
+  boxes_.resize(topology.slotCount());
   for (std::uint32_t s = 0; s < topology.slotCount(); ++s)
     if (topology.alive(s)) insert(topology, s);
-  for (Cell& c : cells_) c.cleanSize = c.slots.size();
+  for (Cell& c : cells_) c.cleanSize = c.entries.size();
 }
 
-void SpatialGrid::clean(const CutTopology& topology, std::uint64_t key, Cell& cell) {
-  // Keep live slots whose current box still meets the cell, once each (stamps of a fresh query
-  // round, so the caller's own round is unaffected: it re-stamps after).
-  const std::int64_t mask = (1ll << 21) - 1;
-  auto unpack = [&](int shift) {
-    std::int64_t v = std::int64_t((key >> shift) & std::uint64_t(mask));
-    return v >= (1ll << 20) ? v - (1ll << 21) : v;  // cell coordinates are signed 21-bit
-  };
-  const double x0 = double(unpack(0)) * cell_, y0 = double(unpack(21)) * cell_, z0 = double(unpack(42)) * cell_;
+void SpatialGrid::nextStamp(const CutTopology& topology) {
+  if (stamp_.size() < topology.slotCount())
+    stamp_.resize(std::max(topology.slotCount(), std::min(stamp_.capacity(), 2 * stamp_.size())), 0);
   if (++stampValue_ == 0) {
     std::fill(stamp_.begin(), stamp_.end(), 0);
     stampValue_ = 1;
   }
+}
+
+void SpatialGrid::clean(const CutTopology& topology, std::uint64_t cellKey, Cell& cell) {
+  // Keep one entry per live slot whose current box still meets the cell, refreshed to that box
+  // (a stamp round of its own).
+  const std::int64_t mask = (1ll << 21) - 1;
+  auto unpack = [&](int shift) {
+    std::int64_t v = std::int64_t((cellKey >> shift) & std::uint64_t(mask));
+    return v >= (1ll << 20) ? v - (1ll << 21) : v;  // cell coordinates are signed 21-bit
+  };
+  const double x0 = double(unpack(0)) * cell_, y0 = double(unpack(21)) * cell_, z0 = double(unpack(42)) * cell_;
+  nextStamp(topology);
   std::size_t kept = 0;
-  for (std::uint32_t s : cell.slots) {
+  for (const Entry& entry : cell.entries) {
+    const std::uint32_t s = entry.slot;
     if (s >= topology.slotCount() || !topology.alive(s) || stamp_[s] == stampValue_) continue;
-    Double3 lo, hi;
-    tetBox(topology, s, lo, hi);
-    if (lo.x > x0 + cell_ || lo.y > y0 + cell_ || lo.z > z0 + cell_ || hi.x < x0 || hi.y < y0 || hi.z < z0) continue;
+    const Box& b = boxes_[s];
+    if (b.lo[0] > x0 + cell_ || b.lo[1] > y0 + cell_ || b.lo[2] > z0 + cell_ || b.hi[0] < x0 || b.hi[1] < y0 ||
+        b.hi[2] < z0)
+      continue;
     stamp_[s] = stampValue_;
-    cell.slots[kept++] = s;
+    cell.entries[kept++] = {s, b};
   }
-  entries_ -= cell.slots.size() - kept;
-  cell.slots.resize(kept);
+  entries_ -= cell.entries.size() - kept;
+  cell.entries.resize(kept);
   cell.cleanSize = kept;
 }
 
+void SpatialGrid::cleanIfGrown(const CutTopology& topology, std::uint64_t cellKey) {
+  const std::uint32_t* index = cellIndex_.find(cellKey);
+  if (index != nullptr && cells_[*index].entries.size() > 2 * cells_[*index].cleanSize + 16)
+    clean(topology, cellKey, cells_[*index]);
+}
+
+std::uint32_t SpatialGrid::cellIndexOf(std::uint64_t cellKey) {
+  // The children of a split are inserted one after the other into the same few cells: a small
+  // round-robin memo of recent cells saves most of the hash lookups.
+  for (const auto& [k, index] : recentCells_)
+    if (k == cellKey) return index;
+  const auto [index, inserted] = cellIndex_.insert(cellKey, std::uint32_t(cells_.size()));
+  if (inserted) cells_.emplace_back();
+  recentCells_[nextRecent_++ % recentCells_.size()] = {cellKey, *index};
+  return *index;
+}
+
 void SpatialGrid::insert(const CutTopology& topology, std::uint32_t slot) {
-  Double3 lo, hi;
-  tetBox(topology, slot, lo, hi);
+  const auto& p = topology.mesh().positions;
+  const Tet& t = topology.tet(slot);
+  Double3 lo = p[t[0]], hi = p[t[0]];
+  for (int i = 1; i < 4; ++i) {
+    const Double3 q = p[t[i]];
+    lo = {std::min(lo.x, q.x), std::min(lo.y, q.y), std::min(lo.z, q.z)};
+    hi = {std::max(hi.x, q.x), std::max(hi.y, q.y), std::max(hi.z, q.z)};
+  }
+  if (boxes_.size() <= slot)
+    boxes_.resize(std::max<std::size_t>(std::size_t(slot) + 1, std::min(boxes_.capacity(), 2 * boxes_.size())));
+  const Box box{{floatBelow(lo.x), floatBelow(lo.y), floatBelow(lo.z)},
+                {floatAbove(hi.x), floatAbove(hi.y), floatAbove(hi.z)}};
+  boxes_[slot] = box;
   for (std::int64_t z = cellOf(lo.z); z <= cellOf(hi.z); ++z)
     for (std::int64_t y = cellOf(lo.y); y <= cellOf(hi.y); ++y)
       for (std::int64_t x = cellOf(lo.x); x <= cellOf(hi.x); ++x) {
-        const auto [index, inserted] = cellIndex_.insert(key(x, y, z), std::uint32_t(cells_.size()));
-        if (inserted) cells_.emplace_back();
-        cells_[*index].slots.push_back(slot);
+        cells_[cellIndexOf(key(x, y, z))].entries.push_back({slot, box});
         ++entries_;
       }
 }
 
-void SpatialGrid::query(const CutTopology& topology, Double3 lo, Double3 hi, std::vector<std::uint32_t>& out) {
-  if (stamp_.size() < topology.slotCount()) stamp_.resize(topology.slotCount() + topology.slotCount() / 4, 0);
-  // Clean the visited cells that doubled first (each cleaning uses its own stamp round).
-  for (std::int64_t z = cellOf(lo.z); z <= cellOf(hi.z); ++z)
-    for (std::int64_t y = cellOf(lo.y); y <= cellOf(hi.y); ++y)
-      for (std::int64_t x = cellOf(lo.x); x <= cellOf(hi.x); ++x) {
-        const std::uint32_t* index = cellIndex_.find(key(x, y, z));
-        if (index != nullptr && cells_[*index].slots.size() > 2 * cells_[*index].cleanSize + 16)
-          clean(topology, key(x, y, z), cells_[*index]);
-      }
-  if (++stampValue_ == 0) {
-    std::fill(stamp_.begin(), stamp_.end(), 0);
-    stampValue_ = 1;
+namespace {
+
+double l1(Double3 v) { return std::fabs(v.x) + std::fabs(v.y) + std::fabs(v.z); }
+
+// Does the box (centre, half extents) meet the slab? Conservative: the slab's planes are moved
+// out by `margin` besides the slab's own pad (rounding of the cell and box coordinates).
+inline bool boxMeetsSlab(const SpatialGrid::Slab& slab, Double3 centre, Double3 half, double margin) {
+  auto reach = [&](Double3 n) { return half.x * std::fabs(n.x) + half.y * std::fabs(n.y) + half.z * std::fabs(n.z); };
+  if (std::fabs(dot(centre - slab.origin, slab.normal)) > reach(slab.normal) + slab.pad + margin) return false;
+  for (int e = 0; e < 3; ++e)
+    if (dot(centre - slab.edgeOrigin[std::size_t(e)], slab.edgeNormal[std::size_t(e)]) >
+        reach(slab.edgeNormal[std::size_t(e)]) + slab.pad + margin)
+      return false;
+  return true;
+}
+
+}  // namespace
+
+SpatialGrid::Slab SpatialGrid::slabAround(const std::array<Double3, 3>& t, double pad) {
+  Slab slab;
+  slab.lo = slab.hi = t[0];
+  for (const Double3& p : t) {
+    slab.lo = {std::min(slab.lo.x, p.x), std::min(slab.lo.y, p.y), std::min(slab.lo.z, p.z)};
+    slab.hi = {std::max(slab.hi.x, p.x), std::max(slab.hi.y, p.y), std::max(slab.hi.z, p.z)};
   }
-  for (std::int64_t z = cellOf(lo.z); z <= cellOf(hi.z); ++z)
-    for (std::int64_t y = cellOf(lo.y); y <= cellOf(hi.y); ++y)
-      for (std::int64_t x = cellOf(lo.x); x <= cellOf(hi.x); ++x) {
-        const std::uint32_t* index = cellIndex_.find(key(x, y, z));
-        if (index == nullptr) continue;
-        for (std::uint32_t s : cells_[*index].slots) {
-          if (s >= topology.slotCount() || !topology.alive(s) || stamp_[s] == stampValue_) continue;
-          stamp_[s] = stampValue_;
-          Double3 tlo, thi;
-          tetBox(topology, s, tlo, thi);
-          if (tlo.x > hi.x || tlo.y > hi.y || tlo.z > hi.z || thi.x < lo.x || thi.y < lo.y || thi.z < lo.z) continue;
-          out.push_back(s);
-        }
+  slab.lo = slab.lo - Double3{pad, pad, pad};
+  slab.hi = slab.hi + Double3{pad, pad, pad};
+  const Double3 n = cross(t[1] - t[0], t[2] - t[0]);
+  slab.normal = n * (1.0 / length(n));
+  slab.origin = t[0];
+  slab.pad = pad;
+  for (std::size_t e = 0; e < 3; ++e) {
+    const Double3 a = t[e], b = t[(e + 1) % 3];
+    // Outward for a counter-clockwise triangle seen from the normal's side.
+    const Double3 m = cross(b - a, slab.normal);
+    const double len = length(m);
+    slab.edgeOrigin[e] = a;
+    // A degenerate edge constrains nothing (the other two and the box still bound the slab).
+    slab.edgeNormal[e] = len > 0 ? m * (1.0 / len) : Double3{0, 0, 0};
+  }
+  return slab;
+}
+
+template <typename F>
+void SpatialGrid::forEachSlabCell(const Slab& slab, F&& f) const {
+  // A cell meets the slab when its centre is within its half-extent (plus pad) of the plane and
+  // inside the prism; the margin covers the rounding of cellOf at cell borders and that of the
+  // slab's normals.
+  const Double3 half{0.5 * cell_, 0.5 * cell_, 0.5 * cell_};
+  const double margin = 1e-6 * cell_ + 1e-12 * (l1(slab.lo) + l1(slab.hi));
+  for (std::int64_t z = cellOf(slab.lo.z); z <= cellOf(slab.hi.z); ++z)
+    for (std::int64_t y = cellOf(slab.lo.y); y <= cellOf(slab.hi.y); ++y)
+      for (std::int64_t x = cellOf(slab.lo.x); x <= cellOf(slab.hi.x); ++x) {
+        const Double3 centre{(double(x) + 0.5) * cell_, (double(y) + 0.5) * cell_, (double(z) + 0.5) * cell_};
+        if (boxMeetsSlab(slab, centre, half, margin)) f(key(x, y, z));
       }
+}
+
+void SpatialGrid::querySlabs(const CutTopology& topology, const std::vector<Slab>& slabs,
+                             std::vector<std::uint32_t>& out) {
+  const std::size_t first = out.size();
+  // Cleaning uses stamp rounds of its own, so it runs before the query's rounds.
+  for (const Slab& slab : slabs) forEachSlabCell(slab, [&](std::uint64_t k) { cleanIfGrown(topology, k); });
+  for (const Slab& slab : slabs) {
+    nextStamp(topology);  // each slot is tested once per slab, however many cells list it
+    const double margin = 1e-9 * cell_ + 1e-12 * (l1(slab.lo) + l1(slab.hi));
+    forEachSlabCell(slab, [&](std::uint64_t k) {
+      const std::uint32_t* index = cellIndex_.find(k);
+      if (index == nullptr) return;
+      for (const Entry& entry : cells_[*index].entries) {
+        const Box& b = entry.box;
+        if (b.lo[0] > slab.hi.x || b.lo[1] > slab.hi.y || b.lo[2] > slab.hi.z || b.hi[0] < slab.lo.x ||
+            b.hi[1] < slab.lo.y || b.hi[2] < slab.lo.z)
+          continue;
+        // A slot is listed in ~3 cells: settle repeats before the plane tests.
+        const std::uint32_t s = entry.slot;
+        if (s >= topology.slotCount() || stamp_[s] == stampValue_) continue;
+        const Double3 centre{0.5 * (double(b.lo[0]) + b.hi[0]), 0.5 * (double(b.lo[1]) + b.hi[1]),
+                             0.5 * (double(b.lo[2]) + b.hi[2])};
+        const Double3 half{0.5 * (double(b.hi[0]) - b.lo[0]), 0.5 * (double(b.hi[1]) - b.lo[1]),
+                           0.5 * (double(b.hi[2]) - b.lo[2])};
+        if (!boxMeetsSlab(slab, centre, half, margin) || !topology.alive(s)) continue;
+        stamp_[s] = stampValue_;
+        out.push_back(s);
+      }
+    });
+  }
+  std::sort(out.begin() + std::ptrdiff_t(first), out.end());
+  out.erase(std::unique(out.begin() + std::ptrdiff_t(first), out.end()), out.end());
 }
 
 }  // namespace blobvk::cutting

@@ -1,16 +1,18 @@
 // Uniform spatial hash over tet bounding boxes, so a sweep visits only the tets near the swept
-// surface. Updated incrementally: inserting a tet adds its slot to the cells it overlaps; stale
-// entries (slots whose content changed) are harmless because candidates are re-tested exactly.
-// A cell that has doubled since it was last cleaned is cleaned when a query visits it (stale and
-// repeated entries dropped), so the cost stays local to where the cutting happens: no whole-grid
-// rebuild during a cutting session (only when the simulation moves the nodes).
+// surface. Updated incrementally: inserting a tet adds its slot to the cells it overlaps and
+// records its box; stale entries (slots whose content changed) are harmless because every hit is
+// re-tested against the slot's current box. A cell that has doubled since it was last cleaned is
+// cleaned when a query visits it (stale and repeated entries dropped), so the cost stays local to
+// where the cutting happens: no whole-grid rebuild during a cutting session (only when the
+// simulation moves the nodes).
 #pragma once
 
+#include "cutting/flat_hash.h"
 #include "cutting/topology.h"
 
+#include <array>
 #include <cstdint>
-#include "cutting/flat_hash.h"
-
+#include <utility>
 #include <vector>
 
 namespace blobvk::cutting {
@@ -19,25 +21,70 @@ class SpatialGrid {
  public:
   // Cell size: twice the mean edge length of the live tets (at least 1e-12).
   void rebuild(const CutTopology& topology);
+  // Registers the slot's current box. Call for every slot whose nodes or node positions changed
+  // (renumbering to nodes at the same positions, as crack opening does, keeps the box).
   void insert(const CutTopology& topology, std::uint32_t slot);
-  // Live slots whose box overlaps [lo, hi] (deduplicated, unordered).
-  void query(const CutTopology& topology, mesh::Double3 lo, mesh::Double3 hi, std::vector<std::uint32_t>& out);
+
+  // A thin region around a swept triangle: its box, its plane (unit normal through origin)
+  // thickened by pad on both sides, and the three planes through its edges perpendicular to it
+  // (outward unit normals through the edges' first vertices), moved out by pad: the prism over
+  // the triangle. slabAround builds it.
+  struct Slab {
+    mesh::Double3 lo, hi, origin, normal;
+    double pad = 0.0;
+    std::array<mesh::Double3, 3> edgeNormal{}, edgeOrigin{};
+  };
+  static Slab slabAround(const std::array<mesh::Double3, 3>& triangle, double pad);
+  // Live slots whose box meets some slab (box, thickened plane and prism), sorted and unique.
+  // Only the cells that meet the slab are visited, a small part of a tilted triangle's box (and
+  // about half of it for each of the two triangles of a swept quad), and the test reads the
+  // slot's stored box (one record) rather than its four node positions. A superset of the tets
+  // that meet a slab.
+  void querySlabs(const CutTopology& topology, const std::vector<Slab>& slabs, std::vector<std::uint32_t>& out);
+
   // Safety valve only (cells are cleaned locally): far more entries than live tets.
   bool needsRebuild(const CutTopology& topology) const { return entries_ > 16 * topology.liveTetCount() + 4096; }
   double cellSize() const { return cell_; }
 
  private:
+  // Box of a slot, rounded outwards to float (half the memory of doubles, still conservative).
+  struct Box {
+    std::array<float, 3> lo, hi;
+  };
   std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z) const;
   std::int64_t cellOf(double v) const;
+  // A cell lists its tets with their boxes as of insertion, so a query scans one contiguous
+  // array and touches a slot's own data only for the entries whose box meets the slab. A stale
+  // entry (the slot's content changed since) is harmless: a split child lies inside the box of
+  // the parent that held its slot, any new content was inserted with its own box, and every
+  // returned slot is re-tested exactly by the caller.
+  struct Entry {
+    std::uint32_t slot;
+    Box box;
+  };
   struct Cell {
-    std::vector<std::uint32_t> slots;
+    std::vector<Entry> entries;
     std::size_t cleanSize = 0;  // size after the last cleaning
   };
   void clean(const CutTopology& topology, std::uint64_t key, Cell& cell);
-  double cell_ = 1.0;
+  void cleanIfGrown(const CutTopology& topology, std::uint64_t key);
+  std::uint32_t cellIndexOf(std::uint64_t key);  // creates the cell if needed
+  void nextStamp(const CutTopology& topology);
+  template <typename F>
+  void forEachSlabCell(const Slab& slab, F&& f) const;
+
+  double cell_ = 1.0, inverseCell_ = 1.0;
   std::size_t entries_ = 0;
   FlatHashMap<std::uint64_t, std::uint32_t, U64Hash> cellIndex_{~0ull};  // cell key -> cells_ index
   std::vector<Cell> cells_;
+  // Recently inserted-into cells (key, cells_ index); ~0 is never a cell key (bit 63).
+  std::array<std::pair<std::uint64_t, std::uint32_t>, 8> recentCells_ = [] {
+    std::array<std::pair<std::uint64_t, std::uint32_t>, 8> a{};
+    a.fill({~0ull, 0});
+    return a;
+  }();
+  std::uint32_t nextRecent_ = 0;
+  std::vector<Box> boxes_;  // by slot, as of the slot's last insert (the current box)
   std::vector<std::uint32_t> stamp_;
   std::uint32_t stampValue_ = 0;
 };

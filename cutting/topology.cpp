@@ -32,6 +32,15 @@ CutTopology::CutTopology(mesh::TetMesh mesh) : mesh_(std::move(mesh)) {
     throw std::invalid_argument("CutTopology: regions must be empty or one per tet");
   if (mesh_.regions.empty()) mesh_.regions.assign(mesh_.tets.size(), 0);
   alive_.assign(mesh_.tets.size(), 1);
+  // Headroom for the growth of a cutting session: without it the first cut events would copy
+  // every per-tet and per-node array (O(n) per event until the doubling catches up).
+  const std::size_t tetRoom = mesh_.tets.size() + mesh_.tets.size() / 2 + 4096;
+  const std::size_t nodeRoom = mesh_.positions.size() + mesh_.positions.size() / 2 + 4096;
+  mesh_.tets.reserve(tetRoom);
+  mesh_.regions.reserve(tetRoom);
+  alive_.reserve(tetRoom);
+  mesh_.positions.reserve(nodeRoom);
+  mesh_.restPositions.reserve(nodeRoom);
   // Incidence runs sized to each node's degree plus room for the tets a few cuts add.
   std::vector<std::uint32_t> degree(mesh_.positions.size(), 0);
   for (const Tet& t : mesh_.tets)
@@ -41,9 +50,6 @@ CutTopology::CutTopology(mesh::TetMesh mesh) : mesh_(std::move(mesh)) {
     }
   for (auto& d : degree) d += 4;
   tetsOfNode_.layout(degree);
-  // Euler: about 1.2 edges and 2 faces per tet in a solid mesh; room for the growth of cutting.
-  edges_.reserve(mesh_.tets.size() * 2);
-  faces_.reserve(mesh_.tets.size() * 3);
   for (std::uint32_t t = 0; t < mesh_.tets.size(); ++t) attach(t);
 }
 
@@ -113,103 +119,59 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> CutTopology::compact() {
   return moves;
 }
 
+namespace {
+bool holds(const Tet& t, std::uint32_t n) { return t[0] == n || t[1] == n || t[2] == n || t[3] == n; }
+}  // namespace
+
+bool CutTopology::hasEdge(std::uint32_t a, std::uint32_t b) const {
+  if (a >= tetsOfNode_.nodeCount() || b >= tetsOfNode_.nodeCount()) return false;
+  if (tetsOfNode_.of(b).size() < tetsOfNode_.of(a).size()) std::swap(a, b);
+  for (std::uint32_t slot : tetsOfNode_.of(a))
+    if (holds(mesh_.tets[slot], b)) return true;
+  return false;
+}
+
 std::array<std::uint32_t, 2> CutTopology::tetsOfFace(std::uint32_t a, std::uint32_t b, std::uint32_t c) const {
-  const FaceRecord* r = faces_.find(makeFaceKey(a, b, c));
-  if (r == nullptr) return {kNone, kNone};
-  return {r->tets[0], r->tets[1]};
-}
-
-void CutTopology::addFaceUse(const FaceKey& key, std::uint32_t slot) {
-  FaceRecord& r = faces_[key];
-  if (r.tets[0] == kNone) r.tets[0] = slot;
-  else if (r.tets[1] == kNone) r.tets[1] = slot;
-  else ++r.extra;
-}
-
-void CutTopology::removeFaceUse(const FaceKey& key, std::uint32_t slot) {
-  FaceRecord* record = faces_.find(key);
-  if (record == nullptr) return;
-  FaceRecord& r = *record;
-  // Beyond two tets (a conformity error) the record only counts; selfCheck reports it.
-  if (r.tets[0] == slot) {
-    r.tets[0] = r.tets[1];
-    r.tets[1] = kNone;
-  } else if (r.tets[1] == slot) {
-    r.tets[1] = kNone;
-  } else if (r.extra > 0) {
-    --r.extra;
+  std::array<std::uint32_t, 2> found{kNone, kNone};
+  const std::size_t nodes = tetsOfNode_.nodeCount();
+  if (a >= nodes || b >= nodes || c >= nodes) return found;
+  // Scan the shortest of the three lists.
+  if (tetsOfNode_.of(b).size() < tetsOfNode_.of(a).size()) std::swap(a, b);
+  if (tetsOfNode_.of(c).size() < tetsOfNode_.of(a).size()) std::swap(a, c);
+  int count = 0;
+  for (std::uint32_t slot : tetsOfNode_.of(a)) {
+    const Tet& t = mesh_.tets[slot];
+    if (holds(t, b) && holds(t, c)) {
+      found[std::size_t(count++)] = slot;
+      if (count == 2) break;
+    }
   }
-  if (r.tets[0] == kNone && r.extra == 0) faces_.erase(key);
-}
-
-void CutTopology::removeEdgeUse(std::uint64_t key) {
-  std::uint32_t* count = edges_.find(key);
-  if (count != nullptr && --*count == 0) edges_.erase(key);
-}
-
-// The edge and face keys of a tet, with their table slots prefetched: attach and detach then
-// touch all ten entries without waiting on each miss in turn.
-CutTopology::TetKeys CutTopology::prefetchKeys(const Tet& t) const {
-  TetKeys keys;
-  for (int e = 0; e < 6; ++e) edges_.prefetch(keys.edges[e] = edgeKey(t[kTetEdges[e][0]], t[kTetEdges[e][1]]));
-  for (int f = 0; f < 4; ++f)
-    faces_.prefetch(keys.faces[f] = makeFaceKey(t[kTetFaces[f][0]], t[kTetFaces[f][1]], t[kTetFaces[f][2]]));
-  return keys;
+  return found;
 }
 
 void CutTopology::attach(std::uint32_t slot) {
-  const Tet& t = mesh_.tets[slot];
-  const TetKeys keys = prefetchKeys(t);
-  for (std::uint32_t n : t) tetsOfNode_.push(n, slot);
-  for (std::uint64_t k : keys.edges) ++edges_[k];
-  for (const FaceKey& k : keys.faces) addFaceUse(k, slot);
+  for (std::uint32_t n : mesh_.tets[slot]) tetsOfNode_.push(n, slot);
 }
 
 void CutTopology::detach(std::uint32_t slot) {
-  const Tet& t = mesh_.tets[slot];
-  const TetKeys keys = prefetchKeys(t);
-  for (std::uint32_t n : t) tetsOfNode_.remove(n, slot);
-  for (std::uint64_t k : keys.edges) removeEdgeUse(k);
-  for (const FaceKey& k : keys.faces) removeFaceUse(k, slot);
+  for (std::uint32_t n : mesh_.tets[slot]) tetsOfNode_.remove(n, slot);
 }
 
 void CutTopology::retarget(std::uint32_t slot, const Tet& before, const Tet& after) {
-  // Only the incidences that differ are touched: crack opening renumbers one or two nodes of a
-  // tet, which leaves one face and three edges in place, and a split's first child often keeps
-  // a face of its parent.
-  auto contains = [](const Tet& t, std::uint32_t n) { return t[0] == n || t[1] == n || t[2] == n || t[3] == n; };
+  // Only the nodes that differ are touched: crack opening renumbers one or two nodes of a tet,
+  // and a split's first child keeps some of its parent's nodes.
   auto repeats = [](const Tet& t) {
     return t[0] == t[1] || t[0] == t[2] || t[0] == t[3] || t[1] == t[2] || t[1] == t[3] || t[2] == t[3];
   };
   if (repeats(before) || repeats(after)) {  // degenerate (a caller error selfCheck reports): by the book
-    mesh_.tets[slot] = before;
-    detach(slot);
-    mesh_.tets[slot] = after;
-    attach(slot);
+    for (std::uint32_t n : before) tetsOfNode_.remove(n, slot);
+    for (std::uint32_t n : after) tetsOfNode_.push(n, slot);
     return;
   }
-  std::array<std::uint64_t, 6> oldEdges{}, newEdges{};
-  for (int e = 0; e < 6; ++e) {
-    edges_.prefetch(oldEdges[e] = edgeKey(before[kTetEdges[e][0]], before[kTetEdges[e][1]]));
-    edges_.prefetch(newEdges[e] = edgeKey(after[kTetEdges[e][0]], after[kTetEdges[e][1]]));
-  }
-  std::array<FaceKey, 4> oldFaces{}, newFaces{};
-  for (int f = 0; f < 4; ++f) {
-    faces_.prefetch(oldFaces[f] = makeFaceKey(before[kTetFaces[f][0]], before[kTetFaces[f][1]], before[kTetFaces[f][2]]));
-    faces_.prefetch(newFaces[f] = makeFaceKey(after[kTetFaces[f][0]], after[kTetFaces[f][1]], after[kTetFaces[f][2]]));
-  }
   for (std::uint32_t n : before)
-    if (!contains(after, n)) tetsOfNode_.remove(n, slot);
+    if (!holds(after, n)) tetsOfNode_.remove(n, slot);
   for (std::uint32_t n : after)
-    if (!contains(before, n)) tetsOfNode_.push(n, slot);
-  for (std::uint64_t k : oldEdges)
-    if (std::find(newEdges.begin(), newEdges.end(), k) == newEdges.end()) removeEdgeUse(k);
-  for (std::uint64_t k : newEdges)
-    if (std::find(oldEdges.begin(), oldEdges.end(), k) == oldEdges.end()) ++edges_[k];
-  for (const FaceKey& k : oldFaces)
-    if (std::find(newFaces.begin(), newFaces.end(), k) == newFaces.end()) removeFaceUse(k, slot);
-  for (const FaceKey& k : newFaces)
-    if (std::find(oldFaces.begin(), oldFaces.end(), k) == oldFaces.end()) addFaceUse(k, slot);
+    if (!holds(before, n)) tetsOfNode_.push(n, slot);
 }
 
 SelfCheckReport CutTopology::selfCheck() const {
@@ -265,7 +227,6 @@ SelfCheckReport CutTopology::selfCheck() const {
   std::size_t listed = 0;
   for (std::uint32_t n = 0; n < tetsOfNode_.nodeCount(); ++n) listed += tetsOfNode_.of(n).size();
   if (listed != incidenceEntries || listed != tetsOfNode_.totalEntries()) ++report.incidenceMismatches;
-  if (faces.size() != faces_.size()) ++report.incidenceMismatches;
   for (const auto& [key, use] : faces) {
     if (use.count == 1) ++report.boundaryFaces;
     else if (use.count == 2) ++report.interiorFaces;
@@ -278,13 +239,10 @@ SelfCheckReport CutTopology::selfCheck() const {
       while (f1[0] != f0[0]) std::rotate(f1.begin(), f1.begin() + 1, f1.end());
       if (!(f1[1] == f0[2] && f1[2] == f0[1])) ++report.misorientedFaces;
     }
-    const FaceRecord* record = faces_.find(key);
-    if (record == nullptr) {
-      ++report.incidenceMismatches;
-      continue;
-    }
-    const std::uint32_t known = (record->tets[0] != kNone) + (record->tets[1] != kNone) + record->extra;
-    if (known != use.count) ++report.incidenceMismatches;
+    // The incremental face query must see exactly the tets of the rebuild (two at most).
+    const auto pair = tetsOfFace(key.a, key.b, key.c);
+    const std::uint32_t known = (pair[0] != kNone) + (pair[1] != kNone);
+    if (known != std::min<std::uint32_t>(use.count, 2)) ++report.incidenceMismatches;
   }
   return report;
 }
@@ -300,9 +258,7 @@ mesh::TetMesh CutTopology::toTetMesh() const {
   }
   for (const auto& t : out.tets)
     for (const auto& f : kTetFaces) {
-      const FaceRecord* r = faces_.find(makeFaceKey(t[f[0]], t[f[1]], t[f[2]]));
-      if (r != nullptr && r->tets[1] == kNone && r->extra == 0)
-        out.boundaryFaces.push_back({t[f[0]], t[f[1]], t[f[2]]});
+      if (tetsOfFace(t[f[0]], t[f[1]], t[f[2]])[1] == kNone) out.boundaryFaces.push_back({t[f[0]], t[f[1]], t[f[2]]});
     }
   return out;
 }

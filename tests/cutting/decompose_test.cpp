@@ -127,3 +127,62 @@ TEST(Decompose, ChildVolumeBoundFollowsTheSnapFraction) {
 
 }  // namespace
 }  // namespace blobvk::cutting
+
+namespace blobvk::cutting {
+namespace {
+
+// The cutter memoizes decomposeTet by the rank pattern of the keys: for random global keys
+// (ties among the unused cut-point keys, as the cutter passes them) the memo must return exactly
+// the direct result, on first use and on every hit.
+TEST(Decompose, CacheReturnsTheDirectDecomposition) {
+  DecompositionCache cache;
+  std::mt19937_64 rng(11);
+  int compared = 0;
+  for (int round = 0; round < 10; ++round)
+    for (int nodeMask = 0; nodeMask < 16; ++nodeMask)
+      for (int edgeMask = 1; edgeMask < 64; ++edgeMask) {
+        if (!validMasks(edgeMask, nodeMask)) continue;
+        std::array<std::uint64_t, 11> keys{};
+        for (int i = 0; i < 4; ++i) keys[std::size_t(i)] = rng() % 1000;  // node keys, distinct below
+        while (keys[0] == keys[1] || keys[0] == keys[2] || keys[0] == keys[3] || keys[1] == keys[2] ||
+               keys[1] == keys[3] || keys[2] == keys[3])
+          keys[std::size_t(rng() % 4)] = rng() % 1000;
+        for (int e = 0; e < 6; ++e)
+          keys[std::size_t(kEdgePointBase + e)] = (edgeMask >> e & 1) ? 1000 + rng() % 1000 : ~0ull - 1;
+        keys[kSteinerLocal] = ~0ull;
+        for (bool forcePartial : {false, true}) {
+          const Decomposition direct = decomposeTet(std::uint8_t(edgeMask), std::uint8_t(nodeMask), keys, forcePartial);
+          const Decomposition cached = cache.get(std::uint8_t(edgeMask), std::uint8_t(nodeMask), keys, forcePartial);
+          ASSERT_EQ(cached.kind, direct.kind);
+          ASSERT_EQ(cached.separating, direct.separating);
+          ASSERT_EQ(cached.usesSteiner, direct.usesSteiner);
+          ASSERT_EQ(cached.tetCount, direct.tetCount);
+          ASSERT_EQ(cached.crackCount, direct.crackCount);
+          for (int i = 0; i < direct.tetCount; ++i) ASSERT_EQ(cached.tets[std::size_t(i)], direct.tets[std::size_t(i)]);
+          for (int i = 0; i < direct.crackCount; ++i)
+            ASSERT_EQ(cached.crack[std::size_t(i)], direct.crack[std::size_t(i)]);
+          // Other keys in the same order: a hit, with the same result.
+          std::array<std::uint64_t, 11> shifted = keys;
+          for (auto& k : shifted)
+            if (k < 5000) k = 3 * k + 7;
+          const std::size_t entries = cache.size();
+          const Decomposition hit = cache.get(std::uint8_t(edgeMask), std::uint8_t(nodeMask), shifted, forcePartial);
+          ASSERT_EQ(cache.size(), entries);
+          ASSERT_EQ(hit.tetCount, direct.tetCount);
+          for (int i = 0; i < direct.tetCount; ++i) ASSERT_EQ(hit.tets[std::size_t(i)], direct.tets[std::size_t(i)]);
+          ++compared;
+        }
+      }
+  EXPECT_GT(compared, 1500);
+}
+
+TEST(Decompose, CacheRejectsForbiddenMasksWithoutCachingThem) {
+  DecompositionCache cache;
+  std::array<std::uint64_t, 11> keys{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
+  // Edge e5 = (0, 1) cut while node 0 is a cut node: the filtering forbids it.
+  EXPECT_THROW(cache.get(std::uint8_t(1u << 5), 0b0001, keys), std::invalid_argument);
+  EXPECT_EQ(cache.size(), 0u);
+}
+
+}  // namespace
+}  // namespace blobvk::cutting

@@ -1,0 +1,72 @@
+// The spatial hash's slab query must never miss a tet that meets a swept triangle: checked
+// against brute force on random triangles, before and after cuts (stale entries, new tets).
+#include "cutting/cutter.h"
+#include "cutting/spatial_grid.h"
+#include "cutting/vec.h"
+#include "test_helpers.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+namespace blobvk::cutting {
+namespace {
+
+// Does the tet come within `pad` of the triangle? Sampled: a point of the tet (barycentric grid)
+// within pad + the sampling spacing of the triangle's plane, inside its prism.
+bool tetNearTriangle(const CutTopology& topo, std::uint32_t slot, const Triangle& t, double pad) {
+  const auto& p = topo.mesh().positions;
+  const Tet& tet = topo.tet(slot);
+  const Double3 n0 = cross(t[1] - t[0], t[2] - t[0]);
+  const Double3 n = n0 * (1.0 / length(n0));
+  const int steps = 6;
+  for (int a = 0; a <= steps; ++a)
+    for (int b = 0; a + b <= steps; ++b)
+      for (int c = 0; a + b + c <= steps; ++c) {
+        const int d = steps - a - b - c;
+        const Double3 q = (p[tet[0]] * a + p[tet[1]] * b + p[tet[2]] * c + p[tet[3]] * d) * (1.0 / steps);
+        if (std::fabs(dot(q - t[0], n)) > pad) continue;
+        bool inside = true;
+        for (int e = 0; e < 3; ++e) {
+          const Double3 m = cross(t[(e + 1) % 3] - t[e], n);
+          if (dot(q - t[e], m) > pad * length(m)) inside = false;
+        }
+        if (inside) return true;
+      }
+  return false;
+}
+
+TEST(SpatialGrid, SlabQueryFindsEveryTetNearRandomTriangles) {
+  Cutter cutter(test::cubeMesh(8));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> coord(-1.0, 9.0);
+  std::size_t checked = 0, found = 0;
+  // Kept up to date the way the cutter keeps its own: inserts of the slots a cut changed.
+  SpatialGrid grid;
+  grid.rebuild(cutter.topology());
+  for (int round = 0; round < 40; ++round) {
+    const Triangle tri{Double3{coord(rng), coord(rng), coord(rng)}, Double3{coord(rng), coord(rng), coord(rng)},
+                       Double3{coord(rng), coord(rng), coord(rng)}};
+    if (length(cross(tri[1] - tri[0], tri[2] - tri[0])) < 1e-3) continue;
+    const CutTopology& topo = cutter.topology();
+    std::vector<std::uint32_t> hits;
+    grid.querySlabs(topo, {SpatialGrid::slabAround(tri, 0.01)}, hits);
+    ASSERT_TRUE(std::is_sorted(hits.begin(), hits.end()));
+    ASSERT_TRUE(std::adjacent_find(hits.begin(), hits.end()) == hits.end());
+    for (std::uint32_t s = 0; s < topo.slotCount(); ++s) {
+      if (!topo.alive(s) || !tetNearTriangle(topo, s, tri, 0.01)) continue;
+      ++checked;
+      ASSERT_TRUE(std::binary_search(hits.begin(), hits.end(), s)) << "round " << round << " missed slot " << s;
+    }
+    found += hits.size();
+    // Cut along the triangle every few rounds, so later queries see split and renumbered tets.
+    if (round % 4 == 0)
+      for (std::uint32_t slot : cutter.cut({tri}).addedTets) grid.insert(cutter.topology(), slot);
+  }
+  EXPECT_GT(checked, 1000u);
+  EXPECT_LT(found, 40u * cutter.topology().liveTetCount());  // far from returning everything
+}
+
+}  // namespace
+}  // namespace blobvk::cutting
