@@ -30,8 +30,8 @@
 namespace blobvk::app {
 namespace {
 
-std::vector<float> parseNumbers(const std::string& text, const char* what, std::size_t minCount,
-                                std::size_t maxCount) {
+[[maybe_unused]] std::vector<float> parseNumbers(const std::string& text, const char* what, std::size_t minCount,
+                                                 std::size_t maxCount) {
   std::vector<float> out;
   std::stringstream ss(text);
   std::string item;
@@ -53,7 +53,7 @@ std::vector<float> parseNumbers(const std::string& text, const char* what, std::
 }
 
 // out.png -> out_007.png for turntable frames.
-std::string framePath(const std::string& out, int frame, int frames) {
+[[maybe_unused]] std::string framePath(const std::string& out, int frame, int frames) {
   if (frames <= 1) return out;
   const auto dot = out.find_last_of('.');
   const std::string stem = dot == std::string::npos ? out : out.substr(0, dot);
