@@ -177,9 +177,11 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
   }
   if (j.contains("tetgen")) {
     const Json& t = j["tetgen"];
-    r.keys(t, p + "/tetgen", {"radiusEdge", "minDihedral", "maxVolume", "keepSurface"});
+    r.keys(t, p + "/tetgen", {"radiusEdge", "minDihedral", "maxVolume", "keepSurface", "optimizeMaxDihedral"});
     if (t.contains("radiusEdge")) c.tetgen.maxRadiusEdgeRatio = r.number(t["radiusEdge"], p + "/tetgen/radiusEdge", 1.0, 100);
     if (t.contains("minDihedral")) c.tetgen.minDihedralDegrees = r.number(t["minDihedral"], p + "/tetgen/minDihedral", 0, 30);
+    if (t.contains("optimizeMaxDihedral"))
+      c.tetgen.optimizeMaxDihedralDegrees = r.number(t["optimizeMaxDihedral"], p + "/tetgen/optimizeMaxDihedral", 0, 180);
     if (t.contains("maxVolume")) c.tetgen.maxVolume = r.number(t["maxVolume"], p + "/tetgen/maxVolume", 0, 1e12);
     if (t.contains("keepSurface")) c.tetgen.keepSurface = t["keepSurface"].is_boolean() && t["keepSurface"].get<bool>();
   }
