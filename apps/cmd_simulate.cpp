@@ -45,7 +45,7 @@ void addSimulateCommand(CLI::App& app) {
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 100);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
     FrameWriter frames(a->out, !a->noPng, a->imageSize, model.program.bounds, model.scene.camera);
-    std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.2f s, tets %.2f s\n",
+    std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.4f s, tets %.2f s\n",
                  a->scene.c_str(), body.surface.triangleCount(), sim.mesh().tetCount(), sim.mesh().nodeCount(),
                  body.config.mesher.c_str(), body.meshSeconds, body.tetSeconds);
     Progress progress("simulate", steps);

@@ -89,7 +89,7 @@ fi
 # The thesis' Table 4.2: the stackless register code against the stack-based traversal, on the
 # GPU backend (small grids: the stack-based kernel is slow on lavapipe).
 # shellcheck disable=SC2086
-if ! "$blobvk" bench $scenes --resolution 32 48 64 --backend vk --traversal stackless stack --repeats 1 --warmup 1 \
+if ! "$blobvk" bench $scenes --resolution 32 48 64 --backend vk --traversal specialised stackless stack --repeats 1 --warmup 1 \
   --json >"$work/bench_traversal.json" 2>"$work/bench_traversal.err"; then
   echo "[]" >"$work/bench_traversal.json"
 fi
