@@ -115,7 +115,7 @@ void addCutCommand(CLI::App& app) {
       stats << "\n";
       femMsSinceFrame = cutMsSinceFrame = 0;
       stepsSinceFrame = 0;
-      frames.write(sim.renderSurface());
+      frames.write(colourByRegion(sim.renderSurface(), sim.mesh(), model.program));
     };
     writeFrame(0);
     Progress progress("cut+simulate", steps);

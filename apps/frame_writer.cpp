@@ -2,6 +2,7 @@
 
 #include "mesh/io.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -51,6 +52,23 @@ FrameWriter::FrameWriter(std::string folder, bool png, int size, const blobtree:
 }
 
 FrameWriter::~FrameWriter() = default;
+
+mesh::TriMesh colourByRegion(mesh::TriMesh surface, const mesh::TetMesh& tets, const blobtree::Program& program) {
+  if (!surface.colours.empty() || surface.positions.size() != tets.nodeCount() || program.primitives.empty()) return surface;
+  std::vector<mesh::Float3> palette;
+  for (const auto& prim : program.primitives) {
+    const std::uint32_t rgba = prim.meta.z;
+    palette.push_back({float(rgba & 0xffu) / 255.0f, float((rgba >> 8) & 0xffu) / 255.0f, float((rgba >> 16) & 0xffu) / 255.0f});
+  }
+  surface.colours.assign(surface.positions.size(), palette.front());
+  if (tets.regions.size() == tets.tetCount()) {
+    for (std::size_t t = 0; t < tets.tetCount(); ++t) {
+      const mesh::Float3 c = palette[std::min<std::size_t>(tets.regions[t], palette.size() - 1)];
+      for (std::uint32_t node : tets.tets[t]) surface.colours[node] = c;
+    }
+  }
+  return surface;
+}
 
 bool FrameWriter::writesPng() const { return renderer_ != nullptr; }
 

@@ -4,6 +4,7 @@
 
 #include "blobtree/program.h"
 #include "blobtree/tree.h"
+#include "mesh/tetmesh.h"
 #include "mesh/trimesh.h"
 
 #include <memory>
@@ -11,6 +12,12 @@
 #include <string>
 
 namespace blobvk::app {
+
+// A tet-boundary surface (vertices = the tet mesh's nodes, as fem::boundarySurface makes it, e.g.
+// the render surface after a cut) has no colours: give each node the colour of the primitive its
+// tets' region names (materialFromPrimitive: region r = primitive r), else the first primitive's.
+// Surfaces that already have colours, or whose vertices are not the nodes, are returned as is.
+mesh::TriMesh colourByRegion(mesh::TriMesh surface, const mesh::TetMesh& tets, const blobtree::Program& program);
 
 class FrameWriter {
  public:
