@@ -20,11 +20,13 @@
 #include "vk/polygonize.h"
 #include "vk/program_codegen.h"
 #include "vk/runtime_compiler.h"
+#include "vk/scan.h"
 #include "vk/standalone.h"
 
 #include <benchmark/benchmark.h>
 #include <tbb/parallel_for.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <map>
 #include <memory>
@@ -162,7 +164,29 @@ void specialiseAndCompile(benchmark::State& state, const std::string& scene) {
   state.counters["glsl_chars"] = double(chars);
 }
 
+// The exclusive scan the polygonizer runs twice per slab (points, cells), on `range(0)` values.
+void scan(benchmark::State& state) {
+  vk::Device& device = context().device();
+  const std::uint32_t n = std::uint32_t(state.range(0));
+  vk::Buffer values = device.createBuffer(std::uint64_t(n) * 4);
+  vk::Buffer scratch = device.createBuffer(std::max<std::uint64_t>(vk::scanScratchWords(n), 1) * 4);
+  vk::Buffer totals = device.createBuffer(16);
+  std::vector<std::uint32_t> ones(n, 1);
+  double seconds = 0;
+  for (auto _ : state) {
+    device.upload(values, ones.data(), std::uint64_t(n) * 4);
+    const auto t0 = std::chrono::steady_clock::now();
+    device.run([&](vk::Recorder& rec) {
+      vk::recordExclusiveScan(rec, values.handle(), 0, n, scratch.handle(), 0, totals.handle(), 0);
+      rec.hostBarrier();
+    });
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  state.counters["Mvalues_per_s"] = double(n) * double(state.iterations()) / seconds * 1e-6;
+}
+
 void registerAll() {
+  benchmark::RegisterBenchmark("scan", scan)->Arg(1 << 21)->Unit(benchmark::kMillisecond)->UseRealTime();
   for (const char* scene : {"tower", "random128"}) {
     const std::string s = scene;
     benchmark::RegisterBenchmark(("specialise_compile/" + s).c_str(), specialiseAndCompile, s)

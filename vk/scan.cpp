@@ -5,8 +5,8 @@
 namespace blobvk::vk {
 
 std::uint64_t scanScratchWords(std::uint64_t count) {
-  if (count <= kScanBlock) return 0;
-  const std::uint64_t blocks = (count + kScanBlock - 1) / kScanBlock;
+  if (count <= kScanChunk) return 0;
+  const std::uint64_t blocks = (count + kScanChunk - 1) / kScanChunk;
   return blocks + scanScratchWords(blocks);
 }
 
@@ -17,7 +17,7 @@ void recordExclusiveScan(Recorder& rec, VkBuffer values, std::uint32_t valueOffs
   const std::array<std::uint32_t, 1> spec{kScanWorkgroup};
   const Kernel& reduce = dev.kernel("scan_reduce", 2, spec);
   const Kernel& apply = dev.kernel("scan_apply", 3, spec);
-  const std::uint32_t blocks = (count + kScanBlock - 1) / kScanBlock;
+  const std::uint32_t blocks = (count + kScanChunk - 1) / kScanChunk;
   if (blocks <= 1) {
     const std::uint32_t push[5] = {valueOffset, count, 0u, 0u, totalIndex};
     const BufferRange bind[3] = {{values, 0, VK_WHOLE_SIZE},
@@ -26,7 +26,7 @@ void recordExclusiveScan(Recorder& rec, VkBuffer values, std::uint32_t valueOffs
     rec.dispatch(apply, bind, push, sizeof(push), 1);
     return;
   }
-  const Groups g = groupsFor(std::uint64_t(blocks) * kScanWorkgroup, kScanWorkgroup);
+  const Groups g = groupsFor(blocks, kScanWorkgroup);
   {
     const std::uint32_t push[3] = {valueOffset, count, scratchOffset};
     const BufferRange bind[2] = {{values, 0, VK_WHOLE_SIZE}, {scratch, 0, VK_WHOLE_SIZE}};

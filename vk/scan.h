@@ -1,6 +1,7 @@
-// Exclusive prefix sum of uint32 values on the GPU: reduce-then-scan, recursive over block sums.
+// Exclusive prefix sum of uint32 values on the GPU: reduce-then-scan, recursive over chunk sums.
 // Deterministic (fixed summation order), no atomics, no inter-workgroup waiting (lavapipe gives
-// no forward-progress guarantee), 1024 values per workgroup per level.
+// no forward-progress guarantee), no shared memory or barriers: each invocation sums, then scans,
+// kScanChunk consecutive values serially (shaders/scan_*.comp).
 #pragma once
 
 #include "vk/context.h"
@@ -9,10 +10,10 @@
 
 namespace blobvk::vk {
 
-inline constexpr std::uint32_t kScanWorkgroup = 256;
-inline constexpr std::uint32_t kScanBlock = 4 * kScanWorkgroup;
+inline constexpr std::uint32_t kScanWorkgroup = 64;  // invocations per workgroup
+inline constexpr std::uint32_t kScanChunk = 64;      // values per invocation (SCAN_CHUNK)
 
-// uint32 words of scratch a scan of `count` values needs (0 for a single block).
+// uint32 words of scratch a scan of `count` values needs (0 for a single chunk).
 std::uint64_t scanScratchWords(std::uint64_t count);
 
 // Records an in-place exclusive scan of values[valueOffset .. +count) (offsets in uint32

@@ -41,10 +41,11 @@ TEST_P(ScanTest, MatchesSequentialExclusiveScan) {
   EXPECT_EQ(tot[1], sentinel) << "scan wrote outside its total slot";
 }
 
-// 0 and 1, block edges (1024), a two-level scan, and a three-level one (> 1024 blocks).
+// 0 and 1, chunk edges (64 values per invocation: 63, 64, 65), two levels (4096 = 64 chunks),
+// three (262144 = 64^3) and four levels.
 INSTANTIATE_TEST_SUITE_P(TrickySizes, ScanTest,
-                         ::testing::Values(0u, 1u, 7u, 1023u, 1024u, 1025u, 4096u, 1048576u + 7u,
-                                           1048576u * 2u + 1025u));
+                         ::testing::Values(0u, 1u, 7u, 63u, 64u, 65u, 1023u, 1024u, 1025u, 4095u, 4096u, 4097u,
+                                           262144u, 262145u, 1048576u + 7u, 1048576u * 2u + 1025u));
 
 }  // namespace
 }  // namespace blobvk::testing
