@@ -70,30 +70,28 @@ constexpr std::array<std::array<std::uint8_t, 4>, 4> kLocalEdge = [] {
   return table;
 }();
 
-// Small union-find over local indices.
+// Small union-find over local indices. Roots are never observable (groups are told apart by
+// their first member), so a union may link either way: the larger root under the smaller.
 struct Components {
-  std::vector<int> parent;
+  std::vector<std::uint32_t> parent;
   void reset(std::size_t n) {
     parent.resize(n);
-    std::iota(parent.begin(), parent.end(), 0);
+    std::iota(parent.begin(), parent.end(), 0u);
   }
-  int find(int x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+  std::uint32_t find(std::uint32_t x) {
+    std::uint32_t* p = parent.data();
+    while (p[x] != x) x = p[x] = p[p[x]];
     return x;
   }
-  void unite(int a, int b) { parent[find(a)] = find(b); }
+  void unite(std::uint32_t a, std::uint32_t b) {
+    a = find(a), b = find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
 };
 
 // Cut codes of one touched tet.
 struct Codes {
   std::uint8_t edges = 0, nodes = 0;
-};
-
-// A crack face through `vertex`, as the edge of its two other nodes.
-struct CrackLink {
-  std::uint32_t vertex;
-  std::uint64_t edge;
-  bool operator<(const CrackLink& o) const { return vertex != o.vertex ? vertex < o.vertex : edge < o.edge; }
 };
 
 // Crack opening: node `from` of the tet in `slot` becomes `to`.
@@ -116,13 +114,14 @@ struct Cutter::Scratch {
   std::vector<double> nearPlane, distances;
   std::vector<CutEdge> kept;
   std::vector<FaceKey> crack;
-  std::vector<CrackLink> crackLinks;
+  std::vector<std::uint64_t> crackLinks, renameOrder;
   std::vector<Rename> renames;
+  std::vector<std::uint8_t> isAdded;  // by slot: listed in addedTets (all 0 between events)
   std::vector<std::uint64_t> faceKeys;
   Components comps;
   FlatHashMap<std::uint64_t, CutEdge, U64Hash> cutEdges{kNoEdge};
   FlatHashSet<std::uint64_t, U64Hash> tested{kNoEdge};
-  FlatHashSet<std::uint32_t, U32Hash> cutNodes{kNone}, split{kNone};
+  FlatHashSet<std::uint32_t, U32Hash> cutNodes{kNone};
   FlatHashMap<std::uint32_t, Codes, U32Hash> touched{kNone};
   FlatHashMap<std::uint64_t, std::uint32_t, U64Hash> edgePoint{kNoEdge};
 };
@@ -135,6 +134,8 @@ Cutter::Cutter(mesh::TetMesh mesh, CutOptions options) : topology_(std::move(mes
   if (!(options_.steinerMargin > 0.0 && options_.steinerMargin <= 0.25))
     throw std::invalid_argument("CutOptions::steinerMargin must lie in (0, 0.25]");
   scratch_.reset(new Scratch);
+  // Same headroom as the topology's, so the first events do not grow it.
+  scratch_->isAdded.assign(topology_.slotCount() + topology_.slotCount() / 2 + 4096, 0);
   grid_.rebuild(topology_);
   meanEdge_ = grid_.cellSize() / 2.0;
 }
@@ -452,7 +453,8 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       if (i == 0) topology_.setTet(slot, child);
       else s = topology_.addTet(child, region);
       result.addedTets.push_back(s);
-      grid_.insert(topology_, s);
+      if (i == 0) grid_.shrink(topology_, s, parent);
+      else grid_.insert(topology_, s);
     }
     for (int i = 0; i < d.crackCount; ++i)
       crack.push_back(makeFaceKey(global[d.crack[i][0]], global[d.crack[i][1]], global[d.crack[i][2]]));
@@ -471,17 +473,25 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   // topology before any renumbering, then each tet is rewritten once: two tets glued by a
   // non-crack face lie in the same group around each of that face's vertices, so they receive
   // the same copies and stay glued, whatever the order of the vertices.
-  // The crack faces through each vertex, as the edge of the two other nodes, sorted by vertex:
-  // the faces through v are then one short run (a few entries) to scan.
+  // The crack faces through each vertex, packed (vertex << 32 | crack face index) and sorted
+  // (integers: a cheaper sort than records compared field by field): the faces through v are
+  // then one short run (a few entries) to scan.
   auto& crackLinks = scratch.crackLinks;
   crackLinks.clear();
   crackLinks.reserve(3 * crack.size());
-  for (const FaceKey& f : crack) {
-    crackLinks.push_back({f.a, edgeKey(f.b, f.c)});
-    crackLinks.push_back({f.b, edgeKey(f.a, f.c)});
-    crackLinks.push_back({f.c, edgeKey(f.a, f.b)});
+  for (std::size_t i = 0; i < crack.size(); ++i) {
+    const FaceKey& f = crack[i];
+    crackLinks.push_back(std::uint64_t(f.a) << 32 | i);
+    crackLinks.push_back(std::uint64_t(f.b) << 32 | i);
+    crackLinks.push_back(std::uint64_t(f.c) << 32 | i);
   }
   std::sort(crackLinks.begin(), crackLinks.end());
+  // The crack face of a link as the edge of its two nodes other than the link's vertex.
+  auto linkEdge = [&](std::uint64_t link) {
+    const FaceKey& f = crack[std::uint32_t(link)];
+    const std::uint32_t v = std::uint32_t(link >> 32);
+    return v == f.a ? edgeKey(f.b, f.c) : (v == f.b ? edgeKey(f.a, f.c) : edgeKey(f.a, f.b));
+  };
   auto& renames = scratch.renames;
   renames.clear();
   auto& around = scratch.around;
@@ -495,9 +505,9 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   auto& usedSlots = scratch.usedSlots;
   auto& comps = scratch.comps;
   for (std::size_t run = 0; run < crackLinks.size();) {
-    const std::uint32_t v = crackLinks[run].vertex;
+    const std::uint32_t v = std::uint32_t(crackLinks[run] >> 32);
     std::size_t runEnd = run;
-    while (runEnd < crackLinks.size() && crackLinks[runEnd].vertex == v) ++runEnd;
+    while (runEnd < crackLinks.size() && std::uint32_t(crackLinks[runEnd] >> 32) == v) ++runEnd;
     const std::size_t linksBegin = run, linksEnd = runEnd;
     run = runEnd;
 
@@ -505,31 +515,34 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     if (incident.size() < 2) continue;
     around.assign(incident.begin(), incident.end());
     std::size_t capacity = 16;
-    while (capacity < 2 * (3 * around.size() + (linksEnd - linksBegin))) capacity *= 2;
+    int bits = 4;
+    while (capacity < 2 * (3 * around.size() + (linksEnd - linksBegin))) capacity *= 2, ++bits;
     if (faceKeys.size() < capacity) faceKeys.assign(capacity, kNoEdge), faceTet.assign(capacity, 0);
     const std::size_t mask = capacity - 1;
     comps.reset(around.size());
-    // The slot of a face key in the table: its entry, or the free slot where it belongs.
+    // The slot of a face key in the table: its entry, or the free slot where it belongs. A
+    // multiplicative (Fibonacci) hash: a few dozen keys, and the table is at most half full.
     auto slotOf = [&](std::uint64_t edge) {
-      std::size_t h = std::size_t(mix64(edge)) & mask;
+      std::size_t h = std::size_t((edge * 0x9E3779B97F4A7C15ull) >> (64 - bits));
       while (faceKeys[h] != kNoEdge && faceKeys[h] != edge) h = (h + 1) & mask;
       return h;
     };
     // Crack faces through v first, marked so that no tet is glued across them.
     for (std::size_t k = linksBegin; k < linksEnd; ++k) {
-      const std::size_t h = slotOf(crackLinks[k].edge);
+      const std::uint64_t edge = linkEdge(crackLinks[k]);
+      const std::size_t h = slotOf(edge);
       if (faceKeys[h] == kNoEdge) usedSlots.push_back(std::uint32_t(h));
-      faceKeys[h] = crackLinks[k].edge;
+      faceKeys[h] = edge;
       faceTet[h] = kNone;
     }
     // Two tets around v are glued when they share a non-crack face through v, i.e. the same two
     // other nodes: matched locally, no global face lookups.
     for (std::size_t i = 0; i < around.size(); ++i) {
       const Tet& t = topology_.tet(around[i]);
-      std::array<std::uint32_t, 3> others{};
-      int k = 0;
-      for (std::uint32_t n : t)
-        if (n != v && k < 3) others[std::size_t(k++)] = n;
+      // v's list holds only tets with v (a tet repeating v is a caller error selfCheck reports).
+      const int j = std::max(localIndex(t, v), 0);
+      const std::array<std::uint32_t, 3> others{t[std::size_t((j + 1) & 3)], t[std::size_t((j + 2) & 3)],
+                                                t[std::size_t((j + 3) & 3)]};
       for (const auto& [x, y] : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}}) {
         const std::uint64_t edge = edgeKey(others[std::size_t(x)], others[std::size_t(y)]);
         const std::size_t h = slotOf(edge);
@@ -538,14 +551,14 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
           faceTet[h] = std::uint32_t(i);
           usedSlots.push_back(std::uint32_t(h));
         } else if (faceTet[h] != kNone) {
-          comps.unite(int(faceTet[h]), int(i));
+          comps.unite(faceTet[h], std::uint32_t(i));
         }
       }
     }
     for (std::uint32_t h : usedSlots) faceKeys[h] = kNoEdge;
     usedSlots.clear();
     rootOf.resize(around.size());
-    for (std::size_t i = 0; i < around.size(); ++i) rootOf[i] = std::uint32_t(comps.find(int(i)));
+    for (std::size_t i = 0; i < around.size(); ++i) rootOf[i] = comps.find(std::uint32_t(i));
     // The largest group keeps the vertex (fewest tets renumbered); among equals, the group of
     // the first tet in the vertex's list (a rule that does not depend on union-find roots).
     groupSize.assign(around.size(), 0);
@@ -570,26 +583,35 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       renames.push_back({around[i], v, copyOfRoot[root]});
     }
   }
-  std::sort(renames.begin(), renames.end(), [](const Rename& x, const Rename& y) { return x.slot < y.slot; });
+  // Renames in slot order, as packed (slot << 32 | rename index) integers. The renames of one
+  // slot commute (each renames a different node to a fresh one).
+  auto& renameOrder = scratch.renameOrder;
+  renameOrder.clear();
+  for (std::size_t i = 0; i < renames.size(); ++i) renameOrder.push_back(std::uint64_t(renames[i].slot) << 32 | i);
+  std::sort(renameOrder.begin(), renameOrder.end());
   // Renumbered tets that were not split are reported as removed (with their nodes before the
-  // opening) and re-added.
-  auto& split = scratch.split;
-  split.clear();
-  split.reserve(result.addedTets.size());
-  for (std::uint32_t slot : result.addedTets) split.insert(slot);
-  for (std::size_t i = 0; i < renames.size();) {
-    const std::uint32_t slot = renames[i].slot;
+  // opening) and re-added. Split children are marked in a per-slot byte array (grown with the
+  // mesh, reset entry by entry below, so an event costs its own size).
+  auto& isAdded = scratch.isAdded;
+  if (isAdded.size() < topology_.slotCount()) isAdded.resize(topology_.slotCount() + topology_.slotCount() / 2, 0);
+  const std::size_t splitAdded = result.addedTets.size();
+  for (std::uint32_t slot : result.addedTets) isAdded[slot] = 1;
+  for (std::size_t i = 0; i < renameOrder.size();) {
+    const std::uint32_t slot = std::uint32_t(renameOrder[i] >> 32);
     const Tet before = topology_.tet(slot);
     Tet after = before;
-    for (; i < renames.size() && renames[i].slot == slot; ++i)
+    for (; i < renameOrder.size() && std::uint32_t(renameOrder[i] >> 32) == slot; ++i) {
+      const Rename& r = renames[std::uint32_t(renameOrder[i])];
       for (auto& n : after)
-        if (n == renames[i].from) n = renames[i].to;
+        if (n == r.from) n = r.to;
+    }
     topology_.setTet(slot, after);
-    if (split.contains(slot)) continue;
+    if (isAdded[slot]) continue;
     result.removedTets.push_back(slot);
     result.removedTetNodes.push_back(before);
     result.addedTets.push_back(slot);
   }
+  for (std::size_t i = 0; i < splitAdded; ++i) isAdded[result.addedTets[i]] = 0;
   lap(3);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

@@ -119,12 +119,17 @@ class FlatHashMap {
   }
 
  private:
-  std::size_t home(const Key& key) const { return std::size_t(Hash{}(key)) & mask_; }
+  // Fibonacci hashing: the top bits of hash * 2^64 / golden ratio. Every bit of the hash moves
+  // the top bits, so plain integer keys (edge keys, cell keys) need no mixing of their own.
+  std::size_t home(const Key& key) const {
+    return std::size_t((std::uint64_t(Hash{}(key)) * 0x9E3779B97F4A7C15ull) >> shift_);
+  }
 
   void rehash(std::size_t capacity) {
     std::vector<Entry> old(capacity, Entry{empty_, Value{}});
     old.swap(slots_);
     mask_ = capacity - 1;
+    shift_ = 64 - std::countr_zero(std::uint64_t(capacity));
     size_ = 0;
     for (const Entry& e : old)
       if (!(e.key == empty_)) insert(e.key, e.value);
@@ -133,14 +138,16 @@ class FlatHashMap {
   Key empty_;
   std::vector<Entry> slots_;
   std::size_t mask_ = 0;
+  int shift_ = 63;
   std::size_t size_ = 0;
 };
 
+// Integer keys hash to themselves (the table's Fibonacci step spreads them).
 struct U64Hash {
-  std::uint64_t operator()(std::uint64_t k) const { return mix64(k); }
+  std::uint64_t operator()(std::uint64_t k) const { return k; }
 };
 struct U32Hash {
-  std::uint64_t operator()(std::uint32_t k) const { return mix64(k); }
+  std::uint64_t operator()(std::uint32_t k) const { return k; }
 };
 
 // A set of keys over the same table.

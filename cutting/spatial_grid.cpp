@@ -112,6 +112,30 @@ std::uint32_t SpatialGrid::cellIndexOf(std::uint64_t cellKey) {
   return *index;
 }
 
+void SpatialGrid::shrink(const CutTopology& topology, std::uint32_t slot, const Tet& previous) {
+  const auto& p = topology.mesh().positions;
+  auto boxOfNodes = [&](const Tet& t, Double3& lo, Double3& hi) {
+    lo = hi = p[t[0]];
+    for (int i = 1; i < 4; ++i) {
+      const Double3 q = p[t[i]];
+      lo = {std::min(lo.x, q.x), std::min(lo.y, q.y), std::min(lo.z, q.z)};
+      hi = {std::max(hi.x, q.x), std::max(hi.y, q.y), std::max(hi.z, q.z)};
+    }
+  };
+  Double3 lo, hi, oldLo, oldHi;
+  boxOfNodes(topology.tet(slot), lo, hi);
+  boxOfNodes(previous, oldLo, oldHi);
+  // Inside the previous box (doubles): the cells it meets and its rounded box are then within
+  // the previous ones, which the slot's entries cover.
+  if (slot >= boxes_.size() || lo.x < oldLo.x || lo.y < oldLo.y || lo.z < oldLo.z || hi.x > oldHi.x ||
+      hi.y > oldHi.y || hi.z > oldHi.z) {
+    insert(topology, slot);
+    return;
+  }
+  boxes_[slot] = {{floatBelow(lo.x), floatBelow(lo.y), floatBelow(lo.z)},
+                  {floatAbove(hi.x), floatAbove(hi.y), floatAbove(hi.z)}};
+}
+
 void SpatialGrid::insert(const CutTopology& topology, std::uint32_t slot) {
   const auto& p = topology.mesh().positions;
   const Tet& t = topology.tet(slot);
@@ -126,9 +150,12 @@ void SpatialGrid::insert(const CutTopology& topology, std::uint32_t slot) {
   const Box box{{floatBelow(lo.x), floatBelow(lo.y), floatBelow(lo.z)},
                 {floatAbove(hi.x), floatAbove(hi.y), floatAbove(hi.z)}};
   boxes_[slot] = box;
-  for (std::int64_t z = cellOf(lo.z); z <= cellOf(hi.z); ++z)
-    for (std::int64_t y = cellOf(lo.y); y <= cellOf(hi.y); ++y)
-      for (std::int64_t x = cellOf(lo.x); x <= cellOf(hi.x); ++x) {
+  // Cell ranges computed once (the loop bodies write memory: the compiler would recompute them).
+  const std::int64_t x0 = cellOf(lo.x), x1 = cellOf(hi.x), y0 = cellOf(lo.y), y1 = cellOf(hi.y);
+  const std::int64_t z0 = cellOf(lo.z), z1 = cellOf(hi.z);
+  for (std::int64_t z = z0; z <= z1; ++z)
+    for (std::int64_t y = y0; y <= y1; ++y)
+      for (std::int64_t x = x0; x <= x1; ++x) {
         cells_[cellIndexOf(key(x, y, z))].entries.push_back({slot, box});
         ++entries_;
       }
@@ -184,9 +211,11 @@ void SpatialGrid::forEachSlabCell(const Slab& slab, F&& f) const {
   // slab's normals.
   const Double3 half{0.5 * cell_, 0.5 * cell_, 0.5 * cell_};
   const double margin = 1e-6 * cell_ + 1e-12 * (l1(slab.lo) + l1(slab.hi));
-  for (std::int64_t z = cellOf(slab.lo.z); z <= cellOf(slab.hi.z); ++z)
-    for (std::int64_t y = cellOf(slab.lo.y); y <= cellOf(slab.hi.y); ++y)
-      for (std::int64_t x = cellOf(slab.lo.x); x <= cellOf(slab.hi.x); ++x) {
+  const std::int64_t x0 = cellOf(slab.lo.x), x1 = cellOf(slab.hi.x), y0 = cellOf(slab.lo.y), y1 = cellOf(slab.hi.y);
+  const std::int64_t z0 = cellOf(slab.lo.z), z1 = cellOf(slab.hi.z);
+  for (std::int64_t z = z0; z <= z1; ++z)
+    for (std::int64_t y = y0; y <= y1; ++y)
+      for (std::int64_t x = x0; x <= x1; ++x) {
         const Double3 centre{(double(x) + 0.5) * cell_, (double(y) + 0.5) * cell_, (double(z) + 0.5) * cell_};
         if (boxMeetsSlab(slab, centre, half, margin)) f(key(x, y, z));
       }
@@ -200,13 +229,16 @@ void SpatialGrid::querySlabs(const CutTopology& topology, const std::vector<Slab
   for (const Slab& slab : slabs) {
     nextStamp(topology);  // each slot is tested once per slab, however many cells list it
     const double margin = 1e-9 * cell_ + 1e-12 * (l1(slab.lo) + l1(slab.hi));
+    // The slab's box rounded outwards to float: the entries' float boxes are compared without
+    // conversions, all six sides at once (no branch per side; most entries fail one of them).
+    const float lx = floatBelow(slab.lo.x), ly = floatBelow(slab.lo.y), lz = floatBelow(slab.lo.z);
+    const float hx = floatAbove(slab.hi.x), hy = floatAbove(slab.hi.y), hz = floatAbove(slab.hi.z);
     forEachSlabCell(slab, [&](std::uint64_t k) {
       const std::uint32_t* index = cellIndex_.find(k);
       if (index == nullptr) return;
       for (const Entry& entry : cells_[*index].entries) {
         const Box& b = entry.box;
-        if (b.lo[0] > slab.hi.x || b.lo[1] > slab.hi.y || b.lo[2] > slab.hi.z || b.hi[0] < slab.lo.x ||
-            b.hi[1] < slab.lo.y || b.hi[2] < slab.lo.z)
+        if ((b.lo[0] > hx) | (b.lo[1] > hy) | (b.lo[2] > hz) | (b.hi[0] < lx) | (b.hi[1] < ly) | (b.hi[2] < lz))
           continue;
         // A slot is listed in ~3 cells: settle repeats before the plane tests.
         const std::uint32_t s = entry.slot;

@@ -24,6 +24,11 @@ class SpatialGrid {
   // Registers the slot's current box. Call for every slot whose nodes or node positions changed
   // (renumbering to nodes at the same positions, as crack opening does, keeps the box).
   void insert(const CutTopology& topology, std::uint32_t slot);
+  // For a slot whose new content lies inside the box of its previous nodes (a split's first
+  // child in its parent's slot): records the new box only. The slot's entries, holding a larger
+  // box in every cell the previous box meets, stay a conservative listing. Falls back to
+  // insert() when rounding put a computed point a hair outside the previous box.
+  void shrink(const CutTopology& topology, std::uint32_t slot, const Tet& previous);
 
   // A thin region around a swept triangle: its box, its plane (unit normal through origin)
   // thickened by pad on both sides, and the three planes through its edges perpendicular to it

@@ -37,12 +37,15 @@ bool tetNearTriangle(const CutTopology& topo, std::uint32_t slot, const Triangle
   return false;
 }
 
-TEST(SpatialGrid, SlabQueryFindsEveryTetNearRandomTriangles) {
+// How a test keeps its grid up to date after a cut: insert every changed slot, or (as the
+// cutter does) only record the smaller box of a slot whose new content lies inside its old box.
+enum class Update { InsertAll, ShrinkReusedSlots };
+
+void slabQueryFindsEveryTetNearRandomTriangles(Update update) {
   Cutter cutter(test::cubeMesh(8));
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> coord(-1.0, 9.0);
   std::size_t checked = 0, found = 0;
-  // Kept up to date the way the cutter keeps its own: inserts of the slots a cut changed.
   SpatialGrid grid;
   grid.rebuild(cutter.topology());
   for (int round = 0; round < 40; ++round) {
@@ -61,11 +64,27 @@ TEST(SpatialGrid, SlabQueryFindsEveryTetNearRandomTriangles) {
     }
     found += hits.size();
     // Cut along the triangle every few rounds, so later queries see split and renumbered tets.
-    if (round % 4 == 0)
-      for (std::uint32_t slot : cutter.cut({tri}).addedTets) grid.insert(cutter.topology(), slot);
+    if (round % 4 != 0) continue;
+    const CutResult r = cutter.cut({tri});
+    std::vector<std::uint32_t> reused(r.removedTets);
+    std::sort(reused.begin(), reused.end());
+    if (update == Update::ShrinkReusedSlots)  // split children and renumbered tets stay in their old box
+      for (std::size_t i = 0; i < r.removedTets.size(); ++i)
+        grid.shrink(cutter.topology(), r.removedTets[i], r.removedTetNodes[i]);
+    for (std::uint32_t slot : r.addedTets)
+      if (update == Update::InsertAll || !std::binary_search(reused.begin(), reused.end(), slot))
+        grid.insert(cutter.topology(), slot);
   }
   EXPECT_GT(checked, 1000u);
   EXPECT_LT(found, 40u * cutter.topology().liveTetCount());  // far from returning everything
+}
+
+TEST(SpatialGrid, SlabQueryFindsEveryTetNearRandomTriangles) {
+  slabQueryFindsEveryTetNearRandomTriangles(Update::InsertAll);
+}
+
+TEST(SpatialGrid, ShrinkingReusedSlotsKeepsTheQueryComplete) {
+  slabQueryFindsEveryTetNearRandomTriangles(Update::ShrinkReusedSlots);
 }
 
 }  // namespace
