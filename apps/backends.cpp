@@ -26,7 +26,6 @@ std::vector<std::string> backendNames() {
 std::vector<std::string> traversalNames() { return {"specialised", "stackless", "stack"}; }
 
 #ifdef BLOBVK_HAVE_VULKAN
-namespace {
 vk::Traversal traversalFromName(const std::string& name) {
   if (name == "specialised") return vk::Traversal::Specialised;
   if (name == "stackless") return vk::Traversal::Stackless;
@@ -34,6 +33,7 @@ vk::Traversal traversalFromName(const std::string& name) {
   throw std::invalid_argument("unknown traversal '" + name + "' (known: specialised, stackless, stack)");
 }
 
+namespace {
 vk::StandaloneContext& sharedContext(const std::string& device, bool validation) {
   static std::map<std::pair<std::string, bool>, std::unique_ptr<vk::StandaloneContext>> contexts;
   auto& slot = contexts[{device, validation}];

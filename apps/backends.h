@@ -10,6 +10,10 @@
 #include <string>
 #include <vector>
 
+namespace blobvk::vk {
+enum class Traversal;  // vk/gpu_program.h
+}
+
 namespace blobvk::app {
 
 struct PolygonizeSettings {
@@ -31,6 +35,9 @@ struct PolygonizeStats {
 
 std::vector<std::string> backendNames();
 std::vector<std::string> traversalNames();  // for --traversal
+// The evaluator named by --traversal; throws std::invalid_argument for an unknown name. Defined
+// only in Vulkan builds.
+vk::Traversal traversalFromName(const std::string& name);
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats = nullptr);

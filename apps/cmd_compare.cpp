@@ -117,9 +117,7 @@ void addCompareCommand(CLI::App& app) {
     deviceOptions.validation = a->validation;
     vk::StandaloneContext context(deviceOptions);
     vk::FieldOptions fieldOptions;
-    fieldOptions.traversal = a->traversal == "stack" ? vk::Traversal::StackBased
-                             : a->traversal == "stackless" ? vk::Traversal::Stackless
-                                                           : vk::Traversal::Specialised;
+    fieldOptions.traversal = traversalFromName(a->traversal);
     const std::vector<float> gpu = vk::evaluateFieldOnGrid(context.device(), model.program, grid, fieldOptions);
     const std::vector<float> cpu = cpuField(model.program, grid);
     double maxDiff = 0, sumDiff = 0;

@@ -1,5 +1,6 @@
 #include "frame_writer.h"
 
+#include "blobtree/evaluate.h"
 #include "mesh/io.h"
 
 #include <algorithm>
@@ -57,8 +58,8 @@ mesh::TriMesh colourByRegion(mesh::TriMesh surface, const mesh::TetMesh& tets, c
   if (!surface.colours.empty() || surface.positions.size() != tets.nodeCount() || program.primitives.empty()) return surface;
   std::vector<mesh::Float3> palette;
   for (const auto& prim : program.primitives) {
-    const std::uint32_t rgba = prim.meta.z;
-    palette.push_back({float(rgba & 0xffu) / 255.0f, float((rgba >> 8) & 0xffu) / 255.0f, float((rgba >> 16) & 0xffu) / 255.0f});
+    const glm::vec3 c = blobtree::unpackColour(prim.meta.z);
+    palette.push_back({c.x, c.y, c.z});
   }
   surface.colours.assign(surface.positions.size(), palette.front());
   if (tets.regions.size() == tets.tetCount()) {

@@ -65,11 +65,6 @@ T triangleDistance2(V3<T> p, V3<T> a, V3<T> b, V3<T> c) {
   return glm::dot(d, d);
 }
 
-glm::vec3 unpackColour(uint rgba) {
-  return {float(rgba & 0xffu) / 255.0f, float((rgba >> 8) & 0xffu) / 255.0f,
-          float((rgba >> 16) & 0xffu) / 255.0f};
-}
-
 template <typename T>
 bool outside(const layout::BoxRecord& box, const V3<T>& p) {
   return p.x < box.lo.x || p.y < box.lo.y || p.z < box.lo.z || p.x > box.hi.x || p.y > box.hi.y ||
@@ -277,6 +272,11 @@ Result<T> run(const Program& program, const V3<T>& p) {
 }
 
 }  // namespace
+
+glm::vec3 unpackColour(std::uint32_t rgba) {
+  return {float(rgba & 0xffu) / 255.0f, float((rgba >> 8) & 0xffu) / 255.0f,
+          float((rgba >> 16) & 0xffu) / 255.0f};
+}
 
 float primitiveField(const Program& program, const layout::PrimitiveRecord& prim, glm::vec3 p) {
   return primitiveFieldT<float>(program, prim, p);

@@ -7,12 +7,17 @@
 
 #include <glm/vec3.hpp>
 
+#include <cstdint>
+
 namespace blobvk::blobtree {
 
 struct FieldColour {
   float field = 0.0f;
   glm::vec3 colour{0.0f};
 };
+
+// A primitive's RGBA8 colour (PrimitiveRecord::meta.z) as linear RGB in [0, 1].
+glm::vec3 unpackColour(std::uint32_t rgba);
 
 // Field at p (inside where >= layout::ISO_VALUE).
 float evaluate(const Program& program, const glm::vec3& p);
