@@ -71,15 +71,25 @@ void field(benchmark::State& state, const std::string& scene, vk::Traversal trav
   vk::FieldOptions o;
   o.traversal = traversal;
   if (const char* wg = std::getenv("BLOBVK_BENCH_WORKGROUP")) o.workgroupSize = std::uint32_t(std::atoi(wg));
+  vk::CodegenOptions codegen;
+  if (const char* b = std::getenv("BLOBVK_BENCH_BRANCH_MIN")) {  // skips as branches, from this size
+    codegen.branchOnSkips = true;
+    codegen.minBranchInstructions = std::uint32_t(std::atoi(b));
+    o.codegen = &codegen;
+  }
+
+  if (const char* t = std::getenv("BLOBVK_BENCH_TILES")) o.tiling.maxTiles = std::uint32_t(std::atoi(t));
   vk::evaluateFieldOnGrid(context().device(), m.program, grid, o);  // JIT at first dispatch
-  double seconds = 0.0, evals = 0.0;
+  double seconds = 0.0, evals = 0.0, tiles = 0.0;
   for (auto _ : state) {
     vk::FieldStats s;
     auto f = vk::evaluateFieldOnGrid(context().device(), m.program, grid, o, &s);
     benchmark::DoNotOptimize(f.data());
     seconds += s.seconds;
     evals += double(s.evaluations);
+    tiles = s.tiles;
   }
+  state.counters["tiles"] = tiles;
   state.counters["Mevals_per_s_gpu"] = evals / seconds * 1e-6;
   state.counters["instructions"] = double(m.program.code.size());
   state.counters["registers"] = double(m.program.fieldRegisters);

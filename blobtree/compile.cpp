@@ -32,6 +32,7 @@ namespace {
 
 using Mat4 = glm::dmat4;
 constexpr double kInf = 1e30;
+constexpr float kInfF = std::numeric_limits<float>::infinity();
 // The readers' limit: lowering recurses (~0.7 KB of stack per level), so 100000 levels
 // overflowed an 8 MB stack at ~12000; 4096 levels need ~3 MB.
 constexpr std::size_t kMaxDepth = limits::kMaxDepth;
@@ -93,6 +94,14 @@ Mat4 toMatrix(const Transform& t) {
   Mat4 m = glm::translate(Mat4(1.0), t.translate);
   m = m * glm::mat4_cast(glm::normalize(t.rotate));
   return glm::scale(m, t.scale);
+}
+
+// A float box holding the double box (bounds rounded outwards); everything when not finite.
+layout::BoxRecord outwardBoxRecord(const Box& b) {
+  if (!b.finite()) return {{-kInfF, -kInfF, -kInfF, 0.0f}, {kInfF, kInfF, kInfF, 0.0f}};
+  auto down = [](double v) { return std::nextafter(float(v), -kInfF); };
+  auto up = [](double v) { return std::nextafter(float(v), kInfF); };
+  return {{down(b.lo.x), down(b.lo.y), down(b.lo.z), 0.0f}, {up(b.hi.x), up(b.hi.y), up(b.hi.z), 0.0f}};
 }
 
 layout::vec4 v4(const glm::dvec3& v, double w = 0.0) {
@@ -239,6 +248,7 @@ class Compiler {
     out.index = std::uint32_t(program_.primitives.size());
     program_.primitives.push_back(rec);
     out.box = transformBox(forward, local);
+    program_.primitiveBoxes.push_back(outwardBoxRecord(out.box));
     out.range = {0.0, prim.type == PrimitiveType::QuadricPoint ? std::max(prim.scale, 0.0) : 1.0};
     out.need = 1;
     out.primitives = 1;

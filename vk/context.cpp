@@ -321,9 +321,9 @@ void Recorder::bind(const Kernel& kernel, std::span<const BufferRange> buffers, 
 
 void Recorder::dispatch(const Kernel& kernel, std::span<const BufferRange> buffers,
                         const void* push, std::uint32_t pushSize, std::uint32_t groupsX,
-                        std::uint32_t groupsY) {
+                        std::uint32_t groupsY, std::uint32_t groupsZ) {
   bind(kernel, buffers, push, pushSize);
-  if (groupsX && groupsY) device_.d().vkCmdDispatch(cmd_, groupsX, groupsY, 1);
+  if (groupsX && groupsY && groupsZ) device_.d().vkCmdDispatch(cmd_, groupsX, groupsY, groupsZ);
 }
 
 void Recorder::dispatchIndirect(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,

@@ -151,7 +151,8 @@ class Recorder {
 
   // Dispatches groups (x, y) of `kernel`; pushSize <= 128.
   void dispatch(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,
-                std::uint32_t pushSize, std::uint32_t groupsX, std::uint32_t groupsY = 1);
+                std::uint32_t pushSize, std::uint32_t groupsX, std::uint32_t groupsY = 1,
+                std::uint32_t groupsZ = 1);
   // The same with the group counts read on the device from a VkDispatchIndirectCommand in
   // `args` at `offset` (counts that never come back to the host).
   void dispatchIndirect(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,

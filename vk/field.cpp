@@ -16,21 +16,53 @@ std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& gri
   return std::uint32_t(std::max<std::uint64_t>(1, budget / std::max<std::uint64_t>(layerBytes, 1)));
 }
 
-void recordFieldSlab(Recorder& rec, const GpuProgram& program, Traversal traversal,
-                     std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
-                     std::uint32_t k0, std::uint32_t layers, const Buffer& out) {
-  const Kernel& k = evaluatorKernel(rec.device(), program, "field_grid", 6, workgroupSize, traversal);
-  const auto pts = grid.points();
-  struct {
-    float origin[3], cell;
-    std::uint32_t nx, ny, count, k0, codeLength;
-  } push{{grid.origin.x, grid.origin.y, grid.origin.z}, grid.cellSize, std::uint32_t(pts.x),
-         std::uint32_t(pts.y), std::uint32_t(pts.x) * std::uint32_t(pts.y) * layers, k0,
-         program.codeLength};
-  const auto pb = program.bindings();
+namespace {
+// Work groups of the field kernel are 8 x rows (shaders/field_grid.comp).
+constexpr std::uint32_t kFieldGroupWidth = 8;
+std::uint32_t fieldGroupRows(std::uint32_t workgroupSize) {
+  return std::max<std::uint32_t>(1, workgroupSize / kFieldGroupWidth);
+}
+}  // namespace
+
+FieldPass::FieldPass(Device& device, const blobtree::Program& program, const GpuProgram& gpu,
+                     Traversal traversal, std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
+                     const FieldTilingOptions& tiling, const CodegenOptions* codegen)
+    : programBindings_(gpu.bindings()), codeLength_(gpu.codeLength), grid_(grid), workgroupSize_(workgroupSize) {
+  const bool specialised = traversal == Traversal::Specialised && !gpu.specialisedSource.empty();
+  FieldTilingOptions o = tiling;
+  if (!specialised) o.maxTiles = 1;  // the interpreters read the whole program anyway
+  tiles_ = planFieldTiles(program, grid, o);
+  // Specialization constant 0 of field_grid is the work group's rows, not its size.
+  const std::uint32_t rows = fieldGroupRows(workgroupSize);
+  for (const FieldTile& t : tiles_) {
+    if (tiles_.size() == 1 || !specialised) {
+      kernels_.push_back(&evaluatorKernel(device, gpu, "field_grid", 6, rows, traversal));
+      continue;
+    }
+    CodegenOptions c = codegen ? *codegen : defaultCodegenOptions(device);
+    c.region = t.region;
+    kernels_.push_back(&specialisedKernel(device, generateSpecialisedEvaluator(program, c), "field_grid", 6, rows));
+  }
+}
+
+void FieldPass::record(Recorder& rec, std::uint32_t k0, std::uint32_t layers, const Buffer& out) const {
+  const auto pts = grid_.points();
+  const auto& pb = programBindings_;
   const BufferRange bind[6] = {pb[0], pb[1], pb[2], pb[3], pb[4], BufferRange(out)};
-  const Groups g = groupsFor(push.count, workgroupSize);
-  rec.dispatch(k, bind, &push, sizeof(push), g.x, g.y);
+  const std::uint32_t rows = fieldGroupRows(workgroupSize_);
+  for (std::size_t ti = 0; ti < tiles_.size(); ++ti) {
+    const FieldTile& t = tiles_[ti];
+    const std::uint32_t kLo = std::max(k0, t.first[2]), kHi = std::min(k0 + layers - 1, t.last[2]);
+    if (layers == 0 || kLo > kHi) continue;
+    const std::uint32_t tnx = t.last[0] - t.first[0] + 1, tny = t.last[1] - t.first[1] + 1;
+    struct {
+      float origin[3], cell;
+      std::uint32_t nx, ny, tileNx, tileNy, i0, j0, k0, outK0, codeLength;
+    } push{{grid_.origin.x, grid_.origin.y, grid_.origin.z}, grid_.cellSize, std::uint32_t(pts.x),
+           std::uint32_t(pts.y), tnx, tny, t.first[0], t.first[1], kLo, k0, codeLength_};
+    rec.dispatch(*kernels_[ti], bind, &push, sizeof(push), (tnx + kFieldGroupWidth - 1) / kFieldGroupWidth,
+                 (tny + rows - 1) / rows, kHi - kLo + 1);
+  }
 }
 
 std::vector<float> evaluateFieldOnGrid(Device& device, const blobtree::Program& program,
@@ -40,15 +72,18 @@ std::vector<float> evaluateFieldOnGrid(Device& device, const blobtree::Program& 
   std::vector<float> field(grid.pointCount());
   if (field.empty()) return field;
   const GpuProgram gpu = uploadProgram(device, program, options.traversal, options.codegen);
+  const FieldPass pass(device, program, gpu, options.traversal, options.workgroupSize, grid, options.tiling,
+                       options.codegen);
   const std::uint32_t brickLayers = layersPerBrick(device, grid, options.maxBrickBytes, 4);
   const std::uint64_t layerPoints = std::uint64_t(pts.x) * std::uint64_t(pts.y);
   Buffer out = device.createBuffer(layerPoints * std::min<std::uint32_t>(brickLayers, pts.z) * 4);
   FieldStats s;
+  s.tiles = std::uint32_t(pass.tileCount());
   for (std::uint32_t k0 = 0; k0 < std::uint32_t(pts.z); k0 += brickLayers) {
     const std::uint32_t layers = std::min<std::uint32_t>(brickLayers, std::uint32_t(pts.z) - k0);
     const auto t0 = std::chrono::steady_clock::now();
     device.run([&](Recorder& rec) {
-      recordFieldSlab(rec, gpu, options.traversal, options.workgroupSize, grid, k0, layers, out);
+      pass.record(rec, k0, layers, out);
       rec.hostBarrier();
     });
     s.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -4,8 +4,10 @@
 
 #include "blobtree/grid.h"
 #include "blobtree/program.h"
+#include "vk/field_tiles.h"
 #include "vk/gpu_program.h"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -17,11 +19,15 @@ struct FieldOptions {
   std::uint64_t maxBrickBytes = 64ull << 20;  // field floats per brick (also capped by the device)
   // Traversal::Specialised: code generation options (default: chosen for the device).
   const CodegenOptions* codegen = nullptr;
+  // Traversal::Specialised: the grid is split into tiles with pruned kernels (vk/field_tiles.h);
+  // maxTiles = 1 turns it off.
+  FieldTilingOptions tiling;
 };
 
 struct FieldStats {
   double seconds = 0.0;      // wall time of the GPU submits (upload excluded)
   std::uint32_t bricks = 0;
+  std::uint32_t tiles = 0;   // kernels the grid was split into (vk/field_tiles.h)
   std::uint64_t evaluations = 0;
 };
 
@@ -36,9 +42,29 @@ std::vector<float> evaluateFieldOnGrid(Device& device, const blobtree::Program& 
 std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& grid,
                              std::uint64_t maxBytes, std::uint64_t bytesPerPoint);
 
-// Records the field of points (i, j, k0 + l), l < layers, into `out` (slab-linear floats).
-void recordFieldSlab(Recorder& rec, const GpuProgram& program, Traversal traversal,
-                     std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
-                     std::uint32_t k0, std::uint32_t layers, const Buffer& out);
+// The field pass of one program over one grid: its tiles and their kernels (built here, so a
+// pipeline is compiled once, not at the first slab).
+class FieldPass {
+ public:
+  // `program` must be the one `gpu` was uploaded from; `gpu`'s buffers must outlive the pass.
+  // `codegen` as in FieldOptions.
+  FieldPass(Device& device, const blobtree::Program& program, const GpuProgram& gpu, Traversal traversal,
+            std::uint32_t workgroupSize, const blobtree::GridSpec& grid, const FieldTilingOptions& tiling = {},
+            const CodegenOptions* codegen = nullptr);
+
+  // Records the field of points (i, j, k0 + l), l < layers, into `out` (slab-linear floats).
+  void record(Recorder& rec, std::uint32_t k0, std::uint32_t layers, const Buffer& out) const;
+
+  std::size_t tileCount() const { return tiles_.size(); }
+  const std::vector<FieldTile>& tiles() const { return tiles_; }
+
+ private:
+  std::array<BufferRange, 5> programBindings_;
+  std::uint32_t codeLength_ = 0;
+  blobtree::GridSpec grid_;
+  std::uint32_t workgroupSize_;
+  std::vector<FieldTile> tiles_;
+  std::vector<const Kernel*> kernels_;  // per tile
+};
 
 }  // namespace blobvk::vk

@@ -63,12 +63,8 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
     if (warp.meta.w != 0) g.warpMask |= kMaskHasMatrix;
   }
   if (traversal == Traversal::Specialised && canSpecialise(program)) {
-    CodegenOptions codegen;
-    codegen.branchOnSkips = device.info().type != VK_PHYSICAL_DEVICE_TYPE_CPU;
-    if (codegenOverride) codegen = *codegenOverride;
-    g.specialisedSource = generateSpecialisedEvaluator(program, codegen);
-    g.specialisedName = "specialised:" + std::to_string(std::hash<std::string>{}(g.specialisedSource)) + ":" +
-                        std::to_string(g.specialisedSource.size());
+    g.specialisedSource =
+        generateSpecialisedEvaluator(program, codegenOverride ? *codegenOverride : defaultCodegenOptions(device));
   }
   g.primitives = uploadArray(device, program.primitives);
   g.matrices = uploadArray(device, program.matrices);
@@ -83,12 +79,24 @@ const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const s
     return device.kernel(shader, bindings, program.specs(workgroupSize, traversal == Traversal::StackBased
                                                                             ? Traversal::StackBased
                                                                             : Traversal::Stackless));
+  return specialisedKernel(device, program.specialisedSource, shader, bindings, workgroupSize);
+}
+
+const Kernel& specialisedKernel(Device& device, const std::string& evaluatorSource, const std::string& shader,
+                                std::uint32_t bindings, std::uint32_t workgroupSize) {
   // Only the workgroup size (constant 0) matters to the generated evaluator.
   const std::array<std::uint32_t, 1> specs{workgroupSize};
-  const std::string name = shader + "/" + program.specialisedName;
+  const std::string name = shader + "/specialised:" + std::to_string(std::hash<std::string>{}(evaluatorSource)) +
+                           ":" + std::to_string(evaluatorSource.size());
   if (const Kernel* k = device.findKernel(name, specs)) return *k;
-  const auto code = compileComputeShader(shader + ".comp", {{"eval_program.glsl", program.specialisedSource}});
+  const auto code = compileComputeShader(shader + ".comp", {{"eval_program.glsl", evaluatorSource}});
   return device.kernel(name, code, bindings, specs);
+}
+
+CodegenOptions defaultCodegenOptions(const Device& device) {
+  CodegenOptions c;
+  c.branchOnSkips = device.info().type != VK_PHYSICAL_DEVICE_TYPE_CPU;
+  return c;
 }
 
 }  // namespace blobvk::vk

@@ -32,9 +32,8 @@ struct GpuProgram {
   std::uint32_t fieldRegisters = layout::MAX_FIELD_REGISTERS;
   std::uint32_t opMask = ~0u, primitiveMask = ~0u, warpMask = ~0u;
   // Traversal::Specialised: the generated evaluator (empty when the program could not be
-  // specialised and runs on the stackless interpreter) and a name for its pipelines.
+  // specialised and runs on the stackless interpreter).
   std::string specialisedSource;
-  std::string specialisedName;
 
   // Specialization constants 0-5 of every kernel that includes eval_program.glsl.
   std::array<std::uint32_t, 6> specs(std::uint32_t workgroupSize, Traversal traversal) const {
@@ -53,6 +52,14 @@ struct GpuProgram {
 // compiled at run time with the program's generated evaluator (once per device and program).
 const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
                               std::uint32_t bindings, std::uint32_t workgroupSize, Traversal traversal);
+
+// The pipeline of an evaluating kernel compiled at run time with `evaluatorSource` (a generated
+// evaluator, vk/program_codegen.h) in place of eval_program.glsl: once per device and source.
+const Kernel& specialisedKernel(Device& device, const std::string& evaluatorSource, const std::string& shader,
+                                std::uint32_t bindings, std::uint32_t workgroupSize);
+
+// Code generation options for this device: branches on skips except on CPU devices.
+CodegenOptions defaultCodegenOptions(const Device& device);
 
 // Uploads the records; Traversal::StackBased uploads the tree encoding (stack_program.h) in
 // place of the register code. Throws std::invalid_argument for a Program over the register

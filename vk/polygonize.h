@@ -21,6 +21,8 @@ struct GpuPolygonizeOptions {
   Traversal traversal = Traversal::Specialised;
   std::uint32_t workgroupSize = 64;
   std::uint64_t maxBrickBytes = 32ull << 20;  // per-slab field bytes; smaller means more slabs
+  // Traversal::Specialised: the field pass's tiles with pruned kernels (vk/field_tiles.h); 1 = off.
+  std::uint32_t maxFieldTiles = 8;
 };
 
 struct GpuStats {

@@ -120,7 +120,10 @@ class Generator {
           checkRegister(in.z, p_.pointRegisters, "point");
           if (in.y >= p_.primitives.size()) throw std::invalid_argument("specialised evaluator: primitive index out of range");
           const auto& prim = p_.primitives[in.y];
-          line(depth, d + " = " + primitiveField(prim, localPoint(prim.meta.y, in.z)) + ";");
+          if (in.z == 0 && in.y < p_.primitiveBoxes.size() && regionMissesBox(options_.region, p_.primitiveBoxes[in.y]))
+            line(depth, d + " = 0.0;  // pruned: the primitive is 0 in the region");
+          else
+            line(depth, d + " = " + primitiveField(prim, localPoint(prim.meta.y, in.z)) + ";");
           if (colour_) line(depth, c + " = unpackColour(" + std::to_string(prim.meta.z) + "u);");
           break;
         }
@@ -186,6 +189,11 @@ class Generator {
           const std::uint32_t target = in.w;
           if (target <= pc || target > end) throw std::invalid_argument("specialised evaluator: skip target out of its range");
           const auto& box = p_.boxes[in.y];
+          if (in.z == 0 && regionMissesBox(options_.region, box)) {
+            line(depth, d + " = 0.0;" + (colour_ ? " " + c + " = vec3(0.0);" : std::string()) + "  // pruned: outside the region");
+            pc = target - 1;
+            break;
+          }
           std::string o = "out";
           o.append(std::to_string(pc));
           line(depth, "{");
@@ -218,6 +226,32 @@ class Generator {
 };
 
 }  // namespace
+
+bool regionMissesBox(const PointRegion& region, const layout::BoxRecord& box) {
+  if (!region.valid) return false;
+  const float lo[3] = {box.lo.x, box.lo.y, box.lo.z}, hi[3] = {box.hi.x, box.hi.y, box.hi.z};
+  for (int a = 0; a < 3; ++a)
+    if (region.hi[a] < lo[a] || region.lo[a] > hi[a]) return true;
+  return false;
+}
+
+std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const PointRegion& region) {
+  std::uint32_t count = 0;
+  for (std::size_t pc = 0; pc < program.code.size(); ++pc) {
+    const auto& in = program.code[pc].code;
+    const std::uint32_t op = in.x & 0xffu;
+    if (op == layout::OP_SKIP && in.z == 0 && in.y < program.boxes.size() && in.w > pc &&
+        regionMissesBox(region, program.boxes[in.y])) {
+      pc = std::size_t(in.w) - 1;
+      continue;
+    }
+    if (op == layout::OP_PRIM && in.z == 0 && in.y < program.primitiveBoxes.size() &&
+        regionMissesBox(region, program.primitiveBoxes[in.y]))
+      continue;
+    count += op == layout::OP_PRIM || op == layout::OP_WARP ? kPrimitiveCost : 1;
+  }
+  return count;
+}
 
 bool canSpecialise(const blobtree::Program& program) {
   return !program.code.empty() && program.code.size() <= kMaxSpecialisedInstructions &&

@@ -23,6 +23,12 @@ namespace blobvk::vk {
 // longer to compile than it saves (and could exceed driver limits).
 inline constexpr std::size_t kMaxSpecialisedInstructions = 4096;
 
+// A box of world-space points (inclusive). `valid` false: anywhere.
+struct PointRegion {
+  bool valid = false;
+  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+};
+
 struct CodegenOptions {
   // true: each OP_SKIP becomes a loop the subgroup leaves when all its lanes are outside the box
   // (GPUs, where a uniform branch is cheap). false: the subtree always runs and outside lanes
@@ -32,7 +38,20 @@ struct CodegenOptions {
   // With branchOnSkips, only subtrees of at least this many instructions get a branch; smaller
   // ones run masked (a branch costs more than a short subtree).
   std::uint32_t minBranchInstructions = 0;
+  // The evaluator will only be called at points inside this region: every skip on the
+  // world-space point whose box misses it becomes "field 0" with no code for its subtree — the
+  // same result at those points, bit for bit (tape pruning at compile time; vk/field_tiles.h).
+  PointRegion region;
 };
+
+// True when the skip box [lo, hi] holds no point of the region (a conservative test: false
+// when the region is not valid).
+bool regionMissesBox(const PointRegion& region, const layout::BoxRecord& box);
+
+// Relative cost per point of the evaluator within `region` once pruned as above: a primitive or
+// warp counts kPrimitiveCost, any other instruction 1, what pruning removed 0 (a constant is left).
+inline constexpr std::uint32_t kPrimitiveCost = 8;
+std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const PointRegion& region);
 
 // True when generateSpecialisedEvaluator accepts the program.
 bool canSpecialise(const blobtree::Program& program);

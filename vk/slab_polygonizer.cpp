@@ -34,6 +34,10 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
     throw VulkanError("GPU polygonizer: the grid has no cells");
   }
   program_ = uploadProgram(device, program, options.traversal);
+  FieldTilingOptions tiling;
+  tiling.maxTiles = options.maxFieldTiles;
+  fieldPass_ = std::make_unique<FieldPass>(device, program, program_, options.traversal, options.workgroupSize,
+                                           grid, tiling);
   const auto words = packCases();
   cases_ = device.createBuffer(words.size() * 4);
   device.upload(cases_, words.data(), words.size() * 4);
@@ -79,7 +83,7 @@ void SlabPolygonizer::recordClassify(Recorder& rec, std::uint32_t slab, std::uin
   // Field layers: the slab's point layers k0 .. k0 + C, plus one above unless at the top.
   const std::uint32_t fieldLayers = p.cellLayers + 1 + (p.last ? 0 : 1);
   const std::uint32_t classified = nx * ny * (p.cellLayers + 1);
-  recordFieldSlab(rec, program_, options_.traversal, wg, grid_, p.k0, fieldLayers, field_);
+  fieldPass_->record(rec, p.k0, fieldLayers, field_);
   rec.computeBarrier();
   {
     const Kernel& k = device_.kernel("edge_flags", 3, spec);

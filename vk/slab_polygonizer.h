@@ -10,10 +10,12 @@
 #pragma once
 
 #include "blobtree/grid.h"
+#include "vk/field.h"
 #include "vk/gpu_program.h"
 #include "vk/polygonize.h"
 
 #include <cstdint>
+#include <memory>
 
 namespace blobvk::vk {
 
@@ -50,6 +52,7 @@ class SlabPolygonizer {
   blobtree::GridSpec grid_;
   GpuPolygonizeOptions options_;
   GpuProgram program_;
+  std::unique_ptr<FieldPass> fieldPass_;  // reads program_'s buffers
   Buffer cases_, field_, flags_, vertexOffsets_, triOffsets_, scratch_, totals_, args_;
   std::uint32_t slabCells_ = 0, slabs_ = 0;
   std::uint32_t pointScratch_ = 0;  // scratch words used by the vertex scan

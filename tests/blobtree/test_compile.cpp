@@ -335,6 +335,37 @@ TEST(Bounds, ContainTheFullKernelSupport) {
   EXPECT_GT(evaluate(p, {3.9f, 0, 0}), 0.0f);
 }
 
+// Program::primitiveBoxes promise a field of exactly 0 outside (code generators drop the
+// primitive there): sample each primitive of random trees around and beyond its box.
+TEST(Bounds, PrimitiveBoxesHoldEveryNonZeroField) {
+  TreeMaker rng(23);
+  std::size_t outside = 0, insideNonZero = 0;
+  for (int t = 0; t < 60; ++t) {
+    const Program program = compile(rng.tree(4));
+    ASSERT_EQ(program.primitiveBoxes.size(), program.primitives.size());
+    for (std::size_t i = 0; i < program.primitives.size(); ++i) {
+      const auto& box = program.primitiveBoxes[i];
+      const glm::vec3 lo(box.lo.x, box.lo.y, box.lo.z), hi(box.hi.x, box.hi.y, box.hi.z);
+      ASSERT_TRUE(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z);
+      const glm::vec3 size = hi - lo;
+      for (int s = 0; s < 300; ++s) {
+        // Points in the box grown by half its size on every side: a third of them outside.
+        const glm::vec3 p = lo - 0.5f * size + glm::vec3(rng.vec(0.0, 1.0)) * 2.0f * size;
+        const float f = primitiveField(program, program.primitives[i], p);
+        const bool in = glm::all(glm::greaterThanEqual(p, lo)) && glm::all(glm::lessThanEqual(p, hi));
+        if (!in) {
+          ++outside;
+          ASSERT_EQ(f, 0.0f) << "tree " << t << " primitive " << i;
+        } else {
+          insideNonZero += f > 0.0f;
+        }
+      }
+    }
+  }
+  EXPECT_GT(outside, 10000u);
+  EXPECT_GT(insideNonZero, 1000u);  // the boxes are not trivially huge: the field lives in them
+}
+
 TEST(ProgramSize, SixtyFourThousandNodesFitInEightMiB) {
   // 32768 primitives under a balanced tree of blends and unions with a transform on each.
   std::vector<Node> level;

@@ -1,0 +1,123 @@
+// Spatial tape pruning of the field pass (vk/field_tiles.h): the tile plan covers the grid exactly
+// once and prunes real work, and tiled fields are bit for bit the untiled ones on every shipped
+// scene (the pruned subtrees and primitives are exactly 0 in their tiles).
+#include "blobtree/grid.h"
+#include "blobtree/program.h"
+#include "blobtree/scene_io.h"
+#include "vk/field.h"
+#include "vk/field_tiles.h"
+#include "vk/program_codegen.h"
+#include "vk_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace blobvk::testing {
+namespace {
+
+std::vector<std::string> sceneNames() {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(std::string(BLOBVK_SOURCE_DIR) + "/scenes"))
+    if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+struct Model {
+  blobtree::Program program;
+  blobtree::GridSpec grid;
+};
+
+Model load(const std::string& name, int resolution) {
+  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + name + ".json");
+  Model m{blobtree::compile(scene.root), {}};
+  blobtree::GridRequest request;
+  request.resolution = resolution;
+  m.grid = blobtree::chooseGrid(m.program, scene.grid, request);
+  return m;
+}
+
+TEST(FieldTiles, CoverEveryPointOnceAndPruneTheTower) {
+  const Model m = load("tower", 64);
+  vk::FieldTilingOptions options;
+  options.maxTiles = 12;
+  const auto tiles = vk::planFieldTiles(m.program, m.grid, options);
+  ASSERT_GT(tiles.size(), 1u);
+  ASSERT_LE(tiles.size(), 12u);
+  const auto pts = m.grid.points();
+  std::vector<int> hits(m.grid.pointCount(), 0);
+  double work = 0.0;
+  for (const auto& t : tiles) {
+    for (int a = 0; a < 3; ++a) ASSERT_LE(t.first[std::size_t(a)], t.last[std::size_t(a)]);
+    for (std::uint32_t k = t.first[2]; k <= t.last[2]; ++k)
+      for (std::uint32_t j = t.first[1]; j <= t.last[1]; ++j)
+        for (std::uint32_t i = t.first[0]; i <= t.last[0]; ++i) ++hits[m.grid.pointIndex(int(i), int(j), int(k))];
+    work += double(t.points()) * t.cost;
+  }
+  EXPECT_TRUE(std::all_of(hits.begin(), hits.end(), [](int h) { return h == 1; }));
+  // The tower's storeys are apart: pruning must remove most of the work (the whole-grid cost
+  // counts every primitive).
+  const double whole = double(m.grid.pointCount()) * vk::prunedEvaluationCost(m.program, {});
+  EXPECT_LT(work, 0.5 * whole);
+  EXPECT_EQ(pts.x * pts.y * pts.z, std::int64_t(m.grid.pointCount()));
+}
+
+TEST(FieldTiles, OneTileWhenAskedAndTheSamePlanEveryTime) {
+  const Model m = load("random128", 48);
+  vk::FieldTilingOptions one;
+  one.maxTiles = 1;
+  EXPECT_EQ(vk::planFieldTiles(m.program, m.grid, one).size(), 1u);
+  const auto a = vk::planFieldTiles(m.program, m.grid), b = vk::planFieldTiles(m.program, m.grid);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].first, b[i].first);
+    EXPECT_EQ(a[i].last, b[i].last);
+  }
+}
+
+TEST(FieldTiles, PrunedCodeDropsPrimitivesAndSubtreesOutsideTheRegion) {
+  const Model m = load("tower", 32);
+  vk::PointRegion far;
+  far.valid = true;
+  for (int a = 0; a < 3; ++a) far.lo[a] = 1e6f, far.hi[a] = 1e6f + 1.0f;
+  vk::CodegenOptions c;
+  c.region = far;
+  const std::string pruned = vk::generateSpecialisedEvaluator(m.program, c);
+  EXPECT_EQ(pruned.find("wyvill("), std::string::npos);  // no primitive is evaluated
+  EXPECT_EQ(vk::prunedEvaluationCost(m.program, far), 0u);
+  const std::string whole = vk::generateSpecialisedEvaluator(m.program, {});
+  EXPECT_NE(whole.find("wyvill("), std::string::npos);
+}
+
+class TiledFieldTest : public VulkanTest, public ::testing::WithParamInterface<std::string> {};
+
+TEST_P(TiledFieldTest, EqualsTheUntiledFieldBitForBit) {
+  const Model m = load(GetParam(), 40);
+  vk::FieldOptions untiled;
+  untiled.tiling.maxTiles = 1;
+  vk::FieldOptions tiled;
+  tiled.tiling.maxTiles = 16;
+  tiled.tiling.minGain = 0.0;  // as many tiles as the plan can make
+  vk::FieldStats stats;
+  const auto a = vk::evaluateFieldOnGrid(device(), m.program, m.grid, untiled);
+  const auto b = vk::evaluateFieldOnGrid(device(), m.program, m.grid, tiled, &stats);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << GetParam();
+  // Programs too large to specialise run on the interpreter, untiled.
+  const std::size_t planned = vk::canSpecialise(m.program) ? vk::planFieldTiles(m.program, m.grid, tiled.tiling).size() : 1;
+  EXPECT_EQ(stats.tiles, planned) << GetParam();
+  if (GetParam() == "tower" || GetParam() == "random128") {
+    EXPECT_GT(stats.tiles, 1u) << "these scenes have primitives far apart";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shipped, TiledFieldTest, ::testing::ValuesIn(sceneNames()),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
+}  // namespace blobvk::testing
