@@ -3,7 +3,7 @@
 // offset (c & 1, c >> 1 & 1, c >> 2 & 1)) and the triangle count from the case table.
 #extension GL_GOOGLE_include_directive : require
 #include "program_layout.h"
-#include "common.glsl"
+#include "grid_dispatch.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Field { float field[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Cases { uint cases[]; };  // 20 per config
@@ -12,13 +12,13 @@ layout(std430, set = 0, binding = 2) writeonly buffer TriCounts { uint triCounts
 layout(push_constant) uniform Push {
   uint nx, ny;            // points per axis
   uint cellsX, cellsY;
-  uint count;             // cells in the slab
 } pc;
 
+// Invocation (i, j, l): cell (i, j) of the slab's cell layer l.
 void main() {
-  uint c = linearInvocation();
-  if (c >= pc.count) return;
-  uint i = c % pc.cellsX, j = (c / pc.cellsX) % pc.cellsY, l = c / (pc.cellsX * pc.cellsY);
+  uint i = gl_GlobalInvocationID.x, j = gl_GlobalInvocationID.y, l = gl_GlobalInvocationID.z;
+  if (i >= pc.cellsX || j >= pc.cellsY) return;
+  uint c = (l * pc.cellsY + j) * pc.cellsX + i;
   uint p = i + pc.nx * (j + pc.ny * l);
   uint config = 0u;
   for (uint corner = 0u; corner < 8u; ++corner) {

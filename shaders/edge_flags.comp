@@ -4,7 +4,7 @@
 // the CPU reference.
 #extension GL_GOOGLE_include_directive : require
 #include "program_layout.h"
-#include "common.glsl"
+#include "grid_dispatch.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Field { float field[]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Flags { uint flags[]; };
@@ -14,13 +14,14 @@ layout(push_constant) uniform Push {
   uint nx, ny;            // points per axis
   uint cellsX, cellsY, cellsZ;
   uint k0;                // global z of slab layer 0
-  uint count;             // points to classify (nx * ny * layers)
 } pc;
 
+// Invocation (i, j, l): point (i, j, k0 + l) of the slab, l < the dispatch's layers.
 void main() {
-  uint idx = linearInvocation();
-  if (idx >= pc.count) return;
-  uint i = idx % pc.nx, j = (idx / pc.nx) % pc.ny, k = pc.k0 + idx / (pc.nx * pc.ny);
+  uint i = gl_GlobalInvocationID.x, j = gl_GlobalInvocationID.y, l = gl_GlobalInvocationID.z;
+  if (i >= pc.nx || j >= pc.ny) return;
+  uint k = pc.k0 + l;
+  uint idx = (l * pc.ny + j) * pc.nx + i;
   bool inside = field[idx] >= ISO_VALUE;
   uint bits = 0u;
   if (i < pc.cellsX && (field[idx + 1u] >= ISO_VALUE) != inside) bits |= 1u;

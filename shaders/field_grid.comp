@@ -4,16 +4,12 @@
 // grid-layout index of (i, j, k - outK0) (i fastest), so the tiles of a slab fill it like one
 // dispatch would. The same point formula as GridSpec::point: origin + h * (i, j, k). With the
 // specialised evaluator each tile has its own pipeline, pruned to the tile (vk/field_tiles.h).
-//
-// Work groups are 8 x ROWS x 1: eight consecutive x points fill one 256-bit llvmpipe vector, and a
-// 3-D dispatch needs no integer division (which llvmpipe does lane by lane: it cost more than
-// evaluating a pruned tile).
+// Work groups: shaders/grid_dispatch.glsl.
 #extension GL_GOOGLE_include_directive : require
 #define PROGRAM_SET 0
 #define PROGRAM_BINDING 0
 #include "eval_program.glsl"
-
-layout(local_size_x = 8, local_size_y_id = 0) in;
+#include "grid_dispatch.glsl"
 
 layout(std430, set = 0, binding = 5) writeonly buffer Field { float field[]; };
 

@@ -4,7 +4,7 @@
 // crossing edges (x, then y, then z): the global edge-key order of the CPU reference.
 #extension GL_GOOGLE_include_directive : require
 #include "program_layout.h"
-#include "common.glsl"
+#include "grid_dispatch.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Field { float field[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Cases { uint cases[]; };
@@ -16,14 +16,14 @@ layout(std430, set = 0, binding = 5) writeonly buffer Indices { uint indices[]; 
 layout(push_constant) uniform Push {
   uint nx, ny;
   uint cellsX, cellsY;
-  uint count;        // cells in the slab
   uint vertexBase;   // global index of the slab's first vertex
 } pc;
 
+// Invocation (i, j, l): cell (i, j) of the slab's cell layer l.
 void main() {
-  uint c = linearInvocation();
-  if (c >= pc.count) return;
-  uint i = c % pc.cellsX, j = (c / pc.cellsX) % pc.cellsY, l = c / (pc.cellsX * pc.cellsY);
+  uint i = gl_GlobalInvocationID.x, j = gl_GlobalInvocationID.y, l = gl_GlobalInvocationID.z;
+  if (i >= pc.cellsX || j >= pc.cellsY) return;
+  uint c = (l * pc.cellsY + j) * pc.cellsX + i;
   uint p = i + pc.nx * (j + pc.ny * l);
   uint layer = pc.nx * pc.ny;
   uint config = 0u;

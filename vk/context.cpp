@@ -358,6 +358,15 @@ void Recorder::fill(const Buffer& b, std::uint32_t value) {
   device_.d().vkCmdFillBuffer(cmd_, b.handle(), 0, VK_WHOLE_SIZE, value);
 }
 
+std::uint32_t gridGroupRows(std::uint32_t workgroupSize) {
+  return std::max<std::uint32_t>(1, workgroupSize / kGridGroupWidth);
+}
+
+Groups3 gridGroups(std::uint32_t nx, std::uint32_t ny, std::uint32_t layers, std::uint32_t workgroupSize) {
+  const std::uint32_t rows = gridGroupRows(workgroupSize);
+  return {(nx + kGridGroupWidth - 1) / kGridGroupWidth, (ny + rows - 1) / rows, layers};
+}
+
 Groups groupsFor(std::uint64_t invocations, std::uint32_t workgroupSize) {
   const std::uint64_t groups = (invocations + workgroupSize - 1) / workgroupSize;
   if (groups == 0) return {0, 0};

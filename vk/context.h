@@ -179,4 +179,11 @@ class Recorder {
 struct Groups { std::uint32_t x = 1, y = 1; };
 Groups groupsFor(std::uint64_t invocations, std::uint32_t workgroupSize);
 
+// The grid kernels' work groups (shaders/grid_dispatch.glsl): 8 x rows, rows = workgroupSize / 8
+// (at least 1), their specialization constant 0; gridGroups covers nx x ny x layers invocations.
+inline constexpr std::uint32_t kGridGroupWidth = 8;
+std::uint32_t gridGroupRows(std::uint32_t workgroupSize);
+struct Groups3 { std::uint32_t x = 1, y = 1, z = 1; };
+Groups3 gridGroups(std::uint32_t nx, std::uint32_t ny, std::uint32_t layers, std::uint32_t workgroupSize);
+
 }  // namespace blobvk::vk

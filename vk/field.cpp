@@ -16,14 +16,6 @@ std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& gri
   return std::uint32_t(std::max<std::uint64_t>(1, budget / std::max<std::uint64_t>(layerBytes, 1)));
 }
 
-namespace {
-// Work groups of the field kernel are 8 x rows (shaders/field_grid.comp).
-constexpr std::uint32_t kFieldGroupWidth = 8;
-std::uint32_t fieldGroupRows(std::uint32_t workgroupSize) {
-  return std::max<std::uint32_t>(1, workgroupSize / kFieldGroupWidth);
-}
-}  // namespace
-
 FieldPass::FieldPass(Device& device, const blobtree::Program& program, const GpuProgram& gpu,
                      Traversal traversal, std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
                      const FieldTilingOptions& tiling, const CodegenOptions* codegen)
@@ -33,7 +25,7 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
   if (!specialised) o.maxTiles = 1;  // the interpreters read the whole program anyway
   tiles_ = planFieldTiles(program, grid, o);
   // Specialization constant 0 of field_grid is the work group's rows, not its size.
-  const std::uint32_t rows = fieldGroupRows(workgroupSize);
+  const std::uint32_t rows = gridGroupRows(workgroupSize);
   for (const FieldTile& t : tiles_) {
     if (tiles_.size() == 1 || !specialised) {
       kernels_.push_back(&evaluatorKernel(device, gpu, "field_grid", 6, rows, traversal));
@@ -49,7 +41,6 @@ void FieldPass::record(Recorder& rec, std::uint32_t k0, std::uint32_t layers, co
   const auto pts = grid_.points();
   const auto& pb = programBindings_;
   const BufferRange bind[6] = {pb[0], pb[1], pb[2], pb[3], pb[4], BufferRange(out)};
-  const std::uint32_t rows = fieldGroupRows(workgroupSize_);
   for (std::size_t ti = 0; ti < tiles_.size(); ++ti) {
     const FieldTile& t = tiles_[ti];
     const std::uint32_t kLo = std::max(k0, t.first[2]), kHi = std::min(k0 + layers - 1, t.last[2]);
@@ -60,8 +51,8 @@ void FieldPass::record(Recorder& rec, std::uint32_t k0, std::uint32_t layers, co
       std::uint32_t nx, ny, tileNx, tileNy, i0, j0, k0, outK0, codeLength;
     } push{{grid_.origin.x, grid_.origin.y, grid_.origin.z}, grid_.cellSize, std::uint32_t(pts.x),
            std::uint32_t(pts.y), tnx, tny, t.first[0], t.first[1], kLo, k0, codeLength_};
-    rec.dispatch(*kernels_[ti], bind, &push, sizeof(push), (tnx + kFieldGroupWidth - 1) / kFieldGroupWidth,
-                 (tny + rows - 1) / rows, kHi - kLo + 1);
+    const Groups3 g = gridGroups(tnx, tny, kHi - kLo + 1, workgroupSize_);
+    rec.dispatch(*kernels_[ti], bind, &push, sizeof(push), g.x, g.y, g.z);
   }
 }
 

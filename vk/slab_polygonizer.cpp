@@ -79,27 +79,26 @@ void SlabPolygonizer::recordClassify(Recorder& rec, std::uint32_t slab, std::uin
   const auto pts = grid_.points();
   const std::uint32_t nx = std::uint32_t(pts.x), ny = std::uint32_t(pts.y);
   const std::uint32_t wg = options_.workgroupSize;
-  const std::array<std::uint32_t, 1> spec{wg};
+  const std::array<std::uint32_t, 1> gridSpec{gridGroupRows(wg)};
   // Field layers: the slab's point layers k0 .. k0 + C, plus one above unless at the top.
   const std::uint32_t fieldLayers = p.cellLayers + 1 + (p.last ? 0 : 1);
   const std::uint32_t classified = nx * ny * (p.cellLayers + 1);
   fieldPass_->record(rec, p.k0, fieldLayers, field_);
   rec.computeBarrier();
   {
-    const Kernel& k = device_.kernel("edge_flags", 3, spec);
-    const std::uint32_t push[7] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y),
-                                   std::uint32_t(grid_.cells.z), p.k0, classified};
+    const Kernel& k = device_.kernel("edge_flags", 3, gridSpec);
+    const std::uint32_t push[6] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y),
+                                   std::uint32_t(grid_.cells.z), p.k0};
     const BufferRange bind[3] = {field_, flags_, vertexOffsets_};
-    const Groups g = groupsFor(classified, wg);
-    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y);
+    const Groups3 g = gridGroups(nx, ny, p.cellLayers + 1, wg);
+    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y, g.z);
   }
   {
-    const Kernel& k = device_.kernel("cell_count", 3, spec);
-    const std::uint32_t push[5] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y),
-                                   std::uint32_t(p.cells)};
+    const Kernel& k = device_.kernel("cell_count", 3, gridSpec);
+    const std::uint32_t push[4] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y)};
     const BufferRange bind[3] = {field_, cases_, triOffsets_};
-    const Groups g = groupsFor(p.cells, wg);
-    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y);
+    const Groups3 g = gridGroups(std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y), p.cellLayers, wg);
+    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y, g.z);
   }
   rec.computeBarrier();
   recordExclusiveScan(rec, vertexOffsets_.handle(), 0, classified, scratch_.handle(), 0,
@@ -143,13 +142,12 @@ void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_
     rec.dispatchIndirect(k, bind, &push, sizeof(push), args_, 7 * 4);
   }
   {
-    const std::array<std::uint32_t, 1> spec{wg};
-    const Kernel& k = device_.kernel("triangles", 6, spec);
-    const std::uint32_t push[6] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y),
-                                   std::uint32_t(p.cells), vertexBase};
+    const std::array<std::uint32_t, 1> gridSpec{gridGroupRows(wg)};
+    const Kernel& k = device_.kernel("triangles", 6, gridSpec);
+    const std::uint32_t push[5] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y), vertexBase};
     const BufferRange bind[6] = {field_, cases_, flags_, vertexOffsets_, triOffsets_, out.indices};
-    const Groups g = groupsFor(p.cells, wg);
-    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y);
+    const Groups3 g = gridGroups(std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y), p.cellLayers, wg);
+    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y, g.z);
   }
   rec.computeBarrier();
 }
