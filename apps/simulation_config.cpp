@@ -177,7 +177,8 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
   }
   if (j.contains("tetgen")) {
     const Json& t = j["tetgen"];
-    r.keys(t, p + "/tetgen", {"radiusEdge", "minDihedral", "maxVolume", "keepSurface", "optimizeMaxDihedral"});
+    r.keys(t, p + "/tetgen", {"radiusEdge", "minDihedral", "maxVolume", "keepSurface", "optimizeMaxDihedral", "remeshEdge"});
+    if (t.contains("remeshEdge")) c.tetgenRemeshEdgeCells = r.number(t["remeshEdge"], p + "/tetgen/remeshEdge", 0, 100);
     if (t.contains("radiusEdge")) c.tetgen.maxRadiusEdgeRatio = r.number(t["radiusEdge"], p + "/tetgen/radiusEdge", 1.0, 100);
     if (t.contains("minDihedral")) c.tetgen.minDihedralDegrees = r.number(t["minDihedral"], p + "/tetgen/minDihedral", 0, 30);
     if (t.contains("optimizeMaxDihedral"))

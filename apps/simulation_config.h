@@ -36,6 +36,9 @@ struct LiftConfig {
 struct SimulationConfig {
   std::string mesher = "voxel";  // voxel | tetgen
   fem::TetgenOptions tetgen;
+  // Target edge length of the surface clean-up before TetGen (mesh::remeshSurface), in
+  // polygonizer cells; 0 feeds TetGen the raw marching-cubes surface.
+  double tetgenRemeshEdgeCells = 1.5;
   double voxelCellSize = 0;      // 0: twice the polygonization cell size
   fem::SimulationSettings settings;
   std::optional<blobtree::Program> fixedSelector;  // nodes where this field >= 0.5 are fixed

@@ -6,8 +6,10 @@
 #include "fem/tet_utils.h"
 #include "fem/tetgen_mesher.h"
 #include "fem/voxel_mesher.h"
+#include "mesh/surface_remesh.h"
 
 #include <chrono>
+#include <iostream>
 #include <memory>
 #include <stdexcept>
 
@@ -60,8 +62,29 @@ TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int t
     if (!fem::tetgenAvailable()) {
       throw std::runtime_error(model.path + ": /simulation/mesher: this build has no TetGen (BLOBVK_WITH_TETGEN=OFF); use \"voxel\"");
     }
-    tets = fem::tetrahedralize(body.surface, config.tetgen);
-    embedding = fem::identityEmbedding(body.surface.vertexCount());
+    if (config.tetgenRemeshEdgeCells > 0) {
+      // Marching-cubes slivers would pass into the tets (docs/fem.md): TetGen meshes a cleaned-up
+      // copy, and the render surface (with its colours) is embedded in the result.
+      mesh::SurfaceRemeshOptions remesh;
+      remesh.targetEdgeLength = config.tetgenRemeshEdgeCells * grid.cellSize;
+      remesh.project = mesh::isoSurfaceProjection(
+          [&program](const mesh::Double3& p) { return double(blobtree::evaluate(program, glm::vec3(float(p.x), float(p.y), float(p.z)))); },
+          0.5, 1e-3 * grid.cellSize);
+      try {
+        tets = fem::tetrahedralize(mesh::remeshSurface(body.surface, remesh), config.tetgen);
+        embedding = fem::embedPoints(tets, body.surface.positions);
+      } catch (const std::invalid_argument& e) {
+        // The clean-up can fold a shell thinner than its edge length into itself; TetGen's
+        // check rejects that, and the raw surface (slivers and all) still meshes.
+        std::cerr << model.path << ": warning: the surface clean-up before TetGen failed (" << e.what()
+                  << "); meshing the raw surface (expect slivers; lower /simulation/tetgen/remeshEdge)\n";
+        tets = {};
+      }
+    }
+    if (tets.tets.empty()) {
+      tets = fem::tetrahedralize(body.surface, config.tetgen);
+      embedding = fem::identityEmbedding(body.surface.vertexCount());
+    }
   } else {
     fem::VoxelMesherSettings voxel;
     // The scene's grid box when it gives one (it is where the surface is), else the Program's.

@@ -9,16 +9,25 @@
 // angle (degrees), tets below 10 degrees; the label is the switch string.
 //   bench_tetgen                                   # all
 //   bench_tetgen --benchmark_filter='icosphere'
+#include "blobtree/evaluate.h"
+#include "blobtree/grid.h"
+#include "blobtree/scene_io.h"
 #include "cpu_simd/mpu_polygonizer.h"
 #include "fem/tetgen_mesher.h"
 #include "mesh/checks.h"
+#include "mesh/surface_remesh.h"
 #include "tests/cpu_simd/models.h"
 
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <chrono>
+#include <glm/geometric.hpp>
 #include <cmath>
+#include <cstdlib>
 #include <map>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace {
@@ -140,12 +149,111 @@ const mesh::TriMesh& sphere() {
   return s;
 }
 
+// A shipped scene polygonized as `blobvk simulate` does (the scene's grid, MPU polygonizer), with
+// the Program kept for the remesher's projection onto the implicit surface.
+struct SceneSurface {
+  blobtree::Program program;
+  mesh::TriMesh surface;
+  double cellSize = 0;
+};
+
+const SceneSurface& sceneSurface(const std::string& name) {
+  static std::map<std::string, SceneSurface> cache;
+  const auto it = cache.find(name);
+  if (it != cache.end()) return it->second;
+  const char* dir = std::getenv("BLOBVK_SCENES");
+  const blobtree::Scene scene = blobtree::loadScene(std::string(dir ? dir : "scenes") + "/" + name + ".json");
+  SceneSurface s;
+  s.program = blobtree::compile(scene.root);
+  const blobtree::GridSpec grid = blobtree::chooseGrid(s.program, scene.grid, {});
+  s.surface = cpu::polygonizeMpu(s.program, grid, cpu::MpuOptions{});
+  s.cellSize = grid.cellSize;
+  return cache.emplace(name, std::move(s)).first->second;
+}
+
+// Smallest angle between two adjacent surface triangles measured inside the solid (degrees):
+// tets at that edge cannot have a larger dihedral angle there, whatever TetGen does.
+double minSurfaceInteriorAngle(const mesh::TriMesh& s) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> faceOfEdge;
+  for (std::size_t f = 0; f < s.triangles.size(); ++f)
+    for (int k = 0; k < 3; ++k) faceOfEdge[{s.triangles[f][std::size_t(k)], s.triangles[f][std::size_t((k + 1) % 3)]}] = f;
+  const auto at = [&](std::uint32_t v) { return glm::dvec3(s.positions[v].x, s.positions[v].y, s.positions[v].z); };
+  const auto normal = [&](std::size_t f) {
+    const auto& t = s.triangles[f];
+    return glm::normalize(glm::cross(at(t[1]) - at(t[0]), at(t[2]) - at(t[0])));
+  };
+  double best = 360;
+  for (const auto& [edge, f] : faceOfEdge) {
+    const std::size_t e = faceOfEdge.at({edge.second, edge.first});
+    std::uint32_t d = 0;
+    for (std::uint32_t v : s.triangles[e])
+      if (v != edge.first && v != edge.second) d = v;
+    const double turn = std::acos(std::clamp(glm::dot(normal(f), normal(e)), -1.0, 1.0));
+    const bool convex = glm::dot(normal(f), at(d) - at(edge.first)) < 0;
+    best = std::min(best, (convex ? M_PI - turn : M_PI + turn) * 180 / M_PI);
+  }
+  return best;
+}
+
+// The TetGen path of a shipped simulated scene, timed with the surface clean-up before it.
+// range(0): target tets; range(1): remesh target edge length in percent of the polygonizer's
+// cell size (0: TetGen on the raw marching-cubes surface). Switches q1.414/10 o/150 a<3V/target>.
+void sceneTetgen(benchmark::State& state, const std::string& name) {
+  if (!fem::tetgenAvailable()) {
+    state.SkipWithError("built without TetGen");
+    return;
+  }
+  const SceneSurface& scene = sceneSurface(name);
+  fem::TetgenOptions o;
+  o.optimizeMaxDihedralDegrees = 150;
+  o.maxVolume = 3.0 * mesh::checkMesh(scene.surface).volume / double(state.range(0));
+  mesh::SurfaceRemeshOptions r;
+  r.targetEdgeLength = scene.cellSize * double(state.range(1)) / 100.0;
+  const blobtree::Program& program = scene.program;
+  r.project = mesh::isoSurfaceProjection(
+      [&program](const mesh::Double3& p) { return double(blobtree::evaluate(program, glm::vec3(float(p.x), float(p.y), float(p.z)))); },
+      0.5, 1e-3 * scene.cellSize);
+  mesh::TetMesh m;
+  mesh::TriMesh input;
+  mesh::SurfaceRemeshStats stats;
+  double remeshSeconds = 0;
+  for (auto _ : state) {
+    const auto start = std::chrono::steady_clock::now();
+    input = state.range(1) > 0 ? mesh::remeshSurface(scene.surface, r, &stats) : scene.surface;
+    remeshSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    try {
+      m = fem::tetrahedralize(input, o);
+    } catch (const std::exception& e) {
+      state.SkipWithError(e.what());  // e.g. a thin shell whose clean-up intersects itself
+      return;
+    }
+    benchmark::DoNotOptimize(m.tets.data());
+  }
+  const auto [minimum, below10] = dihedralStats(m);
+  const mesh::MeshReport before = mesh::checkMesh(scene.surface), after = mesh::checkMesh(input);
+  state.counters["tets"] = double(m.tetCount());
+  state.counters["surface_tris"] = double(input.triangles.size());
+  state.counters["min_tri_angle_deg"] = mesh::minTriangleAngleDegrees(input);
+  state.counters["min_dihedral_deg"] = minimum;
+  state.counters["tets_below_10deg"] = double(below10);
+  state.counters["min_surface_angle_deg"] = minSurfaceInteriorAngle(input);
+  state.counters["remesh_s"] = remeshSeconds;
+  state.counters["volume_change_pct"] = 100.0 * (after.volume - before.volume) / before.volume;
+  state.SetLabel(fem::tetgenSwitches(o));
+}
+
 BENCHMARK_CAPTURE(tetrahedralize, icosphere_q1.414_10, sphere, 1.414, 10.0, 0.0)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(tetrahedralize, icosphere_q1.414_10_o150, sphere, 1.414, 10.0, 150.0)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(tetrahedralize, icosphere_q1.414_10_o140, sphere, 1.414, 10.0, 140.0)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(tetrahedralize, icosphere_q2_10_o150, sphere, 2.0, 10.0, 150.0)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(tetrahedralize, blob_q1.414_10, blob, 1.414, 10.0, 0.0)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(tetrahedralize, blob_q1.414_10_o150, blob, 1.414, 10.0, 150.0)->Arg(100000)->Unit(benchmark::kMillisecond);
+
+// Shipped simulated scenes. The first Args of each is the raw marching-cubes surface (before),
+// the others the default clean-up (1.5 cells, "remeshEdge" in docs/fem.md) and a coarser one.
+BENCHMARK_CAPTURE(sceneTetgen, craniotomy, std::string("craniotomy"))->Args({30000, 0})->Args({30000, 150})->Args({30000, 200})->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(sceneTetgen, eggshell_sim, std::string("eggshell_sim"))->Args({100000, 0})->Args({100000, 150})->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(sceneTetgen, soft_peanut, std::string("soft_peanut"))->Args({100000, 0})->Args({100000, 150})->Args({100000, 200})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -1,0 +1,50 @@
+// Isotropic remeshing of a closed triangle surface, to give TetGen well-shaped input. Marching
+// cubes leaves triangles with angles below 1 degree; TetGen must keep input facets, so its
+// tetrahedra inherit those angles (minimum dihedral ~0.1 degree) and it over-refines around them.
+// The passes (Botsch & Kobbelt 2004): split edges longer than 4/3 L, collapse edges shorter than
+// 4/5 L (link condition, no normal flips, no new long edges), flip edges where that raises the
+// smaller angle of the two triangles (a guard on the normals keeps the shape), then move each
+// vertex tangentially towards the centroid of its neighbours and project it back onto the
+// surface. Topology (Euler characteristic, components) is kept; the result is closed and
+// 2-manifold. Single-threaded and deterministic.
+#pragma once
+
+#include "mesh/tetmesh.h"
+#include "mesh/trimesh.h"
+
+#include <cstddef>
+#include <functional>
+
+namespace blobvk::mesh {
+
+// Moves a point near the surface onto it (e.g. Newton steps on an implicit field).
+using SurfaceProjection = std::function<Double3(const Double3&)>;
+
+struct SurfaceRemeshOptions {
+  double targetEdgeLength = 0;  // L, > 0; e.g. the polygonizer's cell size
+  int iterations = 5;           // split / collapse / flip / relax rounds
+  // Where vertices go after each move. Empty: they stay on the tangent plane of the current
+  // surface (no projection), which shrinks curved regions slightly (O(L^2) per round).
+  SurfaceProjection project;
+  // Flips and collapses are refused where a triangle normal would turn by more than this.
+  double maxNormalTurnDegrees = 30;
+};
+
+struct SurfaceRemeshStats {
+  std::size_t splits = 0, collapses = 0, flips = 0;
+  double minAngleBeforeDegrees = 0, minAngleAfterDegrees = 0;
+};
+
+// The remeshed surface (positions and triangles only: normals, colours and edge keys are
+// dropped, they no longer match). Throws std::invalid_argument for a surface that is not closed,
+// manifold and oriented, or a non-positive target length.
+TriMesh remeshSurface(const TriMesh& surface, const SurfaceRemeshOptions& options, SurfaceRemeshStats* stats = nullptr);
+
+// Smallest interior angle over all triangles, in degrees (0 for a degenerate one).
+double minTriangleAngleDegrees(const TriMesh& mesh);
+
+// A projection onto the level set field = iso by Newton steps along a central-difference
+// gradient (step h): for implicit models whose field and surface are known only as a function.
+SurfaceProjection isoSurfaceProjection(std::function<double(const Double3&)> field, double iso, double h, int steps = 2);
+
+}  // namespace blobvk::mesh
