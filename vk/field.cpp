@@ -18,9 +18,9 @@ std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& gri
 
 FieldPass::FieldPass(Device& device, const blobtree::Program& program, const GpuProgram& gpu,
                      Traversal traversal, std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
-                     const FieldTilingOptions& tiling, const CodegenOptions* codegen)
+                     const FieldTilingOptions& tiling)
     : programBindings_(gpu.bindings()), codeLength_(gpu.codeLength), grid_(grid), workgroupSize_(workgroupSize) {
-  const bool specialised = traversal == Traversal::Specialised && !gpu.specialisedSource.empty();
+  const bool specialised = traversal == Traversal::Specialised && gpu.specialised;
   FieldTilingOptions o = tiling;
   if (!specialised) o.maxTiles = 1;  // the interpreters read the whole program anyway
   tiles_ = planFieldTiles(program, grid, o);
@@ -31,9 +31,9 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
       kernels_.push_back(&evaluatorKernel(device, gpu, "field_grid", 6, rows, traversal));
       continue;
     }
-    CodegenOptions c = codegen ? *codegen : defaultCodegenOptions(device);
+    CodegenOptions c = gpu.codegen;
     c.region = t.region;
-    kernels_.push_back(&specialisedKernel(device, generateSpecialisedEvaluator(program, c), "field_grid", 6, rows));
+    kernels_.push_back(&specialisedKernel(device, program, c, "field_grid", 6, rows));
   }
 }
 
@@ -63,8 +63,7 @@ std::vector<float> evaluateFieldOnGrid(Device& device, const blobtree::Program& 
   std::vector<float> field(grid.pointCount());
   if (field.empty()) return field;
   const GpuProgram gpu = uploadProgram(device, program, options.traversal, options.codegen);
-  const FieldPass pass(device, program, gpu, options.traversal, options.workgroupSize, grid, options.tiling,
-                       options.codegen);
+  const FieldPass pass(device, program, gpu, options.traversal, options.workgroupSize, grid, options.tiling);
   const std::uint32_t brickLayers = layersPerBrick(device, grid, options.maxBrickBytes, 4);
   const std::uint64_t layerPoints = std::uint64_t(pts.x) * std::uint64_t(pts.y);
   Buffer out = device.createBuffer(layerPoints * std::min<std::uint32_t>(brickLayers, pts.z) * 4);

@@ -46,11 +46,10 @@ std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& gri
 // pipeline is compiled once, not at the first slab).
 class FieldPass {
  public:
-  // `program` must be the one `gpu` was uploaded from; `gpu`'s buffers must outlive the pass.
-  // `codegen` as in FieldOptions.
+  // `program` must be the one `gpu` was uploaded from (its tiles' evaluators are generated with
+  // gpu.codegen); `gpu`'s buffers must outlive the pass.
   FieldPass(Device& device, const blobtree::Program& program, const GpuProgram& gpu, Traversal traversal,
-            std::uint32_t workgroupSize, const blobtree::GridSpec& grid, const FieldTilingOptions& tiling = {},
-            const CodegenOptions* codegen = nullptr);
+            std::uint32_t workgroupSize, const blobtree::GridSpec& grid, const FieldTilingOptions& tiling = {});
 
   // Records the field of points (i, j, k0 + l), l < layers, into `out` (slab-linear floats).
   void record(Recorder& rec, std::uint32_t k0, std::uint32_t layers, const Buffer& out) const;

@@ -53,8 +53,8 @@ std::vector<FieldTile> planFieldTiles(const blobtree::Program& program, const bl
       for (int axis = 0; axis < 3; ++axis) {
         const std::uint32_t extent = t.last[std::size_t(axis)] - t.first[std::size_t(axis)] + 1;
         if (extent < 2 * minExtent) continue;
-        for (std::uint32_t quarter = 1; quarter <= 3; ++quarter) {
-          const std::uint32_t lowCount = std::clamp(extent * quarter / 4, minExtent, extent - minExtent);
+        for (std::uint32_t eighth = 1; eighth <= 7; ++eighth) {
+          const std::uint32_t lowCount = std::clamp(extent * eighth / 8, minExtent, extent - minExtent);
           auto lowLast = t.last, highFirst = t.first;
           lowLast[std::size_t(axis)] = t.first[std::size_t(axis)] + lowCount - 1;
           highFirst[std::size_t(axis)] = t.first[std::size_t(axis)] + lowCount;

@@ -41,8 +41,8 @@ struct FieldTilingOptions {
   std::uint32_t minExtent = 8;
 };
 
-// Tiles covering every grid point exactly once, chosen greedily (k-d splits at a quarter, half
-// or three quarters of a tile along any axis, the one removing the most work first).
+// Tiles covering every grid point exactly once, chosen greedily (k-d splits at an eighth of a
+// tile's extent along any axis, the one removing the most work first).
 // Deterministic: the same program and grid give the same tiles.
 std::vector<FieldTile> planFieldTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
                                       const FieldTilingOptions& options = {});

@@ -5,6 +5,7 @@
 #include "vk/stack_program.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -63,8 +64,8 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
     if (warp.meta.w != 0) g.warpMask |= kMaskHasMatrix;
   }
   if (traversal == Traversal::Specialised && canSpecialise(program)) {
-    g.specialisedSource =
-        generateSpecialisedEvaluator(program, codegenOverride ? *codegenOverride : defaultCodegenOptions(device));
+    g.specialised = std::make_shared<const blobtree::Program>(program);
+    g.codegen = codegenOverride ? *codegenOverride : defaultCodegenOptions(device);
   }
   g.primitives = uploadArray(device, program.primitives);
   g.matrices = uploadArray(device, program.matrices);
@@ -75,21 +76,23 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
 
 const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
                               std::uint32_t bindings, std::uint32_t workgroupSize, Traversal traversal) {
-  if (traversal != Traversal::Specialised || program.specialisedSource.empty())
+  if (traversal != Traversal::Specialised || !program.specialised)
     return device.kernel(shader, bindings, program.specs(workgroupSize, traversal == Traversal::StackBased
                                                                             ? Traversal::StackBased
                                                                             : Traversal::Stackless));
-  return specialisedKernel(device, program.specialisedSource, shader, bindings, workgroupSize);
+  return specialisedKernel(device, *program.specialised, program.codegen, shader, bindings, workgroupSize);
 }
 
-const Kernel& specialisedKernel(Device& device, const std::string& evaluatorSource, const std::string& shader,
-                                std::uint32_t bindings, std::uint32_t workgroupSize) {
+const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, const CodegenOptions& codegen,
+                                const std::string& shader, std::uint32_t bindings, std::uint32_t workgroupSize) {
   // Only the workgroup size (constant 0) matters to the generated evaluator.
   const std::array<std::uint32_t, 1> specs{workgroupSize};
-  const std::string name = shader + "/specialised:" + std::to_string(std::hash<std::string>{}(evaluatorSource)) +
-                           ":" + std::to_string(evaluatorSource.size());
+  char key[17];
+  std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(evaluatorFingerprint(program, codegen)));
+  const std::string name = shader + "/specialised:" + key;
   if (const Kernel* k = device.findKernel(name, specs)) return *k;
-  const auto code = compileComputeShader(shader + ".comp", {{"eval_program.glsl", evaluatorSource}});
+  const auto code =
+      compileComputeShader(shader + ".comp", {{"eval_program.glsl", generateSpecialisedEvaluator(program, codegen)}});
   return device.kernel(name, code, bindings, specs);
 }
 

@@ -4,9 +4,11 @@
 
 #include "blobtree/program.h"
 #include "vk/context.h"
+#include "vk/program_codegen.h"
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 
 namespace blobvk::vk {
@@ -22,8 +24,6 @@ enum class Traversal {
 // "stackless", "stack-based", "specialised".
 const char* traversalName(Traversal traversal);
 
-struct CodegenOptions;
-
 struct GpuProgram {
   Buffer code, primitives, matrices, boxes, warps;
   std::uint32_t codeLength = 0;
@@ -31,9 +31,11 @@ struct GpuProgram {
   // shaders/eval_program.glsl): the shader drops every opcode, primitive and warp type it lacks.
   std::uint32_t fieldRegisters = layout::MAX_FIELD_REGISTERS;
   std::uint32_t opMask = ~0u, primitiveMask = ~0u, warpMask = ~0u;
-  // Traversal::Specialised: the generated evaluator (empty when the program could not be
-  // specialised and runs on the stackless interpreter).
-  std::string specialisedSource;
+  // Traversal::Specialised: the program and the options its evaluator is generated with, when
+  // it can be specialised (else null: it runs on the stackless interpreter). The source is
+  // generated only when a kernel with this evaluator is not yet on the device.
+  std::shared_ptr<const blobtree::Program> specialised;
+  CodegenOptions codegen;
 
   // Specialization constants 0-5 of every kernel that includes eval_program.glsl.
   std::array<std::uint32_t, 6> specs(std::uint32_t workgroupSize, Traversal traversal) const {
@@ -53,10 +55,11 @@ struct GpuProgram {
 const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
                               std::uint32_t bindings, std::uint32_t workgroupSize, Traversal traversal);
 
-// The pipeline of an evaluating kernel compiled at run time with `evaluatorSource` (a generated
-// evaluator, vk/program_codegen.h) in place of eval_program.glsl: once per device and source.
-const Kernel& specialisedKernel(Device& device, const std::string& evaluatorSource, const std::string& shader,
-                                std::uint32_t bindings, std::uint32_t workgroupSize);
+// The pipeline of an evaluating kernel compiled at run time with the evaluator generated for
+// `program` and `codegen` (vk/program_codegen.h) in place of eval_program.glsl: generated and
+// compiled once per device, then found by its fingerprint.
+const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, const CodegenOptions& codegen,
+                                const std::string& shader, std::uint32_t bindings, std::uint32_t workgroupSize);
 
 // Code generation options for this device: branches on skips except on CPU devices.
 CodegenOptions defaultCodegenOptions(const Device& device);

@@ -253,6 +253,46 @@ std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const Point
   return count;
 }
 
+namespace {
+// FNV-1a, 64 bits: fast, and the records are plain data without padding holes (the layout header
+// asserts their sizes).
+struct Fnv {
+  std::uint64_t h = 14695981039346656037ull;
+  void bytes(const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  }
+  template <class T>
+  void array(const std::vector<T>& v) {
+    const std::uint64_t n = v.size();
+    bytes(&n, sizeof n);
+    bytes(v.data(), v.size() * sizeof(T));
+  }
+  template <class T>
+  void value(const T& v) { bytes(&v, sizeof v); }
+};
+}  // namespace
+
+std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const CodegenOptions& options) {
+  Fnv f;
+  f.array(program.code);
+  f.array(program.primitives);
+  f.array(program.matrices);
+  f.array(program.boxes);
+  f.array(program.warps);
+  f.array(program.primitiveBoxes);
+  f.value(program.fieldRegisters);
+  f.value(program.pointRegisters);
+  f.value(options.branchOnSkips);
+  f.value(options.minBranchInstructions);
+  f.value(options.region.valid);
+  if (options.region.valid) {
+    f.value(options.region.lo);
+    f.value(options.region.hi);
+  }
+  return f.h;
+}
+
 bool canSpecialise(const blobtree::Program& program) {
   return !program.code.empty() && program.code.size() <= kMaxSpecialisedInstructions &&
          program.fieldRegisters <= layout::MAX_FIELD_REGISTERS && program.pointRegisters >= 1 &&
