@@ -73,6 +73,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     vk::GpuPolygonizeOptions options;
     options.refineSteps = settings.refineSteps;
     options.traversal = traversalFromName(settings.traversal);
+    options.maxFieldTiles = std::uint32_t(std::max(settings.fieldTiles, 1));
     vk::GpuStats gpu;
     mesh = vk::polygonize(context.device(), program, grid, options, &gpu);
     evaluations = double(gpu.fieldEvaluations);

@@ -26,6 +26,7 @@ struct PolygonizeSettings {
   // vk: specialised (the Program compiled into the kernel; default), stackless (the register
   // code interpreted) or stack (the stack-based tree walk: the thesis' Table 4.2 comparison).
   std::string traversal = "specialised";
+  int fieldTiles = 8;           // vk specialised: most tiles with pruned field kernels (1 = off)
 };
 
 struct PolygonizeStats {

@@ -32,7 +32,7 @@ void addBenchCommand(CLI::App& app) {
     std::vector<int> resolutions{128};
     std::vector<std::string> backends{"cpu"};
     std::vector<int> threads{0};
-    int repeats = 5, warmup = 1, mpuSize = 0;
+    int repeats = 5, warmup = 1, mpuSize = 0, fieldTiles = 8;
     std::string device;
     std::vector<std::string> traversals{"specialised"};
     bool json = false;
@@ -52,6 +52,9 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--traversal", a->traversals,
                   "vk: specialised (default), stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")
       ->check(CLI::IsMember(traversalNames()));
+  cmd->add_option("--field-tiles", a->fieldTiles,
+                  "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")
+      ->check(CLI::Range(1, 256));
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a] {
     std::vector<Row> rows;
@@ -70,6 +73,7 @@ void addBenchCommand(CLI::App& app) {
             settings.mpuSize = a->mpuSize;
             settings.device = a->device;
             settings.traversal = traversal;
+            settings.fieldTiles = a->fieldTiles;
             Row row{path, backend == "vk" ? backend + "-" + traversal : backend, resolution, threads};
             std::vector<double> times;
             for (int i = 0; i < a->warmup + a->repeats; ++i) {

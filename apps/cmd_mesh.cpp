@@ -45,6 +45,9 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
   cmd->add_option("--traversal", a->settings.traversal, "vk: specialised (default), stackless or stack")
       ->check(CLI::IsMember(traversalNames()));
+  cmd->add_option("--field-tiles", a->settings.fieldTiles,
+                  "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")
+      ->check(CLI::Range(1, 256));
   cmd->add_option("--max-memory", a->maxMemory, "Refuse jobs needing more (e.g. 2G; default: available)");
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
   cmd->add_flag("--ascii", a->ascii, "Write ASCII PLY instead of binary");
