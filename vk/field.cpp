@@ -20,14 +20,17 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
                      Traversal traversal, std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
                      const FieldTilingOptions& tiling)
     : programBindings_(gpu.bindings()), codeLength_(gpu.codeLength), grid_(grid), workgroupSize_(workgroupSize) {
-  const bool specialised = traversal == Traversal::Specialised && gpu.specialised;
+  const bool specialised = traversal == Traversal::Specialised;
   FieldTilingOptions o = tiling;
   if (!specialised) o.maxTiles = 1;  // the interpreters read the whole program anyway
   tiles_ = planFieldTiles(program, grid, o);
   // Specialization constant 0 of field_grid is the work group's rows, not its size.
   const std::uint32_t rows = gridGroupRows(workgroupSize);
   for (const FieldTile& t : tiles_) {
-    if (tiles_.size() == 1 || !specialised) {
+    // A whole-grid tile uses the program's own kernel (the one other passes share); a program
+    // too large to specialise whole may still fit once pruned to a tile.
+    const bool ownKernel = specialised && !(tiles_.size() == 1 && gpu.specialised) && canSpecialise(program, t.region);
+    if (!ownKernel) {
       kernels_.push_back(&evaluatorKernel(device, gpu, "field_grid", 6, rows, traversal));
       continue;
     }

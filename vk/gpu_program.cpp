@@ -63,9 +63,9 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
     g.warpMask |= 1u << (warp.meta.x & 0x1fu);
     if (warp.meta.w != 0) g.warpMask |= kMaskHasMatrix;
   }
-  if (traversal == Traversal::Specialised && canSpecialise(program)) {
-    g.specialised = std::make_shared<const blobtree::Program>(program);
+  if (traversal == Traversal::Specialised) {
     g.codegen = codegenOverride ? *codegenOverride : defaultCodegenOptions(device);
+    if (canSpecialise(program)) g.specialised = std::make_shared<const blobtree::Program>(program);
   }
   g.primitives = uploadArray(device, program.primitives);
   g.matrices = uploadArray(device, program.matrices);

@@ -31,11 +31,12 @@ struct GpuProgram {
   // shaders/eval_program.glsl): the shader drops every opcode, primitive and warp type it lacks.
   std::uint32_t fieldRegisters = layout::MAX_FIELD_REGISTERS;
   std::uint32_t opMask = ~0u, primitiveMask = ~0u, warpMask = ~0u;
-  // Traversal::Specialised: the program and the options its evaluator is generated with, when
-  // it can be specialised (else null: it runs on the stackless interpreter). The source is
-  // generated only when a kernel with this evaluator is not yet on the device.
-  std::shared_ptr<const blobtree::Program> specialised;
+  // Traversal::Specialised: the options evaluators are generated with, and the program when it
+  // can be specialised whole (else null: kernels run the stackless interpreter, except field
+  // tiles small enough to specialise, vk/field.h). A source is generated only when a kernel
+  // with this evaluator is not yet on the device.
   CodegenOptions codegen;
+  std::shared_ptr<const blobtree::Program> specialised;
 
   // Specialization constants 0-5 of every kernel that includes eval_program.glsl.
   std::array<std::uint32_t, 6> specs(std::uint32_t workgroupSize, Traversal traversal) const {

@@ -58,8 +58,13 @@ std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const Point
 // up without generating their source again (2-3 ms for a 270-instruction program).
 std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const CodegenOptions& options);
 
-// True when generateSpecialisedEvaluator accepts the program.
-bool canSpecialise(const blobtree::Program& program);
+// Instructions of the generated code once pruned to `region` (what kMaxSpecialisedInstructions
+// limits): a pruned subtree or primitive counts as one.
+std::uint32_t prunedInstructionCount(const blobtree::Program& program, const PointRegion& region);
+
+// True when generateSpecialisedEvaluator accepts the program pruned to `region` (anywhere by
+// default): a program too large as a whole can still be specialised for a small region.
+bool canSpecialise(const blobtree::Program& program, const PointRegion& region = {});
 
 // GLSL that replaces shaders/eval_program.glsl for this program: it defines
 // evaluateField(vec3 p, uint n) and evaluateFieldColour(vec3 p, uint n, out vec3 colour) (n is
