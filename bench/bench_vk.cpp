@@ -147,6 +147,7 @@ void polygonize(benchmark::State& state, const std::string& scene, vk::Traversal
   const auto grid = gridFor(m, int(state.range(0)));
   vk::GpuPolygonizeOptions o;
   o.traversal = traversal;
+  if (const char* t = std::getenv("BLOBVK_BENCH_TILES")) o.maxFieldTiles = std::uint32_t(std::atoi(t));
   vk::polygonize(context().device(), m.program, grid, o);  // JIT at first dispatch
   vk::GpuStats s;
   std::size_t triangles = 0;
@@ -157,6 +158,7 @@ void polygonize(benchmark::State& state, const std::string& scene, vk::Traversal
   state.counters["triangles"] = double(triangles);
   state.counters["classify_s"] = s.classifySeconds;
   state.counters["emit_s"] = s.emitSeconds;
+  state.counters["tiles"] = s.fieldTiles;
 }
 
 // Host side of the specialised path's first use: GLSL generation and glslang to SPIR-V for the

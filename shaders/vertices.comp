@@ -2,40 +2,14 @@
 // One invocation per vertex of a slab (dispatched indirectly from the draw_args pass): the vertex
 // of slab-local index v belongs to the last owned point whose scanned offset is <= v (a binary
 // search over the exclusive scan), on its (v - offset)-th crossing upper edge, so vertices stay
-// in global edge-key order. Position, refinement, normal and colour by the rules of
-// cpu_simd/reference_polygonizer.cpp: t = (iso - fa) / (fb - fa) from the edge's lower point,
-// optional Illinois regula-falsi steps, normal = -gradient by central differences
-// (blobtree::normal), colour from the colour evaluator.
+// in global edge-key order. The work of a vertex: vertex_emit.glsl.
 #extension GL_GOOGLE_include_directive : require
 #define PROGRAM_SET 0
 #define PROGRAM_BINDING 0
 #include "eval_program.glsl"
 #include "common.glsl"
 
-layout(std430, set = 0, binding = 5) readonly buffer Field { float field[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Flags { uint flags[]; };
-layout(std430, set = 0, binding = 7) readonly buffer VertexOffsets { uint vertexOffsets[]; };
-layout(std430, set = 0, binding = 8) writeonly buffer Positions { float positions[]; };
-layout(std430, set = 0, binding = 9) writeonly buffer Normals { float normals[]; };
-layout(std430, set = 0, binding = 10) writeonly buffer Colours { float colours[]; };
-layout(std430, set = 0, binding = 11) writeonly buffer Keys { uint keys[]; };
-layout(std430, set = 0, binding = 12) readonly buffer Args { uint args[]; };  // draw_args.comp
-
-layout(push_constant) uniform Push {
-  vec4 originCell;
-  uint nx, ny;
-  uint ownedPoints;  // owned points of the slab
-  uint k0;
-  uint codeLength;
-  uint refineSteps;
-  uint attributes;   // bit 0 normals, bit 1 colours
-  float normalStep;  // central-difference step h
-  uint vertexBase;   // vertices of the slabs before this one
-} pc;
-
-vec3 gridPoint(uint i, uint j, uint k) {
-  return pc.originCell.xyz + pc.originCell.w * vec3(float(i), float(j), float(k));
-}
+#include "vertex_emit.glsl"
 
 void main() {
   uint v = linearInvocation();
@@ -45,75 +19,5 @@ void main() {
     uint mid = (lo + hi) / 2u;
     if (vertexOffsets[mid] <= v) lo = mid; else hi = mid;
   }
-  uint idx = lo;
-  uint bits = flags[idx];
-  uint rank = v - vertexOffsets[idx];
-  uint axis = findLSB(bits);
-  if (rank > 0u) {
-    bits &= bits - 1u;
-    axis = findLSB(bits);
-  }
-  if (rank > 1u) {
-    bits &= bits - 1u;
-    axis = findLSB(bits);
-  }
-  uint i = idx % pc.nx, j = (idx / pc.nx) % pc.ny, k = pc.k0 + idx / (pc.nx * pc.ny);
-  uint out_ = v;
-  vec3 pa = gridPoint(i, j, k);
-  float fa = field[idx];
-  {
-    uvec3 step_ = uvec3(axis == 0u ? 1u : 0u, axis == 1u ? 1u : 0u, axis == 2u ? 1u : 0u);
-    uint nb = idx + (axis == 0u ? 1u : (axis == 1u ? pc.nx : pc.nx * pc.ny));
-    vec3 pb = gridPoint(i + step_.x, j + step_.y, k + step_.z);
-    float fb = field[nb];
-    // cpu/reference_polygonizer.cpp rule 2: only the edge's own coordinate moves.
-    float len = pb[axis] - pa[axis];
-    float t = (ISO_VALUE - fa) / (fb - fa);
-    float lo = 0.0, hi = 1.0, flo = fa, fhi = fb;
-    int keptSide = 0;  // Illinois regula falsi: -1 lo kept last step, +1 hi kept last step
-    for (uint s = 0u; s < pc.refineSteps; ++s) {
-      vec3 q = pa;
-      q[axis] = pa[axis] + t * len;
-      float f = evaluateField(q, pc.codeLength);
-      if (f == ISO_VALUE) break;
-      if ((f >= ISO_VALUE) == (flo >= ISO_VALUE)) {
-        lo = t;
-        flo = f;
-        if (keptSide == 1) fhi = ISO_VALUE + (fhi - ISO_VALUE) * 0.5;
-        keptSide = 1;
-      } else {
-        hi = t;
-        fhi = f;
-        if (keptSide == -1) flo = ISO_VALUE + (flo - ISO_VALUE) * 0.5;
-        keptSide = -1;
-      }
-      t = lo + (ISO_VALUE - flo) / (fhi - flo) * (hi - lo);
-    }
-    vec3 p = pa;
-    p[axis] = pa[axis] + t * len;
-    uint v = out_ * 3u;
-    positions[v] = p.x;
-    positions[v + 1u] = p.y;
-    positions[v + 2u] = p.z;
-    if ((pc.attributes & 1u) != 0u) {
-      float h = pc.normalStep;
-      float inv = 0.5 / h;
-      vec3 g = vec3((evaluateField(p + vec3(h, 0, 0), pc.codeLength) - evaluateField(p - vec3(h, 0, 0), pc.codeLength)) * inv,
-                    (evaluateField(p + vec3(0, h, 0), pc.codeLength) - evaluateField(p - vec3(0, h, 0), pc.codeLength)) * inv,
-                    (evaluateField(p + vec3(0, 0, h), pc.codeLength) - evaluateField(p - vec3(0, 0, h), pc.codeLength)) * inv);
-      float len = length(g);
-      vec3 nrm = len > 0.0 ? -g / len : vec3(0.0, 0.0, 1.0);
-      normals[v] = nrm.x;
-      normals[v + 1u] = nrm.y;
-      normals[v + 2u] = nrm.z;
-    }
-    if ((pc.attributes & 2u) != 0u) {
-      vec3 colour;
-      evaluateFieldColour(p, pc.codeLength, colour);
-      colours[v] = colour.x;
-      colours[v + 1u] = colour.y;
-      colours[v + 2u] = colour.z;
-    }
-    keys[out_] = idx * 3u + axis;
-  }
+  emitVertex(v, lo);
 }

@@ -23,13 +23,21 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
   const bool specialised = traversal == Traversal::Specialised;
   FieldTilingOptions o = tiling;
   if (!specialised) o.maxTiles = 1;  // the interpreters read the whole program anyway
+  if (!gpu.specialised && grid.pointCount() < o.minPointsForLargePrograms) o.maxTiles = 1;
   tiles_ = planFieldTiles(program, grid, o);
+  // Tiles only pay with kernels of their own: when none can have one (a program too large to
+  // specialise, pruning too little), one dispatch over the whole grid.
+  if (tiles_.size() > 1 &&
+      std::none_of(tiles_.begin(), tiles_.end(), [&](const FieldTile& t) { return specialiseTile(program, t.region); })) {
+    o.maxTiles = 1;
+    tiles_ = planFieldTiles(program, grid, o);
+  }
   // Specialization constant 0 of field_grid is the work group's rows, not its size.
   const std::uint32_t rows = gridGroupRows(workgroupSize);
   for (const FieldTile& t : tiles_) {
     // A whole-grid tile uses the program's own kernel (the one other passes share); a program
     // too large to specialise whole may still fit once pruned to a tile.
-    const bool ownKernel = specialised && !(tiles_.size() == 1 && gpu.specialised) && canSpecialise(program, t.region);
+    const bool ownKernel = specialised && !(tiles_.size() == 1 && gpu.specialised) && specialiseTile(program, t.region);
     if (!ownKernel) {
       kernels_.push_back(&evaluatorKernel(device, gpu, "field_grid", 6, rows, traversal));
       continue;

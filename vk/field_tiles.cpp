@@ -33,6 +33,11 @@ PointRegion regionOfPoints(const blobtree::GridSpec& grid, const std::array<std:
   return r;
 }
 
+bool specialiseTile(const blobtree::Program& program, const PointRegion& region) {
+  if (!canSpecialise(program, region)) return false;
+  return canSpecialise(program) || prunedInstructionCount(program, region) <= kMaxTileInstructions;
+}
+
 std::vector<FieldTile> planFieldTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
                                       const FieldTilingOptions& options) {
   const auto pts = grid.points();

@@ -39,7 +39,20 @@ struct FieldTilingOptions {
   double minGain = 0.05;
   // Tiles are not split below this many points along an axis.
   std::uint32_t minExtent = 8;
+  // A program too large to specialise whole is tiled only on grids of at least this many points:
+  // its tile kernels (up to kMaxTileInstructions) take ~0.3 s each to build on lavapipe
+  // (tower_L6P8I4 at 128 cells, 1.4 M points: 11.3 s -> 6.6 s a polygonization; at 24 cells the
+  // builds were all the time).
+  std::uint64_t minPointsForLargePrograms = 1'000'000;
 };
+
+// A program too large to specialise whole gets its own kernel for a tile only when the pruned
+// code has at most this many instructions: LLVM's time grows faster than the code (measured on
+// tower_L6P8I4: 16 tile kernels of ~2,900 instructions took 80 s to build on lavapipe).
+inline constexpr std::uint32_t kMaxTileInstructions = 1024;
+
+// True when a tile of `program` gets its own specialised kernel.
+bool specialiseTile(const blobtree::Program& program, const PointRegion& region);
 
 // Tiles covering every grid point exactly once, chosen greedily (k-d splits at an eighth of a
 // tile's extent along any axis, the one removing the most work first).

@@ -22,6 +22,7 @@ mesh::TriMesh polygonize(Device& device, const blobtree::Program& program,
     return mesh;
   }
   SlabPolygonizer poly(device, program, grid, options);
+  s.fieldTiles = poly.fieldTileCount();
   const auto pts = grid.points();
   const std::uint64_t layer = std::uint64_t(pts.x) * std::uint64_t(pts.y);
   std::uint32_t vertexBase = 0, triangleBase = 0;

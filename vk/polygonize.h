@@ -30,6 +30,7 @@ struct GpuStats {
   double classifySeconds = 0.0;  // field, flags, cell counts, scans
   double emitSeconds = 0.0;      // vertices (with normals/colours) and triangles
   std::uint32_t bricks = 0;
+  std::uint32_t fieldTiles = 0;        // field and vertex passes run per tile (vk/field_tiles.h)
   std::uint64_t fieldEvaluations = 0;  // grid samples (normals/colours/refinement excluded)
 };
 

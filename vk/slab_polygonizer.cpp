@@ -25,6 +25,82 @@ std::vector<std::uint32_t> packCases() {
 
 }  // namespace
 
+// shaders/vertex_emit.glsl's push constants.
+struct SlabPolygonizer::VertexPush {
+  float origin[3], cell;
+  std::uint32_t nx, ny, ownedPoints, k0, codeLength, refineSteps, attributes;
+  float normalStep;
+  std::uint32_t vertexBase;
+  std::uint32_t tileI0 = 0, tileNx = 0, tileJ0 = 0, tileNy = 0, tileLayer0 = 0, rowBase = 0, rows = 0, tileIndex = 0;
+};
+
+SlabPolygonizer::VertexPush SlabPolygonizer::vertexPush(const SlabPlan& p, std::uint32_t vertexBase) const {
+  const auto pts = grid_.points();
+  return {{grid_.origin.x, grid_.origin.y, grid_.origin.z}, grid_.cellSize, std::uint32_t(pts.x), std::uint32_t(pts.y),
+          std::uint32_t(p.ownedPoints), p.k0, program_.codeLength, std::uint32_t(std::max(options_.refineSteps, 0)),
+          (options_.normals ? 1u : 0u) | (options_.colours ? 2u : 0u), options_.normalStep, vertexBase};
+}
+
+void SlabPolygonizer::recordTiledVertices(Recorder& rec, const SlabPlan& p, std::uint32_t vertexBase,
+                                          const SlabOutputs& out) {
+  const auto pts = grid_.points();
+  const std::uint32_t nx = std::uint32_t(pts.x), ny = std::uint32_t(pts.y), wg = options_.workgroupSize;
+  const std::uint32_t classified = nx * ny * (p.cellLayers + 1);
+  const std::uint32_t ownedLast = p.k0 + p.cellLayers - (p.last ? 0 : 1);  // last owned point layer
+  // The tiles' rows within this slab's owned layers, in tile order.
+  struct TileRows { std::uint32_t tile, i0, nxT, j0, nyT, layer0, rows, rowBase; };
+  std::vector<TileRows> tiles;
+  std::uint32_t totalRows = 0;
+  const auto& plan = fieldPass_->tiles();
+  for (std::uint32_t t = 0; t < plan.size(); ++t) {
+    const FieldTile& f = plan[t];
+    const std::uint32_t kLo = std::max(p.k0, f.first[2]), kHi = std::min(ownedLast, f.last[2]);
+    if (kLo > kHi) continue;
+    const std::uint32_t nyT = f.last[1] - f.first[1] + 1;
+    tiles.push_back({t, f.first[0], f.last[0] - f.first[0] + 1, f.first[1], nyT, kLo - p.k0, nyT * (kHi - kLo + 1), totalRows});
+    totalRows += tiles.back().rows;
+  }
+  if (totalRows == 0) return;
+  const std::array<std::uint32_t, 1> spec{wg};
+  {
+    const Kernel& k = device_.kernel("tile_rows", 3, spec);
+    const BufferRange bind[3] = {vertexOffsets_, totals_, rowScan_};
+    for (const TileRows& t : tiles) {
+      const std::uint32_t push[10] = {nx, ny, t.i0, t.nxT, t.j0, t.nyT, t.layer0, t.rows, t.rowBase, classified};
+      const Groups g = groupsFor(t.rows, wg);
+      rec.dispatch(k, bind, push, sizeof(push), g.x, g.y);
+    }
+  }
+  rec.computeBarrier();
+  // Words 0 .. pointScratch_ of the scratch held the vertex scan's partial sums, dead by now.
+  recordExclusiveScan(rec, rowScan_.handle(), 0, totalRows, scratch_.handle(), 0, totals_.handle(), 2);
+  rec.computeBarrier();
+  {
+    const Kernel& k = device_.kernel("tile_args", 3, {});
+    const BufferRange bind[3] = {rowScan_, totals_, tileArgs_};
+    for (const TileRows& t : tiles) {
+      const std::uint32_t push[5] = {t.rowBase, t.rows, totalRows, t.tile, wg};
+      rec.dispatch(k, bind, push, sizeof(push), 1);
+    }
+  }
+  rec.computeBarrier();
+  const auto pb = program_.bindings();
+  const BufferRange bind[14] = {pb[0], pb[1], pb[2], pb[3], pb[4], field_, flags_, vertexOffsets_,
+                                out.positions, out.normals, out.colours, out.keys, tileArgs_, rowScan_};
+  for (const TileRows& t : tiles) {
+    VertexPush push = vertexPush(p, vertexBase);
+    push.tileI0 = t.i0;
+    push.tileNx = t.nxT;
+    push.tileJ0 = t.j0;
+    push.tileNy = t.nyT;
+    push.tileLayer0 = t.layer0;
+    push.rowBase = t.rowBase;
+    push.rows = t.rows;
+    push.tileIndex = t.tile;
+    rec.dispatchIndirect(*vertexTileKernels_[t.tile], bind, &push, sizeof(push), tileArgs_, VkDeviceSize(t.tile) * 16);
+  }
+}
+
 SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& program,
                                  const blobtree::GridSpec& grid,
                                  const GpuPolygonizeOptions& options)
@@ -38,6 +114,33 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
   tiling.maxTiles = options.maxFieldTiles;
   fieldPass_ = std::make_unique<FieldPass>(device, program, program_, options.traversal, options.workgroupSize,
                                            grid, tiling);
+  // Vertex kernels inline the evaluator several times (refinement, six normal samples, colour):
+  // for a program too large to specialise whole, even its tiles' kernels took seconds each to
+  // build on lavapipe, so its vertices keep the one interpreter pass.
+  if (fieldPass_->tileCount() > 1 && program_.specialised) {
+    // A vertex of point p's edges is evaluated between p and p + one cell (refinement) and a
+    // normal step around that: the tile's region grown by a cell and the step.
+    std::uint64_t rows = 1;
+    for (const FieldTile& t : fieldPass_->tiles()) {
+      PointRegion r = t.region;
+      for (int a = 0; a < 3; ++a) {
+        r.lo[a] -= options.normalStep;
+        r.hi[a] += grid.cellSize + options.normalStep;
+      }
+      if (specialiseTile(program, r)) {
+        CodegenOptions c = program_.codegen;
+        c.region = r;
+        vertexTileKernels_.push_back(&specialisedKernel(device, program, c, "vertices_tiled", 14, options.workgroupSize));
+      } else {
+        vertexTileKernels_.push_back(
+            &evaluatorKernel(device, program_, "vertices_tiled", 14, options.workgroupSize, options.traversal));
+      }
+      rows += std::uint64_t(t.last[1] - t.first[1] + 1) * (t.last[2] - t.first[2] + 1);
+    }
+    rowScan_ = device.createBuffer(rows * 4);
+    tileArgs_ = device.createBuffer(fieldPass_->tileCount() * 16, MemoryUse::DeviceLocal,
+                                    VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  }
   const auto words = packCases();
   cases_ = device.createBuffer(words.size() * 4);
   device.upload(cases_, words.data(), words.size() * 4);
@@ -122,20 +225,14 @@ void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_
   const auto pts = grid_.points();
   const std::uint32_t nx = std::uint32_t(pts.x), ny = std::uint32_t(pts.y);
   const std::uint32_t wg = options_.workgroupSize;
-  {
+  if (!vertexTileKernels_.empty()) {
+    recordTiledVertices(rec, p, vertexBase, out);
+  } else {
     // One lane per vertex (indirect: the count is on the device), so every lane of a SIMD
     // group evaluates; a lane per grid point would leave most lanes idle and, on llvmpipe, pay
     // for every masked-off evaluation too.
     const Kernel& k = evaluatorKernel(device_, program_, "vertices", 13, wg, options_.traversal);
-    struct {
-      float origin[3], cell;
-      std::uint32_t nx, ny, ownedPoints, k0, codeLength, refineSteps, attributes;
-      float normalStep;
-      std::uint32_t vertexBase;
-    } push{{grid_.origin.x, grid_.origin.y, grid_.origin.z}, grid_.cellSize, nx, ny,
-           std::uint32_t(p.ownedPoints), p.k0, program_.codeLength,
-           std::uint32_t(std::max(options_.refineSteps, 0)),
-           (options_.normals ? 1u : 0u) | (options_.colours ? 2u : 0u), options_.normalStep, vertexBase};
+    const VertexPush push = vertexPush(p, vertexBase);
     const auto pb = program_.bindings();
     const BufferRange bind[13] = {pb[0], pb[1], pb[2], pb[3], pb[4], field_, flags_, vertexOffsets_,
                                   out.positions, out.normals, out.colours, out.keys, args_};

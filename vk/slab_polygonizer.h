@@ -16,6 +16,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 namespace blobvk::vk {
 
@@ -39,6 +40,7 @@ class SlabPolygonizer {
                   const GpuPolygonizeOptions& options);
 
   std::uint32_t slabCount() const { return slabs_; }
+  std::uint32_t fieldTileCount() const { return std::uint32_t(fieldPass_->tileCount()); }
   SlabPlan plan(std::uint32_t slab) const;
   const Buffer& drawArgs() const { return args_; }
 
@@ -53,6 +55,14 @@ class SlabPolygonizer {
   GpuPolygonizeOptions options_;
   GpuProgram program_;
   std::unique_ptr<FieldPass> fieldPass_;  // reads program_'s buffers
+  // With field tiles, the vertex pass runs per tile too, each with the evaluator pruned to the
+  // points its vertices need (tile_rows, a scan, tile_args, vertices_tiled); empty: one pass.
+  std::vector<const Kernel*> vertexTileKernels_;
+  Buffer rowScan_, tileArgs_;
+
+  struct VertexPush;
+  VertexPush vertexPush(const SlabPlan& p, std::uint32_t vertexBase) const;
+  void recordTiledVertices(Recorder& rec, const SlabPlan& p, std::uint32_t vertexBase, const SlabOutputs& out);
   Buffer cases_, field_, flags_, vertexOffsets_, triOffsets_, scratch_, totals_, args_;
   std::uint32_t slabCells_ = 0, slabs_ = 0;
   std::uint32_t pointScratch_ = 0;  // scratch words used by the vertex scan
