@@ -27,11 +27,17 @@ cutting::BladePath bladePath(const std::vector<BladeKeyframe>& keys) {
   return path;
 }
 
+// A body that will be cut gets spare room for the cuts' new nodes and tets up front.
+fem::SimulationSettings withCutRoom(fem::SimulationSettings settings) {
+  if (settings.cutRoom <= 0) settings.cutRoom = 0.5;
+  return settings;
+}
+
 }  // namespace
 
 CutSimulation::CutSimulation(mesh::TetMesh tets, const SimulationConfig& config, const std::vector<BladeKeyframe>& blade,
                              CutSimulationOptions options)
-    : sim_(tets, config.settings), blade_(bladePath(blade)), options_(options) {
+    : sim_(tets, withCutRoom(config.settings)), blade_(bladePath(blade)), options_(options) {
   cutter_ = std::make_unique<cutting::Cutter>(std::move(tets));
   if (config.lift) lift_.emplace(*config.lift);
   parts_ = cutting::disjointParts(cutter_->topology());

@@ -1,9 +1,11 @@
 #include "fem/elements.h"
 
 #include "fem/kernel_dispatch.h"
+#include "fem/reserve_touched.h"
 #include "fem/rotation.h"
 
 #include <chrono>
+#include <stdexcept>
 
 #include <Eigen/Dense>
 #include <tbb/parallel_for.h>
@@ -15,8 +17,6 @@ using RowMat3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
 constexpr std::size_t kTetGrain = 1024, kNodeGrain = 512;
 
-Eigen::Vector3d vec(const mesh::Double3& p) { return {p.x, p.y, p.z}; }
-
 template <class Body>
 void forEach(std::size_t count, std::size_t grain, const Body& body) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, grain), [&](const tbb::blocked_range<std::size_t>& r) {
@@ -26,43 +26,71 @@ void forEach(std::size_t count, std::size_t grain, const Body& body) {
 
 }  // namespace
 
-void ElementSet::build(const mesh::TetMesh& mesh, const std::vector<Material>& materials) {
+void ElementSet::build(const mesh::TetMesh& mesh, const std::vector<Material>& materials, double cutRoom) {
   *this = ElementSet();
-  reserve(mesh.tets.size() + mesh.tets.size() / 8 + 64);  // room for cuts without reallocating
+  reserve(withCutRoom(mesh.tets.size(), cutRoom));  // room for cuts without reallocating
+  appendSlots(mesh.tets.size());
   for (std::size_t e = 0; e < mesh.tets.size(); ++e)
     writeTet(std::uint32_t(e), mesh.tets[e], mesh.restPositions, materials[mesh.regions.empty() ? 0 : mesh.regions[e]]);
-  incidence_.build(mesh.positions.size(), tets_);  // one pass, with even spare room per row
+  filled_ = mesh.tets.size();
+  incidence_.build(mesh.positions.size(), tets_, cutRoom);  // one pass, with even spare room per row
+}
+
+void ElementSet::appendSlots(std::size_t count) {
+  const std::size_t n = tets_.size() + count;
+  tets_.resize(n);
+  restInverse_.resize(n);
+  volume_.resize(n);
+  lambda_.resize(n);
+  mu_.resize(n);
+  density_.resize(n);
+  quaternion_.resize(n);
+  rotatedGradients_.resize(n);
+  tetVectors_.resize(n);
+  tetDiagonal_.resize(n);
+  tetEnergy_.resize(n);
+  tetIterations_.resize(n);
 }
 
 void ElementSet::setTet(std::uint32_t e, const std::array<std::uint32_t, 4>& nodes, const std::vector<mesh::Double3>& rest,
                         const Material& mat) {
-  if (e < tets_.size()) incidence_.removeTet(e, tets_[e]);
+  if (e == tets_.size() && filled_ == e) appendSlots(1);
+  if (e < filled_) {
+    incidence_.replaceTet(e, tets_[e], nodes);
+  } else {
+    if (e != filled_) throw std::logic_error("element set: appended slots must be filled in order");
+    incidence_.addTet(e, nodes);
+    ++filled_;
+  }
   writeTet(e, nodes, rest, mat);
-  incidence_.addTet(e, nodes);
 }
 
 void ElementSet::writeTet(std::uint32_t e, const std::array<std::uint32_t, 4>& nodes, const std::vector<mesh::Double3>& rest,
                           const Material& mat) {
-  if (e == tets_.size()) {
-    tets_.emplace_back();
-    restInverse_.emplace_back();
-    volume_.push_back(0);
-    lambda_.push_back(0);
-    mu_.push_back(0);
-    density_.push_back(0);
-    quaternion_.emplace_back();
-    rotatedGradients_.emplace_back();
-    tetVectors_.emplace_back();
-    tetDiagonal_.emplace_back();
-    tetEnergy_.push_back(0);
-    tetIterations_.push_back(0);
-  }
   tets_[e] = nodes;
-  const Eigen::Vector3d x0 = vec(rest[nodes[0]]);
-  Eigen::Matrix3d Dm;
-  Dm << vec(rest[nodes[1]]) - x0, vec(rest[nodes[2]]) - x0, vec(rest[nodes[3]]) - x0;
-  Eigen::Map<RowMat3>(restInverse_[e].data()) = Dm.inverse();
-  volume_[e] = Dm.determinant() / 6.0;
+  // Dm = [x1 - x0, x2 - x0, x3 - x0] (columns); Dm^-1 = adj(Dm) / det: the rows of Dm^-1 are
+  // the cross products of pairs of columns over det (explicit: Eigen's general 3x3 inverse
+  // costs ~3x the instructions, which a cut event pays per written tet).
+  const mesh::Double3& x0 = rest[nodes[0]];
+  double c[3][3];  // c[k] = column k
+  for (int k = 0; k < 3; ++k) {
+    const mesh::Double3& x = rest[nodes[std::size_t(k + 1)]];
+    c[k][0] = x.x - x0.x;
+    c[k][1] = x.y - x0.y;
+    c[k][2] = x.z - x0.z;
+  }
+  auto cross = [](const double* a, const double* b, double* out) {
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+  };
+  double* inverse = restInverse_[e].data();
+  cross(c[1], c[2], inverse);
+  cross(c[2], c[0], inverse + 3);
+  cross(c[0], c[1], inverse + 6);
+  const double det = c[0][0] * inverse[0] + c[0][1] * inverse[1] + c[0][2] * inverse[2];
+  for (int i = 0; i < 9; ++i) inverse[i] /= det;
+  volume_[e] = det / 6.0;
   lambda_[e] = mat.lambda();
   mu_[e] = mat.mu();
   density_[e] = mat.density;
@@ -72,18 +100,18 @@ void ElementSet::writeTet(std::uint32_t e, const std::array<std::uint32_t, 4>& n
 }
 
 void ElementSet::reserve(std::size_t tets) {
-  tets_.reserve(tets);
-  restInverse_.reserve(tets);
-  volume_.reserve(tets);
-  lambda_.reserve(tets);
-  mu_.reserve(tets);
-  density_.reserve(tets);
-  quaternion_.reserve(tets);
-  rotatedGradients_.reserve(tets);
-  tetVectors_.reserve(tets);
-  tetDiagonal_.reserve(tets);
-  tetEnergy_.reserve(tets);
-  tetIterations_.reserve(tets);
+  reserveTouched(tets_, tets);
+  reserveTouched(restInverse_, tets);
+  reserveTouched(volume_, tets);
+  reserveTouched(lambda_, tets);
+  reserveTouched(mu_, tets);
+  reserveTouched(density_, tets);
+  reserveTouched(quaternion_, tets);
+  reserveTouched(rotatedGradients_, tets);
+  reserveTouched(tetVectors_, tets);
+  reserveTouched(tetDiagonal_, tets);
+  reserveTouched(tetEnergy_, tets);
+  reserveTouched(tetIterations_, tets);
 }
 
 double ElementSet::lumpedMass(std::size_t node) const {

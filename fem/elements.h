@@ -26,15 +26,19 @@ struct ElasticPassResult {
 class ElementSet {
  public:
   // Expects a validated mesh and one material per region index used.
-  void build(const mesh::TetMesh& mesh, const std::vector<Material>& materials);
+  // cutRoom: SimulationSettings::cutRoom.
+  void build(const mesh::TetMesh& mesh, const std::vector<Material>& materials, double cutRoom = 0.0);
   std::size_t size() const { return tets_.size(); }
   std::size_t nodeCount() const { return incidence_.nodeCount(); }
   const NodeIncidence& incidence() const { return incidence_; }
 
-  // Incremental edits (a topology change): new nodes have no tets yet; `setTet` rewrites slot
-  // `tet` (or appends it when tet == size()) from rest positions and a material, resets its
-  // rotation warm start and updates the incidence rows of the old and new nodes only.
+  // Incremental edits (a topology change): new nodes have no tets yet; `appendSlots` adds
+  // `count` slots past the end (all arrays grow once), which setTet must then fill in order
+  // before any pass runs; `setTet` rewrites slot `tet` (or fills the next appended slot, or
+  // appends it when tet == size()) from rest positions and a material, resets its rotation warm
+  // start and updates the incidence rows of the old and new nodes only.
   void addNodes(std::size_t count) { incidence_.addNodes(count); }
+  void appendSlots(std::size_t count);
   void setTet(std::uint32_t tet, const std::array<std::uint32_t, 4>& nodes, const std::vector<mesh::Double3>& rest,
               const Material& material);
 
@@ -61,7 +65,7 @@ class ElementSet {
   // y_node = nodeScale[node] p_node + sum of tetVectors_ over the node's incidence row.
   void gather(double* y, const double* nodeScale, const double* p) const;
   void writeTet(std::uint32_t tet, const std::array<std::uint32_t, 4>& nodes, const std::vector<mesh::Double3>& rest,
-                const Material& material);  // element data only (appends when tet == size())
+                const Material& material);  // element data only, of an existing slot
 
   std::vector<std::array<std::uint32_t, 4>> tets_;
   std::vector<std::array<double, 9>> restInverse_;  // Dm^-1, row-major; rows are grad N1..N3
@@ -73,6 +77,7 @@ class ElementSet {
   std::vector<double> tetEnergy_;
   std::vector<int> tetIterations_;
   NodeIncidence incidence_;
+  std::size_t filled_ = 0;  // slots [filled_, size()) are appended and not written yet
   double lastTetPassMs_ = 0;
 };
 

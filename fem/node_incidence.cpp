@@ -1,5 +1,7 @@
 #include "fem/node_incidence.h"
 
+#include "fem/reserve_touched.h"
+
 #include <algorithm>
 #include <stdexcept>
 #include <string>
@@ -16,7 +18,7 @@ std::uint32_t pack(std::uint32_t tet, int corner) {
 
 }  // namespace
 
-void NodeIncidence::build(std::size_t n, const std::vector<std::array<std::uint32_t, 4>>& tets) {
+void NodeIncidence::build(std::size_t n, const std::vector<std::array<std::uint32_t, 4>>& tets, double cutRoom) {
   count_.assign(n, 0);
   for (const auto& t : tets)
     for (auto v : t) ++count_[v];
@@ -28,9 +30,9 @@ void NodeIncidence::build(std::size_t n, const std::vector<std::array<std::uint3
     capacity_[r] = count_[r] + kSpare;
     offset += capacity_[r];
   }
-  entries_.reserve(offset + offset / 8);  // room for rows that outgrow their spare entries
   entries_.assign(offset, 0);
-  for (auto* v : {&start_, &count_, &capacity_}) v->reserve(n + n / 8 + 64);
+  reserveTouched(entries_, 2 * offset);  // room for new rows and rows that outgrow their spare entries
+  for (auto* v : {&start_, &count_, &capacity_}) reserveTouched(*v, withCutRoom(n, cutRoom));
   std::vector<std::uint32_t> fill(n, 0);
   // Tets in increasing order: every row comes out sorted without a sort.
   for (std::size_t e = 0; e < tets.size(); ++e)
@@ -61,32 +63,58 @@ void NodeIncidence::grow(std::size_t r) {
   capacity_[r] = newCapacity;
 }
 
-void NodeIncidence::addTet(std::uint32_t tet, const std::array<std::uint32_t, 4>& nodes) {
-  for (int i = 0; i < 4; ++i) {
-    const std::uint32_t r = nodes[std::size_t(i)];
-    if (r >= start_.size()) throw std::out_of_range("node incidence: node " + std::to_string(r) + " out of range");
-    if (count_[r] == capacity_[r]) grow(r);
-    const std::uint32_t entry = pack(tet, i);
-    std::uint32_t* b = entries_.data() + start_[r];
-    std::uint32_t* e = b + count_[r];
+void NodeIncidence::insertEntry(std::uint32_t r, std::uint32_t entry) {
+  if (r >= start_.size()) throw std::out_of_range("node incidence: node " + std::to_string(r) + " out of range");
+  if (count_[r] == capacity_[r]) grow(r);
+  std::uint32_t* b = entries_.data() + start_[r];
+  std::uint32_t* e = b + count_[r];
+  if (b == e || e[-1] < entry) {
+    *e = entry;  // the common case: an appended tet sorts after every entry of the row
+  } else {
     std::uint32_t* at = std::lower_bound(b, e, entry);
     std::copy_backward(at, e, e + 1);
     *at = entry;
-    ++count_[r];
   }
+  ++count_[r];
+}
+
+void NodeIncidence::addTet(std::uint32_t tet, const std::array<std::uint32_t, 4>& nodes) {
+  for (int i = 0; i < 4; ++i) insertEntry(nodes[std::size_t(i)], pack(tet, i));
+}
+
+void NodeIncidence::removeEntry(std::uint32_t r, std::uint32_t entry) {
+  std::uint32_t* b = entries_.data() + start_[r];
+  std::uint32_t* e = b + count_[r];
+  std::uint32_t* at = std::lower_bound(b, e, entry);
+  if (at == e || *at != entry)
+    throw std::logic_error("node incidence: tet " + std::to_string(tetOf(entry)) + " is not listed at node " + std::to_string(r));
+  std::copy(at + 1, e, at);
+  --count_[r];
 }
 
 void NodeIncidence::removeTet(std::uint32_t tet, const std::array<std::uint32_t, 4>& nodes) {
-  for (int i = 0; i < 4; ++i) {
-    const std::uint32_t r = nodes[std::size_t(i)];
-    const std::uint32_t entry = pack(tet, i);
-    std::uint32_t* b = entries_.data() + start_[r];
-    std::uint32_t* e = b + count_[r];
-    std::uint32_t* at = std::lower_bound(b, e, entry);
-    if (at == e || *at != entry)
-      throw std::logic_error("node incidence: tet " + std::to_string(tet) + " is not listed at node " + std::to_string(r));
-    std::copy(at + 1, e, at);
-    --count_[r];
+  for (int i = 0; i < 4; ++i) removeEntry(nodes[std::size_t(i)], pack(tet, i));
+}
+
+
+void NodeIncidence::replaceTet(std::uint32_t tet, const std::array<std::uint32_t, 4>& before,
+                               const std::array<std::uint32_t, 4>& after) {
+  std::array<std::uint32_t, 4> gone = before, come = after;  // kNone where a node stays
+  constexpr std::uint32_t kNone = 0xffffffffu;
+  for (std::size_t i = 0; i < 4; ++i)
+    for (std::size_t j = 0; j < 4; ++j) {
+      if (before[i] != after[j]) continue;
+      const std::uint32_t r = before[i];
+      std::uint32_t* b = entries_.data() + start_[r];
+      std::uint32_t* at = std::lower_bound(b, b + count_[r], pack(tet, 0));
+      if (at == b + count_[r] || tetOf(*at) != tet)
+        throw std::logic_error("node incidence: tet " + std::to_string(tet) + " is not listed at node " + std::to_string(r));
+      *at = pack(tet, int(j));  // same tet, same place in the sorted row
+      gone[i] = come[j] = kNone;
+    }
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (gone[i] != kNone) removeEntry(gone[i], pack(tet, int(i)));
+    if (come[i] != kNone) insertEntry(come[i], pack(tet, int(i)));
   }
 }
 

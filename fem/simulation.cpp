@@ -3,6 +3,7 @@
 #include "fem/boundary_faces.h"
 #include "fem/elements.h"
 #include "fem/pcg.h"
+#include "fem/reserve_touched.h"
 #include "fem/tet_utils.h"
 
 #include <algorithm>
@@ -47,6 +48,11 @@ struct Simulation::Impl {
   // Per-node contact scratch: depth, normal and tool of the deepest contact.
   std::vector<double> contactDepth;
   std::vector<mesh::Double3> contactNormal;
+  // Topology-change scratch, kept so that a change allocates nothing: a per-node mark (equal to
+  // markEpoch when the node is in touchedNodes) and the overwritten versions of rewritten tets.
+  std::vector<std::uint32_t> nodeMark, touchedNodes;
+  std::uint32_t markEpoch = 0;
+  std::vector<std::array<std::uint32_t, 4>> overwrittenTets;
 
   void addToolContacts(double h);
   void applyFloor();
@@ -76,7 +82,7 @@ Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_
   d.settings = std::move(s);
   if (d.mesh.boundaryFaces.empty()) d.mesh.boundaryFaces = findBoundaryFaces(d.mesh);
   d.boundary.build(d.mesh.boundaryFaces);
-  d.elements.build(d.mesh, d.settings.materials);
+  d.elements.build(d.mesh, d.settings.materials, d.settings.cutRoom);
   d.mass = d.elements.lumpedMass();
   const std::size_t n = d.mesh.nodeCount();
   d.velocity.assign(n, {});
@@ -97,15 +103,18 @@ Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_
   d.contacts.assign(d.settings.tools.size(), {});
   d.contactDepth.assign(n, 0);
   d.contactNormal.assign(n, {});
+  d.nodeMark.assign(n, 0);
   // Room for the nodes of later cuts, so that a topology change does not copy every array.
-  const std::size_t room = n + n / 8 + 64;
-  for (auto* v : {&d.mesh.positions, &d.mesh.restPositions, &d.velocity, &d.contactNormal}) v->reserve(room);
-  for (auto* v : {&d.mass, &d.contactDepth, &d.nodeScale}) v->reserve(room);
-  for (auto* v : {&d.force, &d.diagonal, &d.rhs, &d.solution}) v->reserve(3 * room);
-  d.fixed.reserve(room);
-  d.freeDof.reserve(3 * room);
-  d.mesh.tets.reserve(d.mesh.tets.size() + d.mesh.tets.size() / 8 + 64);
-  d.mesh.regions.reserve(d.mesh.tets.capacity());
+  const std::size_t room = withCutRoom(n, d.settings.cutRoom);
+  for (auto* v : {&d.mesh.positions, &d.mesh.restPositions, &d.velocity, &d.contactNormal}) reserveTouched(*v, room);
+  for (auto* v : {&d.mass, &d.contactDepth, &d.nodeScale}) reserveTouched(*v, room);
+  for (auto* v : {&d.force, &d.diagonal, &d.rhs, &d.solution}) reserveTouched(*v, 3 * room);
+  reserveTouched(d.nodeMark, room);
+  reserveTouched(d.fixed, room);
+  reserveTouched(d.freeDof, 3 * room);
+  const std::size_t tetRoom = withCutRoom(d.mesh.tets.size(), d.settings.cutRoom);
+  reserveTouched(d.mesh.tets, tetRoom);
+  if (!d.mesh.regions.empty()) reserveTouched(d.mesh.regions, tetRoom);
 }
 
 Simulation::~Simulation() = default;
@@ -307,39 +316,48 @@ void Simulation::applyTopologyChange(const TopologyChange& c) {
     d.velocity.push_back(vel[k]);
     d.fixed.push_back(fixedNew[k]);
     d.mass.push_back(0);
+    d.nodeMark.push_back(0);
   }
-  if (d.mesh.regions.empty() && !c.tetSlots.empty()) d.mesh.regions.assign(d.mesh.tetCount(), 0);
-  std::vector<std::uint32_t> touched;  // nodes whose lumped mass changes
-  std::vector<BoundaryFaceSet::Face> removedFaces, addedFaces;
+  // Empty regions mean "all region 0": they are spelled out only once another region appears.
+  if (d.mesh.regions.empty() && std::any_of(c.tetRegions.begin(), c.tetRegions.end(), [](std::uint32_t r) { return r != 0; }))
+    d.mesh.regions.assign(d.mesh.tetCount(), 0);
+  if (++d.markEpoch == 0) {  // wrapped: forget every old mark
+    std::fill(d.nodeMark.begin(), d.nodeMark.end(), 0);
+    d.markEpoch = 1;
+  }
+  d.touchedNodes.clear();  // nodes whose lumped mass changes, each once
+  auto touch = [&d](const std::array<std::uint32_t, 4>& tet) {
+    for (std::uint32_t v : tet)
+      if (d.nodeMark[v] != d.markEpoch) {
+        d.nodeMark[v] = d.markEpoch;
+        d.touchedNodes.push_back(v);
+      }
+  };
+  d.elements.appendSlots(tetCount - d.mesh.tetCount());  // tetCount: the count after the change
+  d.overwrittenTets.clear();
   for (std::size_t k = 0; k < c.tetSlots.size(); ++k) {
     const std::uint32_t slot = c.tetSlots[k];
     if (slot == d.mesh.tetCount()) {
       d.mesh.tets.push_back(c.tetNodes[k]);
-      d.mesh.regions.push_back(c.tetRegions[k]);
+      if (!d.mesh.regions.empty()) d.mesh.regions.push_back(c.tetRegions[k]);
     } else {
       const auto& old = d.mesh.tets[slot];
-      touched.insert(touched.end(), old.begin(), old.end());
-      BoundaryFaceSet::collectFaces(old, removedFaces);
+      touch(old);
+      d.overwrittenTets.push_back(old);
       d.mesh.tets[slot] = c.tetNodes[k];
-      d.mesh.regions[slot] = c.tetRegions[k];
+      if (!d.mesh.regions.empty()) d.mesh.regions[slot] = c.tetRegions[k];
     }
-    touched.insert(touched.end(), c.tetNodes[k].begin(), c.tetNodes[k].end());
-    BoundaryFaceSet::collectFaces(c.tetNodes[k], addedFaces);
+    touch(c.tetNodes[k]);
     d.elements.setTet(slot, c.tetNodes[k], d.mesh.restPositions, d.settings.materials[c.tetRegions[k]]);
   }
-  std::sort(touched.begin(), touched.end());
-  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-  for (std::uint32_t v : touched) d.mass[v] = d.elements.lumpedMass(v);
-  std::vector<std::uint32_t> slots = c.tetSlots;
-  std::sort(slots.begin(), slots.end());
-  if (std::adjacent_find(slots.begin(), slots.end()) != slots.end()) {
-    // A slot written twice: the faces of its first version are gone again, so the "shared by
-    // two added tets" shortcut does not hold; re-examine every face instead.
-    removedFaces.insert(removedFaces.end(), addedFaces.begin(), addedFaces.end());
-    addedFaces.clear();
-  }
-  d.boundary.update(std::move(removedFaces), std::move(addedFaces), d.mesh.tets, d.elements.incidence());
-  d.mesh.boundaryFaces = d.boundary.faces();  // O(boundary faces): a copy of the kept set
+  for (std::uint32_t v : d.touchedNodes) d.mass[v] = d.elements.lumpedMass(v);
+  // Slots listed in increasing order (as cut events list them) are each written once; otherwise
+  // the added faces include overwritten versions and every face is re-counted.
+  const bool eachSlotOnce =
+      std::adjacent_find(c.tetSlots.begin(), c.tetSlots.end(), [](std::uint32_t a, std::uint32_t b) { return a >= b; }) ==
+      c.tetSlots.end();
+  d.boundary.update(d.overwrittenTets, c.tetNodes, eachSlotOnce, std::uint32_t(oldNodes), d.elements.incidence(),
+                    d.mesh.boundaryFaces);
   d.freeDof.resize(3 * nodes);
   for (std::size_t i = 3 * oldNodes; i < 3 * nodes; ++i) d.freeDof[i] = d.fixed[i / 3] ? 0 : 1;
   d.force.resize(3 * nodes, 0);

@@ -32,7 +32,7 @@ std::string tetgenSwitches(const TetgenOptions& o) {
 
 #if !BLOBVK_HAS_TETGEN
 bool tetgenAvailable() { return false; }
-mesh::TetMesh tetrahedralize(const mesh::TriMesh&, const TetgenOptions&) {
+mesh::TetMesh tetrahedralize(const mesh::TriMesh&, const TetgenOptions&, SliverStats*) {
   throw std::runtime_error("blobvk was built without TetGen (BLOBVK_WITH_TETGEN=OFF); use the voxel mesher");
 }
 #endif

@@ -30,7 +30,7 @@ std::string tetgenReason(int code) {
 
 bool tetgenAvailable() { return true; }
 
-mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& options) {
+mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& options, SliverStats* slivers) {
   const mesh::MeshReport report = mesh::checkMesh(surface);
   if (surface.triangles.empty()) throw std::invalid_argument("tetrahedralize: the surface has no triangles");
   if (!report.watertight())
@@ -95,6 +95,10 @@ mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& 
       mesh.tets[std::size_t(t)][std::size_t(k)] = std::uint32_t(out.tetrahedronlist[t * out.numberofcorners + k]);
   orientTets(mesh);
   mesh.boundaryFaces = findBoundaryFaces(mesh);
+  if (options.quality && options.smoothSlivers && options.minDihedralDegrees > 0) {
+    const SliverStats stats = smoothSlivers(mesh, options.minDihedralDegrees, surface.positions.size());
+    if (slivers) *slivers = stats;
+  }
   return mesh;
 }
 

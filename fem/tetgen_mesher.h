@@ -3,6 +3,7 @@
 // includes it. Without it, tetrahedralize() throws and tetgenAvailable() is false.
 #pragma once
 
+#include "fem/tetgen_slivers.h"
 #include "mesh/tetmesh.h"
 #include "mesh/trimesh.h"
 
@@ -21,6 +22,9 @@ struct TetgenOptions {
   // interior points (measured: min dihedral 7.2 -> 12.7 degrees at ~100k tets, same time; see
   // docs/performance.md). It cannot fix tets forced by thin input triangles.
   double optimizeMaxDihedralDegrees = 0.0;
+  // After TetGen, move Steiner points around the tets still below minDihedralDegrees
+  // (fem/tetgen_slivers.h): TetGen leaves a few (7.5-9.9 degrees in 85k-215k tets, measured).
+  bool smoothSlivers = true;
 };
 
 bool tetgenAvailable();
@@ -32,6 +36,7 @@ std::string tetgenSwitches(const TetgenOptions& options);
 // when the surface is not closed, manifold and consistently oriented (mesh::checkMesh), and
 // for a self-intersecting surface (found by a TetGen -d pass first: TetGen 1.5 crashes on such
 // input otherwise), and std::runtime_error with TetGen's reason when meshing fails.
-mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& options = {});
+// `slivers`, when given, receives what the sliver pass did.
+mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& options = {}, SliverStats* slivers = nullptr);
 
 }  // namespace blobvk::fem

@@ -11,6 +11,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <set>
 
 namespace blobvk::fem {
 namespace {
@@ -135,6 +137,75 @@ TEST(TopologyChange, ASlotWrittenTwiceKeepsItsLastVersion) {
   EXPECT_LT(relativeDifference(sim.elasticForces(), fresh.elasticForces()), 1e-10);
 }
 
+double signedVolume(const mesh::TetMesh& m, const std::array<std::uint32_t, 4>& t) {
+  const auto &a = m.restPositions[t[0]], &b = m.restPositions[t[1]], &c = m.restPositions[t[2]], &d = m.restPositions[t[3]];
+  const Double3 u{b.x - a.x, b.y - a.y, b.z - a.z}, v{c.x - a.x, c.y - a.y, c.z - a.z}, w{d.x - a.x, d.y - a.y, d.z - a.z};
+  return (u.x * (v.y * w.z - v.z * w.y) - u.y * (v.x * w.z - v.z * w.x) + u.z * (v.x * w.y - v.y * w.x)) / 6.0;
+}
+
+// A 2-3 flip: two tets sharing face (a, b, c), with apexes d and e, become three tets around
+// edge d-e (where that is a valid split of their union). The new faces join old nodes only and
+// no removed tet had them, and the pair's outer faces change users: the boundary update must
+// count those faces, not infer them. The pair is one with an outer face on the boundary. Interior
+// nodes are jittered: on the regular grid every such pair is degenerate (d-e meets an edge).
+TEST(TopologyChange, AFlipBetweenOldNodesMatchesAFreshSimulation) {
+  mesh::TetMesh jittered = twoMaterialBox();
+  for (std::size_t i = 0; i < jittered.nodeCount(); ++i) {
+    Double3& p = jittered.restPositions[i];
+    const bool inside = p.x > 1e-9 && p.x < 0.3 - 1e-9 && p.y > 1e-9 && p.y < 0.3 - 1e-9 && p.z > 1e-9 && p.z < 0.3 - 1e-9;
+    if (!inside) continue;
+    const double j = 0.015 * std::sin(12.9898 * double(i)), k = 0.015 * std::cos(78.233 * double(i));
+    p = {p.x + j, p.y + k, p.z + 0.5 * (j - k)};
+    jittered.positions[i] = p;
+  }
+  Simulation sim(jittered, settings());
+  sim.run(5);
+  const mesh::TetMesh& m = sim.mesh();
+  std::set<std::array<std::uint32_t, 3>> boundary;
+  for (auto f : m.boundaryFaces) {
+    std::sort(f.begin(), f.end());
+    boundary.insert(f);
+  }
+  std::optional<TopologyChange> flip;
+  for (std::uint32_t s1 = 0; s1 < m.tetCount() && !flip; ++s1)
+    for (std::uint32_t s2 = s1 + 1; s2 < m.tetCount() && !flip; ++s2) {
+      const auto &t1 = m.tets[s1], &t2 = m.tets[s2];
+      std::vector<std::uint32_t> shared, apex;
+      for (auto v : t1) (std::find(t2.begin(), t2.end(), v) != t2.end() ? shared : apex).push_back(v);
+      if (shared.size() != 3) continue;
+      for (auto v : t2)
+        if (std::find(t1.begin(), t1.end(), v) == t1.end()) apex.push_back(v);
+      TopologyChange c;
+      double volume = 0;
+      bool outerOnBoundary = false;
+      for (int k = 0; k < 3; ++k) {
+        std::array<std::uint32_t, 4> t{shared[std::size_t(k)], shared[std::size_t(k + 1) % 3], apex[0], apex[1]};
+        if (signedVolume(m, t) < 0) std::swap(t[0], t[1]);
+        t = {t[3], t[1], t[0], t[2]};  // an even permutation: other corners, so other face rotations
+        volume += signedVolume(m, t);
+        if (!(signedVolume(m, t) > 1e-9)) break;
+        for (auto d : {apex[0], apex[1]}) {
+          std::array<std::uint32_t, 3> outer{shared[std::size_t(k)], shared[std::size_t(k + 1) % 3], d};
+          std::sort(outer.begin(), outer.end());
+          outerOnBoundary = outerOnBoundary || boundary.count(outer) > 0;
+        }
+        c.tetSlots.push_back(k == 0 ? s1 : k == 1 ? s2 : std::uint32_t(m.tetCount()));
+        c.tetNodes.push_back(t);
+        c.tetRegions.push_back(m.regions[s1]);
+      }
+      const double before = signedVolume(m, t1) + signedVolume(m, t2);
+      if (c.tetSlots.size() == 3 && outerOnBoundary && std::abs(volume - before) < 1e-12 * before) flip = c;
+    }
+  ASSERT_TRUE(flip.has_value());
+  sim.applyTopologyChange(*flip);
+  Simulation fresh = freshCopy(sim);
+  EXPECT_EQ(sim.mesh().boundaryFaces, fresh.mesh().boundaryFaces);
+  const auto &massA = sim.nodeMasses(), &massB = fresh.nodeMasses();
+  for (std::size_t i = 0; i < massA.size(); ++i) EXPECT_NEAR(massA[i], massB[i], 1e-12 * massB[i]) << "node " << i;
+  EXPECT_LT(relativeDifference(sim.elasticForces(), fresh.elasticForces()), 1e-10);
+  EXPECT_NEAR(sim.restVolume(), 0.027, 1e-12);
+}
+
 TEST(TopologyChange, InvalidChangesThrowAndLeaveTheSimulationUnchanged) {
   Simulation sim = runningSimulation();
   const mesh::TetMesh before = sim.mesh();
@@ -217,9 +288,14 @@ TEST(NodeIncidence, EditedRowsEqualAFreshBuildThroughRowMoves) {
   incidence.addNodes(3);  // nodes 60..62 start empty with little room
   for (std::uint32_t round = 0; round < 40; ++round) {
     const std::uint32_t t = (round * 7) % 50;
-    incidence.removeTet(t, tets[t]);
-    tets[t] = {60 + round % 3, t, (t + 5) % 60, (t + 9) % 60};
-    incidence.addTet(t, tets[t]);
+    const std::array<std::uint32_t, 4> next{60 + round % 3, t, (t + 5) % 60, (t + 9) % 60};
+    if (round % 2 == 0) {
+      incidence.removeTet(t, tets[t]);
+      incidence.addTet(t, next);
+    } else {
+      incidence.replaceTet(t, tets[t], next);  // nodes kept in both versions move corners in place
+    }
+    tets[t] = next;
     tets.push_back({60, 61, 62, round});  // appended: rows 60..62 grow well past their room
     incidence.addTet(std::uint32_t(tets.size() - 1), tets.back());
   }

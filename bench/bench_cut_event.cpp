@@ -1,0 +1,113 @@
+// One cut event end to end, as the app runs it (apps/cut_simulation.cpp, CutSimulation::cutEvent):
+// the cutter splits the tets the blade swept (cutting::Cutter::cut), the event becomes a
+// fem::TopologyChange (app::toTopologyChange), and the running simulation takes it
+// (fem::Simulation::applyTopologyChange: element data, lumped masses, incidence rows, boundary
+// faces). Anchor T3: <= 2 ms per event at ~100k tets with ~500 tets swept.
+// Mesh and strokes are bench_cutting's BM_CutEvent: a 26^3 block of unit voxels (105,456 tets),
+// tilted 10 x 10 blade strokes on parallel, disjoint slices; cutter and simulation are rebuilt
+// (outside the timed region) every 16 strokes. The simulation does not step between events (a
+// step costs ~40 ms here and does not change what an event costs).
+// Counters per event: wall ms and main-thread CPU ms of each phase (cut, convert, fem) and of the
+// sum, split tets, new nodes, tet slots written.
+#include "apps/cut_to_topology_change.h"
+#include "bench/cut_block.h"
+#include "cutting/cutter.h"
+#include "fem/simulation.h"
+
+#include <benchmark/benchmark.h>
+
+#include <time.h>
+
+#include <chrono>
+#include <memory>
+#include <optional>
+
+namespace {
+
+using namespace blobvk;
+using bench::cube;
+using bench::stroke;
+
+fem::SimulationSettings settings() {
+  fem::SimulationSettings s;
+  s.materials = {fem::Material{1e5, 0.45, 1000}};
+  s.fixed = [](const mesh::Double3& p) { return p.y < 1e-9; };
+  s.cgMaxIterations = 10;
+  s.cgTolerance = 0;
+  s.cutRoom = 0.5;  // as blobvk cut
+  return s;
+}
+
+double threadCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+// Wall and main-thread CPU time of one phase, summed over events.
+struct PhaseClock {
+  double wallMs = 0, cpuMs = 0;
+  template <class Body>
+  auto time(Body&& body) {
+    const auto wall = std::chrono::steady_clock::now();
+    const double cpu = threadCpuMs();
+    auto result = body();
+    cpuMs += threadCpuMs() - cpu;
+    wallMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wall).count();
+    return result;
+  }
+};
+
+void BM_CutEventEndToEnd(benchmark::State& state) {
+  const int n = int(state.range(0));
+  const mesh::TetMesh block = cube(n);
+  constexpr int kStrokesPerMesh = 16;  // slices z = 3.5 .. 18.5 of a block at least 26 cells high
+  std::unique_ptr<cutting::Cutter> cutter;
+  std::optional<fem::Simulation> sim;
+  int k = kStrokesPerMesh;
+  PhaseClock cut, convert, apply;
+  double splits = 0, newNodes = 0, slots = 0;
+  for (auto _ : state) {
+    if (k == kStrokesPerMesh) {
+      state.PauseTiming();
+      cutter.reset();
+      sim.reset();
+      cutter = std::make_unique<cutting::Cutter>(block);
+      sim.emplace(block, settings());
+      sim->run(1);
+      k = 0;
+      state.ResumeTiming();
+    }
+    const std::size_t nodesBefore = sim->mesh().nodeCount(), tetsBefore = sim->mesh().tetCount();
+    const cutting::CutResult event = cut.time([&] { return cutter->cut(stroke(k++)); });
+    const fem::TopologyChange change =
+        convert.time([&] { return app::toTopologyChange(event, cutter->topology(), nodesBefore, tetsBefore); });
+    apply.time([&] {
+      sim->applyTopologyChange(change);
+      return 0;
+    });
+    benchmark::DoNotOptimize(sim->mesh().boundaryFaces.data());
+    splits += double(event.splitTets);
+    newNodes += double(change.newNodes.size());
+    slots += double(change.tetSlots.size());
+  }
+  const double events = double(state.iterations());
+  state.counters["tets"] = double(block.tets.size());
+  state.counters["split_per_event"] = splits / events;
+  state.counters["new_nodes"] = newNodes / events;
+  state.counters["slots_written"] = slots / events;
+  state.counters["cut_ms"] = cut.wallMs / events;
+  state.counters["convert_ms"] = convert.wallMs / events;
+  state.counters["fem_ms"] = apply.wallMs / events;
+  state.counters["total_ms"] = (cut.wallMs + convert.wallMs + apply.wallMs) / events;
+  state.counters["cut_cpu_ms"] = cut.cpuMs / events;
+  state.counters["convert_cpu_ms"] = convert.cpuMs / events;
+  state.counters["fem_cpu_ms"] = apply.cpuMs / events;
+  state.counters["total_cpu_ms"] = (cut.cpuMs + convert.cpuMs + apply.cpuMs) / events;
+}
+// 26^3 * 6 = 105,456 tets.
+BENCHMARK(BM_CutEventEndToEnd)->Arg(26)->Unit(benchmark::kMillisecond)->Iterations(64);
+
+}  // namespace
+
+BENCHMARK_MAIN();
