@@ -1,14 +1,16 @@
 #include "cutting/cutter.h"
 
 #include "cutting/flat_hash.h"
+#include "cutting/local_groups.h"
 #include "cutting/predicates.h"
+#include "cutting/radix_sort.h"
 #include "cutting/vec.h"
 
 #include <algorithm>
 #include <bit>
 #include <chrono>
-#include <numeric>
 #include <stdexcept>
+#include <utility>
 
 namespace blobvk::cutting {
 namespace {
@@ -70,25 +72,6 @@ constexpr std::array<std::array<std::uint8_t, 4>, 4> kLocalEdge = [] {
   return table;
 }();
 
-// Small union-find over local indices. Roots are never observable (groups are told apart by
-// their first member), so a union may link either way: the larger root under the smaller.
-struct Components {
-  std::vector<std::uint32_t> parent;
-  void reset(std::size_t n) {
-    parent.resize(n);
-    std::iota(parent.begin(), parent.end(), 0u);
-  }
-  std::uint32_t find(std::uint32_t x) {
-    std::uint32_t* p = parent.data();
-    while (p[x] != x) x = p[x] = p[p[x]];
-    return x;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a), b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
-
 // Cut codes of one touched tet.
 struct Codes {
   std::uint8_t edges = 0, nodes = 0;
@@ -114,15 +97,17 @@ struct Cutter::Scratch {
   std::vector<double> nearPlane, distances;
   std::vector<CutEdge> kept;
   std::vector<FaceKey> crack;
-  std::vector<std::uint64_t> crackLinks, renameOrder;
+  std::vector<std::uint64_t> crackLinks, renameOrder, sortScratch64;
+  std::vector<std::uint32_t> sortScratch32;
   std::vector<Rename> renames;
   std::vector<std::uint8_t> isAdded;  // by slot: listed in addedTets (all 0 between events)
+  std::vector<Codes> codesOf;         // by slot: cut codes of a touched tet (all 0 between events)
+  std::vector<Codes> orderCodes;      // codes of the touched tets, in `order`
   std::vector<std::uint64_t> faceKeys;
-  Components comps;
+  LocalGroups groups;
   FlatHashMap<std::uint64_t, CutEdge, U64Hash> cutEdges{kNoEdge};
   FlatHashSet<std::uint64_t, U64Hash> tested{kNoEdge};
   FlatHashSet<std::uint32_t, U32Hash> cutNodes{kNone};
-  FlatHashMap<std::uint32_t, Codes, U32Hash> touched{kNone};
   FlatHashMap<std::uint64_t, std::uint32_t, U64Hash> edgePoint{kNoEdge};
 };
 
@@ -136,6 +121,7 @@ Cutter::Cutter(mesh::TetMesh mesh, CutOptions options) : topology_(std::move(mes
   scratch_.reset(new Scratch);
   // Same headroom as the topology's, so the first events do not grow it.
   scratch_->isAdded.assign(topology_.slotCount() + topology_.slotCount() / 2 + 4096, 0);
+  scratch_->codesOf.assign(scratch_->isAdded.size(), Codes{});
   grid_.rebuild(topology_);
   meanEdge_ = grid_.cellSize() / 2.0;
 }
@@ -241,7 +227,11 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
         const double da = distances[4 * i + std::size_t(e[0])], db = distances[4 * i + std::size_t(e[1])];
         if ((da > nearPlane[i] && db > nearPlane[i]) || (da < -nearPlane[i] && db < -nearPlane[i])) continue;
         if (!overlaps(boxes[i], pos[a], pos[b])) continue;
-        const SegmentHit hit = segmentCrossesTriangle(pos[a], pos[b], swept[i][0], swept[i][1], swept[i][2]);
+        // A distance beyond the slack fixes that end's orientation sign (opposite to the distance's).
+        auto sideOf = [&](double d) { return d > nearPlane[i] ? -1 : (d < -nearPlane[i] ? 1 : 0); };
+        const bool swapped = tet[e[0]] > tet[e[1]];  // a, b are the edge's ends in ascending order
+        const SegmentHit hit = segmentCrossesTriangle(pos[a], pos[b], swept[i][0], swept[i][1], swept[i][2],
+                                                      sideOf(swapped ? db : da), sideOf(swapped ? da : db));
         if (hit.hit) {
           cutEdges.insert(edgeKey(a, b), CutEdge{a, b, hit.t});
           hitAny = true;
@@ -272,12 +262,19 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
 
   lap(1);
 
-  // 4. Codes per touched tet.
-  auto& touched = scratch.touched;
+  // 4. Codes per touched tet, in a per-slot array (zero between events; no hash probes) and the
+  // list of touched slots (`order`, a slot joins it when its codes first become non-zero).
+  auto& codesOf = scratch.codesOf;
+  if (codesOf.size() < topology_.slotCount()) codesOf.resize(topology_.slotCount() + topology_.slotCount() / 2);
+  auto& order = scratch.order;
+  order.clear();
+  auto touch = [&](std::uint32_t slot) -> Codes& {
+    Codes& codes = codesOf[slot];
+    if ((codes.edges | codes.nodes) == 0) order.push_back(slot);
+    return codes;
+  };
   auto& edgePoint = scratch.edgePoint;
-  touched.clear();
   edgePoint.clear();
-  touched.reserve(8 * (kept.size() + cutNodes.size()));
   edgePoint.reserve(kept.size());
   for (const CutEdge& ce : kept) {
     const std::uint32_t node = topology_.addNode(lerp(topology_.mesh().positions[ce.a], topology_.mesh().positions[ce.b], ce.t),
@@ -295,20 +292,21 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       const int j = localIndex(tet, ce.b);
       if (j < 0) continue;
       const int i = localIndex(tet, ce.a);
-      touched[slot].edges |= std::uint8_t(1u << kLocalEdge[std::size_t(i)][std::size_t(j)]);
+      touch(slot).edges |= std::uint8_t(1u << kLocalEdge[std::size_t(i)][std::size_t(j)]);
     }
   }
   cutNodes.forEach([&](std::uint32_t n) {
     for (std::uint32_t slot : topology_.tetsOfNode(n)) {
       const Tet& tet = topology_.tet(slot);
       for (int i = 0; i < 4; ++i)
-        if (tet[i] == n) touched[slot].nodes |= std::uint8_t(1u << i);
+        if (tet[i] == n) touch(slot).nodes |= std::uint8_t(1u << i);
     }
   });
-  auto& order = scratch.order;
-  order.clear();
-  touched.forEach([&](std::uint32_t slot, const Codes&) { order.push_back(slot); });
-  std::sort(order.begin(), order.end());
+  radixSort(order, scratch.sortScratch32, std::uint32_t(topology_.slotCount()), [](std::uint32_t x) { return x; });
+  // The codes move out of the per-slot array (left all zero for the next event).
+  auto& orderCodes = scratch.orderCodes;
+  orderCodes.clear();
+  for (std::uint32_t slot : order) orderCodes.push_back(std::exchange(codesOf[slot], Codes{}));
   // About 4.5 children per split and 1-2 new nodes per cut edge (sizes of the change set).
   result.removedTets.reserve(2 * order.size());
   result.removedTetNodes.reserve(2 * order.size());
@@ -318,8 +316,9 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   // 5. Split, 6. collect crack faces.
   auto& crack = scratch.crack;  // sorted and made unique after the splits
   crack.clear();
-  for (std::uint32_t slot : order) {
-    const Codes codes = *touched.find(slot);
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const std::uint32_t slot = order[k];
+    const Codes codes = orderCodes[k];
     const Tet parent = topology_.tet(slot);
     if (codes.edges == 0) {
       const CutCase kind = std::popcount(unsigned(codes.nodes)) >= 3 ? CutCase::Z : CutCase::NodesOnly;
@@ -419,14 +418,15 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       }
       return worst;
     };
-    Decomposition d = decompositions_.get(codes.edges, codes.nodes, keys);
-    double ratio = minRatio(d);
-    if (d.separating && !(ratio > 1e-12)) {
+    const Decomposition* decomposition = &decompositions_.get(codes.edges, codes.nodes, keys);
+    double ratio = minRatio(*decomposition);
+    if (decomposition->separating && !(ratio > 1e-12)) {
       // A strongly non-planar crack quad would invert a child: split without opening instead.
-      d = decompositions_.get(codes.edges, codes.nodes, keys, true);
-      ratio = minRatio(d);
+      decomposition = &decompositions_.get(codes.edges, codes.nodes, keys, true);
+      ratio = minRatio(*decomposition);
       ++result.separatingFallbacks;
     }
+    const Decomposition& d = *decomposition;
     ++result.caseCounts[std::size_t(d.kind)];
     result.minChildVolumeRatio = std::min(result.minChildVolumeRatio, ratio);
     if (d.usesSteiner) {
@@ -453,9 +453,12 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       if (i == 0) topology_.setTet(slot, child);
       else s = topology_.addTet(child, region);
       result.addedTets.push_back(s);
-      if (i == 0) grid_.shrink(topology_, s, parent);
-      else grid_.insert(topology_, s);
     }
+    // Every child lies inside the parent's box: the first shrinks the parent slot's box, the
+    // others join the parent slot's family (no spatial-hash entries of their own).
+    grid_.shrink(topology_, slot, parent);
+    grid_.cover(topology_, std::span<const std::uint32_t>(result.addedTets).last(std::size_t(d.tetCount - 1)), slot,
+                parent);
     for (int i = 0; i < d.crackCount; ++i)
       crack.push_back(makeFaceKey(global[d.crack[i][0]], global[d.crack[i][1]], global[d.crack[i][2]]));
   }
@@ -485,7 +488,9 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     crackLinks.push_back(std::uint64_t(f.b) << 32 | i);
     crackLinks.push_back(std::uint64_t(f.c) << 32 | i);
   }
-  std::sort(crackLinks.begin(), crackLinks.end());
+  // By vertex; stable, and the links were pushed in face order: sorted as integers.
+  radixSort(crackLinks, scratch.sortScratch64, std::uint32_t(topology_.mesh().positions.size()),
+            [](std::uint64_t link) { return std::uint32_t(link >> 32); });
   // The crack face of a link as the edge of its two nodes other than the link's vertex.
   auto linkEdge = [&](std::uint64_t link) {
     const FaceKey& f = crack[std::uint32_t(link)];
@@ -503,7 +508,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   auto& faceKeys = scratch.faceKeys;  // all kNoEdge between vertices (and events)
   auto& faceTet = scratch.faceTet;
   auto& usedSlots = scratch.usedSlots;
-  auto& comps = scratch.comps;
+  auto& groups = scratch.groups;
   for (std::size_t run = 0; run < crackLinks.size();) {
     const std::uint32_t v = std::uint32_t(crackLinks[run] >> 32);
     std::size_t runEnd = run;
@@ -519,7 +524,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     while (capacity < 2 * (3 * around.size() + (linksEnd - linksBegin))) capacity *= 2, ++bits;
     if (faceKeys.size() < capacity) faceKeys.assign(capacity, kNoEdge), faceTet.assign(capacity, 0);
     const std::size_t mask = capacity - 1;
-    comps.reset(around.size());
+    groups.reset(around.size());
     // The slot of a face key in the table: its entry, or the free slot where it belongs. A
     // multiplicative (Fibonacci) hash: a few dozen keys, and the table is at most half full.
     auto slotOf = [&](std::uint64_t edge) {
@@ -551,14 +556,13 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
           faceTet[h] = std::uint32_t(i);
           usedSlots.push_back(std::uint32_t(h));
         } else if (faceTet[h] != kNone) {
-          comps.unite(faceTet[h], std::uint32_t(i));
+          groups.link(faceTet[h], std::uint32_t(i));
         }
       }
     }
     for (std::uint32_t h : usedSlots) faceKeys[h] = kNoEdge;
     usedSlots.clear();
-    rootOf.resize(around.size());
-    for (std::size_t i = 0; i < around.size(); ++i) rootOf[i] = comps.find(std::uint32_t(i));
+    groups.roots(rootOf);
     // The largest group keeps the vertex (fewest tets renumbered); among equals, the group of
     // the first tet in the vertex's list (a rule that does not depend on union-find roots).
     groupSize.assign(around.size(), 0);
@@ -588,7 +592,8 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   auto& renameOrder = scratch.renameOrder;
   renameOrder.clear();
   for (std::size_t i = 0; i < renames.size(); ++i) renameOrder.push_back(std::uint64_t(renames[i].slot) << 32 | i);
-  std::sort(renameOrder.begin(), renameOrder.end());
+  radixSort(renameOrder, scratch.sortScratch64, std::uint32_t(topology_.slotCount()),
+            [](std::uint64_t entry) { return std::uint32_t(entry >> 32); });
   // Renumbered tets that were not split are reported as removed (with their nodes before the
   // opening) and re-added. Split children are marked in a per-slot byte array (grown with the
   // mesh, reset entry by entry below, so an event costs its own size).

@@ -176,16 +176,48 @@ std::uint8_t caseAEdgeCode(int node) {
   return code;
 }
 
-Decomposition DecompositionCache::get(std::uint8_t edgeMask, std::uint8_t nodeMask,
-                                     const std::array<std::uint64_t, 11>& keys, bool forcePartial) {
-  // rank[i] = number of keys below keys[i]: equal keys share a rank, so every comparison
-  // decomposeTet can make between two keys is answered the same way by their ranks.
+namespace {
+
+// rank[i] = number of keys below keys[i]: equal keys share a rank, so every comparison
+// decomposeTet can make between two keys is answered the same way by their ranks. Packed 4 bits
+// per key. The cutter's keys have a known shape: 4 distinct node keys, below every cut-point key
+// (new nodes), and the Steiner key above all; then only the 4 node keys and the 6 point keys
+// need ranking among themselves (21 comparisons instead of 121). Any other shape takes the
+// general count; both give the same pattern.
+std::uint64_t rankPattern(const std::array<std::uint64_t, 11>& keys) {
+  const std::uint64_t maxNode = std::max({keys[0], keys[1], keys[2], keys[3]});
+  std::uint64_t minPoint = ~0ull, maxPoint = 0;
+  for (int e = kEdgePointBase; e < kSteinerLocal; ++e)
+    minPoint = std::min(minPoint, keys[std::size_t(e)]), maxPoint = std::max(maxPoint, keys[std::size_t(e)]);
+  const bool distinctNodes = keys[0] != keys[1] && keys[0] != keys[2] && keys[0] != keys[3] && keys[1] != keys[2] &&
+                             keys[1] != keys[3] && keys[2] != keys[3];
   std::uint64_t pattern = 0;
+  if (distinctNodes && maxNode < minPoint && maxPoint < keys[kSteinerLocal]) {
+    for (int i = 0; i < 4; ++i) {
+      const std::uint64_t rank = std::uint64_t(keys[0] < keys[std::size_t(i)]) + (keys[1] < keys[std::size_t(i)]) +
+                                 (keys[2] < keys[std::size_t(i)]) + (keys[3] < keys[std::size_t(i)]);
+      pattern |= rank << (4 * i);
+    }
+    for (int i = kEdgePointBase; i < kSteinerLocal; ++i) {
+      std::uint64_t rank = 4;
+      for (int j = kEdgePointBase; j < kSteinerLocal; ++j) rank += keys[std::size_t(j)] < keys[std::size_t(i)];
+      pattern |= rank << (4 * i);
+    }
+    return pattern | std::uint64_t(10) << (4 * kSteinerLocal);
+  }
   for (int i = 0; i < 11; ++i) {
     std::uint64_t rank = 0;
-    for (int j = 0; j < 11; ++j) rank += keys[j] < keys[i];
+    for (int j = 0; j < 11; ++j) rank += keys[std::size_t(j)] < keys[std::size_t(i)];
     pattern |= rank << (4 * i);
   }
+  return pattern;
+}
+
+}  // namespace
+
+const Decomposition& DecompositionCache::get(std::uint8_t edgeMask, std::uint8_t nodeMask,
+                                            const std::array<std::uint64_t, 11>& keys, bool forcePartial) {
+  std::uint64_t pattern = rankPattern(keys);
   pattern |= std::uint64_t(edgeMask & 63u) << 44 | std::uint64_t(nodeMask & 15u) << 50 |
              std::uint64_t(forcePartial) << 54;
   if (const std::uint32_t* found = index_.find(pattern)) return entries_[*found];

@@ -56,10 +56,11 @@ Decomposition decomposeTet(std::uint8_t edgeMask, std::uint8_t nodeMask, const s
 // Memo of decomposeTet for a cutter's lifetime. The result depends only on the masks and on the
 // relative order of the keys (fans and cones pick smallest keys), so the order pattern (each
 // key's rank among the 11) is the memo key: a few hundred patterns cover a whole cutting session,
-// and a hit costs ~150 instructions instead of ~18,000 for the derivation.
+// and a hit costs ~150 instructions instead of ~18,000 for the derivation. The reference is valid
+// until the next get().
 class DecompositionCache {
  public:
-  Decomposition get(std::uint8_t edgeMask, std::uint8_t nodeMask, const std::array<std::uint64_t, 11>& keys,
+  const Decomposition& get(std::uint8_t edgeMask, std::uint8_t nodeMask, const std::array<std::uint64_t, 11>& keys,
                     bool forcePartial = false);
   std::size_t size() const { return entries_.size(); }
 

@@ -150,24 +150,71 @@ struct U32Hash {
   std::uint64_t operator()(std::uint32_t k) const { return k; }
 };
 
-// A set of keys over the same table.
+// A set of keys: the same probing and hashing over a table of keys alone (a map with an empty
+// value would pad each slot to twice the key's size, and the cutter clears and probes these
+// tables every event).
 template <typename Key, typename Hash>
 class FlatHashSet {
  public:
-  explicit FlatHashSet(Key empty, std::size_t expected = 0) : map_(empty, expected) {}
-  void reserve(std::size_t count) { map_.reserve(count); }
-  bool insert(const Key& key) { return map_.insert(key).second; }
-  bool contains(const Key& key) const { return map_.contains(key); }
-  std::size_t size() const { return map_.size(); }
-  void clear() { map_.clear(); }
+  explicit FlatHashSet(Key empty, std::size_t expected = 0) : empty_(empty) { reserve(expected); }
+
+  void reserve(std::size_t count) {
+    std::size_t capacity = 16;
+    while (capacity < 2 * count) capacity *= 2;
+    if (capacity > slots_.size()) rehash(capacity);
+  }
+  // True when the key was not there yet.
+  bool insert(const Key& key) {
+    if (key == empty_) throw std::logic_error("FlatHashSet: the empty key cannot be inserted");
+    if (2 * (size_ + 1) > slots_.size()) rehash(std::max<std::size_t>(16, 2 * slots_.size()));
+    for (std::size_t i = home(key);; i = (i + 1) & mask_) {
+      if (slots_[i] == key) return false;
+      if (slots_[i] == empty_) {
+        slots_[i] = key;
+        ++size_;
+        return true;
+      }
+    }
+  }
+  bool contains(const Key& key) const {
+    if (slots_.empty()) return false;
+    for (std::size_t i = home(key);; i = (i + 1) & mask_) {
+      if (slots_[i] == key) return true;
+      if (slots_[i] == empty_) return false;
+    }
+  }
+  std::size_t size() const { return size_; }
+  // O(capacity); keeps the memory.
+  void clear() {
+    if (size_ == 0) return;
+    std::fill(slots_.begin(), slots_.end(), empty_);
+    size_ = 0;
+  }
   template <typename F>
   void forEach(F&& f) const {
-    map_.forEach([&](const Key& k, const Empty&) { f(k); });
+    for (const Key& k : slots_)
+      if (!(k == empty_)) f(k);
   }
 
  private:
-  struct Empty {};
-  FlatHashMap<Key, Empty, Hash> map_;
+  std::size_t home(const Key& key) const {
+    return std::size_t((std::uint64_t(Hash{}(key)) * 0x9E3779B97F4A7C15ull) >> shift_);
+  }
+  void rehash(std::size_t capacity) {
+    std::vector<Key> old(capacity, empty_);
+    old.swap(slots_);
+    mask_ = capacity - 1;
+    shift_ = 64 - std::countr_zero(std::uint64_t(capacity));
+    size_ = 0;
+    for (const Key& k : old)
+      if (!(k == empty_)) insert(k);
+  }
+
+  Key empty_;
+  std::vector<Key> slots_;
+  std::size_t mask_ = 0;
+  int shift_ = 63;
+  std::size_t size_ = 0;
 };
 
 }  // namespace blobvk::cutting

@@ -39,9 +39,13 @@ int orient3dSign(Double3 a, Double3 b, Double3 c, Double3 d) {
 }
 
 SegmentHit segmentCrossesTriangle(Double3 p, Double3 q, Double3 a, Double3 b, Double3 c) {
+  return segmentCrossesTriangle(p, q, a, b, c, 0, 0);
+}
+
+SegmentHit segmentCrossesTriangle(Double3 p, Double3 q, Double3 a, Double3 b, Double3 c, int sideP, int sideQ) {
   SegmentHit result;
-  const int sp = orient3dSign(a, b, c, p);
-  const int sq = orient3dSign(a, b, c, q);
+  const int sp = sideP != 0 ? sideP : orient3dSign(a, b, c, p);
+  const int sq = sideQ != 0 ? sideQ : orient3dSign(a, b, c, q);
   if (sp == 0 || sq == 0 || sp == sq) return result;
   const int s1 = orient3dSign(p, q, a, b);
   const int s2 = orient3dSign(p, q, b, c);

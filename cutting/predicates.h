@@ -25,6 +25,11 @@ struct SegmentHit {
 // opposite sides of the triangle's plane (a touching endpoint is a cut *node*, not a cut edge)
 // and the crossing inside or on the triangle's boundary. Signs come from orient3dSign.
 SegmentHit segmentCrossesTriangle(Double3 p, Double3 q, Double3 a, Double3 b, Double3 c);
+// The same test for a caller that already knows orient3dSign(a, b, c, p) and/or (.., q), e.g. from
+// plane distances beyond their rounding slack (a signed distance along cross(b - a, c - a) has
+// the opposite sign): sideP / sideQ = that sign, or 0 when unknown (then evaluated here). Saves
+// two of the five orientation tests of most calls.
+SegmentHit segmentCrossesTriangle(Double3 p, Double3 q, Double3 a, Double3 b, Double3 c, int sideP, int sideQ);
 
 // Closest point on the triangle (a, b, c) to p (Ericson, Real-Time Collision Detection 5.1.5).
 Double3 closestPointOnTriangle(Double3 p, Double3 a, Double3 b, Double3 c);

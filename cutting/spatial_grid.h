@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -29,6 +30,17 @@ class SpatialGrid {
   // box in every cell the previous box meets, stay a conservative listing. Falls back to
   // insert() when rounding put a computed point a hair outside the previous box.
   void shrink(const CutTopology& topology, std::uint32_t slot, const Tet& previous);
+  // For new slots whose content lies inside the box of `coveringPrevious`, the content that
+  // `coveringSlot` held before a split (a split's further children): no entries of their own,
+  // they join the covering slot's family instead, whose entries (never refreshed or dropped while
+  // the family is not empty) hold that box or a larger one. A query that finds a slot also tests
+  // its family, each member by the covering box it joined with (so a member is found wherever
+  // its own entries would have found it, and sometimes where they would not: callers re-test
+  // candidates exactly), and a member's own family only when the member passes (it lies inside
+  // that box, or has entries of its own). One box per split instead of entries per child, and no
+  // growth of the cells.
+  void cover(const CutTopology& topology, std::span<const std::uint32_t> slots, std::uint32_t coveringSlot,
+             const Tet& coveringPrevious);
 
   // A thin region around a swept triangle: its box, its plane (unit normal through origin)
   // thickened by pad on both sides, and the three planes through its edges perpendicular to it
@@ -56,6 +68,7 @@ class SpatialGrid {
   struct Box {
     std::array<float, 3> lo, hi;
   };
+  static Box roundedOutwards(mesh::Double3 lo, mesh::Double3 hi);
   std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z) const;
   std::int64_t cellOf(double v) const;
   // A cell lists its tets with their boxes as of insertion, so a query scans one contiguous
@@ -90,6 +103,13 @@ class SpatialGrid {
   }();
   std::uint32_t nextRecent_ = 0;
   std::vector<Box> boxes_;  // by slot, as of the slot's last insert (the current box)
+  // Families (cover()): by slot, its first member and the next member of the family it belongs
+  // to (kNone: none), and the box it joined with. A member's own family is a sub-family: it is
+  // tested when the member is found.
+  std::vector<std::uint32_t> familyHead_, familyNext_;
+  std::vector<Box> joinBox_;
+  std::vector<std::uint32_t> familyStack_, sortScratch_;  // query scratch
+  void growSlotArrays(std::size_t slots);
   std::vector<std::uint32_t> stamp_;
   std::uint32_t stampValue_ = 0;
 };

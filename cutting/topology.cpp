@@ -1,5 +1,6 @@
 #include "cutting/topology.h"
 
+#include "cutting/prefault.h"
 #include "cutting/vec.h"
 
 #include <algorithm>
@@ -41,6 +42,11 @@ CutTopology::CutTopology(mesh::TetMesh mesh) : mesh_(std::move(mesh)) {
   alive_.reserve(tetRoom);
   mesh_.positions.reserve(nodeRoom);
   mesh_.restPositions.reserve(nodeRoom);
+  prefaultCapacity(mesh_.tets);
+  prefaultCapacity(mesh_.regions);
+  prefaultCapacity(alive_);
+  prefaultCapacity(mesh_.positions);
+  prefaultCapacity(mesh_.restPositions);
   // Incidence runs sized to each node's degree plus room for the tets a few cuts add.
   std::vector<std::uint32_t> degree(mesh_.positions.size(), 0);
   for (const Tet& t : mesh_.tets)

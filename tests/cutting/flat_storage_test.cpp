@@ -1,4 +1,4 @@
-// The flat containers behind the topology: open-addressing map (backward-shift deletion) and
+// The flat containers behind the topology: open-addressing map (backward-shift deletion) and set, and
 // pooled incidence lists, checked against std containers under random operation sequences.
 #include "cutting/flat_hash.h"
 #include "cutting/incidence_lists.h"
@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <random>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace blobvk::cutting {
 namespace {
@@ -99,6 +100,36 @@ TEST(IncidenceLists, MatchVectorsUnderRandomPushRemoveWithCompaction) {
   }
   EXPECT_EQ(lists.totalEntries(), total);
   EXPECT_FALSE(lists.remove(0, 0xfffffff0u));
+}
+
+// The keys-only set (the cutter's per-event sets): inserts, lookups, clears and growth against
+// std::unordered_set, with the clustering hash too.
+template <typename Hash>
+void randomSetOperationsMatchStdSet(std::uint64_t keyRange) {
+  FlatHashSet<std::uint64_t, Hash> flat(~0ull, 4);
+  std::unordered_set<std::uint64_t> reference;
+  std::mt19937_64 rng(13);
+  for (int i = 0; i < 20000; ++i) {
+    const std::uint64_t key = rng() % keyRange;
+    if (i % 5000 == 4999) {
+      flat.clear();
+      reference.clear();
+    } else if (rng() % 2 == 0) {
+      ASSERT_EQ(flat.insert(key), reference.insert(key).second) << "key " << key;
+    } else {
+      ASSERT_EQ(flat.contains(key), reference.count(key) == 1) << "key " << key;
+    }
+    ASSERT_EQ(flat.size(), reference.size());
+  }
+  std::size_t listed = 0;
+  flat.forEach([&](std::uint64_t k) { listed += reference.count(k); });
+  EXPECT_EQ(listed, reference.size());
+  EXPECT_THROW(flat.insert(~0ull), std::logic_error);
+}
+
+TEST(FlatHashSet, RandomOperationsMatchStdSet) {
+  randomSetOperationsMatchStdSet<U64Hash>(3000);
+  randomSetOperationsMatchStdSet<ClusteringHash>(500);
 }
 
 }  // namespace

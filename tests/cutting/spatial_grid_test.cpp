@@ -39,7 +39,9 @@ bool tetNearTriangle(const CutTopology& topo, std::uint32_t slot, const Triangle
 
 // How a test keeps its grid up to date after a cut: insert every changed slot, or (as the
 // cutter does) only record the smaller box of a slot whose new content lies inside its old box.
-enum class Update { InsertAll, ShrinkReusedSlots };
+// A third way, also the cutter's: shrink the reused slots and let each split's further children
+// join the family of their parent's slot.
+enum class Update { InsertAll, ShrinkReusedSlots, CoverChildren };
 
 void slabQueryFindsEveryTetNearRandomTriangles(Update update) {
   Cutter cutter(test::cubeMesh(8));
@@ -68,9 +70,24 @@ void slabQueryFindsEveryTetNearRandomTriangles(Update update) {
     const CutResult r = cutter.cut({tri});
     std::vector<std::uint32_t> reused(r.removedTets);
     std::sort(reused.begin(), reused.end());
-    if (update == Update::ShrinkReusedSlots)  // split children and renumbered tets stay in their old box
+    if (update != Update::InsertAll)  // split children and renumbered tets stay in their old box
       for (std::size_t i = 0; i < r.removedTets.size(); ++i)
         grid.shrink(cutter.topology(), r.removedTets[i], r.removedTetNodes[i]);
+    if (update == Update::CoverChildren) {
+      // addedTets lists each split's parent slot (reused by its first child) before its other
+      // children; removedTets lists the parents in the same order.
+      std::size_t parent = 0;
+      for (std::size_t i = 0; i < r.addedTets.size(); ++i) {
+        const std::uint32_t slot = r.addedTets[i];
+        if (std::binary_search(reused.begin(), reused.end(), slot)) {
+          parent = std::size_t(std::find(r.removedTets.begin(), r.removedTets.end(), slot) - r.removedTets.begin());
+          continue;
+        }
+        grid.cover(cutter.topology(), std::span<const std::uint32_t>(&r.addedTets[i], 1), r.removedTets[parent],
+                   r.removedTetNodes[parent]);
+      }
+      continue;
+    }
     for (std::uint32_t slot : r.addedTets)
       if (update == Update::InsertAll || !std::binary_search(reused.begin(), reused.end(), slot))
         grid.insert(cutter.topology(), slot);
@@ -85,6 +102,10 @@ TEST(SpatialGrid, SlabQueryFindsEveryTetNearRandomTriangles) {
 
 TEST(SpatialGrid, ShrinkingReusedSlotsKeepsTheQueryComplete) {
   slabQueryFindsEveryTetNearRandomTriangles(Update::ShrinkReusedSlots);
+}
+
+TEST(SpatialGrid, CoveredChildrenKeepTheQueryComplete) {
+  slabQueryFindsEveryTetNearRandomTriangles(Update::CoverChildren);
 }
 
 }  // namespace
