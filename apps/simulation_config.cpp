@@ -177,7 +177,7 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
   }
   if (j.contains("tetgen")) {
     const Json& t = j["tetgen"];
-    r.keys(t, p + "/tetgen", {"radiusEdge", "minDihedral", "maxVolume", "keepSurface", "optimizeMaxDihedral", "remeshEdge"});
+    r.keys(t, p + "/tetgen", {"radiusEdge", "minDihedral", "maxVolume", "keepSurface", "optimizeMaxDihedral", "remeshEdge", "smoothSlivers"});
     if (t.contains("remeshEdge")) c.tetgenRemeshEdgeCells = r.number(t["remeshEdge"], p + "/tetgen/remeshEdge", 0, 100);
     if (t.contains("radiusEdge")) c.tetgen.maxRadiusEdgeRatio = r.number(t["radiusEdge"], p + "/tetgen/radiusEdge", 1.0, 100);
     if (t.contains("minDihedral")) c.tetgen.minDihedralDegrees = r.number(t["minDihedral"], p + "/tetgen/minDihedral", 0, 30);
@@ -185,6 +185,10 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
       c.tetgen.optimizeMaxDihedralDegrees = r.number(t["optimizeMaxDihedral"], p + "/tetgen/optimizeMaxDihedral", 0, 180);
     if (t.contains("maxVolume")) c.tetgen.maxVolume = r.number(t["maxVolume"], p + "/tetgen/maxVolume", 0, 1e12);
     if (t.contains("keepSurface")) c.tetgen.keepSurface = t["keepSurface"].is_boolean() && t["keepSurface"].get<bool>();
+    if (t.contains("smoothSlivers")) {
+      if (!t["smoothSlivers"].is_boolean()) r.fail(p + "/tetgen/smoothSlivers", "expected true or false");
+      c.tetgen.smoothSlivers = t["smoothSlivers"].get<bool>();
+    }
   }
   if (j.contains("voxel")) {
     r.keys(j["voxel"], p + "/voxel", {"cellSize"});

@@ -35,10 +35,17 @@ struct LiftConfig {
 
 struct SimulationConfig {
   std::string mesher = "voxel";  // voxel | tetgen
-  fem::TetgenOptions tetgen;
+  // Scenes default to TetGen's -o/150 on top of TetgenOptions' defaults: without it TetGen leaves
+  // more slivers than the pass after it can remove (docs/performance.md, TetGen).
+  fem::TetgenOptions tetgen = [] {
+    fem::TetgenOptions o;
+    o.optimizeMaxDihedralDegrees = 150;
+    return o;
+  }();
   // Target edge length of the surface clean-up before TetGen (mesh::remeshSurface), in
-  // polygonizer cells; 0 feeds TetGen the raw marching-cubes surface.
-  double tetgenRemeshEdgeCells = 1.5;
+  // polygonizer cells; 0 feeds TetGen the raw marching-cubes surface. 2 cells: ~100k tets on
+  // the craniotomy at >= 10 degrees in ~1.6 s (1.5 cells: ~210k tets in ~2.4 s).
+  double tetgenRemeshEdgeCells = 2.0;
   double voxelCellSize = 0;      // 0: twice the polygonization cell size
   fem::SimulationSettings settings;
   std::optional<blobtree::Program> fixedSelector;  // nodes where this field >= 0.5 are fixed

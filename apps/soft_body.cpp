@@ -2,6 +2,7 @@
 
 #include "backends.h"
 #include "blobtree/evaluate.h"
+#include "cpu_simd/simd_evaluator.h"
 #include "fem/surface_embedding.h"
 #include "fem/tet_utils.h"
 #include "fem/tetgen_mesher.h"
@@ -37,6 +38,20 @@ std::uint32_t dominantPrimitive(const blobtree::Program& program, const mesh::Do
   return best;
 }
 
+// The BlobTree field over many points through the SIMD evaluator: the remesher's Newton
+// projection evaluates 7 points per vertex (craniotomy: 80 ms of a 250 ms clean-up with the
+// scalar evaluator, 30 ms in batches). Equal to blobtree::evaluate bit for bit (cpu_simd's
+// contract), so the result does not depend on the SIMD level.
+mesh::FieldBatch simdField(const blobtree::Program& program) {
+  return [&program, level = cpu::bestSimdLevel()](const std::vector<mesh::Double3>& points, std::vector<double>& values) {
+    const std::size_t n = points.size();
+    std::vector<float> x(n), y(n), z(n), f(n);
+    for (std::size_t i = 0; i < n; ++i) x[i] = float(points[i].x), y[i] = float(points[i].y), z[i] = float(points[i].z);
+    cpu::evaluateFieldBatch(program, x.data(), y.data(), z.data(), f.data(), n, level);
+    values.assign(f.begin(), f.end());
+  };
+}
+
 }  // namespace
 
 TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int threads, std::optional<double> voxelCell) {
@@ -67,15 +82,14 @@ TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int t
       // copy, and the render surface (with its colours) is embedded in the result.
       mesh::SurfaceRemeshOptions remesh;
       remesh.targetEdgeLength = config.tetgenRemeshEdgeCells * grid.cellSize;
-      remesh.project = mesh::isoSurfaceProjection(
-          [&program](const mesh::Double3& p) { return double(blobtree::evaluate(program, glm::vec3(float(p.x), float(p.y), float(p.z)))); },
-          0.5, 1e-3 * grid.cellSize);
+      remesh.projectBatch = mesh::isoSurfaceProjectionBatch(simdField(program), 0.5, 1e-3 * grid.cellSize);
       try {
         tets = fem::tetrahedralize(mesh::remeshSurface(body.surface, remesh), config.tetgen);
         embedding = fem::embedPoints(tets, body.surface.positions);
-      } catch (const std::invalid_argument& e) {
-        // The clean-up can fold a shell thinner than its edge length into itself; TetGen's
-        // check rejects that, and the raw surface (slivers and all) still meshes.
+      } catch (const std::exception& e) {
+        // The clean-up refuses edits that make triangles cross, so TetGen should accept its
+        // output; should it not (an intersection, or TetGen's "very close facets" error), the
+        // raw surface still meshes.
         std::cerr << model.path << ": warning: the surface clean-up before TetGen failed (" << e.what()
                   << "); meshing the raw surface (expect slivers; lower /simulation/tetgen/remeshEdge)\n";
         tets = {};

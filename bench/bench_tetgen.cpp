@@ -7,12 +7,18 @@
 // The volume bound -a is 3 x enclosed volume / target tets (TetGen's tets come out ~3x smaller
 // than the bound on the sphere). Counters: tets, nodes, surface triangles, minimum dihedral
 // angle (degrees), tets below 10 degrees; the label is the switch string.
-//   bench_tetgen                                   # all
+// Then the shipped simulated scenes (craniotomy, eggshell_sim, soft_peanut) polygonized as
+// `blobvk simulate` does: sceneTetgen = clean-up + TetGen + sliver pass, with the minimum
+// dihedral before and after the sliver pass; sceneRemesh = the clean-up alone (scalar vs SIMD
+// projection, self-intersection guard on/off). Counters say which arguments are which.
+//   bench_tetgen                                   # all (the raw MC scene rows take ~1 min)
 //   bench_tetgen --benchmark_filter='icosphere'
+//   bench_tetgen --benchmark_filter='-sceneTetgen/[a-z_]+/[0-9]+/0/'   # all but the raw MC rows
 #include "blobtree/evaluate.h"
 #include "blobtree/grid.h"
 #include "blobtree/scene_io.h"
 #include "cpu_simd/mpu_polygonizer.h"
+#include "cpu_simd/simd_evaluator.h"
 #include "fem/tetgen_mesher.h"
 #include "mesh/checks.h"
 #include "mesh/surface_remesh.h"
@@ -25,6 +31,7 @@
 #include <glm/geometric.hpp>
 #include <cmath>
 #include <cstdlib>
+#include <ctime>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -75,6 +82,13 @@ mesh::TriMesh icosphere(int levels) {
   }
   s.triangles = f;
   return s;
+}
+
+// CPU time of the calling thread (the clean-up is single-threaded; wall time moves with the load).
+double threadCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
 
 // Smallest dihedral angle of the mesh (degrees) and how many tets have one below 10 degrees.
@@ -195,9 +209,51 @@ double minSurfaceInteriorAngle(const mesh::TriMesh& s) {
   return best;
 }
 
+// The clean-up's options: target edge in cells; projection 0: scalar blobtree::evaluate per point,
+// 1: the SIMD evaluator over batches (as apps/soft_body.cpp), 2: none (tangent-plane moves only).
+mesh::SurfaceRemeshOptions remeshOptions(const SceneSurface& scene, double edgeCells, int projection) {
+  mesh::SurfaceRemeshOptions r;
+  r.targetEdgeLength = scene.cellSize * edgeCells;
+  const blobtree::Program& program = scene.program;
+  if (projection == 0) {
+    r.project = mesh::isoSurfaceProjection(
+        [&program](const mesh::Double3& p) { return double(blobtree::evaluate(program, glm::vec3(float(p.x), float(p.y), float(p.z)))); },
+        0.5, 1e-3 * scene.cellSize);
+  } else if (projection == 1) {
+    r.projectBatch = mesh::isoSurfaceProjectionBatch(
+        [&program, level = cpu::bestSimdLevel()](const std::vector<mesh::Double3>& points, std::vector<double>& values) {
+          const std::size_t n = points.size();
+          std::vector<float> x(n), y(n), z(n), f(n);
+          for (std::size_t i = 0; i < n; ++i) x[i] = float(points[i].x), y[i] = float(points[i].y), z[i] = float(points[i].z);
+          cpu::evaluateFieldBatch(program, x.data(), y.data(), z.data(), f.data(), n, level);
+          values.assign(f.begin(), f.end());
+        },
+        0.5, 1e-3 * scene.cellSize);
+  }
+  return r;
+}
+
+// The clean-up alone: range(0) target edge in % of a cell, range(1) projection (remeshOptions),
+// range(2) 1 = with the self-intersection guard. CPU time = the main thread's (single-threaded).
+void sceneRemesh(benchmark::State& state, const std::string& name) {
+  const SceneSurface& scene = sceneSurface(name);
+  mesh::SurfaceRemeshOptions r = remeshOptions(scene, double(state.range(0)) / 100.0, int(state.range(1)));
+  r.preventSelfIntersections = state.range(2) != 0;
+  mesh::SurfaceRemeshStats stats;
+  mesh::TriMesh out;
+  for (auto _ : state) {
+    out = mesh::remeshSurface(scene.surface, r, &stats);
+    benchmark::DoNotOptimize(out.triangles.data());
+  }
+  state.counters["tris"] = double(out.triangles.size());
+  state.counters["min_tri_angle_deg"] = stats.minAngleAfterDegrees;
+  state.counters["undone_moves"] = double(stats.undoneMoves);
+}
+
 // The TetGen path of a shipped simulated scene, timed with the surface clean-up before it.
-// range(0): target tets; range(1): remesh target edge length in percent of the polygonizer's
-// cell size (0: TetGen on the raw marching-cubes surface). Switches q1.414/10 o/150 a<3V/target>.
+// range(0): target tets (0: no volume bound, as `blobvk simulate` by default); range(1): remesh target edge length in percent of the polygonizer's
+// cell size (0: TetGen on the raw marching-cubes surface); range(2): the clean-up's projection
+// evaluates the field with the scalar blobtree::evaluate (0) or the SIMD batch evaluator (1). Switches q1.414/10 o/150 a<3V/target>.
 void sceneTetgen(benchmark::State& state, const std::string& name) {
   if (!fem::tetgenAvailable()) {
     state.SkipWithError("built without TetGen");
@@ -206,23 +262,21 @@ void sceneTetgen(benchmark::State& state, const std::string& name) {
   const SceneSurface& scene = sceneSurface(name);
   fem::TetgenOptions o;
   o.optimizeMaxDihedralDegrees = 150;
-  o.maxVolume = 3.0 * mesh::checkMesh(scene.surface).volume / double(state.range(0));
-  mesh::SurfaceRemeshOptions r;
-  r.targetEdgeLength = scene.cellSize * double(state.range(1)) / 100.0;
-  const blobtree::Program& program = scene.program;
-  r.project = mesh::isoSurfaceProjection(
-      [&program](const mesh::Double3& p) { return double(blobtree::evaluate(program, glm::vec3(float(p.x), float(p.y), float(p.z)))); },
-      0.5, 1e-3 * scene.cellSize);
+  o.maxVolume = state.range(0) > 0 ? 3.0 * mesh::checkMesh(scene.surface).volume / double(state.range(0)) : 0.0;
+  const mesh::SurfaceRemeshOptions r = remeshOptions(scene, double(state.range(1)) / 100.0, int(state.range(2)));
   mesh::TetMesh m;
   mesh::TriMesh input;
   mesh::SurfaceRemeshStats stats;
-  double remeshSeconds = 0;
+  fem::SliverStats slivers;
+  double remeshSeconds = 0, remeshCpuSeconds = 0;
   for (auto _ : state) {
     const auto start = std::chrono::steady_clock::now();
+    const double cpuStart = threadCpuSeconds();
     input = state.range(1) > 0 ? mesh::remeshSurface(scene.surface, r, &stats) : scene.surface;
     remeshSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    remeshCpuSeconds = threadCpuSeconds() - cpuStart;
     try {
-      m = fem::tetrahedralize(input, o);
+      m = fem::tetrahedralize(input, o, &slivers);
     } catch (const std::exception& e) {
       state.SkipWithError(e.what());  // e.g. a thin shell whose clean-up intersects itself
       return;
@@ -238,6 +292,9 @@ void sceneTetgen(benchmark::State& state, const std::string& name) {
   state.counters["tets_below_10deg"] = double(below10);
   state.counters["min_surface_angle_deg"] = minSurfaceInteriorAngle(input);
   state.counters["remesh_s"] = remeshSeconds;
+  state.counters["remesh_cpu_s"] = remeshCpuSeconds;
+  state.counters["tetgen_min_dihedral_deg"] = slivers.minDihedralBeforeDegrees;
+  state.counters["slivers_moved"] = double(slivers.nodesMoved);
   state.counters["volume_change_pct"] = 100.0 * (after.volume - before.volume) / before.volume;
   state.SetLabel(fem::tetgenSwitches(o));
 }
@@ -249,11 +306,21 @@ BENCHMARK_CAPTURE(tetrahedralize, icosphere_q2_10_o150, sphere, 2.0, 10.0, 150.0
 BENCHMARK_CAPTURE(tetrahedralize, blob_q1.414_10, blob, 1.414, 10.0, 0.0)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(tetrahedralize, blob_q1.414_10_o150, blob, 1.414, 10.0, 150.0)->Arg(100000)->Unit(benchmark::kMillisecond);
 
-// Shipped simulated scenes. The first Args of each is the raw marching-cubes surface (before),
-// the others the default clean-up (1.5 cells, "remeshEdge" in docs/fem.md) and a coarser one.
-BENCHMARK_CAPTURE(sceneTetgen, craniotomy, std::string("craniotomy"))->Args({30000, 0})->Args({30000, 150})->Args({30000, 200})->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(sceneTetgen, eggshell_sim, std::string("eggshell_sim"))->Args({100000, 0})->Args({100000, 150})->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(sceneTetgen, soft_peanut, std::string("soft_peanut"))->Args({100000, 0})->Args({100000, 150})->Args({100000, 200})->Unit(benchmark::kMillisecond);
+// Shipped simulated scenes. Args: {target tets (0: no -a, as `blobvk simulate`), clean-up edge
+// in % of a cell (0: raw marching-cubes surface), projection (0 scalar, 1 SIMD batch)}. The
+// defaults of `blobvk simulate` are {0, 200, 1}; soft_peanut is small, so it also runs with an
+// -a bound that gives ~100k tets.
+BENCHMARK_CAPTURE(sceneRemesh, craniotomy, std::string("craniotomy"))
+    ->ArgsProduct({{200}, {0, 1, 2}, {0, 1}})->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(sceneRemesh, eggshell_sim, std::string("eggshell_sim"))
+    ->ArgsProduct({{200}, {0, 1, 2}, {1}})->Unit(benchmark::kMillisecond);
+
+BENCHMARK_CAPTURE(sceneTetgen, craniotomy, std::string("craniotomy"))
+    ->Args({0, 0, 1})->Args({0, 150, 0})->Args({0, 150, 1})->Args({0, 200, 0})->Args({0, 200, 1})->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(sceneTetgen, eggshell_sim, std::string("eggshell_sim"))
+    ->Args({0, 0, 1})->Args({0, 100, 1})->Args({0, 150, 1})->Args({0, 200, 1})->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(sceneTetgen, soft_peanut, std::string("soft_peanut"))
+    ->Args({100000, 0, 1})->Args({100000, 150, 1})->Args({100000, 200, 1})->Args({0, 200, 1})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

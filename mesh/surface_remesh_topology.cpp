@@ -1,6 +1,8 @@
 #include "mesh/surface_remesh_topology.h"
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <numbers>
 #include <stdexcept>
 
@@ -19,6 +21,62 @@ double minAngle(const Vec3& a, const Vec3& b, const Vec3& c) {
   return best;
 }
 
+void EdgeFaceMap::reserve(std::size_t edges) {
+  if (2 * edges > keys_.size()) rehash(std::bit_ceil(std::max<std::size_t>(16, 2 * edges)));
+}
+
+void EdgeFaceMap::rehash(std::size_t size) {
+  std::vector<std::uint64_t> oldKeys(size, kEmpty);
+  std::vector<std::uint32_t> oldFaces(size, kNone);
+  oldKeys.swap(keys_);
+  oldFaces.swap(faces_);
+  shift_ = 64 - std::countr_zero(size);
+  used_ = live_ = 0;
+  for (std::size_t i = 0; i < oldKeys.size(); ++i)
+    if (oldKeys[i] != kEmpty && oldKeys[i] != kErased) insert(oldKeys[i], oldFaces[i]);
+}
+
+std::uint32_t EdgeFaceMap::find(std::uint64_t key) const {
+  if (keys_.empty()) return kNone;
+  const std::size_t mask = keys_.size() - 1;
+  for (std::size_t i = slot(key);; i = (i + 1) & mask) {
+    if (keys_[i] == key) return faces_[i];
+    if (keys_[i] == kEmpty) return kNone;
+  }
+}
+
+bool EdgeFaceMap::insert(std::uint64_t key, std::uint32_t face) {
+  // At most half the slots used (live keys and tombstones), so probes stay short and end.
+  if (2 * (used_ + 1) > keys_.size()) rehash(std::bit_ceil(std::max<std::size_t>(16, 4 * (live_ + 1))));
+  const std::size_t mask = keys_.size() - 1;
+  std::size_t tombstone = SIZE_MAX;
+  for (std::size_t i = slot(key);; i = (i + 1) & mask) {
+    if (keys_[i] == key) return false;
+    if (keys_[i] == kErased && tombstone == SIZE_MAX) tombstone = i;
+    if (keys_[i] == kEmpty) {
+      const std::size_t at = tombstone == SIZE_MAX ? i : tombstone;
+      if (at == i) ++used_;
+      keys_[at] = key;
+      faces_[at] = face;
+      ++live_;
+      return true;
+    }
+  }
+}
+
+void EdgeFaceMap::erase(std::uint64_t key) {
+  if (keys_.empty()) return;
+  const std::size_t mask = keys_.size() - 1;
+  for (std::size_t i = slot(key);; i = (i + 1) & mask) {
+    if (keys_[i] == key) {
+      keys_[i] = kErased;  // a tombstone: still counted in used_ until the next rehash
+      --live_;
+      return;
+    }
+    if (keys_[i] == kEmpty) return;
+  }
+}
+
 EditableMesh::EditableMesh(const TriMesh& mesh) {
   positions.reserve(mesh.positions.size());
   for (const Float3& p : mesh.positions) positions.push_back({p.x, p.y, p.z});
@@ -34,8 +92,7 @@ Vec3 EditableMesh::faceNormal(std::uint32_t f) const {
 }
 
 std::uint32_t EditableMesh::faceOf(std::uint32_t a, std::uint32_t b) const {
-  const auto it = faceOfEdge_.find(key(a, b));
-  return it == faceOfEdge_.end() ? kNone : it->second;
+  return faceOfEdge_.find(key(a, b));
 }
 
 std::uint32_t EditableMesh::third(std::uint32_t f, std::uint32_t a, std::uint32_t b) const {
@@ -71,8 +128,7 @@ void EditableMesh::setFace(std::uint32_t f, const Face& vertices) {
   if (faceAlive(f)) killFace(f);
   faces_[f] = vertices;
   for (int k = 0; k < 3; ++k) {
-    const auto [it, inserted] = faceOfEdge_.try_emplace(key(vertices[std::size_t(k)], vertices[std::size_t((k + 1) % 3)]), f);
-    if (!inserted) throw std::logic_error("remeshSurface: an edit would make an edge non-manifold");
+    if (!faceOfEdge_.insert(key(vertices[std::size_t(k)], vertices[std::size_t((k + 1) % 3)]), f)) throw std::logic_error("remeshSurface: an edit would make an edge non-manifold");
     vertexFace_[vertices[std::size_t(k)]] = f;
   }
 }

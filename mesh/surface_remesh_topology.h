@@ -9,7 +9,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 namespace blobvk::mesh::remesh {
@@ -36,6 +35,27 @@ double minAngle(const Vec3& a, const Vec3& b, const Vec3& c);
 
 inline constexpr std::uint32_t kNone = 0xffffffffu;
 using Face = std::array<std::uint32_t, 3>;
+
+// Directed edge (a << 32 | b) -> face: open addressing with linear probing and tombstones. The
+// remesher looks edges up millions of times (every ring walk); std::unordered_map's node
+// chasing made those lookups ~17 % of its time (measured with perf on the craniotomy).
+class EdgeFaceMap {
+ public:
+  void reserve(std::size_t edges);
+  std::uint32_t find(std::uint64_t key) const;  // kNone when absent
+  bool insert(std::uint64_t key, std::uint32_t face);  // false when the key is present
+  void erase(std::uint64_t key);
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t(0), kErased = kEmpty - 1;
+  std::size_t slot(std::uint64_t key) const { return std::size_t((key * 0x9e3779b97f4a7c15ull) >> shift_); }
+  void rehash(std::size_t size);  // size: a power of two
+
+  std::vector<std::uint64_t> keys_;
+  std::vector<std::uint32_t> faces_;
+  std::size_t used_ = 0, live_ = 0;  // used_: live keys + tombstones
+  int shift_ = 64;
+};
 
 class EditableMesh {
  public:
@@ -79,7 +99,7 @@ class EditableMesh {
 
   std::vector<Face> faces_;
   std::vector<std::uint32_t> vertexFace_;  // one live face per vertex; kNone for a dead vertex
-  std::unordered_map<std::uint64_t, std::uint32_t> faceOfEdge_;
+  EdgeFaceMap faceOfEdge_;
 };
 
 }  // namespace blobvk::mesh::remesh
