@@ -8,6 +8,7 @@
 #include "vk/field_tiles.h"
 #include "vk/polygonize.h"
 #include "vk/program_codegen.h"
+#include "shipped_scenes.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
@@ -21,14 +22,6 @@
 
 namespace blobvk::testing {
 namespace {
-
-std::vector<std::string> sceneNames() {
-  std::vector<std::string> names;
-  for (const auto& e : std::filesystem::directory_iterator(std::string(BLOBVK_SOURCE_DIR) + "/scenes"))
-    if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 struct Model {
   blobtree::Program program;
@@ -176,7 +169,7 @@ TEST_P(TiledFieldTest, TiledPolygonizationEqualsUntiledBitForBit) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Shipped, TiledFieldTest, ::testing::ValuesIn(sceneNames()),
+INSTANTIATE_TEST_SUITE_P(Shipped, TiledFieldTest, ::testing::ValuesIn(shippedSceneNames()),
                          [](const auto& info) { return info.param; });
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "cpu_simd/reference_polygonizer.h"
 #include "vk/field.h"
 #include "vk/polygonize.h"
+#include "shipped_scenes.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
@@ -20,14 +21,6 @@
 
 namespace blobvk::testing {
 namespace {
-
-std::vector<std::string> shippedScenes() {
-  std::vector<std::string> names;
-  for (const auto& e : std::filesystem::directory_iterator(std::string(BLOBVK_SOURCE_DIR) + "/scenes"))
-    if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 class SceneFieldTest : public VulkanTest, public ::testing::WithParamInterface<std::string> {};
 
@@ -89,7 +82,7 @@ TEST_P(SceneFieldTest, GpuMeshEqualsReferenceMesh) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Shipped, SceneFieldTest, ::testing::ValuesIn(shippedScenes()),
+INSTANTIATE_TEST_SUITE_P(Shipped, SceneFieldTest, ::testing::ValuesIn(shippedSceneNames()),
                          [](const auto& info) { return info.param; });
 
 }  // namespace
