@@ -74,6 +74,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     options.refineSteps = settings.refineSteps;
     options.traversal = traversalFromName(settings.traversal);
     options.maxFieldTiles = std::uint32_t(std::max(settings.fieldTiles, 1));
+    options.tiledVertexPass = settings.tiledVertices;
     vk::GpuStats gpu;
     mesh = vk::polygonize(context.device(), program, grid, options, &gpu);
     evaluations = double(gpu.fieldEvaluations);

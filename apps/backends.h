@@ -27,6 +27,7 @@ struct PolygonizeSettings {
   // code interpreted) or stack (the stack-based tree walk: the thesis' Table 4.2 comparison).
   std::string traversal = "specialised";
   int fieldTiles = 8;           // vk specialised: most tiles with pruned field kernels (1 = off)
+  bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
 };
 
 struct PolygonizeStats {

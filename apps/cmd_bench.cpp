@@ -33,6 +33,7 @@ void addBenchCommand(CLI::App& app) {
     std::vector<std::string> backends{"cpu"};
     std::vector<int> threads{0};
     int repeats = 5, warmup = 1, mpuSize = 0, fieldTiles = 8;
+    bool tiledVertices = false;
     std::string device;
     std::vector<std::string> traversals{"specialised"};
     bool json = false;
@@ -55,6 +56,8 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--field-tiles", a->fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")
       ->check(CLI::Range(1, 256));
+  cmd->add_flag("--tiled-vertices", a->tiledVertices,
+                "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a] {
     std::vector<Row> rows;
@@ -74,6 +77,7 @@ void addBenchCommand(CLI::App& app) {
             settings.device = a->device;
             settings.traversal = traversal;
             settings.fieldTiles = a->fieldTiles;
+            settings.tiledVertices = a->tiledVertices;
             Row row{path, backend == "vk" ? backend + "-" + traversal : backend, resolution, threads};
             std::vector<double> times;
             for (int i = 0; i < a->warmup + a->repeats; ++i) {

@@ -48,6 +48,8 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_option("--field-tiles", a->settings.fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")
       ->check(CLI::Range(1, 256));
+  cmd->add_flag("--tiled-vertices", a->settings.tiledVertices,
+                "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
   cmd->add_option("--max-memory", a->maxMemory, "Refuse jobs needing more (e.g. 2G; default: available)");
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
   cmd->add_flag("--ascii", a->ascii, "Write ASCII PLY instead of binary");

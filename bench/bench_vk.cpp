@@ -148,6 +148,7 @@ void polygonize(benchmark::State& state, const std::string& scene, vk::Traversal
   vk::GpuPolygonizeOptions o;
   o.traversal = traversal;
   if (const char* t = std::getenv("BLOBVK_BENCH_TILES")) o.maxFieldTiles = std::uint32_t(std::atoi(t));
+  o.tiledVertexPass = std::getenv("BLOBVK_BENCH_TILED_VERTICES") != nullptr;
   vk::polygonize(context().device(), m.program, grid, o);  // JIT at first dispatch
   vk::GpuStats s;
   std::size_t triangles = 0;

@@ -117,7 +117,7 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
   // Vertex kernels inline the evaluator several times (refinement, six normal samples, colour):
   // for a program too large to specialise whole, even its tiles' kernels took seconds each to
   // build on lavapipe, so its vertices keep the one interpreter pass.
-  if (fieldPass_->tileCount() > 1 && program_.specialised) {
+  if (options.tiledVertexPass && fieldPass_->tileCount() > 1 && program_.specialised) {
     // A vertex of point p's edges is evaluated between p and p + one cell (refinement) and a
     // normal step around that: the tile's region grown by a cell and the step.
     std::uint64_t rows = 1;

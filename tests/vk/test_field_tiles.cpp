@@ -152,6 +152,7 @@ TEST_P(TiledFieldTest, TiledPolygonizationEqualsUntiledBitForBit) {
   untiled.refineSteps = 2;  // the refinement evaluates along the edge too
   vk::GpuPolygonizeOptions tiled = untiled;
   tiled.maxFieldTiles = 8;
+  tiled.tiledVertexPass = true;
   vk::GpuStats stats;
   const mesh::TriMesh a = vk::polygonize(device(), m.program, m.grid, untiled);
   const mesh::TriMesh b = vk::polygonize(device(), m.program, m.grid, tiled, &stats);
