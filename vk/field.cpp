@@ -4,6 +4,9 @@
 #include <array>
 #include <chrono>
 #include <cstring>
+#include <map>
+#include <mutex>
+#include <tuple>
 
 namespace blobvk::vk {
 
@@ -16,6 +19,33 @@ std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& gri
   return std::uint32_t(std::max<std::uint64_t>(1, budget / std::max<std::uint64_t>(layerBytes, 1)));
 }
 
+namespace {
+
+// The tile plans of recent (program, grid, options): planning costs 0.5-2 ms of host time (the
+// pruned cost of every candidate split), as much as a small grid's whole field on lavapipe, and a
+// renderer or benchmark asks for the same plan again and again. Keyed by the program's
+// fingerprint; a few dozen entries, cleared when full.
+std::vector<FieldTile> cachedPlan(const blobtree::Program& program, std::uint64_t fingerprint,
+                                  const blobtree::GridSpec& grid, const FieldTilingOptions& options) {
+  using Key = std::tuple<std::uint64_t, float, float, float, float, int, int, int, std::uint32_t, double,
+                         std::uint32_t, std::uint64_t>;
+  static std::mutex mutex;
+  static std::map<Key, std::vector<FieldTile>> plans;
+  const Key key{fingerprint, grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize, grid.cells.x, grid.cells.y,
+                grid.cells.z, options.maxTiles, options.minGain, options.minExtent, options.minPointsForLargePrograms};
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (auto it = plans.find(key); it != plans.end()) return it->second;
+  }
+  std::vector<FieldTile> tiles = planFieldTiles(program, grid, options);
+  std::lock_guard<std::mutex> lock(mutex);
+  if (plans.size() >= 64) plans.clear();
+  plans.emplace(key, tiles);
+  return tiles;
+}
+
+}  // namespace
+
 FieldPass::FieldPass(Device& device, const blobtree::Program& program, const GpuProgram& gpu,
                      Traversal traversal, std::uint32_t workgroupSize, const blobtree::GridSpec& grid,
                      const FieldTilingOptions& tiling)
@@ -24,7 +54,8 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
   FieldTilingOptions o = tiling;
   if (!specialised) o.maxTiles = 1;  // the interpreters read the whole program anyway
   if (!gpu.specialised && grid.pointCount() < o.minPointsForLargePrograms) o.maxTiles = 1;
-  tiles_ = planFieldTiles(program, grid, o);
+  const std::uint64_t programPrint = gpu.fingerprint ? gpu.fingerprint : programFingerprint(program);
+  tiles_ = cachedPlan(program, programPrint, grid, o);
   // Tiles only pay with kernels of their own: when none can have one (a program too large to
   // specialise, pruning too little), one dispatch over the whole grid.
   if (tiles_.size() > 1 &&
@@ -44,7 +75,7 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
     }
     CodegenOptions c = gpu.codegen;
     c.region = t.region;
-    kernels_.push_back(&specialisedKernel(device, program, c, "field_grid", 6, rows));
+    kernels_.push_back(&specialisedKernel(device, program, programPrint, c, "field_grid", 6, rows));
   }
 }
 

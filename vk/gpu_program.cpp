@@ -65,6 +65,7 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
   }
   if (traversal == Traversal::Specialised) {
     g.codegen = codegenOverride ? *codegenOverride : defaultCodegenOptions(device);
+    g.fingerprint = programFingerprint(program);
     if (canSpecialise(program)) g.specialised = std::make_shared<const blobtree::Program>(program);
   }
   g.primitives = uploadArray(device, program.primitives);
@@ -80,15 +81,22 @@ const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const s
     return device.kernel(shader, bindings, program.specs(workgroupSize, traversal == Traversal::StackBased
                                                                             ? Traversal::StackBased
                                                                             : Traversal::Stackless));
-  return specialisedKernel(device, *program.specialised, program.codegen, shader, bindings, workgroupSize);
+  return specialisedKernel(device, *program.specialised, program.fingerprint, program.codegen, shader, bindings,
+                           workgroupSize);
 }
 
 const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, const CodegenOptions& codegen,
                                 const std::string& shader, std::uint32_t bindings, std::uint32_t workgroupSize) {
+  return specialisedKernel(device, program, programFingerprint(program), codegen, shader, bindings, workgroupSize);
+}
+
+const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, std::uint64_t fingerprint,
+                                const CodegenOptions& codegen, const std::string& shader, std::uint32_t bindings,
+                                std::uint32_t workgroupSize) {
   // Only the workgroup size (constant 0) matters to the generated evaluator.
   const std::array<std::uint32_t, 1> specs{workgroupSize};
   char key[17];
-  std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(evaluatorFingerprint(program, codegen)));
+  std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(evaluatorFingerprint(fingerprint, codegen)));
   const std::string name = shader + "/specialised:" + key;
   if (const Kernel* k = device.findKernel(name, specs)) return *k;
   const auto code =

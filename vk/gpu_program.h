@@ -37,6 +37,7 @@ struct GpuProgram {
   // with this evaluator is not yet on the device.
   CodegenOptions codegen;
   std::shared_ptr<const blobtree::Program> specialised;
+  std::uint64_t fingerprint = 0;  // programFingerprint of the uploaded program (Specialised)
 
   // Specialization constants 0-5 of every kernel that includes eval_program.glsl.
   std::array<std::uint32_t, 6> specs(std::uint32_t workgroupSize, Traversal traversal) const {
@@ -61,6 +62,10 @@ const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const s
 // compiled once per device, then found by its fingerprint.
 const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, const CodegenOptions& codegen,
                                 const std::string& shader, std::uint32_t bindings, std::uint32_t workgroupSize);
+// The same with the program's fingerprint already computed (programFingerprint).
+const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, std::uint64_t programFingerprint,
+                                const CodegenOptions& codegen, const std::string& shader, std::uint32_t bindings,
+                                std::uint32_t workgroupSize);
 
 // Code generation options for this device: branches on skips except on CPU devices.
 CodegenOptions defaultCodegenOptions(const Device& device);

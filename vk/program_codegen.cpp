@@ -273,7 +273,7 @@ struct Fnv {
 };
 }  // namespace
 
-std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const CodegenOptions& options) {
+std::uint64_t programFingerprint(const blobtree::Program& program) {
   Fnv f;
   f.array(program.code);
   f.array(program.primitives);
@@ -283,6 +283,12 @@ std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const Codeg
   f.array(program.primitiveBoxes);
   f.value(program.fieldRegisters);
   f.value(program.pointRegisters);
+  return f.h;
+}
+
+std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const CodegenOptions& options) {
+  Fnv f;
+  f.value(programFingerprint);
   f.value(options.branchOnSkips);
   f.value(options.minBranchInstructions);
   f.value(options.region.valid);
@@ -291,6 +297,10 @@ std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const Codeg
     f.value(options.region.hi);
   }
   return f.h;
+}
+
+std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const CodegenOptions& options) {
+  return evaluatorFingerprint(programFingerprint(program), options);
 }
 
 std::uint32_t prunedInstructionCount(const blobtree::Program& program, const PointRegion& region) {

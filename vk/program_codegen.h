@@ -57,6 +57,9 @@ std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const Point
 // register counts and the options): equal fingerprints mean equal code, so kernels can be looked
 // up without generating their source again (2-3 ms for a 270-instruction program).
 std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const CodegenOptions& options);
+// The same from programFingerprint(program), for callers generating many variants of one program.
+std::uint64_t programFingerprint(const blobtree::Program& program);
+std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const CodegenOptions& options);
 
 // Instructions of the generated code once pruned to `region` (what kMaxSpecialisedInstructions
 // limits): a pruned subtree or primitive counts as one.

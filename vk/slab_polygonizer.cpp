@@ -130,7 +130,8 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
       if (specialiseTile(program, r)) {
         CodegenOptions c = program_.codegen;
         c.region = r;
-        vertexTileKernels_.push_back(&specialisedKernel(device, program, c, "vertices_tiled", 14, options.workgroupSize));
+        vertexTileKernels_.push_back(
+            &specialisedKernel(device, program, program_.fingerprint, c, "vertices_tiled", 14, options.workgroupSize));
       } else {
         vertexTileKernels_.push_back(
             &evaluatorKernel(device, program_, "vertices_tiled", 14, options.workgroupSize, options.traversal));
