@@ -14,12 +14,24 @@ namespace {
 
 Eigen::Vector3d vec(const mesh::Double3& p) { return {p.x, p.y, p.z}; }
 
-// Barycentric coordinates of p in tet t (rest positions).
-std::array<double, 4> barycentric(const mesh::TetMesh& m, const std::array<std::uint32_t, 4>& t, const Eigen::Vector3d& p) {
+// A tet's barycentric map at rest: l = inverse * (p - a), weights (1 - sum l, l). Built once per
+// tet: the search below tries thousands of tets for a point outside the mesh, and rebuilding
+// and inverting the edge matrix for each was most of `blobvk simulate`'s embedding time.
+struct BarycentricMap {
+  Eigen::Vector3d a;
+  Eigen::Matrix3d inverse;
+};
+
+BarycentricMap barycentricMap(const mesh::TetMesh& m, const std::array<std::uint32_t, 4>& t) {
   const Eigen::Vector3d a = vec(m.restPositions[t[0]]);
   Eigen::Matrix3d D;
   D << vec(m.restPositions[t[1]]) - a, vec(m.restPositions[t[2]]) - a, vec(m.restPositions[t[3]]) - a;
-  const Eigen::Vector3d l = D.inverse() * (p - a);
+  return {a, D.inverse()};
+}
+
+// Barycentric coordinates of p in the tet of `map`.
+std::array<double, 4> barycentric(const BarycentricMap& map, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d l = map.inverse * (p - map.a);
   return {1 - l.sum(), l.x(), l.y(), l.z()};
 }
 
@@ -68,6 +80,9 @@ SurfaceEmbedding embedPoints(const mesh::TetMesh& m, const std::vector<mesh::Flo
         for (int x = a.x(); x <= b.x(); ++x) bins[key({x, y, z})].push_back(ti);
   }
 
+  std::vector<BarycentricMap> maps(m.tets.size());
+  tbb::parallel_for(std::size_t(0), m.tets.size(), [&](std::size_t ti) { maps[ti] = barycentricMap(m, m.tets[ti]); });
+
   SurfaceEmbedding e;
   e.nodes.resize(points.size());
   e.weights.resize(points.size());
@@ -88,7 +103,7 @@ SurfaceEmbedding embedPoints(const mesh::TetMesh& m, const std::vector<mesh::Flo
             auto it = bins.find(key({x, y, z}));
             if (it == bins.end()) continue;
             for (auto ti : it->second) {
-              const auto w = barycentric(m, m.tets[ti], p);
+              const auto w = barycentric(maps[ti], p);
               const double score = *std::min_element(w.begin(), w.end());
               if (score > bestScore) {
                 bestScore = score;
@@ -100,7 +115,7 @@ SurfaceEmbedding embedPoints(const mesh::TetMesh& m, const std::vector<mesh::Flo
     }
     if (best == UINT32_MAX) {  // far from the mesh: brute force
       for (std::uint32_t ti = 0; ti < m.tets.size(); ++ti) {
-        const auto w = barycentric(m, m.tets[ti], p);
+        const auto w = barycentric(maps[ti], p);
         const double score = *std::min_element(w.begin(), w.end());
         if (score > bestScore) {
           bestScore = score;
