@@ -11,6 +11,7 @@
 // sum, split tets, new nodes, tet slots written.
 #include "apps/cut_to_topology_change.h"
 #include "bench/cut_block.h"
+#include "bench/cut_settings.h"
 #include "cutting/cutter.h"
 #include "fem/simulation.h"
 
@@ -28,15 +29,6 @@ using namespace blobvk;
 using bench::cube;
 using bench::stroke;
 
-fem::SimulationSettings settings() {
-  fem::SimulationSettings s;
-  s.materials = {fem::Material{1e5, 0.45, 1000}};
-  s.fixed = [](const mesh::Double3& p) { return p.y < 1e-9; };
-  s.cgMaxIterations = 10;
-  s.cgTolerance = 0;
-  s.cutRoom = 0.5;  // as blobvk cut
-  return s;
-}
 
 double threadCpuMs() {
   timespec t{};
@@ -73,7 +65,7 @@ void BM_CutEventEndToEnd(benchmark::State& state) {
       cutter.reset();
       sim.reset();
       cutter = std::make_unique<cutting::Cutter>(block);
-      sim.emplace(block, settings());
+      sim.emplace(block, bench::cutBlockSettings());
       sim->run(1);
       k = 0;
       state.ResumeTiming();

@@ -2,6 +2,7 @@
 // the SOFA benchmark protocol) on voxel box meshes of ~1k, 10k and 100k tets, with a per-phase
 // breakdown as counters (ms per step): rotations, assembly (forces + warped stiffness refill),
 // contact, solve (CG + update).
+#include "bench/cut_settings.h"
 #include "fem/simulation.h"
 #include "fem/voxel_mesher.h"
 #include "tests/fem/cut_changes.h"  // the same cut-like change builder the topology tests use
@@ -51,15 +52,6 @@ void BM_FemStep(benchmark::State& state) {
   state.counters["rot_iters_per_tet"] = sim.lastStats().rotationIterationsPerTet;
 }
 
-fem::SimulationSettings cutSettings() {
-  fem::SimulationSettings settings;
-  settings.materials = {fem::Material{1e5, 0.45, 1000}};
-  settings.fixed = [](const mesh::Double3& p) { return p.y < 1e-9; };
-  settings.cgMaxIterations = 10;
-  settings.cgTolerance = 0;
-  settings.cutRoom = 0.5;  // as blobvk cut
-  return settings;
-}
 
 // A cut-like change on the 100k-tet block: every edge crossing the plane y = 0.155 inside a
 // 9 x 9-cell window is split at the plane (as a scalpel sweep's intersection points would be),
@@ -98,7 +90,7 @@ void BM_FemTopologyChange(benchmark::State& state) {
   for (auto _ : state) {
     state.PauseTiming();
     sim.reset();
-    sim.emplace(m, cutSettings());
+    sim.emplace(m, bench::cutBlockSettings());
     sim->run(1);
     rusage before{}, after{};
     getrusage(RUSAGE_THREAD, &before);
@@ -122,7 +114,7 @@ BENCHMARK(BM_FemTopologyChange)->Iterations(5)->Unit(benchmark::kMillisecond);
 void BM_FemRebuild(benchmark::State& state) {
   const mesh::TetMesh m = box(19, 20, 45);
   for (auto _ : state) {
-    fem::Simulation sim(m, cutSettings());
+    fem::Simulation sim(m, bench::cutBlockSettings());
     benchmark::DoNotOptimize(sim.mesh().tetCount());
   }
 }

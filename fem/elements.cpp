@@ -190,18 +190,7 @@ ElasticPassResult ElementSet::computeForces(const std::vector<mesh::Double3>& x,
   lastTetPassMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   gather(force, nullptr, nullptr);
   if (diagonal) {
-    forEach(nodeCount(), kNodeGrain, [&](std::size_t r) {
-      double d0 = 0, d1 = 0, d2 = 0;
-      for (const std::uint32_t* p = incidence_.begin(r); p != incidence_.end(r); ++p) {
-        const double* d = tetDiagonal_[NodeIncidence::tetOf(*p)].data() + 3 * NodeIncidence::cornerOf(*p);
-        d0 += d[0];
-        d1 += d[1];
-        d2 += d[2];
-      }
-      diagonal[3 * r] = d0;
-      diagonal[3 * r + 1] = d1;
-      diagonal[3 * r + 2] = d2;
-    });
+    forEach(nodeCount(), kNodeGrain, [&](std::size_t r) { sumCorners(tetDiagonal_, r, 0.0, 0.0, 0.0, diagonal + 3 * r); });
   }
   ElasticPassResult result;
   for (std::size_t e = 0; e < size(); ++e) {  // serial: a fixed summation order
@@ -213,23 +202,28 @@ ElasticPassResult ElementSet::computeForces(const std::vector<mesh::Double3>& x,
 
 void ElementSet::gather(double* y, const double* nodeScale, const double* p) const {
   forEach(nodeCount(), kNodeGrain, [&](std::size_t r) {
-    const double s = nodeScale ? nodeScale[r] : 0.0;
-    double y0 = 0, y1 = 0, y2 = 0;
     if (nodeScale) {
-      y0 = s * p[3 * r];
-      y1 = s * p[3 * r + 1];
-      y2 = s * p[3 * r + 2];
+      const double s = nodeScale[r];
+      sumCorners(tetVectors_, r, s * p[3 * r], s * p[3 * r + 1], s * p[3 * r + 2], y + 3 * r);
+    } else {
+      sumCorners(tetVectors_, r, 0.0, 0.0, 0.0, y + 3 * r);
     }
-    for (const std::uint32_t* q = incidence_.begin(r); q != incidence_.end(r); ++q) {
-      const double* v = tetVectors_[NodeIncidence::tetOf(*q)].data() + 3 * NodeIncidence::cornerOf(*q);
-      y0 += v[0];
-      y1 += v[1];
-      y2 += v[2];
-    }
-    y[3 * r] = y0;
-    y[3 * r + 1] = y1;
-    y[3 * r + 2] = y2;
   });
+}
+
+// out = (x0, x1, x2) + the 3-vectors perCorner holds for node r's (tet, corner) pairs, in the
+// incidence row's order (the fixed summation order that keeps results thread-count independent).
+void ElementSet::sumCorners(const std::vector<std::array<double, 12>>& perCorner, std::size_t r, double x0, double x1,
+                            double x2, double* out) const {
+  for (const std::uint32_t* q = incidence_.begin(r); q != incidence_.end(r); ++q) {
+    const double* v = perCorner[NodeIncidence::tetOf(*q)].data() + 3 * NodeIncidence::cornerOf(*q);
+    x0 += v[0];
+    x1 += v[1];
+    x2 += v[2];
+  }
+  out[0] = x0;
+  out[1] = x1;
+  out[2] = x2;
 }
 
 BLOBVK_FEM_KERNEL void ElementSet::stiffnessPass(std::size_t begin, std::size_t end, const double* p, double scale) {

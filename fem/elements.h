@@ -64,6 +64,9 @@ class ElementSet {
   void stiffnessPass(std::size_t begin, std::size_t end, const double* p, double scale);
   // y_node = nodeScale[node] p_node + sum of tetVectors_ over the node's incidence row.
   void gather(double* y, const double* nodeScale, const double* p) const;
+  // out = (x0, x1, x2) + the per-corner 3-vectors of node r's incidence row, in the row's order.
+  void sumCorners(const std::vector<std::array<double, 12>>& perCorner, std::size_t r, double x0, double x1, double x2,
+                  double* out) const;
   void writeTet(std::uint32_t tet, const std::array<std::uint32_t, 4>& nodes, const std::vector<mesh::Double3>& rest,
                 const Material& material);  // element data only, of an existing slot
 
