@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# Runs every libFuzzer target for N minutes each (default 2), seeded from the shipped scenes and
-# the bad-input catalogue. Crashes land in tests/fuzz/regressions/<target>/ so CTest replays them.
+# Runs every libFuzzer target for N minutes each (default 2), seeded from its checked-in corpus
+# (tests/fuzz/corpus/<target>/), the shipped scenes and the bad-input catalogue. Crashes land in
+# the checked-in corpus folder, so CTest replays them; new interesting inputs stay in
+# build/fuzz/corpus/<target>/ (merge them with -merge=1 when they add coverage worth keeping).
 # Usage: scripts/fuzz.sh [minutes] [target...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,13 +15,12 @@ cmake --preset fuzz >/dev/null
 cmake --build --preset fuzz --target "${targets[@]}"
 for t in "${targets[@]}"; do
   corpus="build/fuzz/corpus/$t"
-  crashes="tests/fuzz/regressions/$t"
+  crashes="tests/fuzz/corpus/$t"
   mkdir -p "$corpus" "$crashes"
   case "$t" in
-    fuzz_scene_json) seeds=(scenes tests/data/bad) ;;
-    fuzz_scene_blob) seeds=(scenes/legacy tests/data/bad) ;;
-    fuzz_mesh_readers) seeds=(tests/fuzz/seeds/mesh) ;;  # first byte: 0 .ply, 1 .obj, 2 .stl
-    *) seeds=() ;;
+    fuzz_scene_json) seeds=("$crashes" scenes tests/data/bad) ;;
+    fuzz_scene_blob) seeds=("$crashes" scenes/legacy tests/data/bad) ;;
+    *) seeds=("$crashes") ;;  # fuzz_mesh_readers: first byte 0 .ply, 1 .obj, 2 .stl
   esac
   log="build/fuzz/logs/$t.log"
   mkdir -p build/fuzz/logs

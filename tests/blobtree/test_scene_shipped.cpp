@@ -96,9 +96,13 @@ TEST(ShippedScenes, SurfacesAreWhereTheModelsPutThem) {
 
   const Program dice = compile(loadScene(kScenes + "dice.json").root);
   EXPECT_GT(fieldAt(dice, 0.0, 0.0, 0.0), 0.5f);
-  EXPECT_GT(fieldAt(dice, 1.15, 0.3, 0.3), 0.5f) << "face +x away from its pip";
-  EXPECT_LT(fieldAt(dice, 1.25, 0.0, 0.0), 0.5f) << "the pip on face +x is a hole";
-  EXPECT_LT(fieldAt(dice, 1.5, 1.5, 1.5), 0.5f) << "corners are rounded off by the sphere";
+  // A cube of half-width 0.9 + 0.454 * 0.2 = 0.99 with flat faces, its corners rounded off by a
+  // ball of radius 0.454 * 3 = 1.36, and pips dented into the faces.
+  EXPECT_GT(fieldAt(dice, 0.95, 0.3, 0.3), 0.5f) << "face +x away from its pip";
+  EXPECT_LT(fieldAt(dice, 1.05, 0.3, 0.3), 0.5f) << "the face is flat: a ball would reach 1.3";
+  EXPECT_LT(fieldAt(dice, 0.95, 0.0, 0.0), 0.5f) << "the pip on face +x is a dent";
+  EXPECT_GT(fieldAt(dice, 0.93, 0.93, 0.0), 0.5f) << "edges stay square";
+  EXPECT_LT(fieldAt(dice, 0.9, 0.9, 0.9), 0.5f) << "corners are rounded off by the ball";
 
   const Program column = compile(loadScene(kScenes + "twisted_column.json").root);
   EXPECT_GT(fieldAt(column, 0.0, 4.0, 0.0), 0.5f);

@@ -9,6 +9,7 @@
 #include "vk/error.h"
 #include "vk/polygonize.h"
 #include "vk/standalone.h"
+#include "vulkan_required.h"
 
 #include <gtest/gtest.h>
 
@@ -105,7 +106,7 @@ class FaultInjection : public ::testing::Test {
   static void TearDownTestSuite() { context_.reset(); }
 
   void SetUp() override {
-    if (!context_) GTEST_SKIP() << "no Vulkan device: " << reason_;
+    if (!context_) BLOBVK_REQUIRE_VULKAN_OR_SKIP(reason_);
     messagesBefore_ = context_->validationMessages();
   }
   void TearDown() override {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "vk/standalone.h"
+#include "vulkan_required.h"
 
 #include <gtest/gtest.h>
 
@@ -27,7 +28,7 @@ class VulkanTest : public ::testing::Test {
   }
 
   void SetUp() override {
-    if (!context_) GTEST_SKIP() << "no Vulkan device: " << reason_;
+    if (!context_) BLOBVK_REQUIRE_VULKAN_OR_SKIP(reason_);
     messagesBefore_ = context_->validationMessages();
   }
 
