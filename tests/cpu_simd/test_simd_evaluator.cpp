@@ -6,6 +6,7 @@
 #include "cpu_simd/simd_evaluator.h"
 #include "tests/cpu_simd/models.h"
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -125,6 +126,35 @@ TEST(SimdEvaluator, NormalsMatchReference) {
       ASSERT_EQ(nx[i], ref.x) << toString(level) << " point " << i;
       ASSERT_EQ(ny[i], ref.y);
       ASSERT_EQ(nz[i], ref.z);
+    }
+  }
+}
+
+// An analytic oracle for the normals: a point primitive's field falls off radially, so its unit
+// normal at any point of its support (not its centre) is the direction away from the centre.
+TEST(SimdEvaluator, NormalsOfAPointPrimitiveAreRadial) {
+  const glm::vec3 centre(0.3f, -0.2f, 0.1f);
+  const blobtree::Program program =
+      blobtree::compile(testmodels::primitive(blobtree::PrimitiveType::Point, glm::dvec3(centre), {}, 0, 0, 1.0));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f), r(0.2f, 0.9f);
+  Points p;
+  std::vector<glm::vec3> radial;
+  while (radial.size() < 97) {
+    const glm::vec3 d(u(rng), u(rng), u(rng));
+    if (glm::length(d) < 0.1f || glm::length(d) > 1.0f) continue;
+    radial.push_back(glm::normalize(d));
+    const glm::vec3 q = centre + r(rng) * radial.back();
+    p.x.push_back(q.x), p.y.push_back(q.y), p.z.push_back(q.z);
+  }
+  const std::size_t n = radial.size();
+  std::vector<float> nx(n), ny(n), nz(n);
+  for (SimdLevel level : levels()) {
+    evaluateNormalBatch(program, p.x.data(), p.y.data(), p.z.data(), nx.data(), ny.data(), nz.data(), n, 1e-4f, level);
+    for (std::size_t i = 0; i < n; ++i) {
+      const glm::vec3 normal(nx[i], ny[i], nz[i]);
+      EXPECT_NEAR(glm::length(normal), 1.0f, 1e-4f) << toString(level) << " point " << i;
+      EXPECT_GT(glm::dot(normal, radial[i]), 0.999f) << toString(level) << " point " << i;
     }
   }
 }

@@ -61,7 +61,7 @@ TEST_P(NodePlaneCut, SeparatesTheBlockAlongTheNodePlane) {
   EXPECT_TRUE(run.finalCheck.ok()) << run.finalCheck.summary();
   ASSERT_EQ(run.parts.size(), 2u) << "offset " << pc.offsetInCells << ", steps " << pc.steps;
   const double total = kCells * kCell * kCells * kCell * kCells * kCell;
-  EXPECT_NEAR(run.after.totalVolume, run.before.totalVolume, 1e-12 * total);
+  EXPECT_NEAR(run.after.totalVolume, total, 1e-12 * total);
   // The crack runs along the node plane (the nodes snap): 4 cells on each side.
   double v0 = partVolume(run.mesh, run.parts[0]), v1 = partVolume(run.mesh, run.parts[1]);
   EXPECT_NEAR(v0, total / 2, 1e-9 * total);
@@ -105,7 +105,7 @@ TEST_P(DiagonalNodePlaneCut, HalvesTheBlock) {
   for (const auto& check : run.checks) EXPECT_TRUE(check.ok()) << check.summary();
   ASSERT_EQ(run.parts.size(), 2u);
   const double total = kCells * kCell * kCells * kCell * kCells * kCell;
-  EXPECT_NEAR(run.after.totalVolume, run.before.totalVolume, 1e-12 * total);
+  EXPECT_NEAR(run.after.totalVolume, total, 1e-12 * total);
   EXPECT_NEAR(partVolume(run.mesh, run.parts[0]), total / 2, 1e-9 * total);
   EXPECT_NEAR(partVolume(run.mesh, run.parts[1]), total / 2, 1e-9 * total);
 }
@@ -122,7 +122,7 @@ TEST(NodePlaneCutProgressive, HalfThenFull) {
   const double x = kOrigin + 4 * kCell;
   const double lo = kOrigin - 0.1, hi = kOrigin + kCells * kCell + 0.1, mid = kOrigin + 0.5 * kCells * kCell;
   Cutter cutter(shiftedCube());
-  const double volume = cutter.topology().totalRestVolume();
+  const double volume = kCells * kCell * kCells * kCell * kCells * kCell;
   const CutResult first = cutter.cut(sweptTriangles({0, {x, lo, lo}, {x, lo, hi}}, {1, {x, mid, lo}, {x, mid, hi}}));
   EXPECT_GT(first.crackFaces, 0u);
   EXPECT_GT(first.duplicatedNodes, 0u);

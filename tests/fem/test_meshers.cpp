@@ -11,7 +11,6 @@
 #include <cmath>
 #include <stdexcept>
 
-#include <Eigen/Dense>
 
 namespace blobvk::fem {
 namespace {
@@ -75,26 +74,6 @@ mesh::TriMesh cubeSurface(double h, double ox = 0) {
   return m;
 }
 
-double minDihedralDegrees(const mesh::TetMesh& m) {
-  double best = 180;
-  static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  for (const auto& t : m.tets) {
-    Eigen::Vector3d p[4];
-    for (int k = 0; k < 4; ++k) p[k] = {m.positions[t[k]].x, m.positions[t[k]].y, m.positions[t[k]].z};
-    for (const auto& e : kEdges) {
-      int o[2], c = 0;
-      for (int k = 0; k < 4; ++k)
-        if (k != e[0] && k != e[1]) o[c++] = k;
-      const Eigen::Vector3d axis = (p[e[1]] - p[e[0]]).normalized();
-      Eigen::Vector3d a = p[o[0]] - p[e[0]], b = p[o[1]] - p[e[0]];
-      a -= a.dot(axis) * axis;
-      b -= b.dot(axis) * axis;
-      best = std::min(best, std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI);
-    }
-  }
-  return best;
-}
-
 TEST(TetgenMesher, SwitchesReflectOptions) {
   TetgenOptions o;
   o.maxRadiusEdgeRatio = 1.5;
@@ -123,7 +102,7 @@ TEST(TetgenMesher, CubeGivesQualityTetsWithExactVolume) {
   EXPECT_GT(m.tets.size(), 100u);
   EXPECT_NEAR(totalVolume(m, true), 1.0, 1e-9);
   EXPECT_NO_THROW(validateTetMesh(m));
-  EXPECT_GE(minDihedralDegrees(m), 10.0 - 1e-6);
+  EXPECT_GE(test::minDihedralDegrees(m.positions, m.tets), 10.0 - 1e-6);
   for (const auto& t : m.tets) EXPECT_LE(std::abs(tetVolume(m.restPositions, t)), 0.01 * (1 + 1e-9));
   // Input points stay the first nodes (the identity surface mapping relies on it).
   const auto cube = cubeSurface(0.5);

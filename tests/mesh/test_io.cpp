@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <cstdint>
+
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -124,6 +127,149 @@ TEST_F(MeshIo, WritersAreByteDeterministic) {
   }
   mesh::writePly(m, path("x.ply"), false);
   EXPECT_NE(read(path("x.ply")).find("0.1 "), std::string::npos);
+}
+
+// ---- writers and readers against hand-written files -------------------------------------------
+// The round trips above would pass if a writer and its reader agreed on a wrong layout; these
+// pin each writer's bytes to the format as written out by hand here, and read hand-made files.
+
+// One triangle in the plane z = -2 with face normal +z, distinct vertex normals, and colours that
+// are exact in bytes: 0.2 * 255 = 51, 0.6 * 255 = 153, 0.4 * 255 = 102.
+mesh::TriMesh handTriangle() {
+  mesh::TriMesh m;
+  m.positions = {{0, 0, -2}, {2, 0, -2}, {0, 0.5f, -2}};
+  m.normals = {{0, 0, 1}, {0, 1, 0}, {1, 0, 0}};
+  m.colours = {{1, 0, 0.2f}, {0, 0.6f, 1}, {0.4f, 0.4f, 0.4f}};
+  m.triangles = {{0, 1, 2}};
+  return m;
+}
+
+const char* const kHandPlyHeader =
+    "comment written by blobvk\n"
+    "element vertex 3\n"
+    "property float x\nproperty float y\nproperty float z\n"
+    "property float nx\nproperty float ny\nproperty float nz\n"
+    "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    "element face 1\n"
+    "property list uchar int vertex_indices\n"
+    "end_header\n";
+
+// Little-endian bytes built arithmetically, whatever the host's byte order.
+void appendLe32(std::string& out, std::uint32_t v) {
+  for (int b = 0; b < 4; ++b) out += char((v >> (8 * b)) & 0xffu);
+}
+void appendLeFloat(std::string& out, float f) { appendLe32(out, std::bit_cast<std::uint32_t>(f)); }
+
+TEST_F(MeshIo, AsciiPlyIsTheHandWrittenFile) {
+  mesh::writePly(handTriangle(), path("t.ply"), false);
+  const std::string expected = std::string("ply\nformat ascii 1.0\n") + kHandPlyHeader +
+                               "0 0 -2 0 0 1 255 0 51\n"
+                               "2 0 -2 0 1 0 0 153 255\n"
+                               "0 0.5 -2 1 0 0 102 102 102\n"
+                               "3 0 1 2\n";
+  EXPECT_EQ(read(path("t.ply")), expected);
+}
+
+TEST_F(MeshIo, BinaryPlyIsTheHandWrittenLayout) {
+  mesh::writePly(handTriangle(), path("t.ply"), true);
+  std::string expected = std::string("ply\nformat binary_little_endian 1.0\n") + kHandPlyHeader;
+  const float vertices[3][6] = {{0, 0, -2, 0, 0, 1}, {2, 0, -2, 0, 1, 0}, {0, 0.5f, -2, 1, 0, 0}};
+  const unsigned char rgb[3][3] = {{255, 0, 51}, {0, 153, 255}, {102, 102, 102}};
+  for (int v = 0; v < 3; ++v) {
+    for (float f : vertices[v]) appendLeFloat(expected, f);
+    for (unsigned char c : rgb[v]) expected += char(c);
+  }
+  expected += char(3);
+  for (std::uint32_t i : {0u, 1u, 2u}) appendLe32(expected, i);
+  EXPECT_EQ(read(path("t.ply")), expected);
+}
+
+TEST_F(MeshIo, ObjIsTheHandWrittenFile) {
+  mesh::writeObj(handTriangle(), path("t.obj"));
+  EXPECT_EQ(read(path("t.obj")),
+            "# written by blobvk\n"
+            "v 0 0 -2 1 0 0.2\n"
+            "v 2 0 -2 0 0.6 1\n"
+            "v 0 0.5 -2 0.4 0.4 0.4\n"
+            "vn 0 0 1\nvn 0 1 0\nvn 1 0 0\n"
+            "f 1//1 2//2 3//3\n");
+}
+
+TEST_F(MeshIo, BinaryStlIsTheHandWrittenLayout) {
+  mesh::writeStl(handTriangle(), path("t.stl"));
+  const std::string bytes = read(path("t.stl"));
+  ASSERT_EQ(bytes.size(), 84u + 50u);
+  EXPECT_NE(bytes.substr(0, 5), "solid");  // a binary header must not read as ascii STL
+  std::string body;
+  appendLe32(body, 1);  // triangle count
+  // Facet normal (the unit cross product of the edges: +z), then the three corners.
+  for (float f : {0.0f, 0.0f, 1.0f, 0.0f, 0.0f, -2.0f, 2.0f, 0.0f, -2.0f, 0.0f, 0.5f, -2.0f}) appendLeFloat(body, f);
+  body += std::string(2, '\0');  // attribute byte count
+  EXPECT_EQ(bytes.substr(80), body);
+}
+
+// A binary PLY as other tools write it: doubles, an extra vertex property, uint list indices,
+// a quad, and an element the reader must skip.
+TEST_F(MeshIo, HandMadeBinaryPlyWithOtherTypesIsRead) {
+  std::string bytes =
+      "ply\nformat binary_little_endian 1.0\nobj_info made by hand\n"
+      "element vertex 4\nproperty double x\nproperty double y\nproperty double z\nproperty float confidence\n"
+      "element face 1\nproperty list uchar uint vertex_indices\n"
+      "element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n";
+  const double corners[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0.25}, {0, 1, 0}};
+  for (const auto& c : corners) {
+    for (double d : c) {
+      const std::uint64_t u = std::bit_cast<std::uint64_t>(d);
+      appendLe32(bytes, std::uint32_t(u));
+      appendLe32(bytes, std::uint32_t(u >> 32));
+    }
+    appendLeFloat(bytes, 0.5f);
+  }
+  bytes += char(4);
+  for (std::uint32_t i : {0u, 1u, 2u, 3u}) appendLe32(bytes, i);
+  appendLe32(bytes, 0);
+  appendLe32(bytes, 2);
+  const mesh::TriMesh r = mesh::readPly(write("q.ply", bytes));
+  ASSERT_EQ(r.positions.size(), 4u);
+  EXPECT_EQ(r.positions[2], (mesh::Float3{1, 1, 0.25f}));
+  EXPECT_TRUE(r.normals.empty());
+  EXPECT_TRUE(r.colours.empty());
+  // The quad becomes a fan from its first corner.
+  ASSERT_EQ(r.triangles.size(), 2u);
+  EXPECT_EQ(r.triangles[0], (std::array<std::uint32_t, 3>{0, 1, 2}));
+  EXPECT_EQ(r.triangles[1], (std::array<std::uint32_t, 3>{0, 2, 3}));
+}
+
+TEST_F(MeshIo, HandMadeAsciiPlyWithFloatColoursIsRead) {
+  const std::string p = write("c.ply",
+                              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                              "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+                              "property float red\nproperty float green\nproperty float blue\n"
+                              "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                              "0 0 0 0 0 1 0.25 0.5 1\n1 0 0 0 0 1 0 0 0\n0 1 0 0 0 1 1 1 1\n3 2 1 0\n");
+  const mesh::TriMesh r = mesh::readPly(p);
+  ASSERT_EQ(r.normals.size(), 3u);
+  EXPECT_EQ(r.normals[1], (mesh::Float3{0, 0, 1}));
+  ASSERT_EQ(r.colours.size(), 3u);
+  EXPECT_EQ(r.colours[0], (mesh::Float3{0.25f, 0.5f, 1}));  // float colours are not divided by 255
+  EXPECT_EQ(r.triangles[0], (std::array<std::uint32_t, 3>{2, 1, 0}));
+}
+
+TEST_F(MeshIo, HandMadeObjWithNormalsAndColoursIsRead) {
+  const std::string p = write("n.obj",
+                              "# hand made\nv 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\n"
+                              "vn 0 0 -1\nvn 0 0.6 0.8\nvn 1 0 0\nf 1//1 2//2 3//3\n");
+  const mesh::TriMesh r = mesh::readObj(p);
+  ASSERT_EQ(r.positions.size(), 3u);
+  EXPECT_EQ(r.positions[2], (mesh::Float3{0, 1, 0}));
+  ASSERT_EQ(r.colours.size(), 3u);
+  EXPECT_EQ(r.colours[1], (mesh::Float3{0, 1, 0}));
+  ASSERT_EQ(r.normals.size(), 3u);
+  EXPECT_EQ(r.normals[1], (mesh::Float3{0, 0.6f, 0.8f}));
+  EXPECT_EQ(r.triangles[0], (std::array<std::uint32_t, 3>{0, 1, 2}));
+  // Corner normals that do not pair one to one with the vertices are not per-vertex normals.
+  const mesh::TriMesh shared = mesh::readObj(write("s.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"));
+  EXPECT_TRUE(shared.normals.empty());
 }
 
 TEST_F(MeshIo, WriteMeshRejectsUnknownExtensions) {

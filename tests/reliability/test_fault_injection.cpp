@@ -6,6 +6,7 @@
 #include "blobtree/grid.h"
 #include "blobtree/program.h"
 #include "blobtree/tree.h"
+#include "cpu_simd/reference_polygonizer.h"
 #include "vk/error.h"
 #include "vk/polygonize.h"
 #include "vk/standalone.h"
@@ -17,6 +18,7 @@
 #include <cstring>
 #include <memory>
 #include <string>
+#include <utility>
 
 namespace {
 
@@ -125,6 +127,22 @@ class FaultInjection : public ::testing::Test {
 
   // Two blended points: a small job with several bricks, so several submits and allocations.
   static mesh::TriMesh polygonizeBlob(vk::Device& device) {
+    const auto [program, grid] = blob();
+    vk::GpuPolygonizeOptions options;
+    options.maxBrickBytes = 8 * 1024;  // many slabs: many submits to fail at
+    return vk::polygonize(device, program, grid, options);
+  }
+
+  // A completed job must be the whole mesh: the CPU reference's vertices and triangles.
+  static void expectReferenceMesh(const mesh::TriMesh& gpu) {
+    const auto [program, grid] = blob();
+    const mesh::TriMesh ref = cpu::polygonizeReference(program, grid);
+    ASSERT_GT(ref.triangles.size(), 100u);
+    EXPECT_EQ(gpu.edgeKeys, ref.edgeKeys);
+    EXPECT_EQ(gpu.triangles, ref.triangles);
+  }
+
+  static std::pair<blobtree::Program, blobtree::GridSpec> blob() {
     blobtree::Node root;
     root.kind = blobtree::Operator{};
     for (double x : {-0.4, 0.4}) {
@@ -135,13 +153,11 @@ class FaultInjection : public ::testing::Test {
       child.kind = p;
       root.children.push_back(child);
     }
-    const blobtree::Program program = blobtree::compile(root);
+    blobtree::Program program = blobtree::compile(root);
     blobtree::GridRequest request;
     request.resolution = 24;
     const blobtree::GridSpec grid = blobtree::chooseGrid(program, {}, request);
-    vk::GpuPolygonizeOptions options;
-    options.maxBrickBytes = 8 * 1024;  // many slabs: many submits to fail at
-    return vk::polygonize(device, program, grid, options);
+    return {std::move(program), grid};
   }
 
  private:
@@ -154,7 +170,7 @@ TEST_F(FaultInjection, WithoutFaultsTheWrappedDeviceWorks) {
   resetFaults();
   vk::Device device(faultyHost());
   const mesh::TriMesh mesh = polygonizeBlob(device);
-  EXPECT_GT(mesh.triangles.size(), 100u);
+  expectReferenceMesh(mesh);
   EXPECT_GT(g.submits, 1) << "the job should take several submits for the loss test to mean much";
 }
 
@@ -167,7 +183,7 @@ TEST_F(FaultInjection, DeviceLostAtEverySubmitThrowsVulkanError) {
     {
       vk::Device device(faultyHost());  // a lost device is never reused: a fresh one each time
       try {
-        (void)polygonizeBlob(device);
+        expectReferenceMesh(polygonizeBlob(device));  // a job that completes is never partial
         completed = true;
       } catch (const vk::VulkanError& e) {
         ++failures;
@@ -193,7 +209,7 @@ TEST_F(FaultInjection, OutOfDeviceMemoryAtEveryAllocationThrowsAndTheDeviceStays
     const int before = g.allocations;
     bool completed = false;
     try {
-      (void)polygonizeBlob(device);
+      expectReferenceMesh(polygonizeBlob(device));  // a job that completes is never partial
       completed = true;
     } catch (const vk::VulkanError& e) {
       ++failures;
@@ -207,8 +223,8 @@ TEST_F(FaultInjection, OutOfDeviceMemoryAtEveryAllocationThrowsAndTheDeviceStays
   }
   g.failAllocateAt = -1;
   EXPECT_GE(failures, 1);
-  // After the failures, the same device still produces a full mesh.
-  EXPECT_GT(polygonizeBlob(device).triangles.size(), 100u);
+  // After the failures, the same device still produces the full mesh.
+  expectReferenceMesh(polygonizeBlob(device));
 }
 
 }  // namespace

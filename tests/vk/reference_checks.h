@@ -1,0 +1,51 @@
+// The CPU oracles of the Vulkan tests: the scalar reference evaluator on every grid point and the
+// reference polygonizer's mesh, compared index by index. A GPU result is checked against these,
+// never only against another GPU result.
+#pragma once
+
+#include "blobtree/evaluate.h"
+#include "blobtree/grid.h"
+#include "blobtree/program.h"
+#include "mesh/trimesh.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace blobvk::testing {
+
+// blobtree::evaluate at every grid point, in the GPU's point order.
+inline std::vector<float> referenceField(const blobtree::Program& program, const blobtree::GridSpec& grid) {
+  std::vector<float> f(grid.pointCount());
+  const auto pts = grid.points();
+  for (int k = 0; k < pts.z; ++k)
+    for (int j = 0; j < pts.y; ++j)
+      for (int i = 0; i < pts.x; ++i) f[grid.pointIndex(i, j, k)] = blobtree::evaluate(program, grid.point(i, j, k));
+  return f;
+}
+
+inline float maxFieldDifference(const std::vector<float>& a, const std::vector<float>& b) {
+  if (a.size() != b.size()) return INFINITY;
+  float m = 0.0f;
+  for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
+  return m;
+}
+
+// Same vertices (edge keys), same triangles, positions within `tolerance`.
+inline void expectSameMeshAsReference(const mesh::TriMesh& gpu, const mesh::TriMesh& ref, float tolerance,
+                                      const std::string& what) {
+  ASSERT_GT(ref.triangleCount(), 0u) << what;
+  EXPECT_EQ(gpu.edgeKeys, ref.edgeKeys) << what;
+  EXPECT_EQ(gpu.triangles, ref.triangles) << what;
+  ASSERT_EQ(gpu.positions.size(), ref.positions.size()) << what;
+  float worst = 0.0f;
+  for (std::size_t i = 0; i < ref.positions.size(); ++i)
+    worst = std::max({worst, std::abs(gpu.positions[i].x - ref.positions[i].x),
+                      std::abs(gpu.positions[i].y - ref.positions[i].y), std::abs(gpu.positions[i].z - ref.positions[i].z)});
+  EXPECT_LE(worst, tolerance) << what;
+}
+
+}  // namespace blobvk::testing
