@@ -1,0 +1,317 @@
+#!/usr/bin/env python3
+"""Writes docs/performance.md (and its charts) from benchmark results.
+
+Usage: render_performance.py RESULTS_DIR DOCS_DIR
+
+RESULTS_DIR holds what scripts/performance.sh measured:
+  machine.json                   cores, CPU model, lavapipe/LLVM version, blobvk version
+  commands.json                  {section: command line} as run
+  bench_cpu.json, bench_vk.json  `blobvk bench --json` (whole-scene polygonization)
+  gb_<binary>.json               Google Benchmark JSON (--benchmark_format=json)
+Every figure in the page comes from those files; nothing is typed by hand.
+"""
+import json
+import os
+import subprocess
+import sys
+from collections import OrderedDict, defaultdict
+
+
+def load(path, default=None):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return default
+
+
+def fmt_time(seconds):
+    if seconds is None:
+        return "–"
+    if seconds >= 1.0:
+        return f"{seconds:.2f} s"
+    if seconds >= 1e-3:
+        return f"{seconds * 1e3:.1f} ms" if seconds < 0.1 else f"{seconds * 1e3:.0f} ms"
+    return f"{seconds * 1e6:.0f} µs"
+
+
+def fmt_num(x):
+    if x is None:
+        return "–"
+    if isinstance(x, int) or float(x).is_integer() and abs(x) >= 1:
+        return f"{int(x):,}"
+    if abs(x) >= 100:
+        return f"{x:,.0f}"
+    if abs(x) >= 10:
+        return f"{x:.1f}"
+    return f"{x:.3g}"
+
+
+def table(header, rows):
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+# ---------------------------------------------------------------------------------------------
+# Google Benchmark results: minimum over repetitions, and the counters of that repetition.
+def gb_runs(path):
+    data = load(path)
+    if not data:
+        return OrderedDict()
+    scale = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}
+    runs = OrderedDict()
+    for b in data.get("benchmarks", []):
+        if b.get("run_type") == "aggregate" or "error_occurred" in b and b["error_occurred"]:
+            continue
+        name = b.get("run_name", b["name"])
+        t = b["real_time"] * scale[b.get("time_unit", "ns")]
+        cpu = b["cpu_time"] * scale[b.get("time_unit", "ns")]
+        std = {"name", "run_name", "run_type", "repetitions", "repetition_index", "threads",
+               "iterations", "real_time", "cpu_time", "time_unit", "family_index",
+               "per_family_instance_index", "aggregate_name", "aggregate_unit", "label"}
+        counters = {k: v for k, v in b.items() if k not in std and isinstance(v, (int, float))}
+        prev = runs.get(name)
+        if prev is None or t < prev["time"]:
+            runs[name] = {"time": t, "cpu": cpu, "counters": counters, "reps": (prev or {}).get("reps", 0) + 1}
+        else:
+            prev["reps"] += 1
+    return runs
+
+
+def gb_context(results):
+    for f in sorted(os.listdir(results)):
+        if f.startswith("gb_"):
+            ctx = (load(os.path.join(results, f)) or {}).get("context")
+            if ctx:
+                return ctx
+    return {}
+
+
+def gb_table(runs, counters=None, rename=None, time_label="min time"):
+    if not runs:
+        return "_(not measured: the benchmark binary was not built)_"
+    keys = counters or sorted({k for r in runs.values() for k in r["counters"]})
+    header = ["benchmark", time_label, "repeats"] + keys
+    rows = []
+    for name, r in runs.items():
+        # Google Benchmark's own suffixes say how it timed, which the page states once above.
+        for suffix in ("/process_time", "/real_time", "/iterations:5", "/iterations:64"):
+            name = name.replace(suffix, "")
+        label = rename(name) if rename else name
+        if label is None:
+            continue
+        rows.append([f"`{label}`", fmt_time(r["time"]), r["reps"]] +
+                    [fmt_num(r["counters"].get(k)) for k in keys])
+    return table(header, rows)
+
+
+# ---------------------------------------------------------------------------------------------
+# `blobvk bench --json` results.
+def bench_rows(path):
+    return load(path, []) or []
+
+
+def scene_name(path):
+    return os.path.splitext(os.path.basename(path))[0]
+
+
+def cpu_table(rows):
+    by = OrderedDict()
+    for r in rows:
+        by.setdefault((scene_name(r["scene"]), r["resolution"]), {})[r["threads"]] = r
+    header = ["scene", "res", "triangles", "1 thread (min)", "ns/tri 1t", "2 threads (min)",
+              "ns/tri 2t", "speed-up", "FVEPT"]
+    out = []
+    for (scene, res), t in by.items():
+        one, two = t.get(1), t.get(2) or t.get(0)
+        tri = (two or one)["triangles"]
+        ns = lambda r: f"{r['min_s'] * 1e9 / r['triangles']:.0f}" if r and r["triangles"] else "–"
+        speed = f"{one['min_s'] / two['min_s']:.2f}x" if one and two and two["min_s"] > 0 else "–"
+        out.append([f"`{scene}`", res, f"{tri:,}", fmt_time(one and one["min_s"]), ns(one),
+                    fmt_time(two and two["min_s"]), ns(two), speed, f"{(two or one)['fvept']:.1f}"])
+    return table(header, out)
+
+
+def vk_table(cpu_rows, vk_rows):
+    cpu = {(scene_name(r["scene"]), r["resolution"]): r for r in cpu_rows if r["threads"] in (0, 2)}
+    header = ["scene", "res", "cpu min", "vk min", "vk median", "vk / cpu", "vk first run",
+              "start-up (first − median)", "triangles equal"]
+    out = []
+    for r in vk_rows:
+        key = (scene_name(r["scene"]), r["resolution"])
+        c = cpu.get(key)
+        ratio = f"{r['min_s'] / c['min_s']:.1f}x" if c and c["min_s"] > 0 else "–"
+        same = ("yes" if c["triangles"] == r["triangles"] else "**no**") if c else "–"
+        out.append([f"`{key[0]}`", key[1], fmt_time(c and c["min_s"]), fmt_time(r["min_s"]),
+                    fmt_time(r["median_s"]), ratio, fmt_time(r["first_s"]),
+                    fmt_time(max(0.0, r["first_s"] - r["median_s"])), same])
+    return table(header, out)
+
+
+# ---------------------------------------------------------------------------------------------
+# Charts (gnuplot, when present).
+def gnuplot(script, data_files):
+    try:
+        subprocess.run(["gnuplot"], input=script, text=True, check=True, capture_output=True)
+        return True
+    except (OSError, subprocess.CalledProcessError) as e:
+        sys.stderr.write(f"performance: chart skipped ({e})\n")
+        return False
+    finally:
+        for f in data_files:
+            try:
+                os.remove(f)
+            except OSError:
+                pass
+
+
+def chart_ns_per_triangle(cpu_rows, vk_rows, out_png):
+    series = defaultdict(list)  # (scene, label) -> [(res, ns)]
+    for r in cpu_rows:
+        if r["triangles"]:
+            label = f"cpu {r['threads']}t"
+            series[(scene_name(r["scene"]), label)].append((r["resolution"], r["min_s"] * 1e9 / r["triangles"]))
+    for r in vk_rows:
+        if r["triangles"]:
+            series[(scene_name(r["scene"]), "vk")].append((r["resolution"], r["min_s"] * 1e9 / r["triangles"]))
+    if not series:
+        return False
+    files, plots = [], []
+    for i, ((scene, label), pts) in enumerate(sorted(series.items())):
+        f = f"{out_png}.{i}.dat"
+        with open(f, "w") as d:
+            for res, ns in sorted(pts):
+                d.write(f"{res} {ns}\n")
+        files.append(f)
+        plots.append(f"'{f}' using 1:2 with linespoints title '{scene}, {label}'")
+    script = f"""set terminal pngcairo size 900,520 font ',10'
+set output '{out_png}'
+set logscale y
+set xlabel 'grid resolution (cells along the longest side)'
+set ylabel 'ns per output triangle (min of repeats)'
+set key outside right
+set grid
+plot {', '.join(plots)}
+"""
+    return gnuplot(script, files)
+
+
+def chart_fem(runs, out_png):
+    pts = []
+    for name, r in runs.items():
+        if name.startswith("BM_FemStep") and "tets" in r["counters"]:
+            pts.append((r["counters"]["tets"], r["time"] * 1e3))
+    if not pts:
+        return False
+    f = out_png + ".dat"
+    with open(f, "w") as d:
+        for t, ms in sorted(pts):
+            d.write(f"{t} {ms}\n")
+    script = f"""set terminal pngcairo size 700,420 font ',10'
+set output '{out_png}'
+set logscale xy
+set xlabel 'tetrahedra'
+set ylabel 'ms per step (min of repeats)'
+set grid
+plot '{f}' using 1:2 with linespoints title 'FEM step (corotational, implicit Euler, CG)'
+"""
+    return gnuplot(script, [f])
+
+
+# ---------------------------------------------------------------------------------------------
+def main():
+    results, docs = sys.argv[1], sys.argv[2]
+    machine = load(os.path.join(results, "machine.json"), {})
+    commands = load(os.path.join(results, "commands.json"), {})
+    cpu_rows = bench_rows(os.path.join(results, "bench_cpu.json"))
+    vk_rows = bench_rows(os.path.join(results, "bench_vk.json"))
+    gb = {f[3:-5]: gb_runs(os.path.join(results, f)) for f in sorted(os.listdir(results))
+          if f.startswith("gb_") and f.endswith(".json")}
+    charts = os.path.join(docs, "performance")
+    os.makedirs(charts, exist_ok=True)
+
+    def cmd(key):
+        c = commands.get(key)
+        return f"\n```sh\n{c}\n```\n" if c else ""
+
+    md = []
+    w = md.append
+    w("# Performance\n")
+    w("Current figures for every hot path, each table with the command that produced it. The whole\n"
+      "page is generated by `scripts/performance.sh` (it runs the commands below and renders this\n"
+      "file with `scripts/perf/render_performance.py`); rerun it to check a figure on your machine.\n"
+      "Times are the **minimum of several repeats** (the machine is shared: the minimum is the\n"
+      "least disturbed run) and every ratio compares two figures of the same run.\n")
+    w("## Machine\n")
+    w(table(["", ""], [
+        ["CPU", machine.get("cpu", "?")],
+        ["cores used", machine.get("cores", "?")],
+        ["Vulkan device", machine.get("vulkan_device", "none")],
+        ["blobvk", machine.get("blobvk_version", "?")],
+        ["compiler", machine.get("compiler", "?")],
+    ]))
+    w("\nNo GPU is attached to this machine: the Vulkan figures are Mesa's lavapipe (llvmpipe) running\n"
+      "the SPIR-V kernels on the same 2 cores. `scripts/gpu_check.sh` measures a real GPU where one exists.\n")
+
+    w("## CPU polygonization (`blobvk bench`)\n")
+    w("The MPU polygonizer on TBB with the AVX evaluator (`--backend cpu`), welded, indexed output.\n"
+      "*ns/tri* is the minimum wall time divided by the output triangles; *FVEPT* is field\n"
+      "evaluations per output triangle (point evaluations, normals included).\n")
+    w(cmd("bench_cpu"))
+    w(cpu_table(cpu_rows) if cpu_rows else "_(not measured)_")
+    if chart_ns_per_triangle(cpu_rows, vk_rows, os.path.join(charts, "ns_per_triangle.png")):
+        w("\n![ns per triangle against resolution](performance/ns_per_triangle.png)\n")
+
+    w("\n## Vulkan polygonization on lavapipe against the CPU (`blobvk bench`)\n")
+    w("Same scenes, `--backend vk` (specialised kernels, field tiles) against `--backend cpu` on both\n"
+      "cores. *first run* includes kernel generation, glslang and pipeline creation in a fresh\n"
+      "process; the steady state is the minimum of the repeats after it.\n")
+    w(cmd("bench_vk"))
+    w(vk_table(cpu_rows, vk_rows) if vk_rows else "_(not measured: no Vulkan device)_")
+
+    w("\n## Field evaluation (`bench_evaluator`)\n")
+    w("Points per second for whole scenes, one thread, by instruction set (random points in the\n"
+      "model's bounds, and coherent grid rows).\n")
+    w(cmd("gb_bench_evaluator"))
+    w(gb_table(gb.get("bench_evaluator", {})))
+
+    w("\n## Vulkan kernels (`bench_vk`)\n")
+    w("The field on a grid: lavapipe kernels (specialised, stackless interpreter) against the AVX\n"
+      "evaluator on the same grid, and the time to specialise and compile a kernel.\n")
+    w(cmd("gb_bench_vk"))
+    w(gb_table(gb.get("bench_vk", {})))
+
+    if gb.get("bench_compile_cost"):
+        w("\n## Kernel compile cost against program size (`bench_compile_cost`)\n")
+        w(cmd("gb_bench_compile_cost"))
+        w(gb_table(gb["bench_compile_cost"]))
+
+    w("\n## FEM (`bench_fem`)\n")
+    w("A corotational implicit step (rotations, assembly, contact, CG solve; counters in ms per step),\n"
+      "a topology change after a cut against a full rebuild.\n")
+    w(cmd("gb_bench_fem"))
+    w(gb_table(gb.get("bench_fem", {})))
+    if chart_fem(gb.get("bench_fem", {}), os.path.join(charts, "fem_step.png")):
+        w("\n![FEM step time against tet count](performance/fem_step.png)\n")
+
+    w("\n## Cutting (`bench_cutting`, `bench_cut_event`)\n")
+    w("A cut event on a block of ~100k and ~400k tets (64 blade steps): the cutter alone, then the whole\n"
+      "event as an application runs it (cut, conversion to a topology change, FEM update).\n")
+    w(cmd("gb_bench_cutting"))
+    w(gb_table(gb.get("bench_cutting", {})))
+    w(cmd("gb_bench_cut_event"))
+    w(gb_table(gb.get("bench_cut_event", {})))
+
+    w("\n## Tetrahedral meshing (`bench_tetgen`)\n")
+    w("TetGen on the shipped simulated scenes after the surface clean-up, to about 100k tets, with the\n"
+      "minimum dihedral angle reached.\n")
+    w(cmd("gb_bench_tetgen"))
+    w(gb_table(gb.get("bench_tetgen", {})))
+
+    with open(os.path.join(docs, "performance.md"), "w") as f:
+        f.write("\n".join(md).replace("\n\n\n", "\n\n") + "\n")
+
+
+if __name__ == "__main__":
+    main()
