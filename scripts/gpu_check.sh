@@ -85,11 +85,14 @@ done
 
 out="$log_dir/bench.log"
 if "$blobvk" bench scenes/tower.json --backend vk --device "$device_index" --resolution "$bench_resolution" \
-     --repeats 3 --warmup 1 >"$out" 2>&1; then
-  # The table's data row: the median seconds and the triangle count.
-  row "bench tower.json vk @$bench_resolution" PASS "$(grep -E 'tower' "$out" | tail -n 1 | tr -s ' ')"
+     --repeats 3 --warmup 1 --json >"$out" 2>"$log_dir/bench.err"; then
+  row "bench tower.json vk @$bench_resolution" PASS "$(python3 -c '
+import json, sys
+r = json.load(open(sys.argv[1]))[0]
+print("median %.4f s (min %.4f), %d triangles, %.3g field evaluations/s" %
+      (r["median_s"], r["min_s"], r["triangles"], r["evaluations_per_s"]))' "$out")"
 else
-  row "bench tower.json vk @$bench_resolution" FAIL "$(tail -n 1 "$out")"
+  row "bench tower.json vk @$bench_resolution" FAIL "$(tail -n 1 "$log_dir/bench.err")"
 fi
 
 echo
