@@ -35,7 +35,8 @@
 //    inside YOUR render pass when you pass it at construction; OffscreenTarget documents its own
 //    layouts (attachments from UNDEFINED, resolved colour left in TRANSFER_SRC_OPTIMAL).
 //  - The ray-caster (vk/raycast.h: Raycaster::recordRaycast) writes packed RGBA8 into a buffer
-//    you give it and leaves the same compute barrier.
+//    you give it and leaves the same compute barrier; rays that ran out of steps are drawn
+//    kRaycastBudgetMarker and counted (Raycaster::exhaustedRays() once the work completed).
 //
 // ---- 4. Threads ------------------------------------------------------------------------------
 //  - No global state: two Devices (even on the same VkDevice) are independent.
