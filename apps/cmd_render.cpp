@@ -166,8 +166,10 @@ void addRenderCommand(CLI::App& app) {
       what += ", " + std::to_string(renderer->samples()) + "x MSAA";
     } else {
       raycaster = std::make_unique<vk::Raycaster>(device, model.program);
-      char buf[64];
-      std::snprintf(buf, sizeof(buf), "ray-cast, Lipschitz bound %.3g", raycaster->lipschitz());
+      char buf[96];
+      const auto& cells = raycaster->lipschitzCells();
+      std::snprintf(buf, sizeof(buf), "ray-cast, Lipschitz bound %.3g (largest of %ux%ux%u cells)",
+                    raycaster->lipschitz(), cells.dims[0], cells.dims[1], cells.dims[2]);
       what = buf;
     }
     prepareSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
