@@ -166,14 +166,17 @@ void addRenderCommand(CLI::App& app) {
       what += ", " + std::to_string(renderer->samples()) + "x MSAA";
     } else {
       raycaster = std::make_unique<vk::Raycaster>(device, model.program);
-      char buf[64];
-      std::snprintf(buf, sizeof(buf), "ray-cast, Lipschitz bound %.3g", raycaster->lipschitz());
+      char buf[96];
+      const auto& cells = raycaster->lipschitzCells();
+      std::snprintf(buf, sizeof(buf), "ray-cast, Lipschitz bound %.3g (largest of %ux%ux%u cells)",
+                    raycaster->lipschitz(), cells.dims[0], cells.dims[1], cells.dims[2]);
       what = buf;
     }
     prepareSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
     Progress progress("render", a->turntable);
     double renderSeconds = 0.0, pngSeconds = 0.0;
+    std::uint64_t exhaustedRays = 0;
     for (int frame = 0; frame < a->turntable; ++frame) {
       const vk::Camera c = vk::turned(camera, 360.0f * float(frame) / float(a->turntable));
       vk::Image image;
@@ -184,11 +187,18 @@ void addRenderCommand(CLI::App& app) {
         vk::RaycastStats stats;
         image = raycaster->render(c, width, height, &stats);
         renderSeconds += stats.seconds;
+        exhaustedRays += stats.exhaustedRays;
       }
       const auto tp = std::chrono::steady_clock::now();
       vk::writePng(framePath(a->out, frame, a->turntable), image);
       pngSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count();
       if (a->turntable > 1) progress.update(frame + 1);
+    }
+    if (exhaustedRays > 0) {
+      // Not an error (the image is written), but never silent: those pixels may hide a surface.
+      std::fprintf(stderr, "blobvk render: warning: %llu ray(s) ran out of their step budget; their pixels are "
+                           "magenta (see docs/rendering.md, Ray-casting)\n",
+                   static_cast<unsigned long long>(exhaustedRays));
     }
     if (ctx.validationMessages() > 0) {
       throw std::runtime_error(std::to_string(ctx.validationMessages()) + " Vulkan validation message(s)");

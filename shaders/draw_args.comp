@@ -3,7 +3,8 @@
 // followed by the running vertex and triangle counts (words 5, 6), so an engine can draw the
 // mesh without reading counts back, and a VkDispatchIndirectCommand (words 7-9) with one lane
 // per vertex of the slab for the vertex pass (2-D when it needs more than 65535 groups, as
-// vk::groupsFor does).
+// vk::groupsFor does), then (words 10-12) no overflow yet and the slab's own vertex and triangle
+// counts, which emit_limits.comp checks against the output capacities.
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 1) in;
 
@@ -33,4 +34,7 @@ void main() {
   args[7] = x;
   args[8] = x == 0u ? 0u : (groups + x - 1u) / x;
   args[9] = 1u;
+  args[10] = 0u;  // emit_limits.comp's overflow bits
+  args[11] = vertices;
+  args[12] = triangles;
 }

@@ -11,7 +11,8 @@
 //   array; opcodes, primitive and warp types the program lacks fold away (OP_MASK, PRIM_MASK,
 //   WARP_MASK).
 // Results are those of blobtree/evaluate.cpp operation for operation.
-float EVAL_NAME(EVAL_PARAMS) {
+// precise: no fused multiply-add anywhere in the field or its colour blend (eval_formulas.glsl).
+precise float EVAL_NAME(EVAL_PARAMS) {
   REG_DECL(float, r, 0.0)
 #if EVAL_COLOUR
   REG_DECL(vec3, c, vec3(0.0))
@@ -32,7 +33,7 @@ float EVAL_NAME(EVAL_PARAMS) {
     vec3 ca, cb;
     REG_READ(ca, c, dst)
     REG_READ(cb, c, in_.y)
-    vec3 cv = ca;
+    precise vec3 cv = ca;
 #endif
     if (HAS_OP(OP_PRIM) && op == OP_PRIM) {
       v = primitiveField(in_.y, at);

@@ -1,6 +1,7 @@
 // Body of the stack-based tree walk (vk/stack_program.h encoding), included twice by
 // eval_program.glsl (EVAL_COLOUR 0 / 1). No include guard on purpose.
-float EVAL_NAME(EVAL_PARAMS) {
+// precise: no fused multiply-add anywhere in the field or its colour blend (eval_formulas.glsl).
+precise float EVAL_NAME(EVAL_PARAMS) {
   if (n == 0u) {
 #if EVAL_COLOUR
     colour = vec3(0.0);
@@ -72,7 +73,7 @@ float EVAL_NAME(EVAL_PARAMS) {
         if (child != links.x) {  // fold the child's value into the accumulator
           float a = vals[vsp - 2], b = vals[vsp - 1];
 #if EVAL_COLOUR
-          vec3 ca = cols[vsp - 2], cb = cols[vsp - 1];
+          precise vec3 ca = cols[vsp - 2], cb = cols[vsp - 1];
 #endif
           float r = a;
           if (op == OP_ADD) {

@@ -26,6 +26,6 @@ void main() {
   uvec3 t = gl_GlobalInvocationID;
   if (t.x >= pc.tileNx || t.y >= pc.tileNy) return;
   uint i = pc.i0 + t.x, j = pc.j0 + t.y, k = pc.k0 + t.z;
-  vec3 p = pc.originCell.xyz + pc.originCell.w * vec3(float(i), float(j), float(k));
+  precise vec3 p = pc.originCell.xyz + pc.originCell.w * vec3(float(i), float(j), float(k));  // no fma
   field[((k - pc.outK0) * pc.ny + j) * pc.nx + i] = evaluateField(p, pc.codeLength);
 }

@@ -17,6 +17,7 @@ layout(push_constant) uniform Push {
   uint nx, ny;
   uint cellsX, cellsY;
   uint vertexBase;   // global index of the slab's first vertex
+  uint triangleCapacity;  // triangles the index buffer holds (slab-local); later ones are dropped
 } pc;
 
 // Invocation (i, j, l): cell (i, j) of the slab's cell layer l.
@@ -31,8 +32,10 @@ void main() {
     uint q = p + (corner & 1u) + pc.nx * ((corner >> 1) & 1u) + layer * ((corner >> 2) & 1u);
     if (field[q] >= ISO_VALUE) config |= 1u << corner;
   }
-  uint n = cases[config * 20u];
-  uint out_ = triOffsets[c] * 3u;
+  uint first = triOffsets[c];
+  // Only the triangles that fit the caller's buffer (emit_limits.comp flags the overflow).
+  uint n = min(cases[config * 20u], first < pc.triangleCapacity ? pc.triangleCapacity - first : 0u);
+  uint out_ = first * 3u;
   for (uint v = 0u; v < n * 3u; ++v) {
     uint e = cases[config * 20u + 1u + v];
     uint axis = e >> 2, u = e & 1u, w = (e >> 1) & 1u;

@@ -29,14 +29,17 @@ layout(push_constant) uniform Push {
   // y j0 .. j0 + tileNy - 1, slab-local layers layer0 ..), its rows in the row scan and its
   // slot in the tile arguments.
   uint tileI0, tileNx, tileJ0, tileNy, tileLayer0, rowBase, rows, tileIndex;
+  uint vertexCapacity;  // vertices the output buffers hold (slab-local); later ones are dropped
 } pc;
 
-vec3 gridPoint(uint i, uint j, uint k) {
+precise vec3 gridPoint(uint i, uint j, uint k) {  // precise: no fma, as GridSpec::point
   return pc.originCell.xyz + pc.originCell.w * vec3(float(i), float(j), float(k));
 }
 
 // Vertex v of the slab (slab-local), on a crossing upper edge of point idx (slab-local).
 void emitVertex(uint v, uint idx) {
+  // Beyond the caller's buffers: emit_limits.comp has flagged the overflow.
+  if (v >= pc.vertexCapacity) return;
   uint bits = flags[idx];
   uint rank = v - vertexOffsets[idx];
   uint axis = findLSB(bits);
@@ -59,11 +62,11 @@ void emitVertex(uint v, uint idx) {
     float fb = field[nb];
     // cpu/reference_polygonizer.cpp rule 2: only the edge's own coordinate moves.
     float len = pb[axis] - pa[axis];
-    float t = (ISO_VALUE - fa) / (fb - fa);
-    float lo = 0.0, hi = 1.0, flo = fa, fhi = fb;
+    precise float t = (ISO_VALUE - fa) / (fb - fa);
+    precise float lo = 0.0, hi = 1.0, flo = fa, fhi = fb;
     int keptSide = 0;  // Illinois regula falsi: -1 lo kept last step, +1 hi kept last step
     for (uint s = 0u; s < pc.refineSteps; ++s) {
-      vec3 q = pa;
+      precise vec3 q = pa;
       q[axis] = pa[axis] + t * len;
       float f = evaluateField(q, pc.codeLength);
       if (f == ISO_VALUE) break;
@@ -80,7 +83,7 @@ void emitVertex(uint v, uint idx) {
       }
       t = lo + (ISO_VALUE - flo) / (fhi - flo) * (hi - lo);
     }
-    vec3 p = pa;
+    precise vec3 p = pa;
     p[axis] = pa[axis] + t * len;
     uint v = out_ * 3u;
     positions[v] = p.x;
@@ -89,11 +92,11 @@ void emitVertex(uint v, uint idx) {
     if ((pc.attributes & 1u) != 0u) {
       float h = pc.normalStep;
       float inv = 0.5 / h;
-      vec3 g = vec3((evaluateField(p + vec3(h, 0, 0), pc.codeLength) - evaluateField(p - vec3(h, 0, 0), pc.codeLength)) * inv,
+      precise vec3 g = vec3((evaluateField(p + vec3(h, 0, 0), pc.codeLength) - evaluateField(p - vec3(h, 0, 0), pc.codeLength)) * inv,
                     (evaluateField(p + vec3(0, h, 0), pc.codeLength) - evaluateField(p - vec3(0, h, 0), pc.codeLength)) * inv,
                     (evaluateField(p + vec3(0, 0, h), pc.codeLength) - evaluateField(p - vec3(0, 0, h), pc.codeLength)) * inv);
       float len = length(g);
-      vec3 nrm = len > 0.0 ? -g / len : vec3(0.0, 0.0, 1.0);
+      precise vec3 nrm = len > 0.0 ? -g / len : vec3(0.0, 0.0, 1.0);
       normals[v] = nrm.x;
       normals[v + 1u] = nrm.y;
       normals[v + 2u] = nrm.z;

@@ -1,5 +1,6 @@
 #include "vk/polygonize.h"
 
+#include "vk/error.h"
 #include "vk/slab_polygonizer.h"
 
 #include <array>
@@ -46,9 +47,12 @@ mesh::TriMesh polygonize(Device& device, const blobtree::Program& program,
              colours = make(options.colours ? vertices * 12ull : 16), keys = make(vertices * 4ull),
              indices = make(std::uint64_t(triangles) * 12);
       device.run([&](Recorder& rec) {
-        poly.recordEmit(rec, slab, vertexBase, {positions, normals, colours, keys, indices});
+        poly.recordEmit(rec, slab, vertexBase, {positions, normals, colours, keys, indices, vertices, triangles});
         rec.hostBarrier();
       });
+      // The buffers were sized from the counts, so this only fires on a broken invariant; the
+      // emit pass then wrote what fitted, and the mesh would have holes.
+      if (poly.readOverflow()) throw VulkanError("GPU polygonizer: the emit pass overflowed its output buffers");
       const std::size_t v0 = mesh.positions.size();
       mesh.positions.resize(v0 + vertices);
       device.download(positions, mesh.positions.data() + v0, vertices * 12ull);

@@ -32,18 +32,23 @@ std::string vec4Lit(const layout::vec4& v) {
   return "vec4(" + lit(v.x) + ", " + lit(v.y) + ", " + lit(v.z) + ", " + lit(v.w) + ")";
 }
 
+// The qualifier on the generated function and its colour registers: glslang makes every
+// operation feeding them NoContraction, so no driver fuses a * b + c (issue 15; the formulas it
+// calls are precise in eval_formulas.glsl). docs/vulkan.md, "Floating point".
+std::string precise(const char* type) { return std::string("precise ") + type; }
+
 class Generator {
  public:
   Generator(const blobtree::Program& program, const CodegenOptions& options, bool colour)
       : p_(program), options_(options), colour_(colour) {}
 
   std::string function() {
-    out_ += colour_ ? "float evaluateFieldColour(vec3 p, uint n, out vec3 colour) {\n"
-                    : "float evaluateField(vec3 p, uint n) {\n";
+    out_ += precise("float") + (colour_ ? " evaluateFieldColour(vec3 p, uint n, out vec3 colour) {\n"
+                                         : " evaluateField(vec3 p, uint n) {\n");
     const std::uint32_t regs = std::max<std::uint32_t>(p_.fieldRegisters, 1);
     for (std::uint32_t r = 0; r < regs; ++r) {
       line(1, "float " + reg(r) + " = 0.0;");
-      if (colour_) line(1, "vec3 " + col(r) + " = vec3(0.0);");
+      if (colour_) line(1, precise("vec3 ") + col(r) + " = vec3(0.0);");
     }
     for (std::uint32_t q = 1; q < p_.pointRegisters; ++q) line(1, "vec3 " + point(q) + " = p;");
     emitRange(0, std::uint32_t(p_.code.size()), 1);

@@ -19,6 +19,12 @@ std::uint32_t packBackground(const std::array<float, 3>& c) {
   return v;
 }
 
+std::uint32_t floatBits(float f) {
+  std::uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+
 }  // namespace
 
 Raycaster::Raycaster(Device& device, const blobtree::Program& program, const RaycastOptions& options)
@@ -30,7 +36,17 @@ Raycaster::Raycaster(Device& device, const blobtree::Program& program, const Ray
     region_.lo = glm::vec3(-2.0f);
     region_.hi = glm::vec3(2.0f);
   }
-  lipschitz_ = std::max(lipschitzBound(program, region_).lipschitz, 1e-6f);
+  cells_ = lipschitzGrid(program, region_, options.lipschitzCells);
+  lipschitz_ = cells_.largest();
+  cellBuffer_ = device.createBuffer(cells_.cells.size() * 4);
+  device.upload(cellBuffer_, cells_.cells.data(), cells_.cells.size() * 4);
+  exhausted_ = device.createBuffer(16, MemoryUse::HostVisible);
+}
+
+std::uint32_t Raycaster::exhaustedRays() const {
+  std::uint32_t n = 0;
+  device_.download(exhausted_, &n, 4);
+  return n;
 }
 
 void Raycaster::recordRaycast(Recorder& rec, const Camera& camera, std::uint32_t width,
@@ -43,7 +59,7 @@ void Raycaster::recordRaycast(Recorder& rec, const Camera& camera, std::uint32_t
   const float diagonal = glm::length(region_.hi - region_.lo);
   struct {
     float eyeLipschitz[4], right[4], up[4], forward[4], lo[4], hi[4];
-    std::uint32_t sizeCodeBackground[4];
+    std::uint32_t sizeCodeBackground[4], cells[4];
   } push{{camera.eye.x, camera.eye.y, camera.eye.z, lipschitz_},
          {right.x * tanY * aspect, right.y * tanY * aspect, right.z * tanY * aspect,
           options_.minStepFraction * diagonal},
@@ -51,12 +67,15 @@ void Raycaster::recordRaycast(Recorder& rec, const Camera& camera, std::uint32_t
          {forward.x, forward.y, forward.z, float(options_.bisections)},
          {region_.lo.x, region_.lo.y, region_.lo.z, float(options_.maxSteps)},
          {region_.hi.x, region_.hi.y, region_.hi.z, 0.0f},
-         {width, height, program_.codeLength, packBackground(options_.background)}};
-  static_assert(sizeof(push) == 112);
-  const Kernel& k = evaluatorKernel(device_, program_, "raycast", 6, options_.workgroupSize, options_.traversal);
+         {width, height, program_.codeLength, packBackground(options_.background)},
+         {cells_.dims[0], cells_.dims[1], cells_.dims[2], floatBits(options_.minRise)}};
+  static_assert(sizeof(push) == 128);
+  const Kernel& k = evaluatorKernel(device_, program_, "raycast", 8, options_.workgroupSize, options_.traversal);
   const auto pb = program_.bindings();
-  const BufferRange bind[6] = {pb[0], pb[1], pb[2], pb[3], pb[4], pixels};
+  const BufferRange bind[8] = {pb[0], pb[1], pb[2], pb[3], pb[4], pixels, cellBuffer_, exhausted_};
   const Groups g = groupsFor(std::uint64_t(width) * height, options_.workgroupSize);
+  rec.fill(exhausted_, 0u);
+  rec.computeBarrier();  // the reset -> the shader's atomic adds
   rec.dispatch(k, bind, &push, sizeof(push), g.x, g.y);
   rec.computeBarrier();
 }
@@ -71,6 +90,7 @@ Image Raycaster::render(const Camera& camera, std::uint32_t width, std::uint32_t
   if (stats) {
     stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     stats->lipschitz = lipschitz_;
+    stats->exhaustedRays = exhaustedRays();
   }
   Image image{width, height, std::vector<std::uint8_t>(std::size_t(width) * height * 4)};
   std::memcpy(image.rgba.data(), pixels.mapped(), image.rgba.size());

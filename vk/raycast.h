@@ -9,6 +9,7 @@
 #include "blobtree/program.h"
 #include "vk/context.h"
 #include "vk/gpu_program.h"
+#include "vk/raycast_lipschitz.h"
 #include "vk/render_camera.h"
 #include "vk/render_image.h"
 
@@ -17,11 +18,24 @@
 
 namespace blobvk::vk {
 
+// The colour of a pixel whose ray ran out of its step budget inside the bounds (a surface may
+// lie behind it): opaque magenta, packed RGBA8 as the pixel buffer holds it.
+inline constexpr std::uint32_t kRaycastBudgetMarker = 0xffff00ffu;
+
 struct RaycastOptions {
   std::array<float, 3> background{0.13f, 0.14f, 0.16f};  // display values, as RenderStyle's
-  float minStepFraction = 2e-4f;    // smallest step, as a fraction of the bounds diagonal
+  // The step floor near the surface: min(minStepFraction * bounds diagonal, minRise / L) in a
+  // cell of bound L. No crossing where the field rises minRise or more above the iso value is
+  // ever stepped over, however thin (it is at least 2 minRise / L long).
+  float minStepFraction = 2e-4f;
+  float minRise = 2e-3f;
   float gradientFraction = 5e-4f;   // central-difference step, fraction of the diagonal
-  std::uint32_t maxSteps = 4096;    // per ray; a ray that runs out is background
+  // Per ray, cell crossings included; a ray that runs out inside the bounds is counted
+  // (RaycastStats::exhaustedRays, Raycaster::exhaustedRays) and drawn kRaycastBudgetMarker.
+  std::uint32_t maxSteps = 4096;
+  // The bounds split into at most this many cells along the longest side, each with its own
+  // Lipschitz bound (raycast_lipschitz.h: lipschitzGrid); 1 = one bound for the whole scene.
+  std::uint32_t lipschitzCells = 16;
   std::uint32_t bisections = 12;
   std::uint32_t workgroupSize = 64;
   Traversal traversal = Traversal::Specialised;  // the field evaluator (vk/gpu_program.h)
@@ -29,21 +43,27 @@ struct RaycastOptions {
 
 struct RaycastStats {
   double seconds = 0.0;  // submit to fence, read-back excluded
-  float lipschitz = 0.0f;
+  float lipschitz = 0.0f;  // the largest of the per-cell bounds
+  std::uint32_t exhaustedRays = 0;  // rays that ran out of their step budget (marked pixels)
 };
 
 class Raycaster {
  public:
   Raycaster(Device& device, const blobtree::Program& program, const RaycastOptions& options = {});
 
-  // Records the dispatch writing width * height packed RGBA8 words into `pixels`.
+  // Records the dispatch writing width * height packed RGBA8 words into `pixels`, and the count
+  // of rays out of budget into the Raycaster's counter (reset first: one recording in flight per
+  // Raycaster).
   void recordRaycast(Recorder& rec, const Camera& camera, std::uint32_t width, std::uint32_t height,
                      const BufferRange& pixels) const;
+  // The counter of the last recording, read back (its command buffer must have completed).
+  std::uint32_t exhaustedRays() const;
   // Headless: allocate, dispatch, wait, read back.
   Image render(const Camera& camera, std::uint32_t width, std::uint32_t height,
                RaycastStats* stats = nullptr);
 
-  float lipschitz() const { return lipschitz_; }
+  float lipschitz() const { return lipschitz_; }  // the largest per-cell bound
+  const LipschitzGrid& lipschitzCells() const { return cells_; }
   const blobtree::Aabb& region() const { return region_; }
 
  private:
@@ -52,6 +72,8 @@ class Raycaster {
   GpuProgram program_;
   blobtree::Aabb region_;
   float lipschitz_ = 0.0f;
+  LipschitzGrid cells_;
+  Buffer cellBuffer_, exhausted_;
 };
 
 }  // namespace blobvk::vk

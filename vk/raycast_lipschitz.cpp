@@ -48,6 +48,11 @@ float matrixTranslation(const L::MatrixRecord& m) {
   return std::sqrt(m.r0.w * m.r0.w + m.r1.w * m.r1.w + m.r2.w * m.r2.w);
 }
 
+bool missesBox(const blobtree::Aabb& region, const L::BoxRecord& box) {
+  return region.hi.x < box.lo.x || region.hi.y < box.lo.y || region.hi.z < box.lo.z ||
+         region.lo.x > box.hi.x || region.lo.y > box.hi.y || region.lo.z > box.hi.z;
+}
+
 }  // namespace
 
 LipschitzBound lipschitzBound(const blobtree::Program& program, const blobtree::Aabb& region) {
@@ -95,6 +100,11 @@ LipschitzBound lipschitzBound(const blobtree::Program& program, const blobtree::
     switch (op) {
       case L::OP_PRIM: {
         if (y >= program.primitives.size() || z >= stretch.size()) break;
+        if (z == 0 && y < program.primitiveBoxes.size() && missesBox(region, program.primitiveBoxes[y])) {
+          lip[dst] = 0.0f;  // exactly 0 throughout the region
+          value[dst] = 0.0f;
+          break;
+        }
         const auto& p = program.primitives[y];
         const float m = identity(p.meta.y) ? 1.0f : matrixStretch(program.matrices[p.meta.y]);
         const bool quadric = p.meta.x == L::PRIM_QUADRIC;
@@ -137,6 +147,43 @@ LipschitzBound lipschitzBound(const blobtree::Program& program, const blobtree::
   b.lipschitz = program.code.empty() ? 0.0f : lip[0];
   b.maxValue = program.code.empty() ? 0.0f : value[0];
   return b;
+}
+
+float LipschitzGrid::largest() const {
+  float l = 0.0f;
+  for (float c : cells) l = std::max(l, c);
+  return l;
+}
+
+LipschitzGrid lipschitzGrid(const blobtree::Program& program, const blobtree::Aabb& region,
+                            std::uint32_t maxCellsPerAxis) {
+  LipschitzGrid g;
+  g.region = region;
+  const glm::vec3 extent = region.hi - region.lo;
+  const float longest = std::max({extent.x, extent.y, extent.z, 1e-30f});
+  for (int a = 0; a < 3; ++a) {
+    const float n = std::ceil(extent[a] / longest * float(std::max(maxCellsPerAxis, 1u)) - 1e-3f);
+    g.dims[a] = std::uint32_t(std::clamp(n, 1.0f, float(std::max(maxCellsPerAxis, 1u))));
+  }
+  g.cells.resize(std::size_t(g.dims[0]) * g.dims[1] * g.dims[2]);
+  const glm::vec3 size = extent / glm::vec3(float(g.dims[0]), float(g.dims[1]), float(g.dims[2]));
+  std::size_t i = 0;
+  for (std::uint32_t z = 0; z < g.dims[2]; ++z) {
+    for (std::uint32_t y = 0; y < g.dims[1]; ++y) {
+      for (std::uint32_t x = 0; x < g.dims[0]; ++x, ++i) {
+        blobtree::Aabb cell;
+        cell.lo = region.lo + size * glm::vec3(float(x), float(y), float(z));
+        cell.hi = region.lo + size * glm::vec3(float(x + 1), float(y + 1), float(z + 1));
+        // The last cell ends exactly at the region's face; the shader's rounding of a point
+        // to its cell can be off by an ulp, so each cell's bound covers a sliver around it.
+        const glm::vec3 pad = size * 1e-3f;
+        cell.lo -= pad;
+        cell.hi += pad;
+        g.cells[i] = lipschitzBound(program, cell).lipschitz;
+      }
+    }
+  }
+  return g;
 }
 
 }  // namespace blobvk::vk

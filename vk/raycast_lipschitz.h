@@ -15,6 +15,9 @@
 
 #include "blobtree/program.h"
 
+#include <cstdint>
+#include <vector>
+
 namespace blobvk::vk {
 
 struct LipschitzBound {
@@ -22,6 +25,22 @@ struct LipschitzBound {
   float maxValue = 0.0f;   // bound of |f|
 };
 
+// Primitives reading world points (point register 0) whose Program::primitiveBoxes miss the
+// region are 0 throughout it: they add neither slope nor value there.
 LipschitzBound lipschitzBound(const blobtree::Program& program, const blobtree::Aabb& region);
+
+// Per-region bounds: the region split into dims[0] x dims[1] x dims[2] cells (x fastest), each
+// with the bound of lipschitzBound over that cell. A far, steep component then raises the step
+// bound only in the cells its support box reaches, not along every ray of the scene.
+struct LipschitzGrid {
+  blobtree::Aabb region;
+  std::uint32_t dims[3] = {1, 1, 1};
+  std::vector<float> cells;  // L per cell; 0 where the field is constant (0) in the cell
+  float largest() const;
+};
+
+// Cells roughly cubic, at most maxCellsPerAxis along the longest side.
+LipschitzGrid lipschitzGrid(const blobtree::Program& program, const blobtree::Aabb& region,
+                            std::uint32_t maxCellsPerAxis = 16);
 
 }  // namespace blobvk::vk

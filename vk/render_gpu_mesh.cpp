@@ -65,7 +65,8 @@ GpuMesh polygonizeForDrawing(Device& device, const blobtree::Program& program,
     allocate();
     device.run([&](Recorder& rec) {
       poly->recordClassify(rec, 0, 0, 0);
-      poly->recordEmit(rec, 0, 0, {out.positions, out.normals, out.colours, out.keys, out.indices});
+      poly->recordEmit(rec, 0, 0, {out.positions, out.normals, out.colours, out.keys, out.indices,
+                                   std::uint32_t(vertices), std::uint32_t(triangles)});
       toDraw(rec);
     });
   } else {
@@ -80,7 +81,8 @@ GpuMesh polygonizeForDrawing(Device& device, const blobtree::Program& program,
     out.countsReadBack = true;
     allocate();
     device.run([&](Recorder& rec) {
-      poly->recordEmit(rec, 0, 0, {out.positions, out.normals, out.colours, out.keys, out.indices});
+      poly->recordEmit(rec, 0, 0, {out.positions, out.normals, out.colours, out.keys, out.indices,
+                                   std::uint32_t(vertices), std::uint32_t(triangles)});
       toDraw(rec);
     });
   }

@@ -32,13 +32,35 @@ struct SlabPolygonizer::VertexPush {
   float normalStep;
   std::uint32_t vertexBase;
   std::uint32_t tileI0 = 0, tileNx = 0, tileJ0 = 0, tileNy = 0, tileLayer0 = 0, rowBase = 0, rows = 0, tileIndex = 0;
+  std::uint32_t vertexCapacity = 0;
 };
 
-SlabPolygonizer::VertexPush SlabPolygonizer::vertexPush(const SlabPlan& p, std::uint32_t vertexBase) const {
+SlabPolygonizer::VertexPush SlabPolygonizer::vertexPush(const SlabPlan& p, std::uint32_t vertexBase,
+                                                        std::uint32_t vertexCapacity) const {
   const auto pts = grid_.points();
-  return {{grid_.origin.x, grid_.origin.y, grid_.origin.z}, grid_.cellSize, std::uint32_t(pts.x), std::uint32_t(pts.y),
-          std::uint32_t(p.ownedPoints), p.k0, program_.codeLength, std::uint32_t(std::max(options_.refineSteps, 0)),
-          (options_.normals ? 1u : 0u) | (options_.colours ? 2u : 0u), options_.normalStep, vertexBase};
+  VertexPush push{{grid_.origin.x, grid_.origin.y, grid_.origin.z}, grid_.cellSize, std::uint32_t(pts.x), std::uint32_t(pts.y),
+                  std::uint32_t(p.ownedPoints), p.k0, program_.codeLength, std::uint32_t(std::max(options_.refineSteps, 0)),
+                  (options_.normals ? 1u : 0u) | (options_.colours ? 2u : 0u), options_.normalStep, vertexBase};
+  push.vertexCapacity = vertexCapacity;
+  return push;
+}
+
+void SlabPolygonizer::recordEmitLimits(Recorder& rec, const SlabOutputs& out) {
+  const Kernel& k = device_.kernel("emit_limits", 1, {});
+  const std::uint32_t push[2] = {out.vertexCapacity, out.triangleCapacity};
+  const BufferRange bind[1] = {args_};
+  rec.dispatch(k, bind, push, sizeof(push), 1);
+  // The vertex pass reads its dispatch from these arguments: writes -> indirect reads.
+  rec.computeBarrier();
+}
+
+EmitOverflow SlabPolygonizer::readOverflow() const {
+  std::uint32_t bits = 0;
+  device_.download(args_, &bits, 4, kOverflowWord * 4);
+  EmitOverflow o;
+  o.vertices = (bits & 1u) != 0;
+  o.triangles = (bits & 2u) != 0;
+  return o;
 }
 
 void SlabPolygonizer::recordTiledVertices(Recorder& rec, const SlabPlan& p, std::uint32_t vertexBase,
@@ -88,7 +110,7 @@ void SlabPolygonizer::recordTiledVertices(Recorder& rec, const SlabPlan& p, std:
   const BufferRange bind[14] = {pb[0], pb[1], pb[2], pb[3], pb[4], field_, flags_, vertexOffsets_,
                                 out.positions, out.normals, out.colours, out.keys, tileArgs_, rowScan_};
   for (const TileRows& t : tiles) {
-    VertexPush push = vertexPush(p, vertexBase);
+    VertexPush push = vertexPush(p, vertexBase, out.vertexCapacity);
     push.tileI0 = t.i0;
     push.tileNx = t.nxT;
     push.tileJ0 = t.j0;
@@ -162,7 +184,7 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
   pointScratch_ = std::uint32_t(scanScratchWords(points));
   scratch_ = device.createBuffer((pointScratch_ + scanScratchWords(cells) + 1) * 4);
   totals_ = device.createBuffer(16);
-  args_ = device.createBuffer(10 * 4, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  args_ = device.createBuffer(kDrawArgsWords * 4, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
 }
 
 SlabPlan SlabPolygonizer::plan(std::uint32_t slab) const {
@@ -207,6 +229,10 @@ void SlabPolygonizer::recordClassify(Recorder& rec, std::uint32_t slab, std::uin
   rec.computeBarrier();
   recordExclusiveScan(rec, vertexOffsets_.handle(), 0, classified, scratch_.handle(), 0,
                       totals_.handle(), 0);
+  // The two scans use disjoint words of the scratch and of the totals, but the buffers are bound
+  // whole and synchronisation validation tracks hazards per bound range: without this barrier the
+  // second scan's writes race (as far as the layer can tell) with the first one's reads.
+  rec.computeBarrier();
   recordExclusiveScan(rec, triOffsets_.handle(), 0, std::uint32_t(p.cells), scratch_.handle(),
                       pointScratch_, totals_.handle(), 1);
   rec.computeBarrier();
@@ -226,6 +252,7 @@ void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_
   const auto pts = grid_.points();
   const std::uint32_t nx = std::uint32_t(pts.x), ny = std::uint32_t(pts.y);
   const std::uint32_t wg = options_.workgroupSize;
+  recordEmitLimits(rec, out);
   if (!vertexTileKernels_.empty()) {
     recordTiledVertices(rec, p, vertexBase, out);
   } else {
@@ -233,7 +260,7 @@ void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_
     // group evaluates; a lane per grid point would leave most lanes idle and, on llvmpipe, pay
     // for every masked-off evaluation too.
     const Kernel& k = evaluatorKernel(device_, program_, "vertices", 13, wg, options_.traversal);
-    const VertexPush push = vertexPush(p, vertexBase);
+    const VertexPush push = vertexPush(p, vertexBase, out.vertexCapacity);
     const auto pb = program_.bindings();
     const BufferRange bind[13] = {pb[0], pb[1], pb[2], pb[3], pb[4], field_, flags_, vertexOffsets_,
                                   out.positions, out.normals, out.colours, out.keys, args_};
@@ -242,7 +269,8 @@ void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_
   {
     const std::array<std::uint32_t, 1> gridSpec{gridGroupRows(wg)};
     const Kernel& k = device_.kernel("triangles", 6, gridSpec);
-    const std::uint32_t push[5] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y), vertexBase};
+    const std::uint32_t push[6] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y), vertexBase,
+                                   out.triangleCapacity};
     const BufferRange bind[6] = {field_, cases_, flags_, vertexOffsets_, triOffsets_, out.indices};
     const Groups3 g = gridGroups(std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y), p.cellLayers, wg);
     rec.dispatch(k, bind, push, sizeof(push), g.x, g.y, g.z);

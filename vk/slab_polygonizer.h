@@ -6,7 +6,9 @@
 // earlier writes to them finished: a compute->compute or transfer->compute barrier) and ends
 // with its own writes made visible to compute, transfer and indirect reads (computeBarrier).
 // drawArgs() then holds a VkDrawIndexedIndirectCommand for the triangles up to this slab, then
-// the running vertex and triangle counts (words 5 and 6), then the vertex pass's dispatch (words 7-9).
+// the running vertex and triangle counts (words 5 and 6), then the vertex pass's dispatch (words
+// 7-9), the slab's own counts (words 11, 12); after recordEmit, word 10 holds its overflow bits
+// (kOverflowWord, EmitOverflow).
 #pragma once
 
 #include "blobtree/grid.h"
@@ -30,8 +32,22 @@ struct SlabPlan {
 
 // Where the emit pass writes: float3 arrays (tightly packed), per-vertex slab-local edge keys
 // (local point index * 3 + axis) and uint32 triangle indices (global: vertexBase added).
+// The capacities say how many of this slab's vertices (in positions, keys, and normals/colours
+// when requested) and triangles (3 indices each) the buffers hold from their start: the emit
+// pass never writes past them, and reports a slab that does not fit (EmitOverflow).
 struct SlabOutputs {
   BufferRange positions, normals, colours, keys, indices;
+  std::uint32_t vertexCapacity = 0, triangleCapacity = 0;
+};
+
+// drawArgs() word 10 after recordEmit: which of the slab's outputs did not fit the capacities.
+// Only what fits is written; an overflowing slab's triangles are left out of the indexed draw.
+// Words 11 and 12: the slab's own vertex and triangle counts (after recordClassify).
+inline constexpr std::uint32_t kOverflowWord = 10;
+inline constexpr std::uint32_t kDrawArgsWords = 16;
+struct EmitOverflow {
+  bool vertices = false, triangles = false;
+  explicit operator bool() const { return vertices || triangles; }
 };
 
 class SlabPolygonizer {
@@ -48,6 +64,9 @@ class SlabPolygonizer {
                       std::uint32_t triangleBase);
   void recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_t vertexBase,
                   const SlabOutputs& out);
+  // The overflow bits of the last emit pass, read back (its command buffer must have completed,
+  // with Recorder::hostBarrier after recordEmit).
+  EmitOverflow readOverflow() const;
 
  private:
   Device& device_;
@@ -61,8 +80,9 @@ class SlabPolygonizer {
   Buffer rowScan_, tileArgs_;
 
   struct VertexPush;
-  VertexPush vertexPush(const SlabPlan& p, std::uint32_t vertexBase) const;
+  VertexPush vertexPush(const SlabPlan& p, std::uint32_t vertexBase, std::uint32_t vertexCapacity) const;
   void recordTiledVertices(Recorder& rec, const SlabPlan& p, std::uint32_t vertexBase, const SlabOutputs& out);
+  void recordEmitLimits(Recorder& rec, const SlabOutputs& out);
   Buffer cases_, field_, flags_, vertexOffsets_, triOffsets_, scratch_, totals_, args_;
   std::uint32_t slabCells_ = 0, slabs_ = 0;
   std::uint32_t pointScratch_ = 0;  // scratch words used by the vertex scan

@@ -11,12 +11,15 @@
 #include <cstdlib>
 #include <cstdio>
 #include <cstring>
+#include <mutex>
 
 namespace blobvk::vk {
 
 struct StandaloneContext::Counters {
   std::atomic<std::uint32_t> messages{0};
   bool print = true;
+  std::mutex mutex;  // the layer may call back from any thread
+  std::string lastId;
 };
 
 namespace {
@@ -35,6 +38,10 @@ VKAPI_ATTR VkBool32 VKAPI_CALL onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT 
     const char* id = data->pMessageIdName ? data->pMessageIdName : "";
     if (std::strcmp(id, "Loader Message") != 0) {
       ++counters->messages;
+      {
+        const std::lock_guard<std::mutex> lock(counters->mutex);
+        counters->lastId = id;
+      }
       if (counters->print) std::fprintf(stderr, "[vulkan validation] %s\n", data->pMessage);
     }
   }
@@ -56,6 +63,13 @@ VkInstance createInstance(bool validation) {
   app.pEngineName = "blobvk";
   app.apiVersion = VK_API_VERSION_1_1;
   std::vector<const char*> layers, extensions;
+  // Synchronisation validation on top of the layer's default (core) checks, enabled here so
+  // that --validation means the same whatever VK_LAYER_ENABLES or vk_layer_settings.txt say.
+  // VK_EXT_validation_features is implemented by the layer itself.
+  const VkValidationFeatureEnableEXT enables[] = {VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT};
+  VkValidationFeaturesEXT features{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+  features.enabledValidationFeatureCount = 1;
+  features.pEnabledValidationFeatures = enables;
   if (validation) {
     if (!hasLayer("VK_LAYER_KHRONOS_validation")) {
       throw VulkanError("validation requested but VK_LAYER_KHRONOS_validation is not installed "
@@ -63,8 +77,10 @@ VkInstance createInstance(bool validation) {
     }
     layers.push_back("VK_LAYER_KHRONOS_validation");
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+    extensions.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);
   }
   VkInstanceCreateInfo info{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  if (validation) info.pNext = &features;
   info.pApplicationInfo = &app;
   info.enabledLayerCount = std::uint32_t(layers.size());
   info.ppEnabledLayerNames = layers.data();
@@ -255,5 +271,10 @@ void StandaloneContext::release() {
 }
 
 std::uint32_t StandaloneContext::validationMessages() const { return counters_->messages.load(); }
+
+std::string StandaloneContext::lastValidationMessageId() const {
+  const std::lock_guard<std::mutex> lock(counters_->mutex);
+  return counters_->lastId;
+}
 
 }  // namespace blobvk::vk

@@ -14,7 +14,9 @@ struct StandaloneOptions {
   // Device by index into listDevices() ("0") or by a case-insensitive substring of its name
   // ("llvmpipe"). Empty: the first discrete GPU, else integrated, else virtual, else CPU.
   std::string device;
-  bool validation = false;  // VK_LAYER_KHRONOS_validation + a counting debug messenger
+  // VK_LAYER_KHRONOS_validation with its core checks and synchronisation validation, and a
+  // counting debug messenger.
+  bool validation = false;
   bool printValidationMessages = true;  // echo each message to stderr
 };
 
@@ -29,6 +31,8 @@ class StandaloneContext {
   const HostContext& host() const { return host_; }
   // Validation messages of warning or error severity since creation (0 without validation).
   std::uint32_t validationMessages() const;
+  // The message id name of the last of them (e.g. "SYNC-HAZARD-WRITE-AFTER-WRITE"); empty if none.
+  std::string lastValidationMessageId() const;
   bool validationEnabled() const { return messenger_ != VK_NULL_HANDLE; }
 
  public:

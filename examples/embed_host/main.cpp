@@ -122,14 +122,20 @@ int run(bool validation, const std::string& output, std::uint32_t size) {
   app.pApplicationName = "blobvk embed_host";
   app.apiVersion = VK_API_VERSION_1_1;
   const char* layer = "VK_LAYER_KHRONOS_validation";
-  const char* debugExt = VK_EXT_DEBUG_UTILS_EXTENSION_NAME;
+  const char* extensions[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME, VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME};
+  // Synchronisation validation as well as the core checks, as an engine's debug build runs.
+  const VkValidationFeatureEnableEXT enables[] = {VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT};
+  VkValidationFeaturesEXT features{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+  features.enabledValidationFeatureCount = 1;
+  features.pEnabledValidationFeatures = enables;
   VkInstanceCreateInfo ii{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
   ii.pApplicationInfo = &app;
   if (validation) {
+    ii.pNext = &features;
     ii.enabledLayerCount = 1;
     ii.ppEnabledLayerNames = &layer;
-    ii.enabledExtensionCount = 1;
-    ii.ppEnabledExtensionNames = &debugExt;
+    ii.enabledExtensionCount = 2;
+    ii.ppEnabledExtensionNames = extensions;
   }
   VkInstance instance;
   if (vkCreateInstance(&ii, nullptr, &instance) != VK_SUCCESS) {
@@ -341,7 +347,10 @@ int run(bool validation, const std::string& output, std::uint32_t size) {
       // The Recorder owns the descriptor sets of blobvk's dispatches: keep it until the fence.
       blobvk::vk::Recorder rec(bdev, cmd);
       poly.recordClassify(rec, 0, 0, 0);
-      poly.recordEmit(rec, 0, 0, {positions, normals, colours, keys, indices});
+      // The capacities we allocated: blobvk never writes past them and flags a mesh that
+      // does not fit (drawArgs() word kOverflowWord, SlabPolygonizer::readOverflow()).
+      poly.recordEmit(rec, 0, 0, {positions, normals, colours, keys, indices, std::uint32_t(3 * plan.ownedPoints),
+                                  std::uint32_t(5 * plan.cells)});
       // blobvk leaves its writes visible to compute, transfer and indirect reads; the host adds
       // what its draw needs: vertex and index input.
       VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
@@ -396,6 +405,7 @@ int run(bool validation, const std::string& output, std::uint32_t size) {
     }
 
     // ---- PNG and a sanity check ---------------------------------------------------------------
+    if (poly.readOverflow()) throw std::runtime_error("the mesh overflowed its buffers");
     void* mapped = nullptr;
     ok(vkMapMemory(dev, readbackMemory, 0, VK_WHOLE_SIZE, 0, &mapped), "vkMapMemory");
     std::vector<std::uint8_t> rgba(std::size_t(size) * size * 4);

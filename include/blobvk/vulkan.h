@@ -17,11 +17,13 @@
 //   blobvk::vk::SlabPolygonizer poly(device, program, grid, {});   // single slab: plan(0)
 //   blobvk::vk::Recorder rec(device, cmd);   // keep alive until cmd has executed (descriptors)
 //   poly.recordClassify(rec, 0, 0, 0);       // field, flags, scans, draw arguments
-//   poly.recordEmit(rec, 0, 0, {positions, normals, colours, keys, indices});
+//   poly.recordEmit(rec, 0, 0, {positions, normals, colours, keys, indices, maxVertices, maxTriangles});
 //   // then vkCmdDrawIndexedIndirect(cmd, poly.drawArgs().handle(), 0, 1, 0) in your pass.
-// Capacity: the emit pass writes at most 3 vertices per grid point and 5 triangles per cell
+// Capacity: a mesh has at most 3 vertices per grid point and 5 triangles per cell
 // (SlabPlan::ownedPoints, SlabPlan::cells); allocate that, or read back drawArgs() words 5 and 6
-// after recordClassify to size the buffers exactly (vk/render_gpu_mesh.h does both).
+// after recordClassify to size the buffers exactly (vk/render_gpu_mesh.h does both). The emit
+// pass never writes past the capacities you pass; a mesh that does not fit sets drawArgs() word
+// kOverflowWord (SlabPolygonizer::readOverflow()) and is left out of the indirect draw.
 //
 // ---- 3. Barriers: what the library expects and leaves --------------------------------------
 //  - Expects: nothing pending on the buffers it is given (your earlier writes to them finished
@@ -33,7 +35,8 @@
 //    inside YOUR render pass when you pass it at construction; OffscreenTarget documents its own
 //    layouts (attachments from UNDEFINED, resolved colour left in TRANSFER_SRC_OPTIMAL).
 //  - The ray-caster (vk/raycast.h: Raycaster::recordRaycast) writes packed RGBA8 into a buffer
-//    you give it and leaves the same compute barrier.
+//    you give it and leaves the same compute barrier; rays that ran out of steps are drawn
+//    kRaycastBudgetMarker and counted (Raycaster::exhaustedRays() once the work completed).
 //
 // ---- 4. Threads ------------------------------------------------------------------------------
 //  - No global state: two Devices (even on the same VkDevice) are independent.

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -74,6 +75,45 @@ TEST_F(DeviceTest, StagingPathRoundTrips) {
   device().download(b, back.data(), back.size() * 4);
   device().setForceStaging(false);
   EXPECT_EQ(back, data);
+}
+
+// The fixture's zero-message bar only means something if the layer catches hazards: a dispatch
+// reading what the previous one wrote, with no barrier between them, must be reported (as a sync
+// hazard), and the same pair with the barrier must not. A context of its own, so the expected
+// message does not fail the shared fixture's check.
+TEST_F(DeviceTest, SynchronisationValidationReportsAMissingBarrier) {
+  vk::StandaloneOptions options;
+  options.validation = true;
+  options.printValidationMessages = false;
+  if (const char* d = std::getenv("BLOBVK_TEST_DEVICE")) options.device = d;
+  vk::StandaloneContext ctx(options);
+  vk::Device& dev = ctx.device();
+  const std::vector<std::uint32_t> ones(256, 1u);
+  vk::Buffer values = dev.createBuffer(ones.size() * 4), sums = dev.createBuffer(64), totals = dev.createBuffer(16);
+  const std::uint32_t spec[1] = {64};
+  // The scan's two passes: chunk sums, then each chunk scanned from its (here unscanned) sum.
+  const vk::Kernel& reduce = dev.kernel("scan_reduce", 2, spec);
+  const vk::Kernel& apply = dev.kernel("scan_apply", 3, spec);
+  const std::uint32_t reducePush[3] = {0u, std::uint32_t(ones.size()), 0u};
+  const std::uint32_t applyPush[5] = {0u, std::uint32_t(ones.size()), 0u, 1u, ~0u};
+  const vk::BufferRange reduceBind[2] = {values, sums}, applyBind[3] = {values, sums, totals};
+  auto writeThenRead = [&](bool barrier) {
+    dev.upload(values, ones.data(), ones.size() * 4);
+    dev.run([&](vk::Recorder& rec) {
+      rec.dispatch(reduce, reduceBind, reducePush, sizeof(reducePush), 1);
+      if (barrier) rec.computeBarrier();
+      rec.dispatch(apply, applyBind, applyPush, sizeof(applyPush), 1);
+      rec.hostBarrier();
+    });
+  };
+  writeThenRead(true);
+  ASSERT_EQ(ctx.validationMessages(), 0u) << ctx.lastValidationMessageId();
+  std::vector<std::uint32_t> back(ones.size());
+  dev.download(values, back.data(), back.size() * 4);
+  EXPECT_EQ(back[70], 64u + 6u);  // chunk 1 starts from its chunk's sum (64), then 6 ones
+  writeThenRead(false);
+  EXPECT_GE(ctx.validationMessages(), 1u);
+  EXPECT_EQ(ctx.lastValidationMessageId().rfind("SYNC-HAZARD-", 0), 0u) << ctx.lastValidationMessageId();
 }
 
 }  // namespace

@@ -1,0 +1,104 @@
+#!/usr/bin/env bash
+# The Vulkan path on the first non-CPU Vulkan device of this machine (lavapipe when there is
+# none, said so in the summary): builds the release preset, runs the Vulkan test suites (every
+# test under the validation layer with synchronisation validation), `blobvk compare
+# --validation` on every shipped scene, and `blobvk bench` of the tower; prints one summary
+# table and exits non-zero when anything failed.
+#   scripts/gpu_check.sh [--resolution N] [--bench-resolution N] [--no-build]
+# Defaults: compare at 64 cells, bench at 128. BLOBVK_BUILD_JOBS sets the build's -j.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+
+resolution=64
+bench_resolution=128
+build=1
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --resolution) resolution="$2"; shift 2 ;;
+    --bench-resolution) bench_resolution="$2"; shift 2 ;;
+    --no-build) build=0; shift ;;
+    *) echo "usage: scripts/gpu_check.sh [--resolution N] [--bench-resolution N] [--no-build]" >&2; exit 2 ;;
+  esac
+done
+
+bin=build/release
+blobvk="$bin/apps/blobvk"
+log_dir="$(mktemp -d -t blobvk-gpu-check.XXXXXX)"
+rows=()
+failed=0
+# row STEP RESULT DETAIL
+row() { rows+=("$(printf '%-34s | %-4s | %s' "$1" "$2" "$3")"); [ "$2" = "FAIL" ] && failed=1; return 0; }
+
+# Every installed ICD visible, so a GPU is found even where a test default would pin lavapipe.
+icds=$(ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json 2>/dev/null | paste -sd: -)
+[ -n "$icds" ] && export VK_ICD_FILENAMES="$icds"
+export LP_NUM_THREADS="${LP_NUM_THREADS:-2}"
+
+if [ "$build" = 1 ]; then
+  jobs="${BLOBVK_BUILD_JOBS:-$(nproc)}"
+  if { [ -f "$bin/CMakeCache.txt" ] || cmake --preset release >"$log_dir/configure.log" 2>&1; } &&
+     cmake --build --preset release -j "$jobs" --target blobvk vk_tests render_tests >"$log_dir/build.log" 2>&1; then
+    row "build (release preset)" PASS "$bin"
+  else
+    row "build (release preset)" FAIL "see $log_dir/build.log"
+    printf '%s\n' "${rows[@]}"
+    exit 1
+  fi
+fi
+
+# The first device whose type is not CPU, from `blobvk devices` ("[i] name (type), Vulkan x").
+device_line=$("$blobvk" devices 2>/dev/null | grep -E '^\[[0-9]+\]' | grep -v '(CPU)' | head -n 1)
+if [ -n "$device_line" ]; then
+  device_index=$(sed -E 's/^\[([0-9]+)\].*/\1/' <<<"$device_line")
+  device_name=$(sed -E 's/^\[[0-9]+\] (.*) \(.*/\1/' <<<"$device_line")
+  row "device" PASS "$device_name (index $device_index)"
+else
+  device_line=$("$blobvk" devices 2>/dev/null | grep -E '^\[[0-9]+\]' | head -n 1)
+  if [ -z "$device_line" ]; then
+    row "device" FAIL "no Vulkan device at all (install mesa-vulkan-drivers)"
+    printf '%s\n' "${rows[@]}"
+    exit 1
+  fi
+  device_index=$(sed -E 's/^\[([0-9]+)\].*/\1/' <<<"$device_line")
+  device_name=$(sed -E 's/^\[[0-9]+\] (.*) \(.*/\1/' <<<"$device_line")
+  row "device" PASS "NO GPU FOUND: falling back to $device_name (index $device_index)"
+fi
+export BLOBVK_TEST_DEVICE="$device_index"
+
+for suite in vk/vk_tests render/render_tests; do
+  name=$(basename "$suite")
+  if "$bin/tests/$suite" --gtest_brief=1 >"$log_dir/$name.log" 2>&1; then
+    row "$name" PASS "$(grep -Eo '[0-9]+ tests? from [0-9]+ test suites? ran' "$log_dir/$name.log" | tail -n 1)"
+  else
+    row "$name" FAIL "$(grep -c '^\[  FAILED  \]' "$log_dir/$name.log") failed line(s), see $log_dir/$name.log"
+  fi
+done
+
+for scene in scenes/*.json scenes/legacy/*.blob; do
+  out="$log_dir/compare_$(basename "$scene").log"
+  if "$blobvk" compare "$scene" --resolution "$resolution" --device "$device_index" --validation >"$out" 2>&1; then
+    row "compare $(basename "$scene")" PASS "$(grep -E '^mesh' "$out" | sed -E 's/^mesh +//')"
+  else
+    row "compare $(basename "$scene")" FAIL "$(tail -n 1 "$out")"
+  fi
+done
+
+out="$log_dir/bench.log"
+if "$blobvk" bench scenes/tower.json --backend vk --device "$device_index" --resolution "$bench_resolution" \
+     --repeats 3 --warmup 1 --json >"$out" 2>"$log_dir/bench.err"; then
+  row "bench tower.json vk @$bench_resolution" PASS "$(python3 -c '
+import json, sys
+r = json.load(open(sys.argv[1]))[0]
+print("median %.4f s (min %.4f), %d triangles, %.3g field evaluations/s" %
+      (r["median_s"], r["min_s"], r["triangles"], r["evaluations_per_s"]))' "$out")"
+else
+  row "bench tower.json vk @$bench_resolution" FAIL "$(tail -n 1 "$log_dir/bench.err")"
+fi
+
+echo
+echo "blobvk gpu_check on $device_name (compare at $resolution cells; logs in $log_dir)"
+printf '%-34s | %-4s | %s\n' "step" "ok" "detail"
+printf '%s\n' "-----------------------------------+------+-----------------------------------------------"
+printf '%s\n' "${rows[@]}"
+if [ "$failed" = 0 ]; then echo "ALL PASSED"; else echo "FAILURES (see the logs)"; fi
+exit "$failed"
