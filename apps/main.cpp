@@ -5,9 +5,14 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 
 int main(int argc, char** argv) {
+  // lavapipe tuning, set by the process (the library never touches the environment) and only
+  // where the user has not chosen: llvmpipe picks 512-bit vectors on AVX-512 CPUs, and 256-bit
+  // ones measured faster for every kernel (docs/vulkan.md). Other drivers ignore it.
+  setenv("LP_NATIVE_VECTOR_WIDTH", "256", 0);
   CLI::App app{"blobvk: BlobTree implicit models to meshes, images and soft bodies"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "blobvk 0.1.0");

@@ -233,6 +233,7 @@ void registerAll() {
 
 int main(int argc, char** argv) {
   setenv("LP_NUM_THREADS", "2", 0);
+  setenv("LP_NATIVE_VECTOR_WIDTH", "256", 0);  // as the CLI does (apps/main.cpp)
   registerAll();
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();

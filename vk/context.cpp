@@ -1,6 +1,7 @@
 #include "vk/context.h"
 
 #include "vk/error.h"
+#include "vk/shader_layout.h"
 #include "vk/shader_registry.h"
 
 #include <algorithm>
@@ -26,7 +27,8 @@ Buffer::~Buffer() {
   if (device_) device_->destroyBuffer(*this);
 }
 
-Device::Device(const HostContext& host) : host_(host) {
+Device::Device(const HostContext& host, const DeviceOptions& options)
+    : host_(host), kernelCapacity_(std::max<std::uint32_t>(1, options.pipelineCacheCapacity)) {
   if (!host.device || !host.physicalDevice || !host.instance || !host.queue) {
     throw VulkanError("HostContext needs instance, physicalDevice, device and queue");
   }
@@ -56,7 +58,8 @@ Device::Device(const HostContext& host) : host_(host) {
     timestampPeriod_ = props.properties.limits.timestampPeriod;
   }
 
-  memory_ = std::make_unique<MemoryAllocator>(d_, host.physicalDevice, host.device);
+  memory_ = std::make_unique<MemoryAllocator>(d_, host.physicalDevice, host.device, 64ull << 20,
+                                              options.memorySimulation);
 
   VkPipelineCacheCreateInfo cacheInfo{VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO};
   check(d_.vkCreatePipelineCache(host.device, &cacheInfo, nullptr, &pipelineCache_),
@@ -71,12 +74,13 @@ Device::Device(const HostContext& host) : host_(host) {
 }
 
 Device::~Device() {
-  d_.vkDeviceWaitIdle(host_.device);
-  for (auto& [name, k] : kernels_) {
-    d_.vkDestroyPipeline(host_.device, k.pipeline, nullptr);
-    d_.vkDestroyPipelineLayout(host_.device, k.layout, nullptr);
-    d_.vkDestroyDescriptorSetLayout(host_.device, k.setLayout, nullptr);
-  }
+  // Only blobvk's own work is waited for: its one fence, pending only when a submit's wait
+  // failed. The host's device and queue are the host's business (no vkDeviceWaitIdle). Kernels
+  // still held elsewhere (a Recorder, a FieldPass) must not outlive the Device; those the cache
+  // holds are destroyed here.
+  if (fencePending_) (void)d_.vkWaitForFences(host_.device, 1, &fence_, VK_TRUE, UINT64_MAX);
+  kernels_.clear();
+  kernelLru_.clear();
   d_.vkDestroyFence(host_.device, fence_, nullptr);
   d_.vkDestroyCommandPool(host_.device, commandPool_, nullptr);
   d_.vkDestroyPipelineCache(host_.device, pipelineCache_, nullptr);
@@ -105,7 +109,10 @@ Buffer Device::createBuffer(VkDeviceSize size, MemoryUse use, VkBufferUsageFlags
   check(d_.vkBindBufferMemory(host_.device, b.buffer_, b.allocation_.memory, b.allocation_.offset),
         "vkBindBufferMemory");
   // forceStaging: pretend device memory is not mappable, so data goes through staging copies.
-  if (forceStaging_ && use == MemoryUse::DeviceLocal) b.allocation_.mapped = nullptr;
+  if (forceStaging_ && use == MemoryUse::DeviceLocal) {
+    b.allocation_.mapped = nullptr;
+    b.allocation_.hostCached = false;
+  }
   return b;
 }
 
@@ -123,21 +130,24 @@ void Device::upload(Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceS
     std::memcpy(static_cast<char*>(dst.mapped()) + offset, data, bytes);
     return;
   }
-  Buffer staging = createBuffer(bytes, MemoryUse::HostVisible);
+  Buffer staging = createBuffer(bytes, MemoryUse::Upload);
   std::memcpy(staging.mapped(), data, bytes);
-  submitAndWait([&](VkCommandBuffer cmd) {
-    VkBufferCopy region{0, offset, bytes};
-    d_.vkCmdCopyBuffer(cmd, staging.handle(), dst.handle(), 1, &region);
-  });
+  const VkBufferCopy region{0, offset, bytes};
+  if (uploadBatch_) {
+    uploadBatch_->copies_.push_back({staging.handle(), dst.handle(), region});
+    uploadBatch_->staging_.push_back(std::move(staging));
+    return;
+  }
+  submitAndWait([&](VkCommandBuffer cmd) { d_.vkCmdCopyBuffer(cmd, staging.handle(), dst.handle(), 1, &region); });
 }
 
 void Device::download(const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset) {
   if (bytes == 0) return;
-  if (src.mapped()) {
+  if (src.mapped() && src.allocation_.hostCached) {
     std::memcpy(data, static_cast<const char*>(src.mapped()) + offset, bytes);
     return;
   }
-  Buffer staging = createBuffer(bytes, MemoryUse::HostVisible);
+  Buffer staging = createBuffer(bytes, MemoryUse::Readback);
   submitAndWait([&](VkCommandBuffer cmd) {
     VkBufferCopy region{offset, 0, bytes};
     d_.vkCmdCopyBuffer(cmd, src.handle(), staging.handle(), 1, &region);
@@ -148,6 +158,28 @@ void Device::download(const Buffer& src, void* data, VkDeviceSize bytes, VkDevic
                             &barrier, 0, nullptr, 0, nullptr);
   });
   std::memcpy(data, staging.mapped(), bytes);
+}
+
+UploadBatch::UploadBatch(Device& device) : device_(device), previous_(device.uploadBatch_) {
+  device.uploadBatch_ = this;
+}
+
+UploadBatch::~UploadBatch() {
+  device_.uploadBatch_ = previous_;
+}
+
+void UploadBatch::record(VkCommandBuffer cmd) {
+  if (copies_.empty()) return;
+  const Dispatch& d = device_.d();
+  for (const Copy& c : copies_) d.vkCmdCopyBuffer(cmd, c.src, c.dst, 1, &c.region);
+  copies_.clear();
+  VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+  barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  barrier.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
+                          VK_ACCESS_TRANSFER_WRITE_BIT;
+  d.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &barrier, 0,
+                         nullptr, 0, nullptr);
 }
 
 namespace {
@@ -161,47 +193,64 @@ std::string kernelKey(const std::string& name, std::span<const std::uint32_t> sp
 }
 }  // namespace
 
-const Kernel& Device::kernel(const std::string& shader, std::uint32_t bindings,
-                             std::span<const std::uint32_t> specs) {
+KernelPtr Device::touch(const std::string& key) {
+  auto it = kernels_.find(key);
+  if (it == kernels_.end()) return nullptr;
+  kernelLru_.splice(kernelLru_.begin(), kernelLru_, it->second);  // most recently used
+  return it->second->second;
+}
+
+KernelPtr Device::kernel(const std::string& shader, std::span<const std::uint32_t> specs) {
   const std::string key = kernelKey(shader, specs);
-  if (auto it = kernels_.find(key); it != kernels_.end()) return it->second;
-  return createKernel(key, shader, shaderCode(shader), bindings, specs);
+  if (KernelPtr k = touch(key)) return k;
+  return createKernel(key, shader, shaderCode(shader), shader, specs);
 }
 
-const Kernel* Device::findKernel(const std::string& name, std::span<const std::uint32_t> specs) const {
-  auto it = kernels_.find(kernelKey(name, specs));
-  return it == kernels_.end() ? nullptr : &it->second;
+KernelPtr Device::findKernel(const std::string& name, std::span<const std::uint32_t> specs) {
+  return touch(kernelKey(name, specs));
 }
 
-const Kernel& Device::kernel(const std::string& name, std::span<const std::uint32_t> code,
-                             std::uint32_t bindings, std::span<const std::uint32_t> specs) {
+KernelPtr Device::kernel(const std::string& name, std::span<const std::uint32_t> code, const std::string& layoutOf,
+                         std::span<const std::uint32_t> specs) {
   const std::string key = kernelKey(name, specs);
-  if (auto it = kernels_.find(key); it != kernels_.end()) return it->second;
-  return createKernel(key, name, code, bindings, specs);
+  if (KernelPtr k = touch(key)) return k;
+  return createKernel(key, name, code, layoutOf, specs);
 }
 
-const Kernel& Device::createKernel(const std::string& key, const std::string& shader,
-                                   std::span<const std::uint32_t> code, std::uint32_t bindings,
-                                   std::span<const std::uint32_t> specs) {
-  Kernel k;
-  k.bindings = bindings;
-  k.workgroupSize = specs.empty() ? 0 : specs[0];
-  std::vector<VkDescriptorSetLayoutBinding> b(bindings);
-  for (std::uint32_t i = 0; i < bindings; ++i) {
-    b[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+KernelPtr Device::createKernel(const std::string& key, const std::string& shader, std::span<const std::uint32_t> code,
+                               const std::string& layoutOf, std::span<const std::uint32_t> specs) {
+  const ShaderLayout* reflected = findShaderLayout(layoutOf);
+  if (!reflected) throw VulkanError("no reflected layout for shader '" + layoutOf + "'");
+  // The Vulkan objects die with the last holder of the kernel (the cache, a Recorder, a pass).
+  const Dispatch* d = &d_;
+  const VkDevice device = host_.device;
+  std::shared_ptr<Kernel> k(new Kernel, [d, device](Kernel* p) {
+    if (p->pipeline) d->vkDestroyPipeline(device, p->pipeline, nullptr);
+    if (p->layout) d->vkDestroyPipelineLayout(device, p->layout, nullptr);
+    if (p->setLayout) d->vkDestroyDescriptorSetLayout(device, p->setLayout, nullptr);
+    delete p;
+  });
+  k->shaderLayout = reflected;
+  k->bindings = std::uint32_t(reflected->bindings.size());
+  k->pushConstantBytes = reflected->pushConstantBytes;
+  k->pushConstantRange = std::min<std::uint32_t>((reflected->pushConstantBytes + 15) / 16 * 16, 128);
+  k->workgroupSize = specs.empty() ? 0 : specs[0];
+  std::vector<VkDescriptorSetLayoutBinding> b(k->bindings);
+  for (std::uint32_t i = 0; i < k->bindings; ++i) {
+    b[i] = {i, reflected->bindings[i].type, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   }
   VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  setInfo.bindingCount = bindings;
+  setInfo.bindingCount = k->bindings;
   setInfo.pBindings = b.data();
-  check(d_.vkCreateDescriptorSetLayout(host_.device, &setInfo, nullptr, &k.setLayout),
+  check(d_.vkCreateDescriptorSetLayout(host_.device, &setInfo, nullptr, &k->setLayout),
         "vkCreateDescriptorSetLayout");
-  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, 128};
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, k->pushConstantRange};
   VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
   layoutInfo.setLayoutCount = 1;
-  layoutInfo.pSetLayouts = &k.setLayout;
-  layoutInfo.pushConstantRangeCount = 1;
+  layoutInfo.pSetLayouts = &k->setLayout;
+  layoutInfo.pushConstantRangeCount = k->pushConstantRange ? 1 : 0;
   layoutInfo.pPushConstantRanges = &range;
-  check(d_.vkCreatePipelineLayout(host_.device, &layoutInfo, nullptr, &k.layout),
+  check(d_.vkCreatePipelineLayout(host_.device, &layoutInfo, nullptr, &k->layout),
         "vkCreatePipelineLayout");
 
   VkShaderModuleCreateInfo moduleInfo{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
@@ -220,15 +269,31 @@ const Kernel& Device::createKernel(const std::string& key, const std::string& sh
   info.stage.module = module;
   info.stage.pName = "main";
   info.stage.pSpecializationInfo = specs.empty() ? nullptr : &spec;
-  info.layout = k.layout;
+  info.layout = k->layout;
   const VkResult r =
-      d_.vkCreateComputePipelines(host_.device, pipelineCache_, 1, &info, nullptr, &k.pipeline);
+      d_.vkCreateComputePipelines(host_.device, pipelineCache_, 1, &info, nullptr, &k->pipeline);
   d_.vkDestroyShaderModule(host_.device, module, nullptr);
   check(r, ("vkCreateComputePipelines(" + shader + ")").c_str());
-  return kernels_.emplace(key, k).first->second;
+
+  if (std::find(shadersUsed_.begin(), shadersUsed_.end(), layoutOf) == shadersUsed_.end()) {
+    shadersUsed_.push_back(layoutOf);
+  }
+  // Least recently used out: holders elsewhere keep theirs alive until they let go.
+  while (kernelLru_.size() >= kernelCapacity_) {
+    kernels_.erase(kernelLru_.back().first);
+    kernelLru_.pop_back();
+    ++evictedKernels_;
+  }
+  kernelLru_.emplace_front(key, k);
+  kernels_[key] = kernelLru_.begin();
+  return k;
 }
 
 void Device::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
+  if (fencePending_) {  // an earlier wait failed: the fence must signal before it is reused
+    check(d_.vkWaitForFences(host_.device, 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+    fencePending_ = false;
+  }
   VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
   alloc.commandPool = commandPool_;
   alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
@@ -243,6 +308,7 @@ void Device::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
   VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   check(d_.vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
+  if (uploadBatch_) uploadBatch_->record(cmd);  // queued uploads land before what reads them
   record(cmd);
   check(d_.vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
   check(d_.vkResetFences(host_.device, 1, &fence_), "vkResetFences");
@@ -250,7 +316,9 @@ void Device::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
   submit.commandBufferCount = 1;
   submit.pCommandBuffers = &cmd;
   check(d_.vkQueueSubmit(host_.queue, 1, &submit, fence_), "vkQueueSubmit");
+  fencePending_ = true;
   check(d_.vkWaitForFences(host_.device, 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  fencePending_ = false;
 }
 
 void Device::run(const std::function<void(Recorder&)>& record) {
@@ -267,37 +335,64 @@ Recorder::~Recorder() {
   for (auto p : pools_) device_.d().vkDestroyDescriptorPool(device_.handle(), p, nullptr);
 }
 
-VkDescriptorSet Recorder::allocateSet(VkDescriptorSetLayout layout) {
-  constexpr std::uint32_t kSets = 64, kBuffersPerSet = 12;
-  if (setsLeft_ == 0) {
-    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSets * kBuffersPerSet};
+VkDescriptorSet Recorder::allocateSet(const Kernel& kernel) {
+  // Pools sized from the reflected layouts: room for kSets sets of the largest binding count
+  // any embedded shader declares, refilled when a kernel's bindings no longer fit.
+  constexpr std::uint32_t kSets = 64;
+  std::uint32_t buffers = 0, uniforms = 0;
+  for (const ShaderBinding& b : kernel.shaderLayout->bindings) {
+    (b.type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER ? uniforms : buffers) += 1;
+  }
+  if (setsLeft_ == 0 || buffersLeft_ < buffers || uniformsLeft_ < uniforms) {
+    std::uint32_t maxBuffers = 1, maxUniforms = 1;
+    for (const ShaderLayout& l : shaderLayouts()) {
+      std::uint32_t s = 0, u = 0;
+      for (const ShaderBinding& b : l.bindings) (b.type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER ? u : s) += 1;
+      maxBuffers = std::max(maxBuffers, s);
+      maxUniforms = std::max(maxUniforms, u);
+    }
+    const VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSets * maxBuffers},
+                                           {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, kSets * maxUniforms}};
     VkDescriptorPoolCreateInfo info{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     info.maxSets = kSets;
-    info.poolSizeCount = 1;
-    info.pPoolSizes = &size;
+    info.poolSizeCount = 2;
+    info.pPoolSizes = sizes;
     VkDescriptorPool pool = VK_NULL_HANDLE;
     check(device_.d().vkCreateDescriptorPool(device_.handle(), &info, nullptr, &pool),
           "vkCreateDescriptorPool");
     pools_.push_back(pool);
     setsLeft_ = kSets;
+    buffersLeft_ = kSets * maxBuffers;
+    uniformsLeft_ = kSets * maxUniforms;
   }
   VkDescriptorSetAllocateInfo info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
   info.descriptorPool = pools_.back();
   info.descriptorSetCount = 1;
-  info.pSetLayouts = &layout;
+  info.pSetLayouts = &kernel.setLayout;
   VkDescriptorSet set = VK_NULL_HANDLE;
   check(device_.d().vkAllocateDescriptorSets(device_.handle(), &info, &set),
         "vkAllocateDescriptorSets");
   --setsLeft_;
+  buffersLeft_ -= buffers;
+  uniformsLeft_ -= uniforms;
   return set;
 }
 
 void Recorder::bind(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,
                     std::uint32_t pushSize) {
-  if (buffers.size() != kernel.bindings) throw VulkanError("kernel binding count mismatch");
-  if (pushSize > 128) throw VulkanError("push constants above 128 bytes");
+  // The C++ side must match what the shader declares (its SPIR-V reflection).
+  const char* shader = kernel.shaderLayout ? kernel.shaderLayout->shader : "?";
+  if (buffers.size() != kernel.bindings) {
+    throw VulkanError(std::string("shader ") + shader + " declares " + std::to_string(kernel.bindings) +
+                      " buffer bindings; the dispatch binds " + std::to_string(buffers.size()));
+  }
+  if (pushSize < kernel.pushConstantBytes || pushSize > kernel.pushConstantRange) {
+    throw VulkanError(std::string("shader ") + shader + " declares " + std::to_string(kernel.pushConstantBytes) +
+                      " bytes of push constants; the dispatch pushes " + std::to_string(pushSize));
+  }
+  if (kernels_.empty() || kernels_.back().get() != &kernel) kernels_.push_back(kernel.shared_from_this());
   const auto& d = device_.d();
-  const VkDescriptorSet set = allocateSet(kernel.setLayout);
+  const VkDescriptorSet set = allocateSet(kernel);
   std::vector<VkDescriptorBufferInfo> infos(buffers.size());
   std::vector<VkWriteDescriptorSet> writes(buffers.size());
   for (std::size_t i = 0; i < buffers.size(); ++i) {
@@ -306,7 +401,7 @@ void Recorder::bind(const Kernel& kernel, std::span<const BufferRange> buffers, 
     writes[i].dstSet = set;
     writes[i].dstBinding = std::uint32_t(i);
     writes[i].descriptorCount = 1;
-    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    writes[i].descriptorType = kernel.shaderLayout->bindings[i].type;
     writes[i].pBufferInfo = &infos[i];
   }
   d.vkUpdateDescriptorSets(device_.handle(), std::uint32_t(writes.size()), writes.data(), 0,

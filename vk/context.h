@@ -8,10 +8,11 @@
 
 #include <cstdint>
 #include <functional>
-#include <map>
+#include <list>
 #include <memory>
 #include <span>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace blobvk::vk {
@@ -38,6 +39,7 @@ class Buffer {
   VkBuffer handle() const { return buffer_; }
   VkDeviceSize size() const { return size_; }
   void* mapped() const { return allocation_.mapped; }  // null when not host visible
+  std::uint32_t memoryType() const { return allocation_.type; }  // index chosen by the allocator
   explicit operator bool() const { return buffer_ != VK_NULL_HANDLE; }
 
  private:
@@ -48,15 +50,21 @@ class Buffer {
   Allocation allocation_{};
 };
 
-// A compute pipeline over `bindings` storage buffers (set 0, bindings 0..n-1) and up to 128
-// bytes of push constants.
-struct Kernel {
+// A compute pipeline. Its descriptor-set layout (set 0: one buffer per binding) and push-constant
+// range come from the shader's SPIR-V reflection (vk/shader_layout.h). Owned by shared pointers:
+// the Device's pipeline cache holds one until it evicts the kernel, every holder (a FieldPass, a
+// Recorder that bound it) keeps it alive, and the last one destroys its Vulkan objects.
+struct Kernel : std::enable_shared_from_this<Kernel> {
   VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline pipeline = VK_NULL_HANDLE;
-  std::uint32_t bindings = 0;
+  const struct ShaderLayout* shaderLayout = nullptr;
+  std::uint32_t bindings = 0;           // buffers bound at set 0, bindings 0..n-1
+  std::uint32_t pushConstantBytes = 0;  // the shader's block; pushes must cover it
+  std::uint32_t pushConstantRange = 0;  // the layout's range (the block rounded up to 16 bytes)
   std::uint32_t workgroupSize = 0;
 };
+using KernelPtr = std::shared_ptr<const Kernel>;
 
 struct DeviceInfo {
   std::string name;
@@ -66,9 +74,18 @@ struct DeviceInfo {
   VkPhysicalDeviceLimits limits{};
 };
 
+// What a Device is created with besides the host's handles (all optional).
+struct DeviceOptions {
+  // Compute pipelines kept in the Device's cache, least recently used evicted first (a viewer
+  // that edits a model builds a specialised kernel per edit). At least 1.
+  std::uint32_t pipelineCacheCapacity = 256;
+  // Tests: present this memory layout instead of the device's (vk/memory.h).
+  const MemorySimulation* memorySimulation = nullptr;
+};
+
 class Device {
  public:
-  explicit Device(const HostContext& host);
+  explicit Device(const HostContext& host, const DeviceOptions& options = {});
   ~Device();
   Device(const Device&) = delete;
   Device& operator=(const Device&) = delete;
@@ -79,28 +96,40 @@ class Device {
   const DeviceInfo& info() const { return info_; }
   MemoryAllocator& memory() { return *memory_; }
 
-  // Storage buffer (also transfer src/dst and indirect). `use` picks the memory.
+  // Storage buffer (also transfer src/dst and indirect). `use` picks the memory (vk/memory.h).
   Buffer createBuffer(VkDeviceSize size, MemoryUse use = MemoryUse::DeviceLocal,
                       VkBufferUsageFlags extraUsage = 0);
-  // Copies host data into / out of a buffer: a memcpy when it is mapped, else through a staging
-  // buffer and a one-shot submit. forceStaging() exercises the discrete-GPU path on lavapipe.
+  // Copies host data into a buffer: a memcpy when it is mapped, else through an Upload staging
+  // buffer, copied by a one-shot submit or, while an UploadBatch is open, by a copy the batch
+  // records into the host's command buffer.
   void upload(Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
+  // Copies a buffer out: a memcpy when it is mapped host-cached memory, else through a Readback
+  // staging buffer and a one-shot submit (reading uncached memory is slow on discrete GPUs).
   void download(const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
+  // forceStaging: device-local buffers created from now on are not mapped, so data goes through
+  // staging copies (the discrete-GPU path on lavapipe; MemorySimulation does the whole layout).
   void setForceStaging(bool on) { forceStaging_ = on; }
   bool forceStaging() const { return forceStaging_; }
 
   // Cached compute pipeline for an embedded shader with specialization constants
-  // (constant_id i = specs[i]; constant 0 is the workgroup size by convention).
-  const Kernel& kernel(const std::string& shader, std::uint32_t bindings,
-                       std::span<const std::uint32_t> specs);
-  // The same for SPIR-V made at run time (vk/runtime_compiler.h); `name` must identify the code
-  // (e.g. shader + a hash of the source), since pipelines are cached by name and specs.
-  const Kernel& kernel(const std::string& name, std::span<const std::uint32_t> code,
-                       std::uint32_t bindings, std::span<const std::uint32_t> specs);
+  // (constant_id i = specs[i]; constant 0 is the workgroup size by convention). Its layout is
+  // the shader's reflected one (vk/shader_layout.h).
+  KernelPtr kernel(const std::string& shader, std::span<const std::uint32_t> specs);
+  // The same for SPIR-V made at run time (vk/runtime_compiler.h) from the embedded shader
+  // `layoutOf` (whose reflected layout it shares); `name` must identify the code (e.g. shader +
+  // a hash of the source), since pipelines are cached by name and specs.
+  KernelPtr kernel(const std::string& name, std::span<const std::uint32_t> code, const std::string& layoutOf,
+                   std::span<const std::uint32_t> specs);
   // A cached pipeline, or null (lets callers skip generating code that is already built).
-  const Kernel* findKernel(const std::string& name, std::span<const std::uint32_t> specs) const;
+  KernelPtr findKernel(const std::string& name, std::span<const std::uint32_t> specs);
+  // Pipelines in the cache, and how many it has evicted since creation.
+  std::size_t cachedKernels() const { return kernelLru_.size(); }
+  std::uint64_t evictedKernels() const { return evictedKernels_; }
+  // The names of the embedded shaders that kernels were built from (tests of coverage).
+  const std::vector<std::string>& shadersUsed() const { return shadersUsed_; }
 
-  // Records with `record`, submits to the host queue and waits. Throws on device loss.
+  // Records with `record`, submits to the host queue and waits on blobvk's own fence (never on
+  // the host's device or queue). Throws on device loss.
   void submitAndWait(const std::function<void(VkCommandBuffer)>& record);
   // The same with a Recorder that stays alive (with its descriptor sets) until the fence.
   void run(const std::function<void(class Recorder&)>& record);
@@ -108,12 +137,17 @@ class Device {
   // Nanoseconds per timestamp tick; 0 when the queue has no timestamps.
   double timestampPeriodNs() const { return timestampPeriod_; }
 
+  // Per-Device state of the field planner (vk/field.cpp's tile plans): kept here so that two
+  // Devices share nothing; type-erased to keep this header light.
+  std::shared_ptr<void>& tilePlanCache() { return tilePlanCache_; }
+
  private:
   friend class Buffer;
+  friend class UploadBatch;
   void destroyBuffer(Buffer& b);
-  const Kernel& createKernel(const std::string& key, const std::string& shader,
-                             std::span<const std::uint32_t> code, std::uint32_t bindings,
-                             std::span<const std::uint32_t> specs);
+  KernelPtr createKernel(const std::string& key, const std::string& shader, std::span<const std::uint32_t> code,
+                         const std::string& layoutOf, std::span<const std::uint32_t> specs);
+  KernelPtr touch(const std::string& key);
 
   HostContext host_;
   Dispatch d_;
@@ -122,9 +156,49 @@ class Device {
   VkPipelineCache pipelineCache_ = VK_NULL_HANDLE;
   VkCommandPool commandPool_ = VK_NULL_HANDLE;
   VkFence fence_ = VK_NULL_HANDLE;
+  bool fencePending_ = false;  // submitted and not yet seen signalled (an error path)
   bool forceStaging_ = false;
   double timestampPeriod_ = 0.0;
-  std::map<std::string, Kernel> kernels_;
+  // The pipeline cache: most recently used first.
+  std::uint32_t kernelCapacity_ = 256;
+  std::list<std::pair<std::string, KernelPtr>> kernelLru_;
+  std::unordered_map<std::string, std::list<std::pair<std::string, KernelPtr>>::iterator> kernels_;
+  std::uint64_t evictedKernels_ = 0;
+  std::vector<std::string> shadersUsed_;
+  std::shared_ptr<void> tilePlanCache_;
+  class UploadBatch* uploadBatch_ = nullptr;  // the open batch, if any
+};
+
+// Uploads recorded into the host's command buffer instead of blocking submits. While a batch is
+// open on a Device, Device::upload to a buffer that is not host visible (program records,
+// tables: everything a SlabPolygonizer, FieldPass or Raycaster uploads at construction) writes
+// a staging buffer and queues a copy; record() puts the queued copies into `cmd` followed by
+// one barrier: TRANSFER_WRITE -> SHADER_READ | SHADER_WRITE | TRANSFER_READ | TRANSFER_WRITE at
+// COMPUTE_SHADER | TRANSFER. Uploads to mapped buffers are plain memcpys and need nothing.
+// Keep the batch alive until `cmd` has executed (it owns the staging buffers), and not past its
+// Device; batches on one Device close in reverse order of opening. A Device::run or
+// submitAndWait while copies are queued records them first in its own command buffer.
+class UploadBatch {
+ public:
+  explicit UploadBatch(Device& device);
+  ~UploadBatch();  // closes the batch; copies never recorded are dropped
+  UploadBatch(const UploadBatch&) = delete;
+  UploadBatch& operator=(const UploadBatch&) = delete;
+
+  void record(VkCommandBuffer cmd);
+  std::size_t queuedCopies() const { return copies_.size(); }
+  std::size_t stagingBuffers() const { return staging_.size(); }
+
+ private:
+  friend class Device;
+  struct Copy {
+    VkBuffer src, dst;
+    VkBufferCopy region;
+  };
+  Device& device_;
+  UploadBatch* previous_;
+  std::vector<Buffer> staging_;
+  std::vector<Copy> copies_;
 };
 
 // The dispatch recorder: binds a kernel, its buffers (through a descriptor pool it owns) and
@@ -165,12 +239,13 @@ class Recorder {
   void fill(const Buffer& b, std::uint32_t value);
 
  private:
-  VkDescriptorSet allocateSet(VkDescriptorSetLayout layout);
+  VkDescriptorSet allocateSet(const Kernel& kernel);
   void bind(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push, std::uint32_t pushSize);
   Device& device_;
   VkCommandBuffer cmd_;
   std::vector<VkDescriptorPool> pools_;
-  std::uint32_t setsLeft_ = 0;
+  std::uint32_t setsLeft_ = 0, buffersLeft_ = 0, uniformsLeft_ = 0;
+  std::vector<KernelPtr> kernels_;  // bound kernels live until the command buffer has executed
 };
 
 // Splits `invocations` into a 2-D grid of workgroups (x <= 65535) so big grids need no loop.

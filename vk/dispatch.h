@@ -11,6 +11,8 @@ namespace blobvk::vk {
   X(vkGetPhysicalDeviceProperties)              \
   X(vkGetPhysicalDeviceProperties2)             \
   X(vkGetPhysicalDeviceMemoryProperties)        \
+  X(vkGetPhysicalDeviceMemoryProperties2)       \
+  X(vkEnumerateDeviceExtensionProperties)       \
   X(vkGetPhysicalDeviceFeatures)                \
   X(vkGetPhysicalDeviceQueueFamilyProperties)
 
@@ -64,8 +66,7 @@ namespace blobvk::vk {
   X(vkDestroyFence)                    \
   X(vkWaitForFences)                   \
   X(vkResetFences)                     \
-  X(vkQueueSubmit)                     \
-  X(vkDeviceWaitIdle)
+  X(vkQueueSubmit)
 
 struct Dispatch {
 #define BLOBVK_VK_MEMBER(name) PFN_##name name = nullptr;

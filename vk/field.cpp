@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <tuple>
 
@@ -21,26 +22,34 @@ std::uint32_t layersPerBrick(const Device& device, const blobtree::GridSpec& gri
 
 namespace {
 
-// The tile plans of recent (program, grid, options): planning costs 0.5-2 ms of host time (the
-// pruned cost of every candidate split), as much as a small grid's whole field on lavapipe, and a
-// renderer or benchmark asks for the same plan again and again. Keyed by the program's
-// fingerprint; a few dozen entries, cleared when full.
-std::vector<FieldTile> cachedPlan(const blobtree::Program& program, std::uint64_t fingerprint,
+// The tile plans of recent (program, grid, options), per Device (no global state: two Devices
+// share nothing): planning costs 0.5-2 ms of host time (the pruned cost of every candidate
+// split), as much as a small grid's whole field on lavapipe, and a renderer or benchmark asks
+// for the same plan again and again. Keyed by the program's fingerprint; a few dozen entries,
+// cleared when full.
+using PlanKey = std::tuple<std::uint64_t, float, float, float, float, int, int, int, std::uint32_t, double,
+                           std::uint32_t, std::uint64_t>;
+struct TilePlanCache {
+  std::mutex mutex;  // a Device is externally synchronised; this keeps the cache safe regardless
+  std::map<PlanKey, std::vector<FieldTile>> plans;
+};
+
+std::vector<FieldTile> cachedPlan(Device& device, const blobtree::Program& program, std::uint64_t fingerprint,
                                   const blobtree::GridSpec& grid, const FieldTilingOptions& options) {
-  using Key = std::tuple<std::uint64_t, float, float, float, float, int, int, int, std::uint32_t, double,
-                         std::uint32_t, std::uint64_t>;
-  static std::mutex mutex;
-  static std::map<Key, std::vector<FieldTile>> plans;
-  const Key key{fingerprint, grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize, grid.cells.x, grid.cells.y,
-                grid.cells.z, options.maxTiles, options.minGain, options.minExtent, options.minPointsForLargePrograms};
+  std::shared_ptr<void>& slot = device.tilePlanCache();
+  if (!slot) slot = std::make_shared<TilePlanCache>();
+  auto& cache = *static_cast<TilePlanCache*>(slot.get());
+  const PlanKey key{fingerprint, grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize, grid.cells.x,
+                    grid.cells.y, grid.cells.z, options.maxTiles, options.minGain, options.minExtent,
+                    options.minPointsForLargePrograms};
   {
-    std::lock_guard<std::mutex> lock(mutex);
-    if (auto it = plans.find(key); it != plans.end()) return it->second;
+    std::lock_guard<std::mutex> lock(cache.mutex);
+    if (auto it = cache.plans.find(key); it != cache.plans.end()) return it->second;
   }
   std::vector<FieldTile> tiles = planFieldTiles(program, grid, options);
-  std::lock_guard<std::mutex> lock(mutex);
-  if (plans.size() >= 64) plans.clear();
-  plans.emplace(key, tiles);
+  std::lock_guard<std::mutex> lock(cache.mutex);
+  if (cache.plans.size() >= 64) cache.plans.clear();
+  cache.plans.emplace(key, tiles);
   return tiles;
 }
 
@@ -55,7 +64,7 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
   if (!specialised) o.maxTiles = 1;  // the interpreters read the whole program anyway
   if (!gpu.specialised && grid.pointCount() < o.minPointsForLargePrograms) o.maxTiles = 1;
   const std::uint64_t programPrint = gpu.fingerprint ? gpu.fingerprint : programFingerprint(program);
-  tiles_ = cachedPlan(program, programPrint, grid, o);
+  tiles_ = cachedPlan(device, program, programPrint, grid, o);
   // Tiles only pay with kernels of their own: when none can have one (a program too large to
   // specialise, pruning too little), one dispatch over the whole grid.
   if (tiles_.size() > 1 &&
@@ -70,12 +79,12 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
     // too large to specialise whole may still fit once pruned to a tile.
     const bool ownKernel = specialised && !(tiles_.size() == 1 && gpu.specialised) && specialiseTile(program, t.region);
     if (!ownKernel) {
-      kernels_.push_back(&evaluatorKernel(device, gpu, "field_grid", 6, rows, traversal));
+      kernels_.push_back(evaluatorKernel(device, gpu, "field_grid", rows, traversal));
       continue;
     }
     CodegenOptions c = gpu.codegen;
     c.region = t.region;
-    kernels_.push_back(&specialisedKernel(device, program, programPrint, c, "field_grid", 6, rows));
+    kernels_.push_back(specialisedKernel(device, program, programPrint, c, "field_grid", rows));
   }
 }
 

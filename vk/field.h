@@ -63,7 +63,7 @@ class FieldPass {
   blobtree::GridSpec grid_;
   std::uint32_t workgroupSize_;
   std::vector<FieldTile> tiles_;
-  std::vector<const Kernel*> kernels_;  // per tile
+  std::vector<KernelPtr> kernels_;  // per tile
 };
 
 }  // namespace blobvk::vk

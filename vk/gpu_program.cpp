@@ -75,33 +75,31 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
   return g;
 }
 
-const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
-                              std::uint32_t bindings, std::uint32_t workgroupSize, Traversal traversal) {
+KernelPtr evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
+                          std::uint32_t workgroupSize, Traversal traversal) {
   if (traversal != Traversal::Specialised || !program.specialised)
-    return device.kernel(shader, bindings, program.specs(workgroupSize, traversal == Traversal::StackBased
+    return device.kernel(shader, program.specs(workgroupSize, traversal == Traversal::StackBased
                                                                             ? Traversal::StackBased
                                                                             : Traversal::Stackless));
-  return specialisedKernel(device, *program.specialised, program.fingerprint, program.codegen, shader, bindings,
-                           workgroupSize);
+  return specialisedKernel(device, *program.specialised, program.fingerprint, program.codegen, shader, workgroupSize);
 }
 
-const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, const CodegenOptions& codegen,
-                                const std::string& shader, std::uint32_t bindings, std::uint32_t workgroupSize) {
-  return specialisedKernel(device, program, programFingerprint(program), codegen, shader, bindings, workgroupSize);
+KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, const CodegenOptions& codegen,
+                            const std::string& shader, std::uint32_t workgroupSize) {
+  return specialisedKernel(device, program, programFingerprint(program), codegen, shader, workgroupSize);
 }
 
-const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, std::uint64_t fingerprint,
-                                const CodegenOptions& codegen, const std::string& shader, std::uint32_t bindings,
-                                std::uint32_t workgroupSize) {
+KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, std::uint64_t fingerprint,
+                            const CodegenOptions& codegen, const std::string& shader, std::uint32_t workgroupSize) {
   // Only the workgroup size (constant 0) matters to the generated evaluator.
   const std::array<std::uint32_t, 1> specs{workgroupSize};
   char key[17];
   std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(evaluatorFingerprint(fingerprint, codegen)));
   const std::string name = shader + "/specialised:" + key;
-  if (const Kernel* k = device.findKernel(name, specs)) return *k;
+  if (KernelPtr k = device.findKernel(name, specs)) return k;
   const auto code =
       compileComputeShader(shader + ".comp", {{"eval_program.glsl", generateSpecialisedEvaluator(program, codegen)}});
-  return device.kernel(name, code, bindings, specs);
+  return device.kernel(name, code, shader, specs);
 }
 
 CodegenOptions defaultCodegenOptions(const Device& device) {

@@ -54,18 +54,17 @@ struct GpuProgram {
 // The pipeline of an evaluating kernel (an embedded shaders/<shader>.comp that includes
 // eval_program.glsl) for this program and traversal: for Traversal::Specialised the kernel is
 // compiled at run time with the program's generated evaluator (once per device and program).
-const Kernel& evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
-                              std::uint32_t bindings, std::uint32_t workgroupSize, Traversal traversal);
+KernelPtr evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
+                          std::uint32_t workgroupSize, Traversal traversal);
 
 // The pipeline of an evaluating kernel compiled at run time with the evaluator generated for
 // `program` and `codegen` (vk/program_codegen.h) in place of eval_program.glsl: generated and
 // compiled once per device, then found by its fingerprint.
-const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, const CodegenOptions& codegen,
-                                const std::string& shader, std::uint32_t bindings, std::uint32_t workgroupSize);
+KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, const CodegenOptions& codegen,
+                            const std::string& shader, std::uint32_t workgroupSize);
 // The same with the program's fingerprint already computed (programFingerprint).
-const Kernel& specialisedKernel(Device& device, const blobtree::Program& program, std::uint64_t programFingerprint,
-                                const CodegenOptions& codegen, const std::string& shader, std::uint32_t bindings,
-                                std::uint32_t workgroupSize);
+KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, std::uint64_t programFingerprint,
+                            const CodegenOptions& codegen, const std::string& shader, std::uint32_t workgroupSize);
 
 // Code generation options for this device: branches on skips except on CPU devices.
 CodegenOptions defaultCodegenOptions(const Device& device);

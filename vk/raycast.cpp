@@ -40,7 +40,7 @@ Raycaster::Raycaster(Device& device, const blobtree::Program& program, const Ray
   lipschitz_ = cells_.largest();
   cellBuffer_ = device.createBuffer(cells_.cells.size() * 4);
   device.upload(cellBuffer_, cells_.cells.data(), cells_.cells.size() * 4);
-  exhausted_ = device.createBuffer(16, MemoryUse::HostVisible);
+  exhausted_ = device.createBuffer(16, MemoryUse::Readback);
 }
 
 std::uint32_t Raycaster::exhaustedRays() const {
@@ -70,18 +70,18 @@ void Raycaster::recordRaycast(Recorder& rec, const Camera& camera, std::uint32_t
          {width, height, program_.codeLength, packBackground(options_.background)},
          {cells_.dims[0], cells_.dims[1], cells_.dims[2], floatBits(options_.minRise)}};
   static_assert(sizeof(push) == 128);
-  const Kernel& k = evaluatorKernel(device_, program_, "raycast", 8, options_.workgroupSize, options_.traversal);
+  const KernelPtr k = evaluatorKernel(device_, program_, "raycast", options_.workgroupSize, options_.traversal);
   const auto pb = program_.bindings();
   const BufferRange bind[8] = {pb[0], pb[1], pb[2], pb[3], pb[4], pixels, cellBuffer_, exhausted_};
   const Groups g = groupsFor(std::uint64_t(width) * height, options_.workgroupSize);
   rec.fill(exhausted_, 0u);
   rec.computeBarrier();  // the reset -> the shader's atomic adds
-  rec.dispatch(k, bind, &push, sizeof(push), g.x, g.y);
+  rec.dispatch(*k, bind, &push, sizeof(push), g.x, g.y);
   rec.computeBarrier();
 }
 
 Image Raycaster::render(const Camera& camera, std::uint32_t width, std::uint32_t height, RaycastStats* stats) {
-  Buffer pixels = device_.createBuffer(std::uint64_t(width) * height * 4, MemoryUse::HostVisible);
+  Buffer pixels = device_.createBuffer(std::uint64_t(width) * height * 4, MemoryUse::Readback);
   const auto t0 = std::chrono::steady_clock::now();
   device_.run([&](Recorder& rec) {
     recordRaycast(rec, camera, width, height, pixels);

@@ -119,7 +119,7 @@ OffscreenTarget::OffscreenTarget(Device& device, const RenderDispatch& rd, std::
     fb.height = height;
     fb.layers = 1;
     check(rd_.vkCreateFramebuffer(device_.handle(), &fb, nullptr, &framebuffer_), "vkCreateFramebuffer");
-    readback_ = device_.createBuffer(VkDeviceSize(width) * height * 4, MemoryUse::HostVisible);
+    readback_ = device_.createBuffer(VkDeviceSize(width) * height * 4, MemoryUse::Readback);
   } catch (...) {
     release();
     throw;

@@ -15,22 +15,22 @@ void recordExclusiveScan(Recorder& rec, VkBuffer values, std::uint32_t valueOffs
                          VkBuffer totals, std::uint32_t totalIndex) {
   Device& dev = rec.device();
   const std::array<std::uint32_t, 1> spec{kScanWorkgroup};
-  const Kernel& reduce = dev.kernel("scan_reduce", 2, spec);
-  const Kernel& apply = dev.kernel("scan_apply", 3, spec);
+  const KernelPtr reduce = dev.kernel("scan_reduce", spec);
+  const KernelPtr apply = dev.kernel("scan_apply", spec);
   const std::uint32_t blocks = (count + kScanChunk - 1) / kScanChunk;
   if (blocks <= 1) {
     const std::uint32_t push[5] = {valueOffset, count, 0u, 0u, totalIndex};
     const BufferRange bind[3] = {{values, 0, VK_WHOLE_SIZE},
                                  {scratch ? scratch : totals, 0, VK_WHOLE_SIZE},
                                  {totals, 0, VK_WHOLE_SIZE}};
-    rec.dispatch(apply, bind, push, sizeof(push), 1);
+    rec.dispatch(*apply, bind, push, sizeof(push), 1);
     return;
   }
   const Groups g = groupsFor(blocks, kScanWorkgroup);
   {
     const std::uint32_t push[3] = {valueOffset, count, scratchOffset};
     const BufferRange bind[2] = {{values, 0, VK_WHOLE_SIZE}, {scratch, 0, VK_WHOLE_SIZE}};
-    rec.dispatch(reduce, bind, push, sizeof(push), g.x, g.y);
+    rec.dispatch(*reduce, bind, push, sizeof(push), g.x, g.y);
   }
   rec.computeBarrier();
   recordExclusiveScan(rec, scratch, scratchOffset, blocks, scratch, scratchOffset + blocks, totals,
@@ -41,7 +41,7 @@ void recordExclusiveScan(Recorder& rec, VkBuffer values, std::uint32_t valueOffs
     const BufferRange bind[3] = {{values, 0, VK_WHOLE_SIZE},
                                  {scratch, 0, VK_WHOLE_SIZE},
                                  {totals, 0, VK_WHOLE_SIZE}};
-    rec.dispatch(apply, bind, push, sizeof(push), g.x, g.y);
+    rec.dispatch(*apply, bind, push, sizeof(push), g.x, g.y);
   }
 }
 

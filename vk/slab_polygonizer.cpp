@@ -46,10 +46,10 @@ SlabPolygonizer::VertexPush SlabPolygonizer::vertexPush(const SlabPlan& p, std::
 }
 
 void SlabPolygonizer::recordEmitLimits(Recorder& rec, const SlabOutputs& out) {
-  const Kernel& k = device_.kernel("emit_limits", 1, {});
+  const KernelPtr k = device_.kernel("emit_limits", {});
   const std::uint32_t push[2] = {out.vertexCapacity, out.triangleCapacity};
   const BufferRange bind[1] = {args_};
-  rec.dispatch(k, bind, push, sizeof(push), 1);
+  rec.dispatch(*k, bind, push, sizeof(push), 1);
   // The vertex pass reads its dispatch from these arguments: writes -> indirect reads.
   rec.computeBarrier();
 }
@@ -85,12 +85,12 @@ void SlabPolygonizer::recordTiledVertices(Recorder& rec, const SlabPlan& p, std:
   if (totalRows == 0) return;
   const std::array<std::uint32_t, 1> spec{wg};
   {
-    const Kernel& k = device_.kernel("tile_rows", 3, spec);
+    const KernelPtr k = device_.kernel("tile_rows", spec);
     const BufferRange bind[3] = {vertexOffsets_, totals_, rowScan_};
     for (const TileRows& t : tiles) {
       const std::uint32_t push[10] = {nx, ny, t.i0, t.nxT, t.j0, t.nyT, t.layer0, t.rows, t.rowBase, classified};
       const Groups g = groupsFor(t.rows, wg);
-      rec.dispatch(k, bind, push, sizeof(push), g.x, g.y);
+      rec.dispatch(*k, bind, push, sizeof(push), g.x, g.y);
     }
   }
   rec.computeBarrier();
@@ -98,11 +98,11 @@ void SlabPolygonizer::recordTiledVertices(Recorder& rec, const SlabPlan& p, std:
   recordExclusiveScan(rec, rowScan_.handle(), 0, totalRows, scratch_.handle(), 0, totals_.handle(), 2);
   rec.computeBarrier();
   {
-    const Kernel& k = device_.kernel("tile_args", 3, {});
+    const KernelPtr k = device_.kernel("tile_args", {});
     const BufferRange bind[3] = {rowScan_, totals_, tileArgs_};
     for (const TileRows& t : tiles) {
       const std::uint32_t push[5] = {t.rowBase, t.rows, totalRows, t.tile, wg};
-      rec.dispatch(k, bind, push, sizeof(push), 1);
+      rec.dispatch(*k, bind, push, sizeof(push), 1);
     }
   }
   rec.computeBarrier();
@@ -153,10 +153,10 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
         CodegenOptions c = program_.codegen;
         c.region = r;
         vertexTileKernels_.push_back(
-            &specialisedKernel(device, program, program_.fingerprint, c, "vertices_tiled", 14, options.workgroupSize));
+            specialisedKernel(device, program, program_.fingerprint, c, "vertices_tiled", options.workgroupSize));
       } else {
         vertexTileKernels_.push_back(
-            &evaluatorKernel(device, program_, "vertices_tiled", 14, options.workgroupSize, options.traversal));
+            evaluatorKernel(device, program_, "vertices_tiled", options.workgroupSize, options.traversal));
       }
       rows += std::uint64_t(t.last[1] - t.first[1] + 1) * (t.last[2] - t.first[2] + 1);
     }
@@ -212,19 +212,19 @@ void SlabPolygonizer::recordClassify(Recorder& rec, std::uint32_t slab, std::uin
   fieldPass_->record(rec, p.k0, fieldLayers, field_);
   rec.computeBarrier();
   {
-    const Kernel& k = device_.kernel("edge_flags", 3, gridSpec);
+    const KernelPtr k = device_.kernel("edge_flags", gridSpec);
     const std::uint32_t push[6] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y),
                                    std::uint32_t(grid_.cells.z), p.k0};
     const BufferRange bind[3] = {field_, flags_, vertexOffsets_};
     const Groups3 g = gridGroups(nx, ny, p.cellLayers + 1, wg);
-    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y, g.z);
+    rec.dispatch(*k, bind, push, sizeof(push), g.x, g.y, g.z);
   }
   {
-    const Kernel& k = device_.kernel("cell_count", 3, gridSpec);
+    const KernelPtr k = device_.kernel("cell_count", gridSpec);
     const std::uint32_t push[4] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y)};
     const BufferRange bind[3] = {field_, cases_, triOffsets_};
     const Groups3 g = gridGroups(std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y), p.cellLayers, wg);
-    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y, g.z);
+    rec.dispatch(*k, bind, push, sizeof(push), g.x, g.y, g.z);
   }
   rec.computeBarrier();
   recordExclusiveScan(rec, vertexOffsets_.handle(), 0, classified, scratch_.handle(), 0,
@@ -237,11 +237,11 @@ void SlabPolygonizer::recordClassify(Recorder& rec, std::uint32_t slab, std::uin
                       pointScratch_, totals_.handle(), 1);
   rec.computeBarrier();
   {
-    const Kernel& k = device_.kernel("draw_args", 3, {});
+    const KernelPtr k = device_.kernel("draw_args", {});
     const std::uint32_t push[5] = {std::uint32_t(p.ownedPoints), p.last ? 1u : 0u, vertexBase,
                                    triangleBase, wg};
     const BufferRange bind[3] = {vertexOffsets_, totals_, args_};
-    rec.dispatch(k, bind, push, sizeof(push), 1);
+    rec.dispatch(*k, bind, push, sizeof(push), 1);
   }
   rec.computeBarrier();
 }
@@ -259,21 +259,21 @@ void SlabPolygonizer::recordEmit(Recorder& rec, std::uint32_t slab, std::uint32_
     // One lane per vertex (indirect: the count is on the device), so every lane of a SIMD
     // group evaluates; a lane per grid point would leave most lanes idle and, on llvmpipe, pay
     // for every masked-off evaluation too.
-    const Kernel& k = evaluatorKernel(device_, program_, "vertices", 13, wg, options_.traversal);
+    const KernelPtr k = evaluatorKernel(device_, program_, "vertices", wg, options_.traversal);
     const VertexPush push = vertexPush(p, vertexBase, out.vertexCapacity);
     const auto pb = program_.bindings();
     const BufferRange bind[13] = {pb[0], pb[1], pb[2], pb[3], pb[4], field_, flags_, vertexOffsets_,
                                   out.positions, out.normals, out.colours, out.keys, args_};
-    rec.dispatchIndirect(k, bind, &push, sizeof(push), args_, 7 * 4);
+    rec.dispatchIndirect(*k, bind, &push, sizeof(push), args_, 7 * 4);
   }
   {
     const std::array<std::uint32_t, 1> gridSpec{gridGroupRows(wg)};
-    const Kernel& k = device_.kernel("triangles", 6, gridSpec);
+    const KernelPtr k = device_.kernel("triangles", gridSpec);
     const std::uint32_t push[6] = {nx, ny, std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y), vertexBase,
                                    out.triangleCapacity};
     const BufferRange bind[6] = {field_, cases_, flags_, vertexOffsets_, triOffsets_, out.indices};
     const Groups3 g = gridGroups(std::uint32_t(grid_.cells.x), std::uint32_t(grid_.cells.y), p.cellLayers, wg);
-    rec.dispatch(k, bind, push, sizeof(push), g.x, g.y, g.z);
+    rec.dispatch(*k, bind, push, sizeof(push), g.x, g.y, g.z);
   }
   rec.computeBarrier();
 }

@@ -76,7 +76,7 @@ class SlabPolygonizer {
   std::unique_ptr<FieldPass> fieldPass_;  // reads program_'s buffers
   // With field tiles, the vertex pass runs per tile too, each with the evaluator pruned to the
   // points its vertices need (tile_rows, a scan, tile_args, vertices_tiled); empty: one pass.
-  std::vector<const Kernel*> vertexTileKernels_;
+  std::vector<KernelPtr> vertexTileKernels_;
   Buffer rowScan_, tileArgs_;
 
   struct VertexPush;

@@ -192,11 +192,6 @@ bool vulkanAvailable(std::string* why) {
 StandaloneContext::StandaloneContext(const StandaloneOptions& options)
     : counters_(std::make_unique<Counters>()) {
   counters_->print = options.printValidationMessages;
-  // lavapipe tuning, only where the user has not chosen: llvmpipe picks 512-bit vectors on AVX-512
-  // CPUs, and 256-bit ones measured faster for every kernel here (the tower's specialised field
-  // 1.6x, its whole polygonization 1.6x, and a 40% shorter JIT; docs/vulkan.md). The driver reads
-  // it when the instance loads it; other drivers ignore it.
-  setenv("LP_NATIVE_VECTOR_WIDTH", "256", 0);
   host_.instance = createInstance(options.validation);
   host_.getInstanceProcAddr = vkGetInstanceProcAddr;
   try {

@@ -199,13 +199,17 @@ int run(bool validation, const std::string& output, std::uint32_t size) {
     host.physicalDevice = pd;
     host.device = dev;
     host.queueFamilyIndex = family;
-    host.queue = queue;  // used only by blobvk's own upload helper (Program records)
+    host.queue = queue;  // blobvk's one-shot helpers only; none runs here (uploads are recorded)
     host.getInstanceProcAddr = vkGetInstanceProcAddr;
     blobvk::vk::Device bdev(host);
     const auto program = blobvk::blobtree::compile(model());
     blobvk::blobtree::GridRequest request;
     request.resolution = 48;
     const auto grid = blobvk::blobtree::chooseGrid(program, {}, request);
+    // Uploads the polygonizer makes (Program records, tables) into memory the host cannot map
+    // become copies recorded into our command buffer below, not blocking submits; the batch owns
+    // the staging buffers, so it lives until the fence.
+    blobvk::vk::UploadBatch uploads(bdev);
     blobvk::vk::SlabPolygonizer poly(bdev, program, grid, {});
     if (poly.slabCount() != 1) throw std::runtime_error("expected a single-slab grid");
     const auto plan = poly.plan(0);
@@ -343,6 +347,7 @@ int run(bool validation, const std::string& output, std::uint32_t size) {
     ok(vkAllocateCommandBuffers(dev, &cai, &cmd), "vkAllocateCommandBuffers");
     VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
     ok(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
+    uploads.record(cmd);  // the copies, then a transfer -> compute barrier (docs/embedding.md)
     {
       // The Recorder owns the descriptor sets of blobvk's dispatches: keep it until the fence.
       blobvk::vk::Recorder rec(bdev, cmd);

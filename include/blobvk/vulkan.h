@@ -27,7 +27,10 @@
 //
 // ---- 3. Barriers: what the library expects and leaves --------------------------------------
 //  - Expects: nothing pending on the buffers it is given (your earlier writes to them finished
-//    with a barrier to COMPUTE_SHADER); Program buffers are uploaded at construction.
+//    with a barrier to COMPUTE_SHADER); Program buffers are uploaded at construction, by a
+//    blocking submit when they are not host visible unless a vk::UploadBatch is open: then
+//    batch.record(cmd) records the copies and a TRANSFER -> COMPUTE_SHADER|TRANSFER barrier
+//    (docs/embedding.md, point 6).
 //  - Leaves (after every record* call): its shader writes made available to COMPUTE_SHADER,
 //    TRANSFER and DRAW_INDIRECT (SHADER_READ|WRITE, TRANSFER_READ|WRITE, INDIRECT_COMMAND_READ).
 //    To draw, add VERTEX_INPUT (VERTEX_ATTRIBUTE_READ | INDEX_READ) yourself, as embed_host does.
@@ -39,7 +42,8 @@
 //    kRaycastBudgetMarker and counted (Raycaster::exhaustedRays() once the work completed).
 //
 // ---- 4. Threads ------------------------------------------------------------------------------
-//  - No global state: two Devices (even on the same VkDevice) are independent.
+//  - No global state: two Devices (even on the same VkDevice) are independent; the library
+//    sets no environment variable. ~Device waits only on its own fence, never vkDeviceWaitIdle.
 //  - A Device, and everything created from it, is externally synchronised: use it from one
 //    thread at a time (it caches pipelines and sub-allocates memory without locks).
 //  - Recording with different Devices into different command buffers from different threads is

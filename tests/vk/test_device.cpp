@@ -92,17 +92,17 @@ TEST_F(DeviceTest, SynchronisationValidationReportsAMissingBarrier) {
   vk::Buffer values = dev.createBuffer(ones.size() * 4), sums = dev.createBuffer(64), totals = dev.createBuffer(16);
   const std::uint32_t spec[1] = {64};
   // The scan's two passes: chunk sums, then each chunk scanned from its (here unscanned) sum.
-  const vk::Kernel& reduce = dev.kernel("scan_reduce", 2, spec);
-  const vk::Kernel& apply = dev.kernel("scan_apply", 3, spec);
+  const vk::KernelPtr reduce = dev.kernel("scan_reduce", spec);
+  const vk::KernelPtr apply = dev.kernel("scan_apply", spec);
   const std::uint32_t reducePush[3] = {0u, std::uint32_t(ones.size()), 0u};
   const std::uint32_t applyPush[5] = {0u, std::uint32_t(ones.size()), 0u, 1u, ~0u};
   const vk::BufferRange reduceBind[2] = {values, sums}, applyBind[3] = {values, sums, totals};
   auto writeThenRead = [&](bool barrier) {
     dev.upload(values, ones.data(), ones.size() * 4);
     dev.run([&](vk::Recorder& rec) {
-      rec.dispatch(reduce, reduceBind, reducePush, sizeof(reducePush), 1);
+      rec.dispatch(*reduce, reduceBind, reducePush, sizeof(reducePush), 1);
       if (barrier) rec.computeBarrier();
-      rec.dispatch(apply, applyBind, applyPush, sizeof(applyPush), 1);
+      rec.dispatch(*apply, applyBind, applyPush, sizeof(applyPush), 1);
       rec.hostBarrier();
     });
   };

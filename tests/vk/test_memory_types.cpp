@@ -1,0 +1,184 @@
+// Memory types per use, fallback and budgets (vk/memory.h), on layouts of real GPU kinds: the
+// ranking as a pure function, then a simulated discrete GPU over lavapipe (MemorySimulation),
+// whose meshes must equal the CPU reference and, byte for byte, lavapipe's own.
+#include "blobtree/grid.h"
+#include "blobtree/program.h"
+#include "cpu_simd/reference_polygonizer.h"
+#include "models.h"
+#include "vk/error.h"
+#include "vk/memory.h"
+#include "vk/polygonize.h"
+#include "vk_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+namespace blobvk::testing {
+namespace {
+
+using U = std::vector<std::uint32_t>;
+constexpr VkMemoryPropertyFlags kLocal = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+constexpr VkMemoryPropertyFlags kHost = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+constexpr VkMemoryPropertyFlags kCached = VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+constexpr VkDeviceSize kGiB = 1ull << 30, kMiB = 1ull << 20;
+
+VkPhysicalDeviceMemoryProperties layout(std::vector<std::pair<VkDeviceSize, bool>> heaps,
+                                        std::vector<std::pair<VkMemoryPropertyFlags, std::uint32_t>> types) {
+  VkPhysicalDeviceMemoryProperties p{};
+  p.memoryHeapCount = std::uint32_t(heaps.size());
+  for (std::size_t h = 0; h < heaps.size(); ++h) {
+    p.memoryHeaps[h] = {heaps[h].first, heaps[h].second ? VkMemoryHeapFlags(VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) : 0u};
+  }
+  p.memoryTypeCount = std::uint32_t(types.size());
+  for (std::size_t t = 0; t < types.size(); ++t) p.memoryTypes[t] = {types[t].first, types[t].second};
+  return p;
+}
+
+// A discrete GPU without resizable BAR: 8 GiB of VRAM (type 0), system memory (types 1, 2) and
+// a 256 MiB window of VRAM the host can map (type 3).
+VkPhysicalDeviceMemoryProperties discreteLayout() {
+  return layout({{8 * kGiB, true}, {16 * kGiB, false}, {256 * kMiB, true}},
+                {{kLocal, 0}, {kHost, 1}, {kHost | kCached, 1}, {kLocal | kHost, 2}});
+}
+
+TEST(MemoryTypes, DiscreteGpuKeepsWorkBuffersInVramAndTheBarHeapForLast) {
+  const auto p = discreteLayout();
+  EXPECT_EQ(vk::rankMemoryTypes(p, 0xf, vk::MemoryUse::DeviceLocal), (U{0, 3, 1, 2}));
+  EXPECT_EQ(vk::rankMemoryTypes(p, 0xf, vk::MemoryUse::Upload), (U{1, 2, 3}));
+  EXPECT_EQ(vk::rankMemoryTypes(p, 0xf, vk::MemoryUse::Readback), (U{2, 1, 3}));
+  // The driver's memoryTypeBits restrict the candidates.
+  EXPECT_EQ(vk::rankMemoryTypes(p, 0xe, vk::MemoryUse::DeviceLocal), (U{3, 1, 2}));
+  EXPECT_EQ(vk::rankMemoryTypes(p, 0x1, vk::MemoryUse::Readback), U{});
+}
+
+TEST(MemoryTypes, ResizableBarAndUnifiedMemoryMapWorkBuffers) {
+  // Resizable BAR: the mappable device-local type lives in the big heap.
+  const auto rebar = layout({{8 * kGiB, true}, {16 * kGiB, false}},
+                            {{kLocal, 0}, {kLocal | kHost, 0}, {kHost, 1}, {kHost | kCached, 1}});
+  EXPECT_EQ(vk::rankMemoryTypes(rebar, 0xf, vk::MemoryUse::DeviceLocal), (U{1, 0, 2, 3}));
+  EXPECT_EQ(vk::rankMemoryTypes(rebar, 0xf, vk::MemoryUse::Readback), (U{3, 2, 1}));
+  EXPECT_EQ(vk::rankMemoryTypes(rebar, 0xf, vk::MemoryUse::Upload), (U{2, 3, 1}));
+  // Lavapipe and integrated GPUs: one heap, one type, used for everything.
+  const auto uma = layout({{2 * kGiB, true}}, {{kLocal | kHost | kCached, 0}});
+  for (auto use : {vk::MemoryUse::DeviceLocal, vk::MemoryUse::Upload, vk::MemoryUse::Readback}) {
+    EXPECT_EQ(vk::rankMemoryTypes(uma, 0x1, use), U{0});
+  }
+}
+
+// A Device on the fixture's VkDevice that sees the discrete layout.
+class SimulatedDiscrete : public VulkanTest {
+ protected:
+  void SetUp() override {
+    VulkanTest::SetUp();
+    simulation_.properties = discreteLayout();
+    simulation_.refuse = [this](std::uint32_t type, VkDeviceSize bytes) {
+      attempts_.push_back(type);
+      (void)bytes;
+      return std::find(refused_.begin(), refused_.end(), type) != refused_.end();
+    };
+  }
+  std::unique_ptr<vk::Device> makeDevice() {
+    vk::DeviceOptions options;
+    options.memorySimulation = &simulation_;
+    return std::make_unique<vk::Device>(context().host(), options);
+  }
+  vk::MemorySimulation simulation_;
+  U attempts_, refused_;
+};
+
+TEST_F(SimulatedDiscrete, AFailedAllocationFallsBackToTheNextSuitableType) {
+  auto dev = makeDevice();
+  {
+    vk::Buffer b = dev->createBuffer(4096);
+    EXPECT_EQ(b.memoryType(), 0u);
+    EXPECT_EQ(b.mapped(), nullptr) << "VRAM without HOST_VISIBLE is never mapped";
+  }
+  attempts_.clear();
+  refused_ = {0};  // VRAM full: the BAR window next
+  {
+    vk::Buffer b = dev->createBuffer(4096);
+    EXPECT_EQ(b.memoryType(), 3u);
+    EXPECT_NE(b.mapped(), nullptr);
+    EXPECT_EQ(attempts_, (U{0, 3}));
+  }
+  attempts_.clear();
+  refused_ = {0, 3};  // and the window full: system memory
+  {
+    vk::Buffer b = dev->createBuffer(4096);
+    EXPECT_EQ(b.memoryType(), 1u);
+    EXPECT_EQ(attempts_, (U{0, 3, 1}));
+  }
+  attempts_.clear();
+  refused_ = {0, 1, 2, 3};
+  try {
+    (void)dev->createBuffer(4096);
+    FAIL() << "expected VulkanError";
+  } catch (const vk::VulkanError& e) {
+    EXPECT_EQ(e.result(), VK_ERROR_OUT_OF_DEVICE_MEMORY);
+    EXPECT_NE(std::string(e.what()).find("out of device memory"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(attempts_, (U{0, 3, 1, 2}));
+}
+
+TEST_F(SimulatedDiscrete, AHeapAtItsBudgetIsSkipped) {
+  // As VK_EXT_memory_budget would report: the BAR window has 1 MiB left to this process.
+  simulation_.heapBudget = {8 * kGiB, 16 * kGiB, 1 * kMiB};
+  refused_ = {0};
+  auto dev = makeDevice();
+  vk::Buffer b = dev->createBuffer(4096);
+  EXPECT_EQ(b.memoryType(), 1u);
+  EXPECT_EQ(attempts_, (U{0, 1})) << "type 3's block (32 MiB) would pass its heap's budget: never tried";
+  EXPECT_EQ(dev->memory().heapBytes(2), 0u);
+  // A small heap gets small blocks: an eighth of 256 MiB, not the usual 64 MiB.
+  simulation_.heapBudget.clear();
+  auto dev2 = makeDevice();
+  vk::Buffer c = dev2->createBuffer(4096);
+  EXPECT_EQ(c.memoryType(), 3u);
+  EXPECT_EQ(dev2->memory().heapBytes(2), 32 * kMiB);
+}
+
+// Every upload and read-back through staging (VRAM is not mappable), or (refusing VRAM) work
+// buffers in uncached BAR memory that downloads must not read directly: the mesh must not change.
+TEST_F(SimulatedDiscrete, MeshesEqualTheCpuReferenceAndLavapipesOwn) {
+  const auto model = testModels()[1];
+  const auto program = blobtree::compile(model.root);
+  blobtree::GridRequest request;
+  request.resolution = 20;
+  const auto grid = blobtree::chooseGrid(program, testBounds(), request);
+  const auto ref = cpu::polygonizeReference(program, grid, {});
+  const auto native = vk::polygonize(device(), program, grid);
+  ASSERT_GT(ref.triangleCount(), 0u);
+
+  for (const U& refuse : {U{}, U{0}}) {
+    refused_ = refuse;
+    attempts_.clear();
+    auto dev = makeDevice();
+    const auto gpu = vk::polygonize(*dev, program, grid);
+    EXPECT_EQ(gpu.edgeKeys, ref.edgeKeys);
+    EXPECT_EQ(gpu.triangles, ref.triangles);
+    ASSERT_EQ(gpu.positions.size(), ref.positions.size());
+    float worst = 0;
+    for (std::size_t v = 0; v < ref.positions.size(); ++v) {
+      worst = std::max({worst, std::abs(gpu.positions[v].x - ref.positions[v].x),
+                        std::abs(gpu.positions[v].y - ref.positions[v].y),
+                        std::abs(gpu.positions[v].z - ref.positions[v].z)});
+    }
+    EXPECT_LT(worst, 1e-4f * grid.cellSize + 1e-6f);
+    // The same kernels on the same device: only where the bytes lived changed.
+    EXPECT_EQ(0, std::memcmp(gpu.positions.data(), native.positions.data(), native.positions.size() * 12));
+    EXPECT_EQ(0, std::memcmp(gpu.normals.data(), native.normals.data(), native.normals.size() * 12));
+    EXPECT_EQ(gpu.colours.size(), native.colours.size());
+    // Read-backs through cached system memory (type 2); uploads to unmappable VRAM staged in
+    // uncached system memory (type 1), to the BAR window written directly.
+    const auto tried = [&](std::uint32_t t) { return std::find(attempts_.begin(), attempts_.end(), t) != attempts_.end(); };
+    EXPECT_TRUE(tried(2));
+    EXPECT_EQ(tried(1), refuse.empty());
+  }
+}
+
+}  // namespace
+}  // namespace blobvk::testing

@@ -1,0 +1,147 @@
+// Descriptor and push-constant layouts come from the shaders' SPIR-V (vk/shader_layout.h,
+// generated at build time by spirv-cross --reflect). Checked against an independent reading of
+// the SPIR-V words, and against what every pipeline's C++ side binds and pushes: a Recorder
+// refuses a dispatch that disagrees with the reflected layout, so running every pipeline once
+// with no error proves the C++ usage matches.
+#include "blobtree/grid.h"
+#include "blobtree/program.h"
+#include "blobtree/scene_io.h"
+#include "models.h"
+#include "vk/error.h"
+#include "vk/field.h"
+#include "vk/polygonize.h"
+#include "vk/raycast.h"
+#include "vk/render_camera.h"
+#include "vk/shader_layout.h"
+#include "vk/shader_registry.h"
+#include "vk_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <set>
+#include <string>
+
+namespace blobvk::testing {
+namespace {
+
+// What a SPIR-V module declares, read straight from its instruction stream (spec section 2.3):
+// the bindings of descriptor set 0 and the largest member offset of the push-constant block.
+struct SpirvFacts {
+  std::set<std::uint32_t> bindings;
+  bool hasPushBlock = false;
+  std::uint32_t maxPushOffset = 0;
+};
+
+SpirvFacts readSpirv(std::span<const std::uint32_t> words) {
+  constexpr std::uint32_t kOpTypePointer = 32, kOpVariable = 59, kOpDecorate = 71, kOpMemberDecorate = 72;
+  constexpr std::uint32_t kBinding = 33, kDescriptorSet = 34, kOffset = 35, kPushConstant = 9;
+  std::map<std::uint32_t, std::uint32_t> binding, set, pointee;
+  std::map<std::uint32_t, std::uint32_t> maxOffset;  // struct id -> largest member offset
+  std::uint32_t pushPointer = 0;
+  for (std::size_t i = 5; i < words.size();) {
+    const std::uint32_t count = words[i] >> 16, op = words[i] & 0xffffu;
+    const std::uint32_t* w = &words[i];
+    if (op == kOpDecorate && w[2] == kBinding) binding[w[1]] = w[3];
+    if (op == kOpDecorate && w[2] == kDescriptorSet) set[w[1]] = w[3];
+    if (op == kOpMemberDecorate && w[3] == kOffset) maxOffset[w[1]] = std::max(maxOffset[w[1]], w[4]);
+    if (op == kOpTypePointer) pointee[w[1]] = w[3];
+    if (op == kOpVariable && w[3] == kPushConstant) pushPointer = w[1];
+    i += std::max<std::uint32_t>(count, 1);
+  }
+  SpirvFacts f;
+  for (const auto& [id, b] : binding) {
+    if (set.count(id) && set[id] == 0) f.bindings.insert(b);
+  }
+  if (pushPointer) {
+    f.hasPushBlock = true;
+    f.maxPushOffset = maxOffset[pointee[pushPointer]];
+  }
+  return f;
+}
+
+TEST(ShaderLayout, EveryEmbeddedShaderHasTheLayoutItsSpirvDeclares) {
+  const auto names = vk::shaderNames();
+  ASSERT_EQ(vk::shaderLayouts().size(), names.size());
+  for (const auto name : names) {
+    const vk::ShaderLayout* layout = vk::findShaderLayout(name);
+    ASSERT_NE(layout, nullptr) << name;
+    const SpirvFacts facts = readSpirv(vk::shaderCode(name));
+    ASSERT_EQ(layout->bindings.size(), facts.bindings.size()) << name;
+    if (!facts.bindings.empty()) {
+      EXPECT_EQ(*facts.bindings.rbegin(), facts.bindings.size() - 1) << name << ": bindings are 0..n-1";
+    }
+    EXPECT_EQ(layout->pushConstantBytes > 0, facts.hasPushBlock) << name;
+    if (facts.hasPushBlock) {
+      EXPECT_GT(layout->pushConstantBytes, facts.maxPushOffset) << name;
+      EXPECT_LE(layout->pushConstantBytes, facts.maxPushOffset + 64) << name;
+      EXPECT_LE(layout->pushConstantBytes, 128u) << name << ": Vulkan guarantees 128 bytes only";
+    }
+  }
+  EXPECT_EQ(vk::findShaderLayout("no_such_shader"), nullptr);
+  // The shader the issue found with more bindings than the old pools allowed.
+  EXPECT_EQ(vk::findShaderLayout("vertices_tiled")->bindings.size(), 14u);
+}
+
+TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout) {
+  vk::Device dev(context().host());  // a fresh Device: it records which shaders it built
+  {
+    // The tower tiles its field, and with tiledVertexPass its vertices (vertices_tiled binds 14
+    // buffers, more than the descriptor pools used to hold per set).
+    const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/tower.json");
+    const auto program = blobtree::compile(scene.root);
+    blobtree::GridRequest request;
+    request.resolution = 36;
+    const auto grid = blobtree::chooseGrid(program, {}, request);
+    vk::GpuPolygonizeOptions tiled;
+    tiled.maxFieldTiles = 8;
+    tiled.tiledVertexPass = true;
+    vk::GpuStats stats;
+    EXPECT_GT(vk::polygonize(dev, program, grid, tiled, &stats).triangleCount(), 0u);
+    EXPECT_GT(stats.fieldTiles, 1u);
+  }
+  const auto program = blobtree::compile(testModels()[1].root);
+  blobtree::GridRequest request;
+  request.resolution = 16;
+  const auto grid = blobtree::chooseGrid(program, testBounds(), request);
+  vk::GpuPolygonizeOptions stackBased;
+  stackBased.traversal = vk::Traversal::StackBased;
+  EXPECT_GT(vk::polygonize(dev, program, grid, stackBased).triangleCount(), 0u);
+  EXPECT_EQ(vk::evaluateFieldOnGrid(dev, program, grid).size(), std::size_t(grid.pointCount()));
+  vk::Raycaster raycaster(dev, program);
+  const vk::Camera camera = vk::resolveCamera(program.bounds, std::nullopt, {}, 1.0f);
+  EXPECT_EQ(raycaster.render(camera, 32, 32).rgba.size(), 32u * 32u * 4u);
+
+  // Every compute shader in the registry was built and dispatched.
+  for (const auto name : vk::shaderNames()) {
+    if (std::string(name).find('.') != std::string::npos) continue;  // graphics stages
+    const auto& used = dev.shadersUsed();
+    EXPECT_NE(std::find(used.begin(), used.end(), std::string(name)), used.end())
+        << name << " was never dispatched: add it to this test";
+  }
+}
+
+TEST_F(VulkanTest, ADispatchThatDisagreesWithTheShaderIsRefused) {
+  const std::array<std::uint32_t, 1> specs{64};
+  const vk::KernelPtr reduce = device().kernel("scan_reduce", specs);
+  ASSERT_EQ(reduce->bindings, 2u);
+  vk::Buffer a = device().createBuffer(256), b = device().createBuffer(256);
+  const std::array<vk::BufferRange, 1> tooFew{vk::BufferRange(a)};
+  const std::array<vk::BufferRange, 2> right{vk::BufferRange(a), vk::BufferRange(b)};
+  const std::array<std::uint32_t, 32> push{};
+  auto expectRefused = [&](std::span<const vk::BufferRange> buffers, std::uint32_t pushBytes, const char* what) {
+    try {
+      device().run([&](vk::Recorder& rec) { rec.dispatch(*reduce, buffers, push.data(), pushBytes, 0); });
+      ADD_FAILURE() << what << ": expected VulkanError";
+    } catch (const vk::VulkanError& e) {
+      EXPECT_NE(std::string(e.what()).find("scan_reduce"), std::string::npos) << e.what();
+    }
+  };
+  expectRefused(tooFew, reduce->pushConstantBytes, "one buffer too few");
+  expectRefused(right, reduce->pushConstantBytes - 4, "push constants short of the block");
+  expectRefused(right, 128 + 16, "push constants past the range");
+}
+
+}  // namespace
+}  // namespace blobvk::testing
