@@ -75,9 +75,9 @@ Device::Device(const HostContext& host, const DeviceOptions& options)
 
 Device::~Device() {
   // Only blobvk's own work is waited for: its one fence, pending only when a submit's wait
-  // failed. The host's device and queue are the host's business (no vkDeviceWaitIdle). Kernels
-  // still held elsewhere (a Recorder, a FieldPass) must not outlive the Device; those the cache
-  // holds are destroyed here.
+  // failed. The host's device and queue are the host's business (no vkDeviceWaitIdle). The
+  // kernels only the cache holds are destroyed here; one a pass still holds goes with its last
+  // holder.
   if (fencePending_) (void)d_.vkWaitForFences(host_.device, 1, &fence_, VK_TRUE, UINT64_MAX);
   kernels_.clear();
   kernelLru_.clear();
@@ -221,13 +221,16 @@ KernelPtr Device::createKernel(const std::string& key, const std::string& shader
                                const std::string& layoutOf, std::span<const std::uint32_t> specs) {
   const ShaderLayout* reflected = findShaderLayout(layoutOf);
   if (!reflected) throw VulkanError("no reflected layout for shader '" + layoutOf + "'");
-  // The Vulkan objects die with the last holder of the kernel (the cache, a Recorder, a pass).
-  const Dispatch* d = &d_;
+  // The Vulkan objects die with the last holder of the kernel (the cache, a Recorder, a pass),
+  // which may outlive this Device (not the VkDevice): the deleter keeps its own entry points.
+  const auto destroyPipeline = d_.vkDestroyPipeline;
+  const auto destroyLayout = d_.vkDestroyPipelineLayout;
+  const auto destroySetLayout = d_.vkDestroyDescriptorSetLayout;
   const VkDevice device = host_.device;
-  std::shared_ptr<Kernel> k(new Kernel, [d, device](Kernel* p) {
-    if (p->pipeline) d->vkDestroyPipeline(device, p->pipeline, nullptr);
-    if (p->layout) d->vkDestroyPipelineLayout(device, p->layout, nullptr);
-    if (p->setLayout) d->vkDestroyDescriptorSetLayout(device, p->setLayout, nullptr);
+  std::shared_ptr<Kernel> k(new Kernel, [=](Kernel* p) {
+    if (p->pipeline) destroyPipeline(device, p->pipeline, nullptr);
+    if (p->layout) destroyLayout(device, p->layout, nullptr);
+    if (p->setLayout) destroySetLayout(device, p->setLayout, nullptr);
     delete p;
   });
   k->shaderLayout = reflected;

@@ -2,6 +2,7 @@
 
 #include "vk/error.h"
 #include "vk/render_target.h"
+#include "vk/shader_layout.h"
 #include "vk/shader_registry.h"
 
 #include <glm/geometric.hpp>
@@ -10,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <string>
 #include <vector>
 
 namespace blobvk::vk {
@@ -117,6 +119,15 @@ MeshPipeline::MeshPipeline(Device& device, const RenderDispatch& rd, VkRenderPas
                            VkSampleCountFlagBits samples)
     : device_(device), rd_(rd) {
   const auto& d = device.d();
+  // The stages' push-constant blocks, as their SPIR-V declares them (vk/shader_layout.h), must be
+  // what Push holds: a shader edited without this struct fails here, not on the screen.
+  for (const char* stage : {"render_mesh.vert", "render_mesh.frag"}) {
+    const ShaderLayout* reflected = findShaderLayout(stage);
+    if (!reflected || !reflected->bindings.empty() || reflected->pushConstantBytes != sizeof(Push)) {
+      throw VulkanError(std::string(stage) + ": its push-constant block is not vk/render_mesh.cpp's Push (" +
+                        std::to_string(sizeof(Push)) + " bytes, no descriptors)");
+    }
+  }
   VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(Push)};
   VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
   layoutInfo.pushConstantRangeCount = 1;
