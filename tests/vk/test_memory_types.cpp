@@ -180,5 +180,98 @@ TEST_F(SimulatedDiscrete, MeshesEqualTheCpuReferenceAndLavapipesOwn) {
   }
 }
 
+// VK_EXT_memory_budget on a device that reports it: the device's entry points are wrapped (as an
+// engine's loader could) so that lavapipe advertises the extension and reports a budget the test
+// sets; the allocator must ask for it and keep within it.
+struct FakeBudget {
+  PFN_vkGetInstanceProcAddr real = nullptr;
+  PFN_vkEnumerateDeviceExtensionProperties realExtensions = nullptr;
+  PFN_vkGetPhysicalDeviceMemoryProperties2 realProperties2 = nullptr;
+  VkDeviceSize budget = 0, usage = 0;
+  int queries = 0;
+};
+FakeBudget fake;
+
+VKAPI_ATTR VkResult VKAPI_CALL fakeExtensions(VkPhysicalDevice pd, const char* layer, std::uint32_t* count,
+                                              VkExtensionProperties* out) {
+  std::uint32_t n = 0;
+  fake.realExtensions(pd, layer, &n, nullptr);
+  std::vector<VkExtensionProperties> all(n);
+  fake.realExtensions(pd, layer, &n, all.data());
+  VkExtensionProperties budget{};
+  std::strcpy(budget.extensionName, VK_EXT_MEMORY_BUDGET_EXTENSION_NAME);
+  budget.specVersion = 1;
+  all.push_back(budget);
+  if (!out) {
+    *count = std::uint32_t(all.size());
+    return VK_SUCCESS;
+  }
+  const std::uint32_t written = std::min<std::uint32_t>(*count, std::uint32_t(all.size()));
+  std::copy(all.begin(), all.begin() + written, out);
+  *count = written;
+  return written < all.size() ? VK_INCOMPLETE : VK_SUCCESS;
+}
+
+VKAPI_ATTR void VKAPI_CALL fakeProperties2(VkPhysicalDevice pd, VkPhysicalDeviceMemoryProperties2* props) {
+  // The real driver gets a chain without the budget structure it does not know.
+  VkPhysicalDeviceMemoryProperties2 plain{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MEMORY_PROPERTIES_2};
+  fake.realProperties2(pd, &plain);
+  props->memoryProperties = plain.memoryProperties;
+  for (auto* s = static_cast<VkBaseOutStructure*>(props->pNext); s; s = s->pNext) {
+    if (s->sType != VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MEMORY_BUDGET_PROPERTIES_EXT) continue;
+    auto* b = reinterpret_cast<VkPhysicalDeviceMemoryBudgetPropertiesEXT*>(s);
+    for (std::uint32_t h = 0; h < VK_MAX_MEMORY_HEAPS; ++h) {
+      b->heapBudget[h] = fake.budget;
+      b->heapUsage[h] = fake.usage;
+    }
+    ++fake.queries;
+  }
+}
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL fakeGetInstanceProcAddr(VkInstance instance, const char* name) {
+  if (!std::strcmp(name, "vkEnumerateDeviceExtensionProperties")) {
+    return reinterpret_cast<PFN_vkVoidFunction>(fakeExtensions);
+  }
+  if (!std::strcmp(name, "vkGetPhysicalDeviceMemoryProperties2")) {
+    return reinterpret_cast<PFN_vkVoidFunction>(fakeProperties2);
+  }
+  return fake.real(instance, name);
+}
+
+TEST_F(VulkanTest, TheMemoryBudgetExtensionIsRespectedWhenPresent) {
+  vk::HostContext host = context().host();
+  fake.real = host.getInstanceProcAddr;
+  fake.realExtensions = reinterpret_cast<PFN_vkEnumerateDeviceExtensionProperties>(
+      fake.real(host.instance, "vkEnumerateDeviceExtensionProperties"));
+  fake.realProperties2 = reinterpret_cast<PFN_vkGetPhysicalDeviceMemoryProperties2>(
+      fake.real(host.instance, "vkGetPhysicalDeviceMemoryProperties2"));
+  host.getInstanceProcAddr = fakeGetInstanceProcAddr;
+  vk::Device dev(host);
+  ASSERT_TRUE(dev.memory().hasBudgetExtension());
+
+  // 100 MiB budget, 90 MiB of it used by the rest of the process: a 64 MiB block does not fit.
+  fake.budget = 100 * kMiB;
+  fake.usage = 90 * kMiB;
+  fake.queries = 0;
+  try {
+    (void)dev.createBuffer(4096);
+    FAIL() << "expected VulkanError: the only memory type's heap is at its budget";
+  } catch (const vk::VulkanError& e) {
+    EXPECT_EQ(e.result(), VK_ERROR_OUT_OF_DEVICE_MEMORY) << e.what();
+  }
+  EXPECT_GT(fake.queries, 0) << "the budget was never asked for";
+  EXPECT_EQ(dev.memory().heapBytes(0), 0u);
+
+  fake.usage = 0;  // the rest of the process freed its memory: the same request succeeds
+  vk::Buffer b = dev.createBuffer(4096);
+  EXPECT_EQ(dev.memory().heapBytes(0), 64 * kMiB);
+  // Within the budget the block is used; the heap's size is no longer the limit.
+  fake.budget = 65 * kMiB;
+  fake.usage = 64 * kMiB;  // the block just made
+  vk::Buffer c = dev.createBuffer(1 * kMiB);  // fits in the block: no new memory
+  EXPECT_EQ(dev.memory().heapBytes(0), 64 * kMiB);
+  EXPECT_THROW((void)dev.createBuffer(48 * kMiB), vk::VulkanError) << "a dedicated 48 MiB is over the budget";
+}
+
 }  // namespace
 }  // namespace blobvk::testing
