@@ -138,7 +138,15 @@ void Device::upload(Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceS
     uploadBatch_->staging_.push_back(std::move(staging));
     return;
   }
-  submitAndWait([&](VkCommandBuffer cmd) { d_.vkCmdCopyBuffer(cmd, staging.handle(), dst.handle(), 1, &region); });
+  submitAndWait([&](VkCommandBuffer cmd) {
+    // Earlier submits' shader and transfer accesses to dst end before the copy writes it.
+    VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    d_.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                            VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+    d_.vkCmdCopyBuffer(cmd, staging.handle(), dst.handle(), 1, &region);
+  });
 }
 
 void Device::download(const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset) {
@@ -149,6 +157,12 @@ void Device::download(const Buffer& src, void* data, VkDeviceSize bytes, VkDevic
   }
   Buffer staging = createBuffer(bytes, MemoryUse::Readback);
   submitAndWait([&](VkCommandBuffer cmd) {
+    // Earlier submits' writes to src are visible to the copy that reads it.
+    VkMemoryBarrier before{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    before.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+    before.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    d_.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                            VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
     VkBufferCopy region{offset, 0, bytes};
     d_.vkCmdCopyBuffer(cmd, src.handle(), staging.handle(), 1, &region);
     VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};

@@ -228,11 +228,13 @@ TEST_F(VulkanTest, UploadsRecordIntoTheHostsCommandBuffer) {
     EXPECT_EQ(batch.queuedCopies(), 0u);
     vk::Recorder rec(dev, host.cmd);
     poly.recordClassify(rec, 0, 0, 0);
-    poly.recordEmit(rec, 0, 0, {positions, normals, colours, keys, indices});
+    poly.recordEmit(rec, 0, 0, {positions, normals, colours, keys, indices, std::uint32_t(3 * plan.ownedPoints),
+                                std::uint32_t(5 * plan.cells)});
     rec.hostBarrier();
     host.submit();
     ASSERT_TRUE(host.wait());
   }
+  EXPECT_FALSE(poly.readOverflow());
   std::array<std::uint32_t, 7> args{};
   dev.download(poly.drawArgs(), args.data(), sizeof(args));
   ASSERT_EQ(args[5], ref.vertexCount());
