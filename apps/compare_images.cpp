@@ -65,6 +65,7 @@ bool compareImages(const Model& model, const blobtree::GridSpec& grid, const Ima
   report["max_fraction_over"] = settings.maxFractionOver;
   report["device"] = device.info().name;
   report["raycast_lipschitz"] = rayStats.lipschitz;
+  report["raycast_rays_out_of_budget"] = rayStats.exhaustedRays;  // drawn magenta, never silent
   report["gpu_mesh_drawn_without_readback"] = !gpu.fromReadback;
   bool pass = true;
   nlohmann::json list = nlohmann::json::array();

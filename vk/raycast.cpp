@@ -36,7 +36,7 @@ Raycaster::Raycaster(Device& device, const blobtree::Program& program, const Ray
     region_.lo = glm::vec3(-2.0f);
     region_.hi = glm::vec3(2.0f);
   }
-  cells_ = lipschitzGrid(program, region_, options.lipschitzCells);
+  cells_ = lipschitzGrid(program, region_, options.lipschitzCells, options.lipschitzWork);
   lipschitz_ = cells_.largest();
   cellBuffer_ = device.createBuffer(cells_.cells.size() * 4);
   device.upload(cellBuffer_, cells_.cells.data(), cells_.cells.size() * 4);

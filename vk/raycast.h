@@ -35,7 +35,10 @@ struct RaycastOptions {
   std::uint32_t maxSteps = 4096;
   // The bounds split into at most this many cells along the longest side, each with its own
   // Lipschitz bound (raycast_lipschitz.h: lipschitzGrid); 1 = one bound for the whole scene.
-  std::uint32_t lipschitzCells = 16;
+  // Fewer for long programs: cells x instructions stays under lipschitzWork (the bounds are
+  // computed on the CPU at construction, ~0.1 s at the default).
+  std::uint32_t lipschitzCells = 64;
+  std::uint64_t lipschitzWork = 8u << 20;
   std::uint32_t bisections = 12;
   std::uint32_t workgroupSize = 64;
   Traversal traversal = Traversal::Specialised;  // the field evaluator (vk/gpu_program.h)

@@ -1,5 +1,7 @@
 #include "vk/raycast_lipschitz.h"
 
+#include <glm/geometric.hpp>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -44,9 +46,6 @@ float matrixStretch(const L::MatrixRecord& m) {
   return float(std::min(std::sqrt(std::max(largest, 0.0)) * (1.0 + 1e-4), std::sqrt(frobenius)));
 }
 
-float matrixTranslation(const L::MatrixRecord& m) {
-  return std::sqrt(m.r0.w * m.r0.w + m.r1.w * m.r1.w + m.r2.w * m.r2.w);
-}
 
 bool missesBox(const blobtree::Aabb& region, const L::BoxRecord& box) {
   return region.hi.x < box.lo.x || region.hi.y < box.lo.y || region.hi.z < box.lo.z ||
@@ -59,14 +58,13 @@ LipschitzBound lipschitzBound(const blobtree::Program& program, const blobtree::
   constexpr float kWyvillSlope = 1.7173f;  // 96 / (25 sqrt 5), rounded up
   constexpr float kQuadricSlope = 1.5397f;  // 8 / (3 sqrt 3), rounded up
   std::array<float, L::MAX_FIELD_REGISTERS> lip{}, value{};
-  // Per point register: stretch (product of warp Jacobian bounds) and the largest coordinate
-  // magnitude a point in the region can have there.
-  std::array<float, L::MAX_POINT_REGISTERS> stretch{}, reach{};
+  // Per point register: stretch (product of warp Jacobian bounds) and, per axis, the largest
+  // coordinate magnitude a point of the region can have there (a twist's stretch depends only on
+  // the distance from its axis, not on the coordinate along it).
+  std::array<float, L::MAX_POINT_REGISTERS> stretch{};
+  std::array<glm::vec3, L::MAX_POINT_REGISTERS> reach{};
   stretch[0] = 1.0f;
-  for (int c = 0; c < 3; ++c) {
-    reach[0] = std::max({reach[0], std::abs(region.lo[c]), std::abs(region.hi[c])});
-  }
-  reach[0] *= std::sqrt(3.0f);
+  for (int c = 0; c < 3; ++c) reach[0][c] = std::max(std::abs(region.lo[c]), std::abs(region.hi[c]));
   const auto identity = [&](std::uint32_t m) { return m == 0 || m >= program.matrices.size(); };
 
   for (const auto& in : program.code) {
@@ -74,19 +72,45 @@ LipschitzBound lipschitzBound(const blobtree::Program& program, const blobtree::
     if (op == L::OP_WARP) {
       if (dst >= stretch.size() || z >= stretch.size() || y >= program.warps.size()) continue;
       const auto& w = program.warps[y];
-      float s = stretch[z], r = reach[z];
+      float s = stretch[z];
+      glm::vec3 r = reach[z];
       if (!identity(w.meta.w)) {
         const auto& m = program.matrices[w.meta.w];
         s *= matrixStretch(m);
-        r = r * matrixStretch(m) + matrixTranslation(m);
+        // |row . p + t| <= sum |row_j| reach_j + |t|, per output axis.
+        const L::vec4 rows[3] = {m.r0, m.r1, m.r2};
+        glm::vec3 out;
+        for (int i = 0; i < 3; ++i) {
+          out[i] = std::abs(rows[i].x) * r.x + std::abs(rows[i].y) * r.y + std::abs(rows[i].z) * r.z + std::abs(rows[i].w);
+        }
+        r = out * (1.0f + 1e-5f);
       }
       const float k = std::abs(w.params.x);
+      const std::uint32_t a = std::min<std::uint32_t>(w.meta.y, 2), b = std::min<std::uint32_t>(w.meta.z, 2);
       float j = 1.0f;
       switch (w.meta.x) {
-        case L::WARP_TWIST: j = 1.0f + k * r; break;
-        case L::WARP_TAPER: j = 1.0f + 2.0f * k * r; r *= 1.0f + k * r; break;
-        case L::WARP_BEND: j = 2.0f + k * r; r = r + (k > 0 ? 2.0f / k : 0.0f); break;
-        case L::WARP_SHEAR: j = 1.0f + k; r *= 1.0f + k; break;
+        case L::WARP_TWIST: {
+          // Rotation about axis a by k p_a: |J| <= 1 + |k| (distance from the axis).
+          const std::uint32_t u = (a + 1) % 3, v = (a + 2) % 3;
+          const float radial = std::sqrt(r[u] * r[u] + r[v] * r[v]);
+          j = 1.0f + k * radial;
+          r[u] = r[v] = radial;
+          break;
+        }
+        case L::WARP_TAPER:  // p_b (1 + k p_a): d/dp_b = 1 + k p_a, d/dp_a = k p_b
+          j = 1.0f + k * (r[a] + r[b]);
+          r[b] *= 1.0f + k * r[a];
+          break;
+        case L::WARP_BEND: {
+          const float norm = glm::length(r);
+          j = 2.0f + k * norm;
+          r = glm::vec3(norm + (k > 0 ? 2.0f / k : 0.0f));
+          break;
+        }
+        case L::WARP_SHEAR:  // p_a + k p_b
+          j = 1.0f + k;
+          r[a] += k * r[b];
+          break;
         default: break;
       }
       stretch[dst] = s * j;
@@ -156,14 +180,18 @@ float LipschitzGrid::largest() const {
 }
 
 LipschitzGrid lipschitzGrid(const blobtree::Program& program, const blobtree::Aabb& region,
-                            std::uint32_t maxCellsPerAxis) {
+                            std::uint32_t maxCellsPerAxis, std::uint64_t maxWork) {
   LipschitzGrid g;
   g.region = region;
   const glm::vec3 extent = region.hi - region.lo;
   const float longest = std::max({extent.x, extent.y, extent.z, 1e-30f});
-  for (int a = 0; a < 3; ++a) {
-    const float n = std::ceil(extent[a] / longest * float(std::max(maxCellsPerAxis, 1u)) - 1e-3f);
-    g.dims[a] = std::uint32_t(std::clamp(n, 1.0f, float(std::max(maxCellsPerAxis, 1u))));
+  const std::uint64_t instructions = std::max<std::uint64_t>(program.code.size(), 1);
+  for (std::uint32_t perAxis = std::max(maxCellsPerAxis, 1u);; --perAxis) {
+    for (int a = 0; a < 3; ++a) {
+      const float n = std::ceil(extent[a] / longest * float(perAxis) - 1e-3f);
+      g.dims[a] = std::uint32_t(std::clamp(n, 1.0f, float(perAxis)));
+    }
+    if (perAxis == 1 || std::uint64_t(g.dims[0]) * g.dims[1] * g.dims[2] * instructions <= maxWork) break;
   }
   g.cells.resize(std::size_t(g.dims[0]) * g.dims[1] * g.dims[2]);
   const glm::vec3 size = extent / glm::vec3(float(g.dims[0]), float(g.dims[1]), float(g.dims[2]));

@@ -9,8 +9,9 @@
 //    the Ricci pair pow(., p) ... pow(., 1/p) is the p-norm of the children, no steeper than
 //    their sum, so pow is treated as transparent and add sums;
 //  - a warp multiplies the bound of everything evaluated at its output point by the largest
-//    stretch of the warp over the region (twist 1 + |k| R, taper 1 + 2 |k| R, bend 2 + |k| R,
-//    shear 1 + |k|, R the largest coordinate magnitude reachable in the region).
+//    stretch of the warp over the region (twist about axis a 1 + |k| R_uv, taper 1 + |k| (R_a +
+//    R_b), bend 2 + |k| |R|, shear 1 + |k|), R the per-axis largest coordinate magnitude
+//    reachable in the region (R_uv: the largest distance from the twist's axis).
 #pragma once
 
 #include "blobtree/program.h"
@@ -39,8 +40,9 @@ struct LipschitzGrid {
   float largest() const;
 };
 
-// Cells roughly cubic, at most maxCellsPerAxis along the longest side.
+// Cells roughly cubic, at most maxCellsPerAxis along the longest side, and fewer when cells times
+// instructions would pass maxWork (the bounds are one pass over the program per cell, on the CPU).
 LipschitzGrid lipschitzGrid(const blobtree::Program& program, const blobtree::Aabb& region,
-                            std::uint32_t maxCellsPerAxis = 16);
+                            std::uint32_t maxCellsPerAxis = 64, std::uint64_t maxWork = 8u << 20);
 
 }  // namespace blobvk::vk

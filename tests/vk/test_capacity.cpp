@@ -4,6 +4,7 @@
 // draw, and the validation layer (core and synchronisation checks, the fixture) stays silent.
 #include "blobtree/grid.h"
 #include "blobtree/program.h"
+#include "blobtree/scene_io.h"
 #include "cpu_simd/reference_polygonizer.h"
 #include "models.h"
 #include "vk/error.h"
@@ -123,6 +124,30 @@ TEST_F(CapacityTest, OnlyTheSideThatDoesNotFitIsFlagged) {
   EXPECT_TRUE(none.overflow.vertices && none.overflow.triangles);
   EXPECT_EQ(none.positions, std::vector<std::uint32_t>(12, kGuard));
   EXPECT_EQ(none.indices, std::vector<std::uint32_t>(12, kGuard));
+}
+
+// The per-tile vertex pass (one indirect dispatch per field tile, each writing vertices anywhere
+// in the slab's range) honours the same capacity.
+TEST_F(VulkanTest, TiledVertexPassIsClampedToo) {
+  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/tower.json");
+  const auto program = blobtree::compile(scene.root);
+  blobtree::GridRequest request;
+  request.resolution = 28;
+  const auto grid = blobtree::chooseGrid(program, scene.grid, request);
+  const auto ref = cpu::polygonizeReference(program, grid, {});
+  vk::GpuPolygonizeOptions options;
+  options.tiledVertexPass = true;
+  vk::SlabPolygonizer poly(device(), program, grid, options);
+  ASSERT_EQ(poly.slabCount(), 1u);
+  ASSERT_GT(poly.fieldTileCount(), 1u);
+  const auto V = std::uint32_t(ref.vertexCount()), T = std::uint32_t(ref.triangleCount());
+  const std::uint32_t vCap = V / 2;
+  const Emitted e = emitInto(device(), poly, vCap, T, V + 16, T + 16);
+  EXPECT_TRUE(e.overflow.vertices);
+  EXPECT_FALSE(e.overflow.triangles);
+  for (std::size_t w = std::size_t(vCap) * 3; w < e.positions.size(); ++w) ASSERT_EQ(e.positions[w], kGuard) << w;
+  for (std::size_t w = vCap; w < e.keys.size(); ++w) ASSERT_EQ(e.keys[w], kGuard) << w;
+  for (std::uint32_t v = 0; v < vCap; ++v) ASSERT_EQ(e.keys[v], ref.edgeKeys[v]) << v;
 }
 
 }  // namespace
