@@ -23,14 +23,15 @@ std::vector<std::string> backendNames() {
   return names;
 }
 
-std::vector<std::string> traversalNames() { return {"specialised", "stackless", "stack"}; }
+std::vector<std::string> traversalNames() { return {"auto", "specialised", "stackless", "stack"}; }
 
 #ifdef BLOBVK_HAVE_VULKAN
 vk::Traversal traversalFromName(const std::string& name) {
+  if (name == "auto") return vk::Traversal::Auto;
   if (name == "specialised") return vk::Traversal::Specialised;
   if (name == "stackless") return vk::Traversal::Stackless;
   if (name == "stack") return vk::Traversal::StackBased;
-  throw std::invalid_argument("unknown traversal '" + name + "' (known: specialised, stackless, stack)");
+  throw std::invalid_argument("unknown traversal '" + name + "' (known: auto, specialised, stackless, stack)");
 }
 
 namespace {

@@ -23,9 +23,10 @@ struct PolygonizeSettings {
   int mpuSize = 0;              // cpu: cells per MPU side, 0 = default
   std::string device;           // vk: name substring or index
   bool validation = false;      // vk: Khronos validation layer
-  // vk: specialised (the Program compiled into the kernel; default), stackless (the register
-  // code interpreted) or stack (the stack-based tree walk: the thesis' Table 4.2 comparison).
-  std::string traversal = "specialised";
+  // vk: auto (the cost model picks specialised or stackless per job; default), specialised (the
+  // Program compiled into the kernel), stackless (the register code interpreted) or stack (the
+  // stack-based tree walk: the thesis' Table 4.2 comparison).
+  std::string traversal = "auto";
   int fieldTiles = 8;           // vk specialised: most tiles with pruned field kernels (1 = off)
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
 };

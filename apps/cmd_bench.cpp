@@ -35,7 +35,7 @@ void addBenchCommand(CLI::App& app) {
     int repeats = 5, warmup = 1, mpuSize = 0, fieldTiles = 8;
     bool tiledVertices = false;
     std::string device;
-    std::vector<std::string> traversals{"specialised"};
+    std::vector<std::string> traversals{"auto"};
     bool json = false;
   };
   auto a = std::make_shared<Args>();
@@ -51,7 +51,7 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--mpu", a->mpuSize, "Cells per MPU side (cpu; 0 = default)")->check(CLI::Range(0, 64));
   cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
   cmd->add_option("--traversal", a->traversals,
-                  "vk: specialised (default), stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")
+                  "vk: auto (default: the cost model picks per job), specialised, stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")
       ->check(CLI::IsMember(traversalNames()));
   cmd->add_option("--field-tiles", a->fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")

@@ -81,7 +81,7 @@ void addCompareCommand(CLI::App& app) {
     std::optional<int> resolution;
     std::optional<float> cellSize;
     std::string cpuBackend = "cpu";
-    std::string device, traversal = "specialised";
+    std::string device, traversal = "auto";
     bool validation = false, json = false, images = false;
     double maxFieldDiff = 1e-4, maxHausdorffCells = 0.05;
     ImageCompareSettings imageSettings;
@@ -94,7 +94,7 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference");
   cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
   cmd->add_flag("--validation", a->validation, "Run the Vulkan side under the validation layer");
-  cmd->add_option("--traversal", a->traversal, "Vulkan evaluator: specialised (default), stackless or stack")
+  cmd->add_option("--traversal", a->traversal, "Vulkan evaluator: auto (default: the cost model picks per job), specialised, stackless or stack")
       ->check(CLI::IsMember(traversalNames()));
   cmd->add_option("--max-field-diff", a->maxFieldDiff, "Fail above this max |field difference| (default 1e-4)");
   cmd->add_option("--max-hausdorff", a->maxHausdorffCells, "Fail above this Hausdorff distance, in cells (default 0.05)");

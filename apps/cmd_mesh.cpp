@@ -43,7 +43,7 @@ void addMeshCommand(CLI::App& app) {
       ->check(CLI::Range(0, 16));
   cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
-  cmd->add_option("--traversal", a->settings.traversal, "vk: specialised (default), stackless or stack")
+  cmd->add_option("--traversal", a->settings.traversal, "vk: auto (default: the cost model picks per job), specialised, stackless or stack")
       ->check(CLI::IsMember(traversalNames()));
   cmd->add_option("--field-tiles", a->settings.fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")

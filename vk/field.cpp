@@ -1,5 +1,7 @@
 #include "vk/field.h"
 
+#include "vk/evaluator_choice.h"
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -68,7 +70,7 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
   // Tiles only pay with kernels of their own: when none can have one (a program too large to
   // specialise, pruning too little), one dispatch over the whole grid.
   if (tiles_.size() > 1 &&
-      std::none_of(tiles_.begin(), tiles_.end(), [&](const FieldTile& t) { return specialiseTile(program, t.region); })) {
+      std::none_of(tiles_.begin(), tiles_.end(), [&](const FieldTile& t) { return specialiseTile(program, t.region, gpu.codegen.loops); })) {
     o.maxTiles = 1;
     tiles_ = planFieldTiles(program, grid, o);
   }
@@ -77,7 +79,7 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
   for (const FieldTile& t : tiles_) {
     // A whole-grid tile uses the program's own kernel (the one other passes share); a program
     // too large to specialise whole may still fit once pruned to a tile.
-    const bool ownKernel = specialised && !(tiles_.size() == 1 && gpu.specialised) && specialiseTile(program, t.region);
+    const bool ownKernel = specialised && !(tiles_.size() == 1 && gpu.specialised) && specialiseTile(program, t.region, gpu.codegen.loops);
     if (!ownKernel) {
       kernels_.push_back(evaluatorKernel(device, gpu, "field_grid", rows, traversal));
       continue;
@@ -113,8 +115,19 @@ std::vector<float> evaluateFieldOnGrid(Device& device, const blobtree::Program& 
   const auto pts = grid.points();
   std::vector<float> field(grid.pointCount());
   if (field.empty()) return field;
-  const GpuProgram gpu = uploadProgram(device, program, options.traversal, options.codegen);
-  const FieldPass pass(device, program, gpu, options.traversal, options.workgroupSize, grid, options.tiling);
+  FieldOptions o = options;
+  CodegenOptions codegen = o.codegen ? *o.codegen : defaultCodegenOptions(device);
+  o.codegen = &codegen;
+  if (o.traversal == Traversal::Auto) {
+    EvaluatorJob job;
+    job.tiling = o.tiling;
+    const EvaluatorEstimate e = chooseEvaluator(device, program, grid, job, codegen).chosen;
+    o.traversal = e.traversal;
+    o.tiling.maxTiles = e.fieldKernels;
+    o.tiling.minPointsForLargePrograms = 0;  // the model weighed the tiles' build time
+  }
+  const GpuProgram gpu = uploadProgram(device, program, o.traversal, o.codegen);
+  const FieldPass pass(device, program, gpu, o.traversal, o.workgroupSize, grid, o.tiling);
   const std::uint32_t brickLayers = layersPerBrick(device, grid, options.maxBrickBytes, 4);
   const std::uint64_t layerPoints = std::uint64_t(pts.x) * std::uint64_t(pts.y);
   Buffer out = device.createBuffer(layerPoints * std::min<std::uint32_t>(brickLayers, pts.z) * 4);

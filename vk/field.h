@@ -14,7 +14,7 @@
 namespace blobvk::vk {
 
 struct FieldOptions {
-  Traversal traversal = Traversal::Specialised;
+  Traversal traversal = Traversal::Auto;
   std::uint32_t workgroupSize = 64;
   std::uint64_t maxBrickBytes = 64ull << 20;  // field floats per brick (also capped by the device)
   // Traversal::Specialised: code generation options (default: chosen for the device).

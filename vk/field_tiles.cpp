@@ -33,9 +33,9 @@ PointRegion regionOfPoints(const blobtree::GridSpec& grid, const std::array<std:
   return r;
 }
 
-bool specialiseTile(const blobtree::Program& program, const PointRegion& region) {
-  if (!canSpecialise(program, region)) return false;
-  return canSpecialise(program) || prunedInstructionCount(program, region) <= kMaxTileInstructions;
+bool specialiseTile(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
+  if (!canSpecialise(program, region, loops)) return false;
+  return canSpecialise(program, {}, loops) || specialisedCodeSize(program, region, loops) <= kMaxTileInstructions;
 }
 
 std::vector<FieldTile> planFieldTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,

@@ -51,8 +51,8 @@ struct FieldTilingOptions {
 // tower_L6P8I4: 16 tile kernels of ~2,900 instructions took 80 s to build on lavapipe).
 inline constexpr std::uint32_t kMaxTileInstructions = 1024;
 
-// True when a tile of `program` gets its own specialised kernel.
-bool specialiseTile(const blobtree::Program& program, const PointRegion& region);
+// True when a tile of `program` gets its own specialised kernel (generated with `loops`).
+bool specialiseTile(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops = {});
 
 // Tiles covering every grid point exactly once, chosen greedily (k-d splits at an eighth of a
 // tile's extent along any axis, the one removing the most work first).

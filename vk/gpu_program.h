@@ -19,9 +19,13 @@ enum class Traversal {
   // The stackless register code compiled into the kernel itself (vk/program_codegen.h): one
   // pipeline per program, built at run time; programs too large for it use Stackless.
   Specialised,
+  // Chosen per job by the cost model (vk/evaluator_choice.h): Stackless or Specialised, as one
+  // kernel or per field tile. Resolved by evaluateFieldOnGrid and the polygonizers; a kernel
+  // asked for with Auto unresolved (the ray-caster) interprets.
+  Auto,
 };
 
-// "stackless", "stack-based", "specialised".
+// "stackless", "stack-based", "specialised", "auto".
 const char* traversalName(Traversal traversal);
 
 struct GpuProgram {
@@ -66,7 +70,8 @@ KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, co
 KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, std::uint64_t programFingerprint,
                             const CodegenOptions& codegen, const std::string& shader, std::uint32_t workgroupSize);
 
-// Code generation options for this device: branches on skips except on CPU devices.
+// Code generation options for this device: branches on skips and loops over repeated shapes
+// except on CPU devices.
 CodegenOptions defaultCodegenOptions(const Device& device);
 
 // Uploads the records; Traversal::StackBased uploads the tree encoding (stack_program.h) in

@@ -18,7 +18,9 @@ struct GpuPolygonizeOptions {
   bool colours = true;
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation
   float normalStep = 1e-4f;    // central-difference step (blobtree::normal's default)
-  Traversal traversal = Traversal::Specialised;
+  Traversal traversal = Traversal::Auto;  // Auto: the cost model's choice (vk/evaluator_choice.h)
+  // Traversal::Specialised: code generation options (default: chosen for the device).
+  const CodegenOptions* codegen = nullptr;
   std::uint32_t workgroupSize = 64;
   std::uint64_t maxBrickBytes = 32ull << 20;  // per-slab field bytes; smaller means more slabs
   // Traversal::Specialised: the field pass's tiles with pruned kernels (vk/field_tiles.h); 1 = off.

@@ -12,15 +12,18 @@
 #pragma once
 
 #include "blobtree/program.h"
+#include "vk/program_shape.h"
 
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace blobvk::vk {
 
-// Programs above this many instructions keep the interpreter: their generated shader would take
-// longer to compile than it saves (and could exceed driver limits).
+// The generator refuses code that would spell out more than this many instructions (after loops
+// and pruning): beyond it glslang and LLVM take tens of seconds and gigabytes. Which evaluator
+// pays within a job is the cost model's choice (vk/evaluator_choice.h), not this cap.
 inline constexpr std::size_t kMaxSpecialisedInstructions = 4096;
 
 // A box of world-space points (inclusive). `valid` false: anywhere.
@@ -42,6 +45,10 @@ struct CodegenOptions {
   // world-space point whose box misses it becomes "field 0" with no code for its subtree — the
   // same result at those points, bit for bit (tape pruning at compile time; vk/field_tiles.h).
   PointRegion region;
+  // Runs of equal siblings (instances) become loops over one shared function
+  // (vk/program_shape.h); the instances' record values are read from the code buffer after the
+  // instructions (specialisedData), so uploadProgram must be given the same options.
+  LoopOptions loops;
 };
 
 // True when the skip box [lo, hi] holds no point of the region (a conservative test: false
@@ -65,13 +72,25 @@ std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const Codeg
 // limits): a pruned subtree or primitive counts as one.
 std::uint32_t prunedInstructionCount(const blobtree::Program& program, const PointRegion& region);
 
+// Instructions the generated code spells out for the program pruned to `region`, with loops as
+// in `loops` (a shared function counts once): what compile time grows with.
+std::uint32_t specialisedCodeSize(const blobtree::Program& program, const PointRegion& region = {},
+                                  const LoopOptions& loops = {});
+
 // True when generateSpecialisedEvaluator accepts the program pruned to `region` (anywhere by
 // default): a program too large as a whole can still be specialised for a small region.
-bool canSpecialise(const blobtree::Program& program, const PointRegion& region = {});
+bool canSpecialise(const blobtree::Program& program, const PointRegion& region = {}, const LoopOptions& loops = {});
+
+// The record words the generated loops read, to be uploaded after the instructions in the code
+// buffer (empty when the code has no loops).
+std::vector<layout::uvec4> specialisedData(const blobtree::Program& program, const LoopOptions& loops);
 
 // GLSL that replaces shaders/eval_program.glsl for this program: it defines
 // evaluateField(vec3 p, uint n) and evaluateFieldColour(vec3 p, uint n, out vec3 colour) (n is
-// ignored) and needs no Program buffers. Throws std::invalid_argument when !canSpecialise.
-std::string generateSpecialisedEvaluator(const blobtree::Program& program, const CodegenOptions& options = {});
+// ignored). It reads no Program buffer, except the code buffer's words after the instructions
+// (specialisedData) when it has loops. Throws std::invalid_argument when !canSpecialise.
+// `emitted` (optional) receives specialisedCodeSize.
+std::string generateSpecialisedEvaluator(const blobtree::Program& program, const CodegenOptions& options = {},
+                                         std::uint32_t* emitted = nullptr);
 
 }  // namespace blobvk::vk

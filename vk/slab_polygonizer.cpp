@@ -2,6 +2,7 @@
 
 #include "mesh/marching_cubes.h"
 #include "vk/error.h"
+#include "vk/evaluator_choice.h"
 #include "vk/field.h"
 #include "vk/scan.h"
 
@@ -131,10 +132,21 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
   if (grid.cells.x < 1 || grid.cells.y < 1 || grid.cells.z < 1) {
     throw VulkanError("GPU polygonizer: the grid has no cells");
   }
-  program_ = uploadProgram(device, program, options.traversal);
   FieldTilingOptions tiling;
   tiling.maxTiles = options.maxFieldTiles;
-  fieldPass_ = std::make_unique<FieldPass>(device, program, program_, options.traversal, options.workgroupSize,
+  if (options_.traversal == Traversal::Auto) {
+    EvaluatorJob job;
+    job.vertexPass = true;
+    job.refineSteps = options.refineSteps;
+    job.tiling = tiling;
+    const CodegenOptions codegen = options.codegen ? *options.codegen : defaultCodegenOptions(device);
+    const EvaluatorEstimate e = chooseEvaluator(device, program, grid, job, codegen).chosen;
+    options_.traversal = e.traversal;
+    tiling.maxTiles = e.fieldKernels;
+    tiling.minPointsForLargePrograms = 0;  // the model weighed the tiles' build time
+  }
+  program_ = uploadProgram(device, program, options_.traversal, options.codegen);
+  fieldPass_ = std::make_unique<FieldPass>(device, program, program_, options_.traversal, options.workgroupSize,
                                            grid, tiling);
   // Vertex kernels inline the evaluator several times (refinement, six normal samples, colour):
   // for a program too large to specialise whole, even its tiles' kernels took seconds each to
@@ -149,14 +161,14 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
         r.lo[a] -= options.normalStep;
         r.hi[a] += grid.cellSize + options.normalStep;
       }
-      if (specialiseTile(program, r)) {
+      if (specialiseTile(program, r, program_.codegen.loops)) {
         CodegenOptions c = program_.codegen;
         c.region = r;
         vertexTileKernels_.push_back(
             specialisedKernel(device, program, program_.fingerprint, c, "vertices_tiled", options.workgroupSize));
       } else {
         vertexTileKernels_.push_back(
-            evaluatorKernel(device, program_, "vertices_tiled", options.workgroupSize, options.traversal));
+            evaluatorKernel(device, program_, "vertices_tiled", options.workgroupSize, options_.traversal));
       }
       rows += std::uint64_t(t.last[1] - t.first[1] + 1) * (t.last[2] - t.first[2] + 1);
     }

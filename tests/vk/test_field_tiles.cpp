@@ -96,8 +96,10 @@ class TiledFieldTest : public VulkanTest, public ::testing::WithParamInterface<s
 TEST_P(TiledFieldTest, EqualsTheUntiledFieldBitForBit) {
   const Model m = load(GetParam(), 40);
   vk::FieldOptions untiled;
+  untiled.traversal = vk::Traversal::Specialised;
   untiled.tiling.maxTiles = 1;
   vk::FieldOptions tiled;
+  tiled.traversal = vk::Traversal::Specialised;
   tiled.tiling.maxTiles = 16;
   tiled.tiling.minGain = 0.0;  // as many tiles as the plan can make
   vk::FieldStats stats;
@@ -108,7 +110,8 @@ TEST_P(TiledFieldTest, EqualsTheUntiledFieldBitForBit) {
   // pruning drops only exact zeros.
   EXPECT_LT(maxFieldDifference(b, referenceField(m.program, m.grid)), 1e-5f) << GetParam();
   EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << GetParam();
-  if (vk::canSpecialise(m.program)) {  // (large programs: LargeProgramIsSpecialisedPerTile)
+  // (large programs: LargeProgramIsSpecialisedPerTile)
+  if (vk::canSpecialise(m.program, {}, vk::defaultCodegenOptions(device()).loops)) {
     EXPECT_EQ(stats.tiles, vk::planFieldTiles(m.program, m.grid, tiled.tiling).size()) << GetParam();
   }
   if (GetParam() == "tower" || GetParam() == "random128") {
@@ -121,22 +124,27 @@ TEST_P(TiledFieldTest, EqualsTheUntiledFieldBitForBit) {
 // (the interpreter and the generated code may contract multiply-adds differently).
 TEST_F(VulkanTest, LargeProgramIsSpecialisedPerTile) {
   const Model m = load("tower_L6P8I4", 40);
-  ASSERT_FALSE(vk::canSpecialise(m.program));
+  const vk::LoopOptions loops = vk::defaultCodegenOptions(device()).loops;
+  ASSERT_FALSE(loops.enabled) << "lavapipe gets unrolled code";
+  ASSERT_FALSE(vk::canSpecialise(m.program, {}, loops));
   vk::FieldTilingOptions many;
   many.maxTiles = 16;
   many.minGain = 0.0;
   many.minPointsForLargePrograms = 0;
   const auto tiles = vk::planFieldTiles(m.program, m.grid, many);
   const auto fits = std::count_if(tiles.begin(), tiles.end(),
-                                  [&](const vk::FieldTile& t) { return vk::specialiseTile(m.program, t.region); });
+                                  [&](const vk::FieldTile& t) { return vk::specialiseTile(m.program, t.region, loops); });
   EXPECT_GT(fits, 0) << "no tile prunes the program under the limit";
   vk::FieldOptions interpreter;
   interpreter.traversal = vk::Traversal::Stackless;
   const auto a = vk::evaluateFieldOnGrid(device(), m.program, m.grid, interpreter);
   vk::FieldStats stats;
-  vk::evaluateFieldOnGrid(device(), m.program, m.grid, {}, &stats);
+  vk::FieldOptions specialised;
+  specialised.traversal = vk::Traversal::Specialised;
+  vk::evaluateFieldOnGrid(device(), m.program, m.grid, specialised, &stats);
   EXPECT_EQ(stats.tiles, 1u) << "a small grid is not worth building large tile kernels";
   vk::FieldOptions tiled;
+  tiled.traversal = vk::Traversal::Specialised;
   tiled.tiling = many;
   const auto b = vk::evaluateFieldOnGrid(device(), m.program, m.grid, tiled);
   ASSERT_EQ(a.size(), b.size());
@@ -164,6 +172,7 @@ std::vector<std::string> scenesWithSpecialisableTiles() {
 TEST_P(TiledMeshTest, TiledPolygonizationEqualsUntiledBitForBit) {
   const Model m = load(GetParam(), 36);
   vk::GpuPolygonizeOptions untiled;
+  untiled.traversal = vk::Traversal::Specialised;
   untiled.maxFieldTiles = 1;
   untiled.refineSteps = 2;  // the refinement evaluates along the edge too
   vk::GpuPolygonizeOptions tiled = untiled;
