@@ -144,7 +144,7 @@ void buildCost(benchmark::State& state, Size size, Evaluator e) {
 }
 
 const int registered = [] {
-  const Size sizes[] = {{1, 8, 1}, {3, 8, 1}, {3, 8, 2}, {5, 8, 3}, {5, 8, 6}, {5, 8, 10}, {5, 8, 13}};
+  const Size sizes[] = {{1, 8, 1}, {2, 8, 1}, {3, 8, 1}, {3, 8, 2}, {5, 8, 3}, {5, 8, 6}, {5, 8, 10}, {5, 8, 13}};
   for (const Size& s : sizes) {
     // Built by append: gcc 12's -Wrestrict misfires on `"x" + std::to_string(n)`.
     std::string label("L");

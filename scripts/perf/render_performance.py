@@ -284,6 +284,11 @@ def main():
 
     if gb.get("bench_compile_cost"):
         w("\n## Kernel compile cost against program size (`bench_compile_cost`)\n")
+        w("The kernels of one mesh built and run once on a small grid, each in a fresh process (lavapipe\n"
+          "builds machine code at a kernel's first dispatch): `build_s` wall seconds, `peak_MB` the\n"
+          "process's peak memory, `emitted` the instructions the generated code spells out. `default` 1\n"
+          "marks the evaluator `Traversal::Auto` picks for a mesh of that program at 64 cells\n"
+          "(vk/evaluator_choice.h); specialised builds predicted above 60 s are not run.\n")
         w(cmd("gb_bench_compile_cost"))
         w(gb_table(gb["bench_compile_cost"]))
 

@@ -136,6 +136,7 @@ TEST_F(VulkanTest, TiledVertexPassIsClampedToo) {
   const auto grid = blobtree::chooseGrid(program, scene.grid, request);
   const auto ref = cpu::polygonizeReference(program, grid, {});
   vk::GpuPolygonizeOptions options;
+  options.traversal = vk::Traversal::Specialised;  // the tiles are the specialised code's
   options.tiledVertexPass = true;
   vk::SlabPolygonizer poly(device(), program, grid, options);
   ASSERT_EQ(poly.slabCount(), 1u);

@@ -95,6 +95,7 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
     request.resolution = 36;
     const auto grid = blobtree::chooseGrid(program, {}, request);
     vk::GpuPolygonizeOptions tiled;
+    tiled.traversal = vk::Traversal::Specialised;  // the tiles are the specialised code's
     tiled.maxFieldTiles = 8;
     tiled.tiledVertexPass = true;
     vk::GpuStats stats;
