@@ -68,9 +68,10 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     EvaluatorEstimate tiled;
     tiled.traversal = Traversal::Specialised;
     tiled.fieldKernels = std::uint32_t(tiles.size());
-    bool shared = false;
+    bool shared = false, own = false;
     for (const FieldTile& t : tiles) {
       if (specialiseTile(program, t.region, codegen.loops)) {
+        own = true;
         const double size = double(specialisedCodeSize(program, t.region, codegen.loops));
         tiled.buildSeconds += specialisedKernelSeconds(size, 1.0);
         tiled.buildMegabytes = std::max(tiled.buildMegabytes, buildMegabytes(size));
@@ -85,7 +86,8 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     tiled.buildSeconds += vertexBuild;
     tiled.buildMegabytes = std::max(tiled.buildMegabytes, vertexMegabytes);
     tiled.runSeconds += vertexRun;
-    choice.candidates.push_back(tiled);
+    // With no tile of its own FieldPass runs one kernel: the candidates above.
+    if (own) choice.candidates.push_back(tiled);
   }
 
   choice.chosen = interpreter;
