@@ -1,4 +1,7 @@
 #include "backends.h"
+#include "json_report.h"
+
+#include <nlohmann/json.hpp>
 
 #include "cpu_simd/mpu_polygonizer.h"
 #include "cpu_simd/reference_polygonizer.h"
@@ -48,6 +51,14 @@ vk::StandaloneContext& sharedContext(const std::string& device, bool validation)
 }  // namespace
 #endif
 
+nlohmann::json backendDeviceJson([[maybe_unused]] const PolygonizeSettings& settings) {
+#ifdef BLOBVK_HAVE_VULKAN
+  return deviceJson(sharedContext(settings.device, settings.validation).host().physicalDevice);
+#else
+  return nlohmann::json::object();
+#endif
+}
+
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats) {
   const auto start = std::chrono::steady_clock::now();
@@ -57,6 +68,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     cpu::MpuOptions options;
     options.threads = settings.threads;
     options.refineSteps = settings.refineSteps;
+    options.progress = settings.progress;
     if (settings.mpuSize > 0) options.mpuCells = settings.mpuSize;
     cpu::MpuStats mpu;
     mesh = cpu::polygonizeMpu(program, grid, options, &mpu);

@@ -7,6 +7,8 @@
 #include "blobtree/program.h"
 #include "mesh/trimesh.h"
 
+#include <functional>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -28,6 +30,8 @@ struct PolygonizeSettings {
   std::string traversal = "specialised";
   int fieldTiles = 8;           // vk specialised: most tiles with pruned field kernels (1 = off)
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
+  // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads.
+  std::function<void(std::size_t done, std::size_t total)> progress;
 };
 
 struct PolygonizeStats {
@@ -40,6 +44,10 @@ std::vector<std::string> traversalNames();  // for --traversal
 // The evaluator named by --traversal; throws std::invalid_argument for an unknown name. Defined
 // only in Vulkan builds.
 vk::Traversal traversalFromName(const std::string& name);
+
+// The device the vk backend runs `settings` on (name, type, driver; json_report.h), opening it
+// if needed; an empty object in builds without Vulkan.
+nlohmann::json backendDeviceJson(const PolygonizeSettings& settings);
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats = nullptr);

@@ -11,6 +11,7 @@
 #include "mesh/trimesh.h"
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 
 namespace blobvk::cpu {
@@ -31,6 +32,9 @@ struct MpuOptions {
   int subBlockCells = 0;
   std::optional<SimdLevel> simd;  // default: bestSimdLevel()
   float normalStep = 1e-4f;   // central-difference step, as blobtree::normal's default
+  // Called as groups of MPUs finish (done of total), from TBB worker threads, possibly at once
+  // from several: the callee synchronises. For progress display; it must not throw.
+  std::function<void(std::size_t done, std::size_t total)> progress;
 };
 
 struct MpuStats {
