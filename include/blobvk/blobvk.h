@@ -7,8 +7,9 @@
 //   auto grid    = blobvk::blobtree::chooseGrid(program, scene.grid, {});
 //   float f      = blobvk::blobtree::evaluate(program, {0, 1, 0}); // inside where f >= 0.5
 //
-// CMake: find_package(blobvk) then target_link_libraries(app PRIVATE blobvk::blobtree blobvk::mesh)
-// (blobvk::vk for the GPU, see <blobvk/vulkan.h>).
+// CMake: find_package(blobvk COMPONENTS cpu) then target_link_libraries(app PRIVATE blobvk::cpu)
+// (blobvk::blobtree, blobvk::mesh come with it; COMPONENTS vk and blobvk::vk for the GPU, see
+// <blobvk/vulkan.h>).
 //
 // Thread safety: Program, Tree and GridSpec are plain values; evaluating one Program from many
 // threads at once is safe (const access only). There is no global state anywhere in the library.

@@ -55,7 +55,7 @@
 //   blobvk::vk::MeshRenderer renderer(ctx.device(), 512, 512); // MSAA, Blinn-Phong, PNG-ready
 //   auto image = renderer.render(mesh, camera);  blobvk::vk::writePng("out.png", image);
 //
-// CMake: find_package(blobvk) then target_link_libraries(app PRIVATE blobvk::vk).
+// CMake: find_package(blobvk COMPONENTS vk) then target_link_libraries(app PRIVATE blobvk::vk).
 #pragma once
 
 #include "blobvk/blobvk.h"
