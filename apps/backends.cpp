@@ -26,6 +26,8 @@ std::vector<std::string> backendNames() {
   return names;
 }
 
+std::vector<std::string> allBackendNames() { return {"cpu", "reference", "vk"}; }
+
 std::vector<std::string> traversalNames() { return {"specialised", "stackless", "stack"}; }
 
 #ifdef BLOBVK_HAVE_VULKAN
@@ -94,6 +96,9 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
       throw std::runtime_error("the Vulkan validation layer reported " +
                                std::to_string(context.validationMessages() - messagesBefore) + " message(s)");
     }
+#else
+  } else if (settings.backend == "vk") {
+    throw std::runtime_error("the vk backend: this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
 #endif
   } else {
     std::string known;

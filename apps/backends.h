@@ -39,7 +39,8 @@ struct PolygonizeStats {
   double pointEvaluations = 0.0;  // field evaluations, where the backend counts them
 };
 
-std::vector<std::string> backendNames();
+std::vector<std::string> backendNames();     // the backends this build has
+std::vector<std::string> allBackendNames();  // every name (--backend checks; vk may be absent)
 std::vector<std::string> traversalNames();  // for --traversal
 // The evaluator named by --traversal; throws std::invalid_argument for an unknown name. Defined
 // only in Vulkan builds.

@@ -43,7 +43,7 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model")
       ->check(resolutionRange())
       ->excludes(cs);
-  cmd->add_option("--backend", a->settings.backend, "cpu (default), reference or vk")->check(CLI::IsMember(backendNames()));
+  cmd->add_option("--backend", a->settings.backend, "cpu (default), reference or vk")->check(CLI::IsMember(allBackendNames()));
   cmd->add_option("--threads", a->settings.threads, "CPU threads (0 = all cores)")
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--mpu", a->settings.mpuSize, "Cells per MPU side (cpu backend; 0 = default)")

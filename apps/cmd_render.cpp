@@ -55,7 +55,7 @@ namespace {
 }
 
 // out.png -> out_007.png for turntable frames.
-[[maybe_unused]] std::string framePath(const std::string& out, int frame, int frames) {
+std::string framePath(const std::string& out, int frame, int frames) {
   if (frames <= 1) return out;
   const auto dot = out.find_last_of('.');
   const std::string stem = dot == std::string::npos ? out : out.substr(0, dot);
@@ -103,9 +103,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
   (void)eye;
   cmd->callback([a] {
-#ifndef BLOBVK_HAVE_VULKAN
-    throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF): no renderer");
-#else
+    // The command line is checked first, whatever this build can do: a usage error is one.
     unsigned width = 0, height = 0;
     char x = 0;
     std::stringstream ss(a->size);
@@ -120,6 +118,10 @@ void addRenderCommand(CLI::App& app) {
     if (a->turntable > 1) {
       for (int frame : {0, a->turntable - 1}) checkOutputFile(framePath(a->out, frame, a->turntable), {".png"}, false, "an image");
     }
+#ifndef BLOBVK_HAVE_VULKAN
+    (void)toStdout;
+    throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF): no renderer");
+#else
     const Model model = loadModel(a->scene);
     vk::CameraRequest request;
     if (!a->camera.empty()) {
