@@ -3,12 +3,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "cpu_simd/mpu_polygonizer.h"
-#include "cpu_simd/reference_polygonizer.h"
+#include "blobvk/cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "vk/polygonize.h"
-#include "vk/standalone.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/standalone.h"
 #endif
 
 #include <chrono>

@@ -3,9 +3,9 @@
 // (bench repeats, compare) reuse its compiled pipelines.
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "mesh/trimesh.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <functional>
 #include <nlohmann/json_fwd.hpp>

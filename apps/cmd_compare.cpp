@@ -10,7 +10,7 @@
 #include "mesh_distance.h"
 #include "model.h"
 
-#include "cpu_simd/simd_evaluator.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -22,8 +22,8 @@
 #include <stdexcept>
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "vk/field.h"
-#include "vk/standalone.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/standalone.h"
 #endif
 
 namespace blobvk::app {

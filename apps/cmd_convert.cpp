@@ -5,8 +5,8 @@
 #include "commands.h"
 #include "progress.h"
 
-#include "blobtree/scene_io.h"
-#include "blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_json.h"
 
 #include <CLI/CLI.hpp>
 

@@ -13,7 +13,7 @@
 #include "progress.h"
 #include "soft_body.h"
 
-#include "cutting/quality.h"
+#include "blobvk/cutting/quality.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>

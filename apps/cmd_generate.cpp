@@ -3,9 +3,9 @@
 #include "commands.h"
 #include "progress.h"
 
-#include "blobtree/generators.h"
-#include "blobtree/scene_io.h"
-#include "blobtree/scene_json.h"
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_json.h"
 
 #include <CLI/CLI.hpp>
 

@@ -9,8 +9,8 @@
 #include "resolution_limit.h"
 #include "resource_limits.h"
 
-#include "mesh/checks.h"
-#include "mesh/io.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/io.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>

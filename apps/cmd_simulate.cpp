@@ -8,7 +8,7 @@
 #include "progress.h"
 #include "soft_body.h"
 
-#include "mesh/io.h"
+#include "blobvk/mesh/io.h"
 
 #include <CLI/CLI.hpp>
 

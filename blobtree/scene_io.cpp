@@ -1,8 +1,8 @@
-#include "blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_io.h"
 
-#include "blobtree/scene_blob.h"
-#include "blobtree/scene_error.h"
-#include "blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_blob.h"
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_json.h"
 
 #include <algorithm>
 #include <cctype>

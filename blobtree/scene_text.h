@@ -9,7 +9,7 @@
 #include <string>
 #include <string_view>
 
-#include "blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_error.h"
 
 namespace blobvk::blobtree::detail {
 

@@ -14,12 +14,12 @@
 //    resolved through the owner's table of ranks for the points on its low faces.
 // Placement depends only on indices, never on scheduling: the output is the same for any
 // thread count, and equal to polygonizeReference's since the fields are bit-identical.
-#include "cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/mpu_polygonizer.h"
 
-#include "cpu_simd/field_bounds.h"
-#include "cpu_simd/row_bits.h"
-#include "cpu_simd/tape_pruning.h"
-#include "mesh/marching_cubes.h"
+#include "blobvk/cpu_simd/field_bounds.h"
+#include "blobvk/cpu_simd/row_bits.h"
+#include "blobvk/cpu_simd/tape_pruning.h"
+#include "blobvk/mesh/marching_cubes.h"
 
 #include <tbb/combinable.h>
 #include <tbb/info.h>

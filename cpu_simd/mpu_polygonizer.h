@@ -5,10 +5,10 @@
 // bytes for any thread count.
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "cpu_simd/simd_evaluator.h"
-#include "mesh/trimesh.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <cstdint>
 #include <functional>

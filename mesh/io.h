@@ -5,7 +5,7 @@
 // throws std::runtime_error naming the file and the fault.
 #pragma once
 
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <string>
 

@@ -1,6 +1,6 @@
 // File access, number parsing and the extension dispatch shared by the mesh readers/writers.
-#include "mesh/io.h"
-#include "mesh/io_detail.h"
+#include "blobvk/mesh/io.h"
+#include "blobvk/mesh/io_detail.h"
 
 #include <algorithm>
 #include <bit>

@@ -1,6 +1,6 @@
 // Wavefront OBJ writer and reader (geometry only: materials and texture coordinates are ignored).
-#include "mesh/io.h"
-#include "mesh/io_detail.h"
+#include "blobvk/mesh/io.h"
+#include "blobvk/mesh/io_detail.h"
 
 #include <cmath>
 #include <limits>

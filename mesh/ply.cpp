@@ -1,7 +1,7 @@
 // PLY writer and reader. The reader parses any element/property layout generically (so unknown
 // elements are skipped correctly in binary files) and picks out vertex and face data by name.
-#include "mesh/io.h"
-#include "mesh/io_detail.h"
+#include "blobvk/mesh/io.h"
+#include "blobvk/mesh/io_detail.h"
 
 #include <algorithm>
 #include <cmath>

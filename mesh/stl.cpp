@@ -1,7 +1,7 @@
 // STL writer (binary) and reader (binary or ascii). STL stores unshared triangle corners, so the
 // reader welds corners with bit-identical positions back into indexed vertices.
-#include "mesh/io.h"
-#include "mesh/io_detail.h"
+#include "blobvk/mesh/io.h"
+#include "blobvk/mesh/io_detail.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,4 +1,4 @@
-#include "vk/field.h"
+#include "blobvk/vk/field.h"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "vk/program_codegen.h"
+#include "blobvk/vk/program_codegen.h"
 
 #include <cmath>
 #include <cstdio>

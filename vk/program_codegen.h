@@ -11,7 +11,7 @@
 // interpreter calls, so results stay operation-for-operation those of blobtree/evaluate.cpp.
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <cstddef>
 #include <cstdint>

@@ -15,9 +15,9 @@
 // threads at once is safe (const access only). There is no global state anywhere in the library.
 #pragma once
 
-#include "blobtree/evaluate.h"
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "blobtree/scene_io.h"
-#include "blobtree/tree.h"
-#include "mesh/trimesh.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/blobtree/tree.h"
+#include "blobvk/mesh/trimesh.h"

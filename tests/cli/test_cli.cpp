@@ -1,8 +1,8 @@
 // Runs the blobvk binary as a user would and checks what it prints, returns and writes.
 #include "run_cli.h"
 
-#include "mesh/checks.h"
-#include "mesh/io.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/io.h"
 
 #include <gtest/gtest.h>
 

@@ -4,8 +4,8 @@
 #include "cli_files.h"
 #include "run_cli.h"
 
-#include "mesh/checks.h"
-#include "mesh/io.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/io.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
