@@ -48,6 +48,22 @@ if(NOT top STREQUAL "blobvk")
   message(FATAL_ERROR "the installed include/ holds ${top}; expected only blobvk/")
 endif()
 
+# Every installed header's includes resolve inside the installed tree with include/ alone on the
+# path (the preprocessor only: a header of one room may need another room's compile definitions).
+file(GLOB rooms LIST_DIRECTORIES true RELATIVE ${prefix}/include/blobvk ${prefix}/include/blobvk/*)
+foreach(room ${rooms})
+  if(NOT IS_DIRECTORY ${prefix}/include/blobvk/${room})
+    continue()
+  endif()
+  file(GLOB headers RELATIVE ${prefix}/include ${prefix}/include/blobvk/${room}/*.h)
+  set(tu "")
+  foreach(h ${headers})
+    string(APPEND tu "#include <${h}>\n")
+  endforeach()
+  file(WRITE ${WORK_DIR}/headers_${room}.cpp "${tu}")
+  run(${CXX_COMPILER} -std=c++20 -E -I${prefix}/include -I/usr/include/eigen3 ${WORK_DIR}/headers_${room}.cpp -o ${WORK_DIR}/headers_${room}.i)
+endforeach()
+
 # A sphere for the consumers: one point primitive of support 2 (radius 2 * 0.4542).
 file(WRITE ${WORK_DIR}/sphere.json [[{"blobvk": 1, "name": "sphere", "root": {"type": "point", "support": 2}}]])
 
