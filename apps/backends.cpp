@@ -1,11 +1,14 @@
 #include "backends.h"
+#include "json_report.h"
 
-#include "cpu_simd/mpu_polygonizer.h"
-#include "cpu_simd/reference_polygonizer.h"
+#include <nlohmann/json.hpp>
+
+#include "blobvk/cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "vk/polygonize.h"
-#include "vk/standalone.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/standalone.h"
 #endif
 
 #include <chrono>
@@ -22,6 +25,8 @@ std::vector<std::string> backendNames() {
 #endif
   return names;
 }
+
+std::vector<std::string> allBackendNames() { return {"cpu", "reference", "vk"}; }
 
 std::vector<std::string> traversalNames() { return {"auto", "specialised", "stackless", "stack"}; }
 
@@ -49,6 +54,14 @@ vk::StandaloneContext& sharedContext(const std::string& device, bool validation)
 }  // namespace
 #endif
 
+nlohmann::json backendDeviceJson([[maybe_unused]] const PolygonizeSettings& settings) {
+#ifdef BLOBVK_HAVE_VULKAN
+  return deviceJson(sharedContext(settings.device, settings.validation).host().physicalDevice);
+#else
+  return nlohmann::json::object();
+#endif
+}
+
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats) {
   const auto start = std::chrono::steady_clock::now();
@@ -58,6 +71,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     cpu::MpuOptions options;
     options.threads = settings.threads;
     options.refineSteps = settings.refineSteps;
+    options.progress = settings.progress;
     if (settings.mpuSize > 0) options.mpuCells = settings.mpuSize;
     cpu::MpuStats mpu;
     mesh = cpu::polygonizeMpu(program, grid, options, &mpu);
@@ -83,6 +97,9 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
       throw std::runtime_error("the Vulkan validation layer reported " +
                                std::to_string(context.validationMessages() - messagesBefore) + " message(s)");
     }
+#else
+  } else if (settings.backend == "vk") {
+    throw std::runtime_error("the vk backend: this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
 #endif
   } else {
     std::string known;

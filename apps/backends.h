@@ -3,10 +3,12 @@
 // (bench repeats, compare) reuse its compiled pipelines.
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "mesh/trimesh.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/mesh/trimesh.h"
 
+#include <functional>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,8 @@ struct PolygonizeSettings {
   std::string traversal = "auto";
   int fieldTiles = 8;           // vk specialised: most tiles with pruned field kernels (1 = off)
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
+  // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads.
+  std::function<void(std::size_t done, std::size_t total)> progress;
 };
 
 struct PolygonizeStats {
@@ -36,11 +40,16 @@ struct PolygonizeStats {
   double pointEvaluations = 0.0;  // field evaluations, where the backend counts them
 };
 
-std::vector<std::string> backendNames();
+std::vector<std::string> backendNames();     // the backends this build has
+std::vector<std::string> allBackendNames();  // every name (--backend checks; vk may be absent)
 std::vector<std::string> traversalNames();  // for --traversal
 // The evaluator named by --traversal; throws std::invalid_argument for an unknown name. Defined
 // only in Vulkan builds.
 vk::Traversal traversalFromName(const std::string& name);
+
+// The device the vk backend runs `settings` on (name, type, driver; json_report.h), opening it
+// if needed; an empty object in builds without Vulkan.
+nlohmann::json backendDeviceJson(const PolygonizeSettings& settings);
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats = nullptr);

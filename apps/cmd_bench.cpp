@@ -2,6 +2,8 @@
 // whole-scene polygonization timings, a table for people and JSON for machines.
 #include "backends.h"
 #include "commands.h"
+#include "progress.h"
+#include "resolution_limit.h"
 #include "model.h"
 
 #include <CLI/CLI.hpp>
@@ -42,7 +44,7 @@ void addBenchCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("bench", "Time whole-scene polygonization (median of repeats)");
   cmd->add_option("scenes", a->scenes, "Scene files")->required();
   cmd->add_option("--resolution", a->resolutions, "Cells along the longest side (several allowed)")
-      ->check(CLI::Range(1, 4096));
+      ->check(resolutionRange());
   cmd->add_option("--backend", a->backends, "Backends to run: cpu, reference, vk (several allowed)");
   cmd->add_option("--threads", a->threads, "CPU thread counts (0 = all; several allowed)")
       ->check(CLI::Range(0, 1024));
@@ -61,6 +63,12 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a] {
     std::vector<Row> rows;
+    // One progress step per timed configuration (scenes x resolutions x backends x threads, the
+    // traversals counting on vk only).
+    long configurations = 0;
+    for (const std::string& backend : a->backends)
+      configurations += long(a->threads.size()) * long(backend == "vk" ? a->traversals.size() : 1);
+    Progress progress("bench", configurations * long(a->scenes.size() * a->resolutions.size()));
     for (const std::string& path : a->scenes) {
       const Model model = loadModel(path);
       for (int resolution : a->resolutions) {
@@ -95,7 +103,9 @@ void addBenchCommand(CLI::App& app) {
             row.min = times.front();
             row.max = times.back();
             rows.push_back(row);
-            if (!a->json) std::fprintf(stderr, "  %s %d %s: %.4f s\n", path.c_str(), resolution, backend.c_str(), row.median);
+            char note[160];
+            std::snprintf(note, sizeof note, "%s %d %s: %.4f s", path.c_str(), resolution, row.backend.c_str(), row.median);
+            progress.update(long(rows.size()), note);
           }
         }
       }

@@ -3,23 +3,27 @@
 // put it in their CI.
 #include "backends.h"
 #include "commands.h"
+#include "json_report.h"
+#include "progress.h"
+#include "resolution_limit.h"
 #include "compare_images.h"
 #include "mesh_distance.h"
 #include "model.h"
 
-#include "cpu_simd/simd_evaluator.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "vk/field.h"
-#include "vk/standalone.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/standalone.h"
 #endif
 
 namespace blobvk::app {
@@ -43,6 +47,14 @@ namespace {
                               std::size_t(n.x), level);
     }
   return field;
+}
+
+// The shortest text that reads back as the same double, so a threshold of 0 and a difference of
+// 3e-9 never both print as 0.000000.
+[[maybe_unused]] std::string shortest(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
 }
 
 struct CellDiff {
@@ -89,7 +101,7 @@ void addCompareCommand(CLI::App& app) {
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("compare", "Compare the CPU and Vulkan backends on a scene");
   cmd->add_option("scene", a->scene, "Scene file")->required();
-  auto* res = cmd->add_option("--resolution", a->resolution, "Cells along the longest side (default 64)")->check(CLI::Range(2, 4096));
+  auto* res = cmd->add_option("--resolution", a->resolution, "Cells along the longest side (default 64)")->check(resolutionRange(2));
   cmd->add_option("--cell-size", a->cellSize, "Grid cell size")->check(CLI::PositiveNumber)->excludes(res);
   cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference");
   cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
@@ -99,27 +111,32 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("--max-field-diff", a->maxFieldDiff, "Fail above this max |field difference| (default 1e-4)");
   cmd->add_option("--max-hausdorff", a->maxHausdorffCells, "Fail above this Hausdorff distance, in cells (default 0.05)");
   cmd->add_flag("--images", a->images, "Also render CPU mesh, GPU mesh and ray-cast and compare pixels");
-  cmd->add_option("--image-size", a->imageSettings.width, "Image side in pixels (default 256)")->check(CLI::Range(16, 4096));
+  cmd->add_option("--image-size", a->imageSettings.width, "Image side in pixels (default 256)")->check(CLI::Range(16, kMaxImageSide));
   cmd->add_option("--write-images", a->imageSettings.writeDir, "Folder for the rendered images");
-  cmd->add_flag("--json", a->json, "Print the report as JSON");
+  cmd->add_flag("--json", a->json, "Print the report as JSON (with the blobvk version, device and driver)");
   cmd->callback([a] {
 #ifndef BLOBVK_HAVE_VULKAN
     throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
 #else
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->cellSize ? a->resolution : a->resolution.value_or(64));
-    nlohmann::json report{{"scene", a->scene}, {"traversal", a->traversal},
-                          {"grid", {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cellSize", grid.cellSize}}}};
+    nlohmann::json report = versionJson();
+    report["scene"] = a->scene;
+    report["traversal"] = a->traversal;
+    report["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cellSize", grid.cellSize}};
+    Progress progress("compare", a->images ? 4 : 3);
 
     // Fields.
     vk::StandaloneOptions deviceOptions;
     deviceOptions.device = a->device;
     deviceOptions.validation = a->validation;
     vk::StandaloneContext context(deviceOptions);
+    report["device"] = deviceJson(context.host().physicalDevice);
     vk::FieldOptions fieldOptions;
     fieldOptions.traversal = traversalFromName(a->traversal);
     const std::vector<float> gpu = vk::evaluateFieldOnGrid(context.device(), model.program, grid, fieldOptions);
     const std::vector<float> cpu = cpuField(model.program, grid);
+    progress.update(1, "fields");
     double maxDiff = 0, sumDiff = 0;
     for (std::size_t i = 0; i < cpu.size(); ++i) {
       const double d = std::abs(double(cpu[i]) - double(gpu[i]));
@@ -140,7 +157,9 @@ void addCompareCommand(CLI::App& app) {
     gpuSettings.validation = a->validation;
     gpuSettings.traversal = a->traversal;
     const mesh::TriMesh cpuMesh = polygonize(model.program, grid, cpuSettings);
+    progress.update(2, "cpu mesh");
     const mesh::TriMesh gpuMesh = polygonize(model.program, grid, gpuSettings);
+    progress.update(3, "vk mesh");
     const bool sameTopology = cpuMesh.edgeKeys == gpuMesh.edgeKeys && cpuMesh.triangles == gpuMesh.triangles;
     const double hausdorff = vertexHausdorff(cpuMesh, gpuMesh, grid.cellSize);
     report["mesh"] = {{"cpu", {{"vertices", cpuMesh.vertexCount()}, {"triangles", cpuMesh.triangleCount()}}},
@@ -151,9 +170,9 @@ void addCompareCommand(CLI::App& app) {
     if (context.validationMessages() != 0) report["validation_messages"] = context.validationMessages();
 
     std::vector<std::string> failures;
-    if (maxDiff > a->maxFieldDiff) failures.push_back("max field difference " + std::to_string(maxDiff) + " > " + std::to_string(a->maxFieldDiff));
+    if (maxDiff > a->maxFieldDiff) failures.push_back("max field difference " + shortest(maxDiff) + " > " + shortest(a->maxFieldDiff));
     if (cells.explained != cells.cellsDiffering) failures.push_back(std::to_string(cells.cellsDiffering - cells.explained) + " cell(s) differ beyond iso rounding");
-    if (hausdorff / grid.cellSize > a->maxHausdorffCells) failures.push_back("Hausdorff distance " + std::to_string(hausdorff / grid.cellSize) + " cells > " + std::to_string(a->maxHausdorffCells));
+    if (hausdorff / grid.cellSize > a->maxHausdorffCells) failures.push_back("Hausdorff distance " + shortest(hausdorff / grid.cellSize) + " cells > " + shortest(a->maxHausdorffCells));
     if (!sameTopology && cells.cellsDiffering == 0) failures.push_back("mesh topology differs although every cell agrees");
     if (context.validationMessages() != 0) failures.push_back("validation layer messages");
     if (a->images) {
@@ -162,6 +181,7 @@ void addCompareCommand(CLI::App& app) {
       a->imageSettings.validation = a->validation;
       nlohmann::json images;
       if (!compareImages(model, grid, a->imageSettings, images)) failures.push_back("images differ beyond tolerance");
+      progress.update(4, "images");
       report["images"] = images;
     }
     report["pass"] = failures.empty();

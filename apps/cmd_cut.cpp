@@ -4,19 +4,22 @@
 // part away and the tools press throughout. Writes frame_NNNNN.ply (+ .png with a Vulkan
 // device) and stats.csv: per frame the time, cut events so far, parts, the lift and every
 // tool's force and contact nodes, FEM and cut milliseconds.
+#include "cli_conventions.h"
 #include "commands.h"
+#include "resolution_limit.h"
 #include "cut_simulation.h"
 #include "frame_writer.h"
 #include "model.h"
 #include "progress.h"
 #include "soft_body.h"
 
-#include "cutting/quality.h"
+#include "blobvk/cutting/quality.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,7 +33,7 @@ namespace {
 // --blade file: {"blade": [{"t":0, "a":[..], "b":[..]}, ...]}, validated by the same parser.
 std::vector<BladeKeyframe> readBladeFile(const std::string& path) {
   std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open the blade path file");
+  if (!in) throw std::runtime_error(path + ": cannot open the blade path file: " + systemReason(errno));
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(in);
@@ -67,21 +70,23 @@ void addCutCommand(CLI::App& app) {
   cmd->add_option("--blade", a->blade, "Blade path JSON (default: the scene's simulation.blade)");
   cmd->add_option("--steps", a->steps, "Time steps of the whole run (default: the scene's, else 60)")->check(CLI::Range(1, 10000000));
   cmd->add_option("--frame-every", a->frameEvery, "Write a frame every K steps")->check(CLI::Range(1, 1000000));
-  cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(CLI::Range(4, 4096));
+  cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(resolutionRange(4));
   cmd->add_option("--voxel-cell", a->voxelCell, "Voxel mesher cell size (default: the scene's simulation.voxel.cellSize)")->check(CLI::PositiveNumber);
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
   cmd->add_flag("--check-each-event", a->checkEachEvent, "Run the O(n) topology self-check after every cut event");
   cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)");
-  cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, 4096));
+  cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, kMaxImageSide));
   cmd->callback([a] {
+    prepareOutputFolder(a->out);  // before the (long) tetrahedralization
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, std::nullopt, a->resolution.value_or(48));
+    Progress::note("cut", "polygonizing and tetrahedralizing " + a->scene);
     TetModel body = buildTetModel(model, grid, a->threads, a->voxelCell);
     const std::vector<BladeKeyframe> keys = a->blade.empty() ? body.config.blade : readBladeFile(a->blade);
     if (keys.size() < 2) {
       throw std::runtime_error(a->scene + ": /simulation/blade: no blade path (give one in the scene or with --blade)");
     }
-    std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.2f s, tets %.2f s\n", a->scene.c_str(),
+    if (!quiet()) std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.2f s, tets %.2f s\n", a->scene.c_str(),
                  body.surface.triangleCount(), body.tets.tetCount(), body.tets.nodeCount(), body.config.mesher.c_str(),
                  body.meshSeconds, body.tetSeconds);
     const cutting::QualityStats before = cutting::meshQuality(body.tets);

@@ -1,32 +1,44 @@
-// `blobvk devices`: the Vulkan devices the loader sees and the limits blobvk cares about.
+// `blobvk devices [--json]`: the Vulkan devices the loader sees, their drivers and the limits
+// blobvk cares about. The index is what --device takes.
+#include "cli_conventions.h"
 #include "commands.h"
+#include "json_report.h"
 
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <memory>
 #include <stdexcept>
-
-#ifdef BLOBVK_HAVE_VULKAN
-#include "vk/standalone.h"
-#endif
 
 namespace blobvk::app {
 
 void addDevicesCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("devices", "List Vulkan devices and their limits");
-  cmd->callback([] {
+  auto* cmd = app.add_subcommand("devices", "List Vulkan devices, their drivers and limits");
+  auto json = std::make_shared<bool>(false);
+  cmd->add_flag("--json", *json, "Print the list as JSON (with the blobvk version)");
+  cmd->callback([json] {
 #ifdef BLOBVK_HAVE_VULKAN
-    const auto devices = vk::listDevices();
-    for (std::size_t i = 0; i < devices.size(); ++i) {
-      const auto& d = devices[i];
-      std::printf("[%zu] %s (%s), Vulkan %u.%u.%u\n", i, d.name.c_str(), vk::deviceTypeName(d.type),
-                  VK_API_VERSION_MAJOR(d.apiVersion), VK_API_VERSION_MINOR(d.apiVersion),
-                  VK_API_VERSION_PATCH(d.apiVersion));
-      std::printf("    maxStorageBufferRange %u, maxComputeWorkGroupInvocations %u, maxComputeSharedMemorySize %u, subgroupSize %u\n",
-                  d.limits.maxStorageBufferRange, d.limits.maxComputeWorkGroupInvocations, d.limits.maxComputeSharedMemorySize, d.subgroupSize);
+    const nlohmann::json devices = allDevicesJson();
+    if (*json) {
+      nlohmann::json out = versionJson();
+      out["devices"] = devices;
+      std::printf("%s\n", out.dump(2).c_str());
+      return;
+    }
+    for (const auto& d : devices) {
+      std::printf("[%d] %s (%s), Vulkan %s", d["index"].get<int>(), d["name"].get<std::string>().c_str(),
+                  d["type"].get<std::string>().c_str(), d["api_version"].get<std::string>().c_str());
+      if (d.contains("driver_name")) {
+        std::printf(", driver %s %s", d["driver_name"].get<std::string>().c_str(), d["driver_info"].get<std::string>().c_str());
+      }
+      const auto& l = d["limits"];
+      std::printf("\n    maxStorageBufferRange %u, maxComputeWorkGroupInvocations %u, maxComputeSharedMemorySize %u, subgroupSize %u\n",
+                  l["max_storage_buffer_range"].get<unsigned>(), l["max_compute_work_group_invocations"].get<unsigned>(),
+                  l["max_compute_shared_memory_size"].get<unsigned>(), d["subgroup_size"].get<unsigned>());
     }
     if (devices.empty()) std::printf("no Vulkan devices (install mesa-vulkan-drivers for lavapipe)\n");
 #else
+    (void)json;
     throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
 #endif
   });

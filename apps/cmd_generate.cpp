@@ -1,8 +1,11 @@
 // `blobvk generate tower|eggshell|random -o scene.json`: the thesis' procedural test models.
+#include "cli_conventions.h"
 #include "commands.h"
+#include "progress.h"
 
-#include "blobtree/generators.h"
-#include "blobtree/scene_io.h"
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_json.h"
 
 #include <CLI/CLI.hpp>
 
@@ -16,11 +19,17 @@ void save(blobtree::Node root, const std::string& name, const std::string& out) 
   blobtree::Scene scene;
   scene.root = std::move(root);
   scene.name = name;
-  blobtree::saveSceneJson(scene, out);
+  writeOutput(out, blobtree::writeSceneJson(scene));
   const blobtree::TreeStats s = blobtree::treeStats(scene.root);
-  std::printf("wrote %s: %zu primitives, %zu operators, depth %zu\n", out.c_str(), s.primitives,
-              s.operators, s.depth);
+  char summary[256];
+  std::snprintf(summary, sizeof summary, "wrote %s: %zu primitives, %zu operators, depth %zu", out == "-" ? "standard output" : out.c_str(), s.primitives,
+                s.operators, s.depth);
+  if (out == "-") Progress::note("generate", summary);  // stdout holds the scene
+  else std::printf("%s\n", summary);
 }
+
+// "-o -" streams the scene; a file must be .json, in a writable folder (checked first).
+void checkOutput(const std::string& out) { checkOutputFile(out, {".json"}, true, "a scene"); }
 
 }  // namespace
 
@@ -40,8 +49,9 @@ void addGenerateCommand(CLI::App& app) {
   t->add_option("--radius", tower->radius, "Radius of the pillar circle")->check(CLI::Range(0.01, 1e4));
   t->add_option("--height", tower->height, "Pillar height")->check(CLI::Range(0.01, 1e4));
   t->add_option("--grid", tower->grid, "Towers per side of the I x I grid")->check(CLI::Range(1, 100));
-  t->add_option("-o,--output", tower->out, "Output .json")->required();
+  t->add_option("-o,--output", tower->out, "Output .json (- for standard output)")->required();
   t->callback([tower] {
+    checkOutput(tower->out);
     save(blobtree::generateTower(tower->levels, tower->pillars, tower->radius, tower->height,
                                  tower->grid),
          "tower", tower->out);
@@ -49,8 +59,11 @@ void addGenerateCommand(CLI::App& app) {
 
   auto eggOut = std::make_shared<std::string>();
   auto* e = cmd->add_subcommand("eggshell", "Difference of two scaled points (the FEM test model)");
-  e->add_option("-o,--output", *eggOut, "Output .json")->required();
-  e->callback([eggOut] { save(blobtree::generateEggshell(), "eggshell", *eggOut); });
+  e->add_option("-o,--output", *eggOut, "Output .json (- for standard output)")->required();
+  e->callback([eggOut] {
+    checkOutput(*eggOut);
+    save(blobtree::generateEggshell(), "eggshell", *eggOut);
+  });
 
   struct Random {
     int count = 128;
@@ -61,8 +74,9 @@ void addGenerateCommand(CLI::App& app) {
   auto* r = cmd->add_subcommand("random", "Blend of N random points (deterministic per seed)");
   r->add_option("--count", random->count, "Number of points")->check(CLI::Range(1, 1000000));
   r->add_option("--seed", random->seed, "Random seed");
-  r->add_option("-o,--output", random->out, "Output .json")->required();
+  r->add_option("-o,--output", random->out, "Output .json (- for standard output)")->required();
   r->callback([random] {
+    checkOutput(random->out);
     save(blobtree::generateRandomBlobs(random->count, random->seed), "random", random->out);
   });
 }

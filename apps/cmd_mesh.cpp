@@ -1,14 +1,21 @@
-// `blobvk mesh SCENE -o out.ply`: polygonize a scene and write the mesh.
+// `blobvk mesh SCENE -o out.ply`: polygonize a scene and write the mesh ("-o -" streams a binary
+// PLY, or --format's, to standard output). The output is checked before any work.
 #include "backends.h"
+#include "cli_conventions.h"
 #include "commands.h"
+#include "json_report.h"
 #include "model.h"
+#include "progress.h"
+#include "resolution_limit.h"
 #include "resource_limits.h"
 
-#include "mesh/checks.h"
-#include "mesh/io.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/io.h"
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
+#include <cctype>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -17,24 +24,26 @@ namespace blobvk::app {
 
 void addMeshCommand(CLI::App& app) {
   struct Args {
-    std::string scene, out;
+    std::string scene, out, format;
     std::optional<float> cellSize;
     std::optional<int> resolution;
     PolygonizeSettings settings;
-    bool ascii = false, quiet = false;
+    bool ascii = false, json = false;
     std::string maxMemory;
     Limits limits;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("mesh", "Polygonize a scene into a mesh (.ply, .obj, .stl)");
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
-  cmd->add_option("-o,--output", a->out, "Output mesh (.ply, .obj, .stl)")->required();
+  cmd->add_option("-o,--output", a->out, "Output mesh (.ply, .obj, .stl; - for standard output)")->required();
+  cmd->add_option("--format", a->format, "Format for -o - (ply, obj, stl; default ply)")
+      ->check(CLI::IsMember(std::vector<std::string>{"ply", "obj", "stl"}));
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")
                  ->check(CLI::PositiveNumber);
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model")
-      ->check(CLI::Range(1, 65536))
+      ->check(resolutionRange())
       ->excludes(cs);
-  cmd->add_option("--backend", a->settings.backend, "cpu (default), reference or vk");
+  cmd->add_option("--backend", a->settings.backend, "cpu (default), reference or vk")->check(CLI::IsMember(allBackendNames()));
   cmd->add_option("--threads", a->settings.threads, "CPU threads (0 = all cores)")
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--mpu", a->settings.mpuSize, "Cells per MPU side (cpu backend; 0 = default)")
@@ -53,26 +62,60 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_option("--max-memory", a->maxMemory, "Refuse jobs needing more (e.g. 2G; default: available)");
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
   cmd->add_flag("--ascii", a->ascii, "Write ASCII PLY instead of binary");
-  cmd->add_flag("-q,--quiet", a->quiet, "Print nothing on success");
+  cmd->add_flag("--json", a->json, "Print the summary as JSON (with the blobvk version and, for vk, the device)");
   cmd->callback([a] {
+    // Everything about the output is checked before the (possibly long) polygonization.
+    const bool toStdout = checkOutputFile(a->out, {".ply", ".obj", ".stl"}, true, "a mesh");
+    if (toStdout && a->json) throw UsageError("--json and -o - both want standard output; write the mesh to a file");
+    if (!a->format.empty() && !toStdout) throw UsageError("--format is for -o - (a file's format is its extension)");
+    std::string format = toStdout ? (a->format.empty() ? "ply" : a->format) : a->out.substr(a->out.rfind('.') + 1);
+    for (char& c : format) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (a->ascii && format != "ply") throw UsageError("--ascii is for PLY output");
+    if (!a->maxMemory.empty()) a->limits.maxMemoryBytes = parseByteSize(a->maxMemory);
+
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
-    if (!a->maxMemory.empty()) a->limits.maxMemoryBytes = parseByteSize(a->maxMemory);
-    checkMemory(estimatePolygonizeBytes(grid, a->settings.backend), a->limits,
-                "a " + std::to_string(grid.cells.x) + " x " + std::to_string(grid.cells.y) + " x " +
-                    std::to_string(grid.cells.z) + " grid");
+    const std::string gridText =
+        std::to_string(grid.cells.x) + " x " + std::to_string(grid.cells.y) + " x " + std::to_string(grid.cells.z);
+    checkMemory(estimatePolygonizeBytes(grid, a->settings.backend), a->limits, "a " + gridText + " grid");
+
+    // The cpu backend reports per group of MPUs; the others have no count: one line per phase.
+    std::optional<Progress> progress;
+    if (a->settings.backend == "cpu") {
+      progress.emplace("mesh", 0);
+      a->settings.progress = [&progress](std::size_t done, std::size_t total) { progress->update(long(done), long(total)); };
+    } else {
+      Progress::note("mesh", "polygonizing a " + gridText + " grid on the " + a->settings.backend + " backend");
+    }
     PolygonizeStats stats;
     const mesh::TriMesh mesh = polygonize(model.program, grid, a->settings, &stats);
+    a->settings.progress = nullptr;  // it refers to `progress`, which ends here
+    progress.reset();
     checkTriangles(mesh.triangleCount(), a->limits);
-    if (a->ascii) mesh::writePly(mesh, a->out, false);
-    else mesh::writeMesh(mesh, a->out);
-    if (!a->quiet) {
-      const mesh::MeshReport report = mesh::checkMesh(mesh);
-      std::printf("%s: %d x %d x %d cells of %.4g, backend %s, %.3f s\n", a->out.c_str(),
-                  grid.cells.x, grid.cells.y, grid.cells.z, grid.cellSize,
-                  a->settings.backend.c_str(), stats.seconds);
-      std::printf("%s\n", report.summary().c_str());
+    const std::string bytes = a->ascii ? mesh::encodePly(mesh, false) : mesh::encodeMesh(mesh, format);
+    writeOutput(a->out, bytes);
+    if (toStdout || (quiet() && !a->json)) return;
+    const mesh::MeshReport report = mesh::checkMesh(mesh);
+    if (a->json) {
+      nlohmann::json out = versionJson();
+      out["output"] = a->out;
+      out["scene"] = a->scene;
+      out["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cell_size", grid.cellSize},
+                     {"origin", {grid.origin.x, grid.origin.y, grid.origin.z}}};
+      out["backend"] = a->settings.backend;
+      if (a->settings.backend == "vk") out["device"] = backendDeviceJson(a->settings);
+      out["seconds"] = stats.seconds;
+      out["point_evaluations"] = stats.pointEvaluations;
+      out["vertices"] = mesh.vertexCount();
+      out["triangles"] = mesh.triangleCount();
+      out["bytes"] = bytes.size();
+      out["check"] = {{"watertight", report.watertight()}, {"volume", report.volume}, {"summary", report.summary()}};
+      std::printf("%s\n", out.dump(2).c_str());
+      return;
     }
+    std::printf("%s: %s cells of %.4g, backend %s, %.3f s\n", a->out.c_str(), gridText.c_str(), grid.cellSize,
+                a->settings.backend.c_str(), stats.seconds);
+    std::printf("%s\n", report.summary().c_str());
   });
 }
 

@@ -4,18 +4,20 @@
 #include "render_command.h"
 
 #include "backends.h"
+#include "cli_conventions.h"
 #include "commands.h"
 #include "model.h"
 #include "progress.h"
+#include "resolution_limit.h"
 
 #include <CLI/CLI.hpp>
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "vk/png_io.h"
-#include "vk/raycast.h"
-#include "vk/render_gpu_mesh.h"
-#include "vk/render_mesh.h"
-#include "vk/standalone.h"
+#include "blobvk/vk/png_io.h"
+#include "blobvk/vk/raycast.h"
+#include "blobvk/vk/render_gpu_mesh.h"
+#include "blobvk/vk/render_mesh.h"
+#include "blobvk/vk/standalone.h"
 #endif
 
 #include <chrono>
@@ -53,7 +55,7 @@ namespace {
 }
 
 // out.png -> out_007.png for turntable frames.
-[[maybe_unused]] std::string framePath(const std::string& out, int frame, int frames) {
+std::string framePath(const std::string& out, int frame, int frames) {
   if (frames <= 1) return out;
   const auto dot = out.find_last_of('.');
   const std::string stem = dot == std::string::npos ? out : out.substr(0, dot);
@@ -73,12 +75,12 @@ void addRenderCommand(CLI::App& app) {
     PolygonizeSettings settings;
     int turntable = 1;
     int samples = 4;
-    bool wireframe = false, quiet = false;
+    bool wireframe = false;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("render", "Render a scene to PNG (raster of its mesh, or ray-cast field)");
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob)")->required();
-  cmd->add_option("-o,--output", a->out, "Output PNG (turntable: out_000.png, out_001.png, ...)")->required();
+  cmd->add_option("-o,--output", a->out, "Output .png (- for standard output; turntable: out_000.png, out_001.png, ...)")->required();
   cmd->add_option("--size", a->size, "Image size WxH (default 512x512)");
   auto* cam = cmd->add_option("--camera", a->camera, "Orbit: azimuth,elevation[,distance] in degrees / world units");
   auto* eye = cmd->add_option("--eye", a->eye, "Camera position x,y,z")->excludes(cam);
@@ -89,28 +91,37 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--backend", a->settings.backend, "Polygonizer for mesh mode: cpu (default), reference, vk");
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (mesh mode)")->check(CLI::PositiveNumber);
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side (mesh mode)")
-      ->check(CLI::Range(1, 4096))
+      ->check(resolutionRange())
       ->excludes(cs);
   cmd->add_option("--turntable", a->turntable, "Frames around the vertical axis (default 1)")
       ->check(CLI::Range(1, 3600));
   cmd->add_option("--samples", a->samples, "MSAA samples for mesh mode (1, 2, 4, 8; default 4)")
       ->check(CLI::IsMember({1, 2, 4, 8}));
-  cmd->add_flag("--wireframe", a->wireframe, "Overlay the mesh edges (mesh mode, cpu/reference backends)");
+  cmd->add_flag("--wireframe", a->wireframe,
+                "Overlay the mesh edges (mesh mode; with --backend vk the mesh is read back to build the edge list)");
   cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
-  cmd->add_flag("-q,--quiet", a->quiet, "Print nothing on success");
   (void)eye;
   cmd->callback([a] {
-#ifndef BLOBVK_HAVE_VULKAN
-    throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF): no renderer");
-#else
+    // The command line is checked first, whatever this build can do: a usage error is one.
     unsigned width = 0, height = 0;
     char x = 0;
     std::stringstream ss(a->size);
-    if (!(ss >> width >> x >> height) || x != 'x' || width < 1 || height < 1 || width > 16384 || height > 16384 ||
-        !ss.eof()) {
-      throw CLI::ValidationError("--size", "'" + a->size + "' is not WxH with 1 <= W, H <= 16384");
+    if (!(ss >> width >> x >> height) || x != 'x' || width < 1 || height < 1 || width > unsigned(kMaxImageSide) ||
+        height > unsigned(kMaxImageSide) || !ss.eof()) {
+      throw UsageError("--size: '" + a->size + "' is not WxH with 1 <= W, H <= " + std::to_string(kMaxImageSide));
     }
+    if (a->mode != "mesh" && a->wireframe) throw UsageError("--wireframe draws mesh edges: it needs --mode mesh");
+    // The format and the place are checked before any work: PNG only (PNG streams, so "-" works
+    // for a single frame).
+    const bool toStdout = checkOutputFile(a->out, {".png"}, a->turntable == 1, "an image (blobvk writes PNG)");
+    if (a->turntable > 1) {
+      for (int frame : {0, a->turntable - 1}) checkOutputFile(framePath(a->out, frame, a->turntable), {".png"}, false, "an image");
+    }
+#ifndef BLOBVK_HAVE_VULKAN
+    (void)toStdout;
+    throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF): no renderer");
+#else
     const Model model = loadModel(a->scene);
     vk::CameraRequest request;
     if (!a->camera.empty()) {
@@ -150,13 +161,17 @@ void addRenderCommand(CLI::App& app) {
       style.wireframe = a->wireframe;
       style.samples = std::uint32_t(a->samples);
       const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
-      if (a->settings.backend == "vk") {
+      // The wireframe's edge list is built from the mesh on the host, so with --wireframe the vk
+      // backend's mesh is read back (the generic path below) instead of drawn in place.
+      if (a->settings.backend == "vk" && !a->wireframe) {
+        Progress::note("render", "polygonizing on the vk backend");
         gpuMesh = vk::polygonizeForDrawing(device, model.program, grid);
         view = gpuMesh.view();
         what = "mesh, vk backend (drawn from the GPU, " +
                std::string(gpuMesh.fromReadback ? "multi-slab grid: read back)" : "no read-back)");
       } else {
         PolygonizeStats stats;
+        Progress::note("render", "polygonizing on the " + a->settings.backend + " backend");
         const mesh::TriMesh mesh = polygonize(model.program, grid, a->settings, &stats);
         uploaded = vk::uploadMesh(device, mesh, style);
         view = uploaded.view();
@@ -190,9 +205,10 @@ void addRenderCommand(CLI::App& app) {
         exhaustedRays += stats.exhaustedRays;
       }
       const auto tp = std::chrono::steady_clock::now();
-      vk::writePng(framePath(a->out, frame, a->turntable), image);
+      // libpng writes through stdio; /dev/stdout streams a single frame to a pipe or a file.
+      vk::writePng(toStdout ? std::string("/dev/stdout") : framePath(a->out, frame, a->turntable), image);
       pngSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count();
-      if (a->turntable > 1) progress.update(frame + 1);
+      progress.update(frame + 1);
     }
     if (exhaustedRays > 0) {
       // Not an error (the image is written), but never silent: those pixels may hide a surface.
@@ -203,7 +219,7 @@ void addRenderCommand(CLI::App& app) {
     if (ctx.validationMessages() > 0) {
       throw std::runtime_error(std::to_string(ctx.validationMessages()) + " Vulkan validation message(s)");
     }
-    if (!a->quiet) {
+    if (!quiet() && !toStdout) {
       std::printf("%s: %ux%u, %s on %s\n", framePath(a->out, 0, a->turntable).c_str(), width, height,
                   what.c_str(), device.info().name.c_str());
       std::printf("prepare %.3f s, render %.3f s (%d frame%s, PNG encoding excluded), PNG %.3f s\n",

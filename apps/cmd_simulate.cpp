@@ -1,12 +1,14 @@
 // `blobvk simulate SCENE --steps N -o frames/`: the scene as a soft body pressed by its tools;
 // one PLY of the render surface per frame.
+#include "cli_conventions.h"
 #include "commands.h"
+#include "resolution_limit.h"
 #include "frame_writer.h"
 #include "model.h"
 #include "progress.h"
 #include "soft_body.h"
 
-#include "mesh/io.h"
+#include "blobvk/mesh/io.h"
 
 #include <CLI/CLI.hpp>
 
@@ -32,20 +34,22 @@ void addSimulateCommand(CLI::App& app) {
   cmd->add_option("-o,--output", a->out, "Folder for frame_NNNNN.ply")->required();
   cmd->add_option("--steps", a->steps, "Time steps (default: the scene's, else 100)")->check(CLI::Range(1, 10000000));
   cmd->add_option("--frame-every", a->frameEvery, "Write a frame every K steps")->check(CLI::Range(1, 1000000));
-  cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(CLI::Range(4, 4096));
+  cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(resolutionRange(4));
   cmd->add_option("--cell-size", a->cellSize, "Polygonization cell size")->check(CLI::PositiveNumber);
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
   cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)");
-  cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, 4096));
+  cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, kMaxImageSide));
   cmd->callback([a] {
+    prepareOutputFolder(a->out);  // before the (long) tetrahedralization
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution ? a->resolution : std::optional<int>(48));
+    Progress::note("simulate", "polygonizing and tetrahedralizing " + a->scene);
     SoftBody body = buildSoftBody(model, grid, a->threads);
     fem::Simulation& sim = *body.simulation;
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 100);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
     FrameWriter frames(a->out, !a->noPng, a->imageSize, model.program.bounds, model.scene.camera);
-    std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.4f s, tets %.2f s\n",
+    if (!quiet()) std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.4f s, tets %.2f s\n",
                  a->scene.c_str(), body.surface.triangleCount(), sim.mesh().tetCount(), sim.mesh().nodeCount(),
                  body.config.mesher.c_str(), body.meshSeconds, body.tetSeconds);
     Progress progress("simulate", steps);

@@ -8,11 +8,11 @@
 #include <nlohmann/json.hpp>
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "vk/png_io.h"
-#include "vk/raycast.h"
-#include "vk/render_gpu_mesh.h"
-#include "vk/render_mesh.h"
-#include "vk/standalone.h"
+#include "blobvk/vk/png_io.h"
+#include "blobvk/vk/raycast.h"
+#include "blobvk/vk/render_gpu_mesh.h"
+#include "blobvk/vk/render_mesh.h"
+#include "blobvk/vk/standalone.h"
 #endif
 
 #include <cmath>

@@ -2,7 +2,7 @@
 // reports per-pixel differences. Implemented with the renderer (vk/render*).
 #pragma once
 
-#include "blobtree/grid.h"
+#include "blobvk/blobtree/grid.h"
 #include "model.h"
 
 #include <nlohmann/json_fwd.hpp>

@@ -2,7 +2,7 @@
 
 #include "cut_to_topology_change.h"
 
-#include "cutting/parts.h"
+#include "blobvk/cutting/parts.h"
 
 #include <algorithm>
 #include <chrono>

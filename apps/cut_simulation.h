@@ -7,9 +7,9 @@
 #include "rigid_lift.h"
 #include "simulation_config.h"
 
-#include "cutting/blade.h"
-#include "cutting/cutter.h"
-#include "fem/simulation.h"
+#include "blobvk/cutting/blade.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/fem/simulation.h"
 
 #include <array>
 #include <memory>

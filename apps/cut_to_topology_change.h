@@ -2,8 +2,8 @@
 // topology) -> fem::TopologyChange (what Simulation::applyTopologyChange takes).
 #pragma once
 
-#include "cutting/cutter.h"
-#include "fem/simulation.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/fem/simulation.h"
 
 #include <cstddef>
 

@@ -1,7 +1,7 @@
 #include "frame_writer.h"
 
-#include "blobtree/evaluate.h"
-#include "mesh/io.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/mesh/io.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -9,10 +9,10 @@
 #include <filesystem>
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "vk/png_io.h"
-#include "vk/render_camera.h"
-#include "vk/render_mesh.h"
-#include "vk/standalone.h"
+#include "blobvk/vk/png_io.h"
+#include "blobvk/vk/render_camera.h"
+#include "blobvk/vk/render_mesh.h"
+#include "blobvk/vk/standalone.h"
 #endif
 
 namespace blobvk::app {

@@ -2,10 +2,10 @@
 // is available, frame_NNNNN.png rendered headless with a camera fixed from the first frame.
 #pragma once
 
-#include "blobtree/program.h"
-#include "blobtree/tree.h"
-#include "mesh/tetmesh.h"
-#include "mesh/trimesh.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/tree.h"
+#include "blobvk/mesh/tetmesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <memory>
 #include <optional>

@@ -1,4 +1,6 @@
 // blobvk: implicit models to meshes and images. See README.md and `blobvk --help`.
+// Exit status: 0 success, 1 error, 2 usage error, 3 a failed `compare` (cli_conventions.h).
+#include "cli_conventions.h"
 #include "commands.h"
 #include "render_command.h"
 
@@ -13,30 +15,47 @@ int main(int argc, char** argv) {
   // where the user has not chosen: llvmpipe picks 512-bit vectors on AVX-512 CPUs, and 256-bit
   // ones measured faster for every kernel (docs/vulkan.md). Other drivers ignore it.
   setenv("LP_NATIVE_VECTOR_WIDTH", "256", 0);
+  using namespace blobvk::app;
   CLI::App app{"blobvk: BlobTree implicit models to meshes, images and soft bodies"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "blobvk 0.1.0");
-  blobvk::app::addGenerateCommand(app);
-  blobvk::app::addMeshCommand(app);
-  blobvk::app::addInfoCommand(app);
-  blobvk::app::addConvertCommand(app);
-  blobvk::app::addBenchCommand(app);
-  blobvk::app::addSimulateCommand(app);
-  blobvk::app::addCutCommand(app);
-  blobvk::app::addDevicesCommand(app);
-  blobvk::app::addCompareCommand(app);
-  blobvk::app::addRenderCommand(app);
+  app.set_version_flag("--version", versionString());
+  // Global flags may also follow the subcommand (`blobvk mesh ... -q`): subcommands created
+  // below inherit fallthrough and hand options they do not know to this parent.
+  app.fallthrough();
+  bool quietFlag = false;
+  app.add_flag("-q,--quiet", quietFlag, "No progress or informational lines on stderr (mesh, render: no summary)");
+  app.parse_complete_callback([&quietFlag] { setQuiet(quietFlag); });
+  // Usage errors are one line and exit 2 whatever CLI11's own code for them.
+  app.failure_message([](const CLI::App* failed, const CLI::Error& e) {
+    std::string command;  // "generate tower " for a nested subcommand, "" for the tool itself
+    for (const CLI::App* a = failed; a && a->get_parent(); a = a->get_parent()) command = a->get_name() + " " + command;
+    return "blobvk: usage error: " + printable(e.what()) + " (see blobvk " + command + "--help)\n";
+  });
+  addGenerateCommand(app);
+  addMeshCommand(app);
+  addInfoCommand(app);
+  addConvertCommand(app);
+  addBenchCommand(app);
+  addSimulateCommand(app);
+  addCutCommand(app);
+  addDevicesCommand(app);
+  addCompareCommand(app);
+  addRenderCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  } catch (const blobvk::app::ComparisonFailed& e) {
-    std::fprintf(stderr, "blobvk: comparison failed: %s\n", e.message.c_str());
-    return 3;
+    const int code = app.exit(e);
+    return code == 0 ? 0 : kExitUsage;
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "blobvk: usage error: %s\n", printable(e.what()).c_str());
+    return kExitUsage;
+  } catch (const ComparisonFailed& e) {
+    std::fprintf(stderr, "blobvk: comparison failed: %s\n", printable(e.message).c_str());
+    return kExitComparisonFailed;
   } catch (const std::exception& e) {
     // One clear line; the library's messages already name the file and the place.
-    std::fprintf(stderr, "blobvk: error: %s\n", e.what());
-    return 1;
+    std::fprintf(stderr, "blobvk: error: %s\n", printable(e.what()).c_str());
+    return kExitError;
   }
   return 0;
 }

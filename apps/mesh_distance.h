@@ -2,7 +2,7 @@
 // nearest-vertex query O(1) on meshes whose vertices lie on the same grid's edges).
 #pragma once
 
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 namespace blobvk::app {
 

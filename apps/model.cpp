@@ -1,6 +1,6 @@
 #include "model.h"
 
-#include "blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_io.h"
 
 #include <stdexcept>
 

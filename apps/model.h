@@ -1,9 +1,9 @@
 // Loading a scene file and compiling it, with errors that name the file.
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <optional>
 #include <string>

@@ -1,36 +1,37 @@
-// A progress line on stderr for long jobs: redrawn in place on a terminal, a line every 10 %
-// otherwise (logs stay readable).
+// Progress of long jobs on stderr: a bar redrawn in place when stderr is a terminal, a line at
+// every 10 % otherwise (logs stay short), nothing under --quiet. update() may be called from
+// several threads at once (the MPU polygonizer reports from its TBB workers).
 #pragma once
 
-#include <cstdio>
+#include <chrono>
+#include <mutex>
 #include <string>
-#include <unistd.h>
 
 namespace blobvk::app {
 
 class Progress {
  public:
-  Progress(std::string what, long total) : what_(std::move(what)), total_(total), tty_(isatty(2)) {}
+  Progress(std::string what, long total);
+  ~Progress();  // ends a terminal bar's line
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
 
-  void update(long done, const std::string& note = {}) {
-    const int percent = total_ > 0 ? int(100 * done / total_) : 100;
-    if (tty_) {
-      const int filled = percent / 5;
-      std::fprintf(stderr, "\r%s [%-20s] %ld/%ld %s", what_.c_str(), std::string(std::size_t(filled), '#').c_str(),
-                   done, total_, note.c_str());
-      if (done >= total_) std::fprintf(stderr, "\n");
-      std::fflush(stderr);
-    } else if (percent / 10 != last_ / 10 || done >= total_) {
-      std::fprintf(stderr, "%s %d%% (%ld/%ld) %s\n", what_.c_str(), percent, done, total_, note.c_str());
-    }
-    last_ = percent;
-  }
+  void update(long done, const std::string& note = {});
+  // The same, when the total is only known once the work runs (the MPU count).
+  void update(long done, long total);
+
+  // One informational line "WHAT: TEXT" on stderr (a phase without a count), unless quiet.
+  static void note(const std::string& what, const std::string& text);
 
  private:
+  std::mutex mutex_;
   std::string what_;
   long total_;
-  bool tty_;
-  int last_ = -1;
+  bool tty_, quiet_;
+  int lastPercent_ = -1;
+  bool barOpen_ = false;
+  std::chrono::steady_clock::time_point lastDraw_{};
+  void draw(long done, const std::string& note);  // mutex_ held
 };
 
 }  // namespace blobvk::app

@@ -2,7 +2,7 @@
 // (or the user's --max-memory) allows, instead of swapping or being killed halfway.
 #pragma once
 
-#include "blobtree/grid.h"
+#include "blobvk/blobtree/grid.h"
 
 #include <cstdint>
 #include <string>

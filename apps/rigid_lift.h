@@ -4,8 +4,8 @@
 
 #include "simulation_config.h"
 
-#include "fem/simulation.h"
-#include "fem/tool.h"
+#include "blobvk/fem/simulation.h"
+#include "blobvk/fem/tool.h"
 
 #include <cstdint>
 #include <string>

@@ -1,7 +1,7 @@
 #include "simulation_config.h"
 
-#include "blobtree/scene_error.h"
-#include "blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_json.h"
 
 #include <nlohmann/json.hpp>
 

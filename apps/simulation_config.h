@@ -2,9 +2,9 @@
 // settings, with errors naming the scene file and the JSON pointer.
 #pragma once
 
-#include "blobtree/program.h"
-#include "fem/simulation.h"
-#include "fem/tetgen_mesher.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/fem/simulation.h"
+#include "blobvk/fem/tetgen_mesher.h"
 
 #include <array>
 #include <optional>

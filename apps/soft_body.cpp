@@ -1,13 +1,13 @@
 #include "soft_body.h"
 
 #include "backends.h"
-#include "blobtree/evaluate.h"
-#include "cpu_simd/simd_evaluator.h"
-#include "fem/surface_embedding.h"
-#include "fem/tet_utils.h"
-#include "fem/tetgen_mesher.h"
-#include "fem/voxel_mesher.h"
-#include "mesh/surface_remesh.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
+#include "blobvk/fem/surface_embedding.h"
+#include "blobvk/fem/tet_utils.h"
+#include "blobvk/fem/tetgen_mesher.h"
+#include "blobvk/fem/voxel_mesher.h"
+#include "blobvk/mesh/surface_remesh.h"
 
 #include <chrono>
 #include <iostream>

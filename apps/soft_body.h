@@ -2,11 +2,11 @@
 // materials, fix nodes, embed the render surface. Shared by `simulate` and `cut`.
 #pragma once
 
-#include "fem/simulation.h"
+#include "blobvk/fem/simulation.h"
 #include "model.h"
 #include "simulation_config.h"
 
-#include "fem/surface_embedding.h"
+#include "blobvk/fem/surface_embedding.h"
 
 #include <memory>
 #include <optional>

@@ -9,13 +9,13 @@
 // program at 64 cells). A specialised build the model predicts above 60 s is not run (skipped,
 // with the prediction).
 //   LP_NUM_THREADS=2 MESA_SHADER_CACHE_DISABLE=true bench_compile_cost --benchmark_counters_tabular=true
-#include "blobtree/generators.h"
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "vk/evaluator_choice.h"
-#include "vk/polygonize.h"
-#include "vk/program_codegen.h"
-#include "vk/standalone.h"
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/evaluator_choice.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/program_codegen.h"
+#include "blobvk/vk/standalone.h"
 
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>

@@ -12,8 +12,8 @@
 #include "apps/cut_to_topology_change.h"
 #include "bench/cut_block.h"
 #include "bench/cut_settings.h"
-#include "cutting/cutter.h"
-#include "fem/simulation.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/fem/simulation.h"
 
 #include <benchmark/benchmark.h>
 

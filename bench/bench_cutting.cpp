@@ -8,9 +8,9 @@
 // (CutResult::phaseSeconds, us), and the minimum dihedral angle of the tets an event removes
 // (before) and of those it adds (after), at rest; the dihedral scan runs with the timer paused.
 // Arg 26: 105k tets; Arg 41: 414k tets (4x): the per-event cost must not grow with the mesh.
-#include "cutting/cutter.h"
-#include "cutting/quality.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/quality.h"
+#include "blobvk/cutting/vec.h"
 #include "bench/cut_block.h"
 
 #include <benchmark/benchmark.h>

@@ -5,8 +5,8 @@
 //   is what the polygonizer's field cache evaluates (coherent points; the full Program, without
 //   the polygonizer's per-MPU pruning or discard).
 //   bench_evaluator --benchmark_filter=scene
-#include "blobtree/evaluate.h"
-#include "cpu_simd/simd_evaluator.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
 #include "tests/cpu_simd/models.h"
 
 #include <benchmark/benchmark.h>

@@ -3,8 +3,8 @@
 // breakdown as counters (ms per step): rotations, assembly (forces + warped stiffness refill),
 // contact, solve (CG + update).
 #include "bench/cut_settings.h"
-#include "fem/simulation.h"
-#include "fem/voxel_mesher.h"
+#include "blobvk/fem/simulation.h"
+#include "blobvk/fem/voxel_mesher.h"
 #include "tests/fem/cut_changes.h"  // the same cut-like change builder the topology tests use
 
 #include <benchmark/benchmark.h>

@@ -5,7 +5,7 @@
 //   bench_polygonizer --benchmark_filter='/256/2/'      # the 256^3, 2-core target
 //   bench_polygonizer --benchmark_filter='mpu_sweep'     # time against MPU size
 //   bench_polygonizer --benchmark_filter='subblock_sweep' # sparse field cache block size
-#include "cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "tests/cpu_simd/models.h"
 
 #include <benchmark/benchmark.h>

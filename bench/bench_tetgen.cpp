@@ -14,14 +14,14 @@
 //   bench_tetgen                                   # all (the raw MC scene rows take ~1 min)
 //   bench_tetgen --benchmark_filter='icosphere'
 //   bench_tetgen --benchmark_filter='-sceneTetgen/[a-z_]+/[0-9]+/0/'   # all but the raw MC rows
-#include "blobtree/evaluate.h"
-#include "blobtree/grid.h"
-#include "blobtree/scene_io.h"
-#include "cpu_simd/mpu_polygonizer.h"
-#include "cpu_simd/simd_evaluator.h"
-#include "fem/tetgen_mesher.h"
-#include "mesh/checks.h"
-#include "mesh/surface_remesh.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
+#include "blobvk/fem/tetgen_mesher.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/surface_remesh.h"
 #include "tests/cpu_simd/models.h"
 #include "tests/fem/icosphere.h"
 

@@ -11,17 +11,17 @@
 //   LP_NUM_THREADS=2 bench_vk --benchmark_filter='polygonize/.*/128'
 //   LP_NUM_THREADS=2 bench_vk --benchmark_filter='field/specialised|cpu_avx'  # the ratio
 // Run from the repository root (scenes/ is read relative to it) or set BLOBVK_SCENES.
-#include "blobtree/evaluate.h"
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "blobtree/scene_io.h"
-#include "cpu_simd/simd_evaluator.h"
-#include "vk/field.h"
-#include "vk/polygonize.h"
-#include "vk/program_codegen.h"
-#include "vk/runtime_compiler.h"
-#include "vk/scan.h"
-#include "vk/standalone.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/program_codegen.h"
+#include "blobvk/vk/runtime_compiler.h"
+#include "blobvk/vk/scan.h"
+#include "blobvk/vk/standalone.h"
 
 #include <benchmark/benchmark.h>
 #include <tbb/parallel_for.h>

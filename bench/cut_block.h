@@ -5,8 +5,8 @@
 // disjoint slices of a block at least 26 cells high.
 #pragma once
 
-#include "cutting/cutter.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/vec.h"
 
 #include <array>
 #include <utility>

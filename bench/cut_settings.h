@@ -3,7 +3,7 @@
 // the room for cuts `blobvk cut` reserves.
 #pragma once
 
-#include "fem/simulation.h"
+#include "blobvk/fem/simulation.h"
 
 namespace blobvk::bench {
 

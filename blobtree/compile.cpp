@@ -11,9 +11,9 @@
 //     needs max(need(c0), 1 + max need(c_i>0)) registers: 2 for a caterpillar tree, about
 //     log2 N for a balanced one. A subtree with a finite box starts with OP_SKIP, which jumps
 //     past it and writes 0 when the point is outside (the escape link of stackless BVH walks).
-#include "blobtree/program.h"
-#include "blobtree/scene_limits.h"
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_limits.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>

@@ -1,6 +1,6 @@
 // Scalar reference evaluator. The GLSL evaluator (shaders/eval_program.glsl) mirrors this file
 // operation for operation; keep them in step.
-#include "blobtree/evaluate.h"
+#include "blobvk/blobtree/evaluate.h"
 
 #include <glm/geometric.hpp>
 

@@ -3,7 +3,7 @@
 // checked against it.
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <glm/vec3.hpp>
 

@@ -1,4 +1,4 @@
-#include "blobtree/generators.h"
+#include "blobvk/blobtree/generators.h"
 
 #include <cmath>
 #include <numbers>

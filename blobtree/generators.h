@@ -2,7 +2,7 @@
 // All are deterministic: the same arguments give the same tree on every platform.
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <cstdint>
 

@@ -1,6 +1,6 @@
-#include "blobtree/grid.h"
+#include "blobvk/blobtree/grid.h"
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <glm/common.hpp>
 

@@ -2,7 +2,7 @@
 // 0 <= i <= cells.x etc. Global edge keys (point index * 3 + axis) order mesh vertices.
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <glm/vec3.hpp>
 

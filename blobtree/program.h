@@ -3,7 +3,7 @@
 // and every evaluator (scalar reference, AVX, GLSL); see shaders/program_layout.h for the bytes.
 #pragma once
 
-#include "shaders/program_layout.h"
+#include "blobvk/shaders/program_layout.h"
 
 #include <glm/vec3.hpp>
 

@@ -1,11 +1,11 @@
 // Reader of the thesis' legacy INI-style BlobTree files (ReadSceneModel.cpp's format, thesis
 // §8). Unknown keys are ignored (the editor wrote many we do not need: materials, layer counts),
 // but every key we use is checked, and every failure names its line.
-#include "blobtree/scene_blob.h"
-#include "blobtree/scene_error.h"
-#include "blobtree/scene_instance.h"
-#include "blobtree/scene_limits.h"
-#include "blobtree/scene_text.h"
+#include "blobvk/blobtree/scene_blob.h"
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_instance.h"
+#include "blobvk/blobtree/scene_limits.h"
+#include "blobvk/blobtree/scene_text.h"
 
 #include <glm/geometric.hpp>
 

@@ -2,7 +2,7 @@
 // the older SkeletonType= files). See docs/scene-format.md, "Legacy .blob files".
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <string>
 #include <string_view>

@@ -1,4 +1,4 @@
-#include "blobtree/scene_instance.h"
+#include "blobvk/blobtree/scene_instance.h"
 
 #include <algorithm>
 

@@ -2,7 +2,7 @@
 // with its own transform. Internal to the scene readers (not part of the public API).
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <cstddef>
 #include <string>

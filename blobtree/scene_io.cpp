@@ -1,11 +1,13 @@
-#include "blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_io.h"
 
-#include "blobtree/scene_blob.h"
-#include "blobtree/scene_error.h"
-#include "blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_blob.h"
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_json.h"
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -24,10 +26,10 @@ Scene loadScene(const std::string& path) {
 void saveSceneJson(const Scene& scene, const std::string& path) {
   const std::string text = writeSceneJson(scene);
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw SceneError(path, "file", "cannot open file for writing");
+  if (!out) throw SceneError(path, "cannot write", std::strerror(errno));
   out << text;
   out.close();
-  if (!out) throw SceneError(path, "file", "write error");
+  if (!out) throw SceneError(path, "write error", std::strerror(errno));
 }
 
 }  // namespace blobvk::blobtree

@@ -1,7 +1,7 @@
 // Format-independent scene loading and saving, picked by file extension.
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <string>
 

@@ -2,7 +2,7 @@
 // grid sections. Readers validate strictly and throw SceneError naming the JSON pointer at fault.
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <string>
 #include <string_view>

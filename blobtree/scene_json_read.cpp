@@ -1,10 +1,10 @@
 // Strict reader of the JSON scene format. Every value is checked where it is read, and every
 // failure names the JSON pointer of the offending value; see docs/scene-format.md.
-#include "blobtree/scene_error.h"
-#include "blobtree/scene_instance.h"
-#include "blobtree/scene_json.h"
-#include "blobtree/scene_limits.h"
-#include "blobtree/scene_text.h"
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_instance.h"
+#include "blobvk/blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_limits.h"
+#include "blobvk/blobtree/scene_text.h"
 
 #include <nlohmann/json.hpp>
 

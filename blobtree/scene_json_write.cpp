@@ -1,7 +1,7 @@
 // Writer of the JSON scene format: explicit about every parameter, silent about defaults, and
 // laid out for people (short arrays and small objects on one line, trees indented).
-#include "blobtree/scene_instance.h"
-#include "blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_instance.h"
+#include "blobvk/blobtree/scene_json.h"
 
 #include <nlohmann/json.hpp>
 

@@ -1,13 +1,15 @@
 // Small text helpers shared by the scene readers (internal).
 #pragma once
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <string_view>
 
-#include "blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_error.h"
 
 namespace blobvk::blobtree::detail {
 
@@ -43,7 +45,7 @@ inline std::string number(double v) {
 // Whole file as bytes; SceneError when it cannot be opened or read.
 inline std::string readWholeFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw SceneError(path, "file", "cannot open file for reading");
+  if (!in) throw SceneError(path, "cannot open", std::strerror(errno));
   std::ostringstream buffer;
   buffer << in.rdbuf();
   if (in.bad()) throw SceneError(path, "file", "read error");

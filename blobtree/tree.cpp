@@ -1,4 +1,4 @@
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <algorithm>
 #include <utility>

@@ -1,6 +1,6 @@
 // See field_bounds.h. Boxes are tracked in double and padded by a relative margin wherever a
 // float computation of the reference could land outside the exact-arithmetic value.
-#include "cpu_simd/field_bounds.h"
+#include "blobvk/cpu_simd/field_bounds.h"
 
 #include <glm/common.hpp>
 

@@ -7,7 +7,7 @@
 // it never drops a primitive smaller than the box.
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <glm/vec3.hpp>
 

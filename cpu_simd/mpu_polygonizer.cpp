@@ -14,12 +14,12 @@
 //    resolved through the owner's table of ranks for the points on its low faces.
 // Placement depends only on indices, never on scheduling: the output is the same for any
 // thread count, and equal to polygonizeReference's since the fields are bit-identical.
-#include "cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/mpu_polygonizer.h"
 
-#include "cpu_simd/field_bounds.h"
-#include "cpu_simd/row_bits.h"
-#include "cpu_simd/tape_pruning.h"
-#include "mesh/marching_cubes.h"
+#include "blobvk/cpu_simd/field_bounds.h"
+#include "blobvk/cpu_simd/row_bits.h"
+#include "blobvk/cpu_simd/tape_pruning.h"
+#include "blobvk/mesh/marching_cubes.h"
 
 #include <tbb/combinable.h>
 #include <tbb/info.h>
@@ -30,6 +30,7 @@
 #include <glm/vec3.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <array>
 #include <chrono>
 #include <memory>
@@ -661,11 +662,15 @@ mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::Gr
   auto t0 = Clock::now();
   const glm::ivec3 groups = (ctx.mpus + kGroupMpus - 1) / kGroupMpus;
   const std::size_t groupCount = std::size_t(groups.x) * std::size_t(groups.y) * std::size_t(groups.z);
+  std::atomic<std::size_t> groupsDone{0};
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groupCount, 1), [&](const auto& range) {
       ThreadStats& ts = perThread.local();
       Scratch& s = scratch.local();
-      for (std::size_t g = range.begin(); g != range.end(); ++g) processGroup(ctx, int(g), s, ts);
+      for (std::size_t g = range.begin(); g != range.end(); ++g) {
+        processGroup(ctx, int(g), s, ts);
+        if (options.progress) options.progress(++groupsDone, groupCount);
+      }
     });
   });
   st.msMpus = msSince(t0);

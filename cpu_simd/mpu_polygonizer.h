@@ -5,12 +5,13 @@
 // bytes for any thread count.
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "cpu_simd/simd_evaluator.h"
-#include "mesh/trimesh.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 
 namespace blobvk::cpu {
@@ -31,6 +32,9 @@ struct MpuOptions {
   int subBlockCells = 0;
   std::optional<SimdLevel> simd;  // default: bestSimdLevel()
   float normalStep = 1e-4f;   // central-difference step, as blobtree::normal's default
+  // Called as groups of MPUs finish (done of total), from TBB worker threads, possibly at once
+  // from several: the callee synchronises. For progress display; it must not throw.
+  std::function<void(std::size_t done, std::size_t total)> progress;
 };
 
 struct MpuStats {

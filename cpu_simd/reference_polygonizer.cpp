@@ -19,10 +19,10 @@
 //
 // Memory stays at a few z-slabs: field values of three point layers and vertex ids of two, so the
 // reference can run grids far larger than a whole-grid index array would allow.
-#include "cpu_simd/reference_polygonizer.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
 
-#include "blobtree/evaluate.h"
-#include "mesh/marching_cubes.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/mesh/marching_cubes.h"
 
 #include <limits>
 #include <stdexcept>

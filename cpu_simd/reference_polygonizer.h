@@ -2,9 +2,9 @@
 // thread. Slow and plain on purpose: the MPU/AVX polygonizer and the GPU are checked against it.
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "mesh/trimesh.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/mesh/trimesh.h"
 
 namespace blobvk::cpu {
 

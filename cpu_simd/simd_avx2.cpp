@@ -1,6 +1,6 @@
 // AVX2 lanes (8 floats) for the shared evaluator kernel. Compiled with -mavx2 -mfma and
 // -ffp-contract=off: the kernel must not fuse multiply-adds the scalar reference does not fuse.
-#include "cpu_simd/simd_kernels.h"
+#include "blobvk/cpu_simd/simd_kernels.h"
 
 #include <immintrin.h>
 
@@ -52,7 +52,7 @@ inline bool all(M8 m) { return _mm256_movemask_ps(m.v) == 0xff; }
 }  // namespace
 }  // namespace blobvk::cpu::detail
 
-#include "cpu_simd/simd_kernel_impl.h"
+#include "blobvk/cpu_simd/simd_kernel_impl.h"
 
 namespace blobvk::cpu::detail {
 

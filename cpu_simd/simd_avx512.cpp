@@ -1,6 +1,6 @@
 // AVX-512 lanes (16 floats) for the shared evaluator kernel. Compiled with -mavx512f -mavx512dq
 // and -ffp-contract=off (see simd_avx2.cpp).
-#include "cpu_simd/simd_kernels.h"
+#include "blobvk/cpu_simd/simd_kernels.h"
 
 #include <immintrin.h>
 
@@ -49,7 +49,7 @@ inline bool all(M16 m) { return m.v == 0xffff; }
 }  // namespace
 }  // namespace blobvk::cpu::detail
 
-#include "cpu_simd/simd_kernel_impl.h"
+#include "blobvk/cpu_simd/simd_kernel_impl.h"
 
 namespace blobvk::cpu::detail {
 

@@ -1,10 +1,10 @@
 // Run-time dispatch of the batch evaluators (see simd_evaluator.h). The ISA kernels live in
 // simd_avx2.cpp / simd_avx512.cpp; this file is compiled for baseline x86-64 and only calls them
 // after __builtin_cpu_supports says the CPU has the instructions.
-#include "cpu_simd/simd_evaluator.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
 
-#include "blobtree/evaluate.h"
-#include "cpu_simd/simd_kernels.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/cpu_simd/simd_kernels.h"
 
 #include <cmath>
 #include <cstdlib>

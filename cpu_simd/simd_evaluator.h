@@ -5,7 +5,7 @@
 // functions per lane). This header carries no intrinsics: any translation unit may include it.
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <cstddef>
 

@@ -7,7 +7,7 @@
 // semantics, vsqrt, vabs, comparisons returning V::Mask, select(mask, a, b), any/all, mask & | ~.
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <algorithm>
 #include <bit>

@@ -3,7 +3,7 @@
 // check in simd_evaluator.cpp. Colour pointers may be null (field only).
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <cstddef>
 

@@ -1,9 +1,9 @@
 // See tape_pruning.h. One pass over the code, keeping per field register a static state
 // (unknown, non-negative, or a known constant) and the output position where the code of its
 // current value starts; a subtree's code is contiguous, so a dropped subtree is a truncation.
-#include "cpu_simd/tape_pruning.h"
+#include "blobvk/cpu_simd/tape_pruning.h"
 
-#include "cpu_simd/field_bounds.h"
+#include "blobvk/cpu_simd/field_bounds.h"
 
 #include <algorithm>
 #include <bit>

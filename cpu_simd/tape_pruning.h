@@ -16,7 +16,7 @@
 // register in its code (Sethi-Ullman code keeps a subtree's registers at or above its own).
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <glm/vec3.hpp>
 

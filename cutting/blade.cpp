@@ -1,6 +1,6 @@
-#include "cutting/blade.h"
+#include "blobvk/cutting/blade.h"
 
-#include "cutting/vec.h"
+#include "blobvk/cutting/vec.h"
 
 #include <algorithm>
 #include <stdexcept>

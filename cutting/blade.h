@@ -2,7 +2,7 @@
 // blade positions it sweeps a bilinear quad, approximated by two triangles.
 #pragma once
 
-#include "mesh/tetmesh.h"
+#include "blobvk/mesh/tetmesh.h"
 
 #include <array>
 #include <vector>

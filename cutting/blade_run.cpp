@@ -1,6 +1,6 @@
-#include "cutting/blade_run.h"
+#include "blobvk/cutting/blade_run.h"
 
-#include "cutting/parts.h"
+#include "blobvk/cutting/parts.h"
 
 #include <stdexcept>
 #include <unordered_map>

@@ -4,9 +4,9 @@
 // more at the end (closing seams, bends).
 #pragma once
 
-#include "cutting/blade.h"
-#include "cutting/cutter.h"
-#include "cutting/quality.h"
+#include "blobvk/cutting/blade.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/quality.h"
 
 #include <vector>
 

@@ -1,10 +1,10 @@
-#include "cutting/cutter.h"
+#include "blobvk/cutting/cutter.h"
 
-#include "cutting/flat_hash.h"
-#include "cutting/local_groups.h"
-#include "cutting/predicates.h"
-#include "cutting/radix_sort.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/flat_hash.h"
+#include "blobvk/cutting/local_groups.h"
+#include "blobvk/cutting/predicates.h"
+#include "blobvk/cutting/radix_sort.h"
+#include "blobvk/cutting/vec.h"
 
 #include <algorithm>
 #include <bit>

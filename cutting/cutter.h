@@ -4,10 +4,10 @@
 // tets around them fall apart. Produces a CutResult change set for an incremental FEM rebuild.
 #pragma once
 
-#include "cutting/blade.h"
-#include "cutting/decompose.h"
-#include "cutting/spatial_grid.h"
-#include "cutting/topology.h"
+#include "blobvk/cutting/blade.h"
+#include "blobvk/cutting/decompose.h"
+#include "blobvk/cutting/spatial_grid.h"
+#include "blobvk/cutting/topology.h"
 
 #include <array>
 #include <cstdint>

@@ -1,6 +1,6 @@
-#include "cutting/decompose.h"
+#include "blobvk/cutting/decompose.h"
 
-#include "cutting/topology.h"
+#include "blobvk/cutting/topology.h"
 
 #include <algorithm>
 #include <bit>

@@ -7,7 +7,7 @@
 // prisms and pyramids split without Steiner points).
 #pragma once
 
-#include "cutting/flat_hash.h"
+#include "blobvk/cutting/flat_hash.h"
 
 #include <array>
 #include <cstdint>

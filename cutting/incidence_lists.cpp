@@ -1,6 +1,6 @@
-#include "cutting/incidence_lists.h"
+#include "blobvk/cutting/incidence_lists.h"
 
-#include "cutting/prefault.h"
+#include "blobvk/cutting/prefault.h"
 
 #include <algorithm>
 

@@ -1,4 +1,4 @@
-#include "cutting/parts.h"
+#include "blobvk/cutting/parts.h"
 
 #include <algorithm>
 #include <numeric>

@@ -1,8 +1,8 @@
 // After a cut: the pieces the mesh fell into and its boundary surface (crack faces included).
 #pragma once
 
-#include "cutting/topology.h"
-#include "mesh/trimesh.h"
+#include "blobvk/cutting/topology.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <cstdint>
 #include <vector>

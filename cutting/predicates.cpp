@@ -1,4 +1,4 @@
-#include "cutting/predicates.h"
+#include "blobvk/cutting/predicates.h"
 
 #include <cfloat>
 #include <cmath>

@@ -2,7 +2,7 @@
 // and an extended-precision fallback, and a segment-triangle crossing test built on it.
 #pragma once
 
-#include "cutting/vec.h"
+#include "blobvk/cutting/vec.h"
 
 namespace blobvk::cutting {
 

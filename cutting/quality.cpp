@@ -1,6 +1,6 @@
-#include "cutting/quality.h"
+#include "blobvk/cutting/quality.h"
 
-#include "cutting/vec.h"
+#include "blobvk/cutting/vec.h"
 
 #include <algorithm>
 #include <cmath>

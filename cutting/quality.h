@@ -2,7 +2,7 @@
 // mesh statistics with a TetGen-style dihedral-angle histogram.
 #pragma once
 
-#include "mesh/tetmesh.h"
+#include "blobvk/mesh/tetmesh.h"
 
 #include <array>
 #include <cstddef>

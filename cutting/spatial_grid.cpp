@@ -1,8 +1,8 @@
-#include "cutting/spatial_grid.h"
+#include "blobvk/cutting/spatial_grid.h"
 
-#include "cutting/prefault.h"
-#include "cutting/radix_sort.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/prefault.h"
+#include "blobvk/cutting/radix_sort.h"
+#include "blobvk/cutting/vec.h"
 
 #include <algorithm>
 #include <bit>

@@ -7,8 +7,8 @@
 // simulation moves the nodes).
 #pragma once
 
-#include "cutting/flat_hash.h"
-#include "cutting/topology.h"
+#include "blobvk/cutting/flat_hash.h"
+#include "blobvk/cutting/topology.h"
 
 #include <array>
 #include <cstdint>

@@ -1,7 +1,7 @@
-#include "cutting/topology.h"
+#include "blobvk/cutting/topology.h"
 
-#include "cutting/prefault.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/prefault.h"
+#include "blobvk/cutting/vec.h"
 
 #include <algorithm>
 #include <sstream>

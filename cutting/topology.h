@@ -5,10 +5,10 @@
 // the mesh's size. Tet slots are reused; deleted tets leave holes until compact().
 #pragma once
 
-#include "cutting/flat_hash.h"
-#include "cutting/incidence_lists.h"
-#include "mesh/tetmesh.h"
-#include "mesh/trimesh.h"
+#include "blobvk/cutting/flat_hash.h"
+#include "blobvk/cutting/incidence_lists.h"
+#include "blobvk/mesh/tetmesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <array>
 #include <cstdint>

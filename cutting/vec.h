@@ -1,7 +1,7 @@
 // Small double-precision vector helpers over mesh::Double3, shared by the cutting sources.
 #pragma once
 
-#include "mesh/tetmesh.h"
+#include "blobvk/mesh/tetmesh.h"
 
 #include <cmath>
 

@@ -1,4 +1,4 @@
-#include "fem/boundary_faces.h"
+#include "blobvk/fem/boundary_faces.h"
 
 #include <algorithm>
 #include <bit>

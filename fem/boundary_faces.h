@@ -5,7 +5,7 @@
 // mesh's boundaryFaces) is the set's value, next to a parallel array of sorted keys.
 #pragma once
 
-#include "fem/node_incidence.h"
+#include "blobvk/fem/node_incidence.h"
 
 #include <array>
 #include <cstdint>

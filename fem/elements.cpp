@@ -1,8 +1,8 @@
-#include "fem/elements.h"
+#include "blobvk/fem/elements.h"
 
-#include "fem/kernel_dispatch.h"
-#include "fem/reserve_touched.h"
-#include "fem/rotation.h"
+#include "blobvk/fem/kernel_dispatch.h"
+#include "blobvk/fem/reserve_touched.h"
+#include "blobvk/fem/rotation.h"
 
 #include <chrono>
 #include <stdexcept>

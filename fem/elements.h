@@ -8,9 +8,9 @@
 // Per-tet passes write one 3-vector per corner; the node gather then only adds.
 #pragma once
 
-#include "fem/material.h"
-#include "fem/node_incidence.h"
-#include "mesh/tetmesh.h"
+#include "blobvk/fem/material.h"
+#include "blobvk/fem/node_incidence.h"
+#include "blobvk/mesh/tetmesh.h"
 
 #include <array>
 #include <cstdint>

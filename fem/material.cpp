@@ -1,4 +1,4 @@
-#include "fem/material.h"
+#include "blobvk/fem/material.h"
 
 #include <cmath>
 #include <stdexcept>

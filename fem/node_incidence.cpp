@@ -1,6 +1,6 @@
-#include "fem/node_incidence.h"
+#include "blobvk/fem/node_incidence.h"
 
-#include "fem/reserve_touched.h"
+#include "blobvk/fem/reserve_touched.h"
 
 #include <algorithm>
 #include <stdexcept>

@@ -1,4 +1,4 @@
-#include "fem/pcg.h"
+#include "blobvk/fem/pcg.h"
 
 #include <tbb/parallel_for.h>
 

@@ -1,6 +1,6 @@
-#include "fem/rotation.h"
+#include "blobvk/fem/rotation.h"
 
-#include "fem/kernel_dispatch.h"
+#include "blobvk/fem/kernel_dispatch.h"
 
 #include <cmath>
 

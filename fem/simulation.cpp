@@ -1,10 +1,10 @@
-#include "fem/simulation.h"
+#include "blobvk/fem/simulation.h"
 
-#include "fem/boundary_faces.h"
-#include "fem/elements.h"
-#include "fem/pcg.h"
-#include "fem/reserve_touched.h"
-#include "fem/tet_utils.h"
+#include "blobvk/fem/boundary_faces.h"
+#include "blobvk/fem/elements.h"
+#include "blobvk/fem/pcg.h"
+#include "blobvk/fem/reserve_touched.h"
+#include "blobvk/fem/tet_utils.h"
 
 #include <algorithm>
 #include <chrono>

@@ -4,11 +4,11 @@
 // plane and penalty contact with moving implicit tools. Eigen and TBB stay in the .cpp files.
 #pragma once
 
-#include "fem/material.h"
-#include "fem/surface_embedding.h"
-#include "fem/tool.h"
-#include "mesh/tetmesh.h"
-#include "mesh/trimesh.h"
+#include "blobvk/fem/material.h"
+#include "blobvk/fem/surface_embedding.h"
+#include "blobvk/fem/tool.h"
+#include "blobvk/mesh/tetmesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <array>
 #include <cstdint>

@@ -1,4 +1,4 @@
-#include "fem/surface_embedding.h"
+#include "blobvk/fem/surface_embedding.h"
 
 #include <algorithm>
 #include <cmath>

@@ -2,8 +2,8 @@
 // 4 tet nodes (barycentric coordinates in its rest tet, or one node with weight 1).
 #pragma once
 
-#include "mesh/tetmesh.h"
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/tetmesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <array>
 #include <cstdint>

@@ -1,4 +1,4 @@
-#include "fem/tet_utils.h"
+#include "blobvk/fem/tet_utils.h"
 
 #include <algorithm>
 #include <cmath>

@@ -2,7 +2,7 @@
 // validation and region assignment. Used by both meshers and by the simulation.
 #pragma once
 
-#include "mesh/tetmesh.h"
+#include "blobvk/mesh/tetmesh.h"
 
 #include <array>
 #include <cstdint>

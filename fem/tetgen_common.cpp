@@ -1,5 +1,5 @@
 // The parts of the TetGen front end that do not need TetGen itself (always compiled).
-#include "fem/tetgen_mesher.h"
+#include "blobvk/fem/tetgen_mesher.h"
 
 #include <cstdio>
 #include <stdexcept>

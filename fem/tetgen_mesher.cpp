@@ -1,8 +1,8 @@
 // The only file that includes TetGen (AGPL-3.0+). Compiled only with BLOBVK_WITH_TETGEN=ON.
-#include "fem/tetgen_mesher.h"
+#include "blobvk/fem/tetgen_mesher.h"
 
-#include "fem/tet_utils.h"
-#include "mesh/checks.h"
+#include "blobvk/fem/tet_utils.h"
+#include "blobvk/mesh/checks.h"
 
 #include <stdexcept>
 #include <string>

@@ -3,9 +3,9 @@
 // includes it. Without it, tetrahedralize() throws and tetgenAvailable() is false.
 #pragma once
 
-#include "fem/tetgen_slivers.h"
-#include "mesh/tetmesh.h"
-#include "mesh/trimesh.h"
+#include "blobvk/fem/tetgen_slivers.h"
+#include "blobvk/mesh/tetmesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <string>
 

@@ -1,4 +1,4 @@
-#include "fem/tetgen_slivers.h"
+#include "blobvk/fem/tetgen_slivers.h"
 
 #include <algorithm>
 #include <cmath>

@@ -6,7 +6,7 @@
 // stays valid (every tet keeps a positive volume) and conforming to the input surface.
 #pragma once
 
-#include "mesh/tetmesh.h"
+#include "blobvk/mesh/tetmesh.h"
 
 #include <array>
 #include <cstddef>

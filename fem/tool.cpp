@@ -1,4 +1,4 @@
-#include "fem/tool.h"
+#include "blobvk/fem/tool.h"
 
 #include <algorithm>
 #include <cmath>

@@ -4,7 +4,7 @@
 // d = radius: R = radius / sqrt(1 - 2^(-1/3)) ~ 2.2018 radius.
 #pragma once
 
-#include "mesh/tetmesh.h"
+#include "blobvk/mesh/tetmesh.h"
 
 #include <array>
 #include <vector>

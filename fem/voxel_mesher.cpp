@@ -1,6 +1,6 @@
-#include "fem/voxel_mesher.h"
+#include "blobvk/fem/voxel_mesher.h"
 
-#include "fem/tet_utils.h"
+#include "blobvk/fem/tet_utils.h"
 
 #include <cmath>
 #include <stdexcept>

@@ -4,7 +4,7 @@
 // comes as a callback or a sampled grid.
 #pragma once
 
-#include "mesh/tetmesh.h"
+#include "blobvk/mesh/tetmesh.h"
 
 #include <functional>
 #include <vector>

@@ -1,6 +1,6 @@
 // Mesh topology and volume checks. Edges are found by sorting packed (min, max) vertex keys,
 // which is several times faster than a node-based map on meshes of millions of triangles.
-#include "mesh/checks.h"
+#include "blobvk/mesh/checks.h"
 
 #include <algorithm>
 #include <cmath>

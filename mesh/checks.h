@@ -2,7 +2,7 @@
 // the enclosed volume. Used by tests, `blobvk info/compare` and the FEM input validation.
 #pragma once
 
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <cstddef>
 #include <string>

@@ -5,7 +5,7 @@
 // throws std::runtime_error naming the file and the fault.
 #pragma once
 
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <string>
 
@@ -17,6 +17,12 @@ void writePly(const TriMesh& mesh, const std::string& path, bool binary = true);
 void writeObj(const TriMesh& mesh, const std::string& path);
 // Binary STL: per-facet normals from the geometry; vertex normals and colours are not stored.
 void writeStl(const TriMesh& mesh, const std::string& path);
+// The bytes each writer writes, for streams (the CLI's "-o -") and in-memory use.
+std::string encodePly(const TriMesh& mesh, bool binary = true);
+std::string encodeObj(const TriMesh& mesh);
+std::string encodeStl(const TriMesh& mesh);
+// By format name "ply" (binary), "obj" or "stl" (a leading dot and any case accepted).
+std::string encodeMesh(const TriMesh& mesh, const std::string& format);
 // Picks the writer by extension (.ply binary, .obj, .stl; case-insensitive).
 // Throws std::invalid_argument for any other extension.
 void writeMesh(const TriMesh& mesh, const std::string& path);

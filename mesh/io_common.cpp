@@ -1,10 +1,12 @@
 // File access, number parsing and the extension dispatch shared by the mesh readers/writers.
-#include "mesh/io.h"
-#include "mesh/io_detail.h"
+#include "blobvk/mesh/io.h"
+#include "blobvk/mesh/io_detail.h"
 
 #include <algorithm>
 #include <bit>
 #include <cctype>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -15,7 +17,7 @@ namespace blobvk::mesh::detail {
 
 std::string readFileBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot open file for reading");
+  if (!in) fail(path, std::string("cannot open: ") + std::strerror(errno));
   std::ostringstream bytes;
   bytes << in.rdbuf();
   if (in.bad()) fail(path, "read error");
@@ -24,10 +26,10 @@ std::string readFileBytes(const std::string& path) {
 
 void writeFileBytes(const std::string& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) fail(path, "cannot open file for writing");
+  if (!out) fail(path, std::string("cannot write: ") + std::strerror(errno));
   out.write(bytes.data(), std::streamsize(bytes.size()));
   out.close();
-  if (!out) fail(path, "write error");
+  if (!out) fail(path, std::string("write error: ") + std::strerror(errno));
 }
 
 void fail(const std::string& path, const std::string& problem) {
@@ -94,6 +96,15 @@ std::vector<std::string_view> splitWords(std::string_view line) {
 }  // namespace blobvk::mesh::detail
 
 namespace blobvk::mesh {
+
+std::string encodeMesh(const TriMesh& mesh, const std::string& format) {
+  std::string ext = format;
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext == "ply" || ext == ".ply") return encodePly(mesh, true);
+  if (ext == "obj" || ext == ".obj") return encodeObj(mesh);
+  if (ext == "stl" || ext == ".stl") return encodeStl(mesh);
+  throw std::invalid_argument("cannot encode a mesh as '" + format + "' (known: ply, obj, stl)");
+}
 
 void writeMesh(const TriMesh& mesh, const std::string& path) {
   const std::string ext = detail::lowerExtension(path);

@@ -1,7 +1,7 @@
 // Internal helpers shared by the mesh readers and writers (not installed, not part of the API).
 #pragma once
 
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <charconv>
 #include <cstdint>

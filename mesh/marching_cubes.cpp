@@ -1,6 +1,6 @@
 // Generates the marching-cubes case table from the face rule (see marching_cubes.h), at compile
 // time, so the table cannot drift from the rule and its size limit is checked by the compiler.
-#include "mesh/marching_cubes.h"
+#include "blobvk/mesh/marching_cubes.h"
 
 namespace blobvk::mesh {
 namespace {

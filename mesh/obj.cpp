@@ -1,6 +1,6 @@
 // Wavefront OBJ writer and reader (geometry only: materials and texture coordinates are ignored).
-#include "mesh/io.h"
-#include "mesh/io_detail.h"
+#include "blobvk/mesh/io.h"
+#include "blobvk/mesh/io_detail.h"
 
 #include <cmath>
 #include <limits>
@@ -8,7 +8,7 @@
 
 namespace blobvk::mesh {
 
-void writeObj(const TriMesh& mesh, const std::string& path) {
+std::string encodeObj(const TriMesh& mesh) {
   detail::validateForWrite(mesh, "writeObj");
   const bool normals = !mesh.normals.empty(), colours = !mesh.colours.empty();
   std::string out = "# written by blobvk\n";
@@ -44,8 +44,10 @@ void writeObj(const TriMesh& mesh, const std::string& path) {
     }
     out += '\n';
   }
-  detail::writeFileBytes(path, out);
+  return out;
 }
+
+void writeObj(const TriMesh& mesh, const std::string& path) { detail::writeFileBytes(path, encodeObj(mesh)); }
 
 namespace {
 

@@ -1,7 +1,7 @@
 // PLY writer and reader. The reader parses any element/property layout generically (so unknown
 // elements are skipped correctly in binary files) and picks out vertex and face data by name.
-#include "mesh/io.h"
-#include "mesh/io_detail.h"
+#include "blobvk/mesh/io.h"
+#include "blobvk/mesh/io_detail.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,7 +14,7 @@ namespace blobvk::mesh {
 
 // ---- writer ----------------------------------------------------------------------------------
 
-void writePly(const TriMesh& mesh, const std::string& path, bool binary) {
+std::string encodePly(const TriMesh& mesh, bool binary) {
   detail::validateForWrite(mesh, "writePly");
   const bool normals = !mesh.normals.empty(), colours = !mesh.colours.empty();
   std::string out;
@@ -77,7 +77,11 @@ void writePly(const TriMesh& mesh, const std::string& path, bool binary) {
       out += '\n';
     }
   }
-  detail::writeFileBytes(path, out);
+  return out;
+}
+
+void writePly(const TriMesh& mesh, const std::string& path, bool binary) {
+  detail::writeFileBytes(path, encodePly(mesh, binary));
 }
 
 // ---- reader ----------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 // STL writer (binary) and reader (binary or ascii). STL stores unshared triangle corners, so the
 // reader welds corners with bit-identical positions back into indexed vertices.
-#include "mesh/io.h"
-#include "mesh/io_detail.h"
+#include "blobvk/mesh/io.h"
+#include "blobvk/mesh/io_detail.h"
 
 #include <cmath>
 #include <cstdio>
@@ -12,7 +12,7 @@
 
 namespace blobvk::mesh {
 
-void writeStl(const TriMesh& mesh, const std::string& path) {
+std::string encodeStl(const TriMesh& mesh) {
   detail::validateForWrite(mesh, "writeStl");
   if (mesh.triangles.size() > std::numeric_limits<std::uint32_t>::max())
     throw std::invalid_argument("writeStl: too many triangles for STL");
@@ -33,8 +33,10 @@ void writeStl(const TriMesh& mesh, const std::string& path) {
     for (float f : {nx, ny, nz, a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z}) detail::appendRaw(out, f);
     detail::appendRaw(out, std::uint16_t(0));
   }
-  detail::writeFileBytes(path, out);
+  return out;
 }
+
+void writeStl(const TriMesh& mesh, const std::string& path) { detail::writeFileBytes(path, encodeStl(mesh)); }
 
 namespace {
 

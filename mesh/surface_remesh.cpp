@@ -1,8 +1,8 @@
-#include "mesh/surface_remesh.h"
+#include "blobvk/mesh/surface_remesh.h"
 
-#include "mesh/checks.h"
-#include "mesh/surface_remesh_intersections.h"
-#include "mesh/surface_remesh_topology.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/surface_remesh_intersections.h"
+#include "blobvk/mesh/surface_remesh_topology.h"
 
 #include <algorithm>
 #include <cmath>

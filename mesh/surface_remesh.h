@@ -9,8 +9,8 @@
 // 2-manifold. Single-threaded and deterministic.
 #pragma once
 
-#include "mesh/tetmesh.h"
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/tetmesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <cstddef>
 #include <functional>

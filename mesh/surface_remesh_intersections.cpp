@@ -1,4 +1,4 @@
-#include "mesh/surface_remesh_intersections.h"
+#include "blobvk/mesh/surface_remesh_intersections.h"
 
 #include <algorithm>
 #include <cmath>

@@ -5,7 +5,7 @@
 // bounding boxes) and refused or undone where a triangle would cross one.
 #pragma once
 
-#include "mesh/surface_remesh_topology.h"
+#include "blobvk/mesh/surface_remesh_topology.h"
 
 #include <array>
 #include <cstdint>

@@ -1,4 +1,4 @@
-#include "mesh/surface_remesh_topology.h"
+#include "blobvk/mesh/surface_remesh_topology.h"
 
 #include <algorithm>
 #include <bit>

@@ -4,7 +4,7 @@
 // half-edge structure. Faces and vertices are marked dead, never erased, until toTriMesh().
 #pragma once
 
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <array>
 #include <cmath>

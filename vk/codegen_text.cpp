@@ -1,4 +1,4 @@
-#include "vk/codegen_text.h"
+#include "blobvk/vk/codegen_text.h"
 
 #include <cmath>
 #include <cstdio>

@@ -4,7 +4,7 @@
 // opcode, so both generators call the formulas of shaders/eval_formulas.glsl the same way.
 #pragma once
 
-#include "shaders/program_layout.h"
+#include "blobvk/shaders/program_layout.h"
 
 #include <cstdint>
 #include <string>

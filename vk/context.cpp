@@ -1,8 +1,8 @@
-#include "vk/context.h"
+#include "blobvk/vk/context.h"
 
-#include "vk/error.h"
-#include "vk/shader_layout.h"
-#include "vk/shader_registry.h"
+#include "blobvk/vk/error.h"
+#include "blobvk/vk/shader_layout.h"
+#include "blobvk/vk/shader_registry.h"
 
 #include <algorithm>
 #include <cstring>

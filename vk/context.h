@@ -3,8 +3,8 @@
 // pipeline cache and a one-shot submit path. StandaloneContext (standalone.h) creates its own.
 #pragma once
 
-#include "vk/dispatch.h"
-#include "vk/memory.h"
+#include "blobvk/vk/dispatch.h"
+#include "blobvk/vk/memory.h"
 
 #include <cstdint>
 #include <functional>

@@ -1,6 +1,6 @@
-#include "vk/dispatch.h"
+#include "blobvk/vk/dispatch.h"
 
-#include "vk/error.h"
+#include "blobvk/vk/error.h"
 
 #include <string>
 

@@ -1,4 +1,4 @@
-#include "vk/error.h"
+#include "blobvk/vk/error.h"
 
 namespace blobvk::vk {
 

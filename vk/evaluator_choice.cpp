@@ -1,7 +1,7 @@
-#include "vk/evaluator_choice.h"
+#include "blobvk/vk/evaluator_choice.h"
 
-#include "vk/evaluator_costs.h"
-#include "vk/program_codegen.h"
+#include "blobvk/vk/evaluator_costs.h"
+#include "blobvk/vk/program_codegen.h"
 
 #include <algorithm>
 #include <cmath>

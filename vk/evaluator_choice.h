@@ -8,11 +8,11 @@
 // kernels are reused, so it is computed, not capped.
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "vk/context.h"
-#include "vk/field_tiles.h"
-#include "vk/gpu_program.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/context.h"
+#include "blobvk/vk/field_tiles.h"
+#include "blobvk/vk/gpu_program.h"
 
 #include <cstdint>
 #include <vector>

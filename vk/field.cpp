@@ -1,6 +1,6 @@
-#include "vk/field.h"
+#include "blobvk/vk/field.h"
 
-#include "vk/evaluator_choice.h"
+#include "blobvk/vk/evaluator_choice.h"
 
 #include <algorithm>
 #include <array>

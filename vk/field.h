@@ -2,10 +2,10 @@
 // grid never has to fit one storage buffer). Used by `blobvk compare` and the benchmarks.
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "vk/field_tiles.h"
-#include "vk/gpu_program.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/field_tiles.h"
+#include "blobvk/vk/gpu_program.h"
 
 #include <array>
 #include <cstdint>

@@ -1,4 +1,4 @@
-#include "vk/field_tiles.h"
+#include "blobvk/vk/field_tiles.h"
 
 #include <algorithm>
 

@@ -13,9 +13,9 @@
 // at points outside their box, which every point of the tile is).
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "vk/program_codegen.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/program_codegen.h"
 
 #include <array>
 #include <cstdint>

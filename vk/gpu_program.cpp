@@ -1,8 +1,8 @@
-#include "vk/gpu_program.h"
+#include "blobvk/vk/gpu_program.h"
 
-#include "vk/program_codegen.h"
-#include "vk/runtime_compiler.h"
-#include "vk/stack_program.h"
+#include "blobvk/vk/program_codegen.h"
+#include "blobvk/vk/runtime_compiler.h"
+#include "blobvk/vk/stack_program.h"
 
 #include <algorithm>
 #include <cstdio>

@@ -2,9 +2,9 @@
 // bound at five consecutive bindings by every evaluating kernel.
 #pragma once
 
-#include "blobtree/program.h"
-#include "vk/context.h"
-#include "vk/program_codegen.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/context.h"
+#include "blobvk/vk/program_codegen.h"
 
 #include <array>
 #include <cstdint>

@@ -1,6 +1,6 @@
-#include "vk/memory.h"
+#include "blobvk/vk/memory.h"
 
-#include "vk/error.h"
+#include "blobvk/vk/error.h"
 
 #include <algorithm>
 #include <cstring>

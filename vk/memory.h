@@ -8,7 +8,7 @@
 // heap's size otherwise), the next suitable type is tried before giving up.
 #pragma once
 
-#include "vk/dispatch.h"
+#include "blobvk/vk/dispatch.h"
 
 #include <array>
 #include <cstdint>

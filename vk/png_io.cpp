@@ -1,4 +1,4 @@
-#include "vk/png_io.h"
+#include "blobvk/vk/png_io.h"
 
 #include <png.h>
 

@@ -1,7 +1,7 @@
 // PNG files for vk::Image through libpng (8-bit RGBA, no colour management).
 #pragma once
 
-#include "vk/render_image.h"
+#include "blobvk/vk/render_image.h"
 
 #include <string>
 

@@ -1,7 +1,7 @@
-#include "vk/polygonize.h"
+#include "blobvk/vk/polygonize.h"
 
-#include "vk/error.h"
-#include "vk/slab_polygonizer.h"
+#include "blobvk/vk/error.h"
+#include "blobvk/vk/slab_polygonizer.h"
 
 #include <array>
 #include <chrono>

@@ -4,10 +4,10 @@
 // index by index, wherever the two classify the grid points alike.
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "mesh/trimesh.h"
-#include "vk/gpu_program.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/mesh/trimesh.h"
+#include "blobvk/vk/gpu_program.h"
 
 #include <cstdint>
 

@@ -1,6 +1,6 @@
-#include "vk/program_codegen.h"
+#include "blobvk/vk/program_codegen.h"
 
-#include "vk/program_codegen_loops.h"
+#include "blobvk/vk/program_codegen_loops.h"
 
 #include <cmath>
 #include <cstdio>

@@ -11,8 +11,8 @@
 // interpreter calls, so results stay operation-for-operation those of blobtree/evaluate.cpp.
 #pragma once
 
-#include "blobtree/program.h"
-#include "vk/program_shape.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/program_shape.h"
 
 #include <cstddef>
 #include <cstdint>

@@ -1,6 +1,6 @@
-#include "vk/program_codegen_loops.h"
+#include "blobvk/vk/program_codegen_loops.h"
 
-#include "vk/codegen_text.h"
+#include "blobvk/vk/codegen_text.h"
 
 #include <map>
 #include <utility>

@@ -4,9 +4,9 @@
 // Internal to vk/program_codegen.cpp.
 #pragma once
 
-#include "blobtree/program.h"
-#include "vk/program_codegen.h"
-#include "vk/program_shape.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/program_codegen.h"
+#include "blobvk/vk/program_shape.h"
 
 #include <cstdint>
 #include <string>

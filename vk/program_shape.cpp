@@ -1,4 +1,4 @@
-#include "vk/program_shape.h"
+#include "blobvk/vk/program_shape.h"
 
 #include <algorithm>
 #include <cstring>

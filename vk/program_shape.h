@@ -9,7 +9,7 @@
 // the kernel the size of the distinct shapes, with the same float operations in the same order.
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <cstdint>
 #include <memory>

@@ -1,6 +1,6 @@
-#include "vk/raycast.h"
+#include "blobvk/vk/raycast.h"
 
-#include "vk/raycast_lipschitz.h"
+#include "blobvk/vk/raycast_lipschitz.h"
 
 #include <glm/geometric.hpp>
 #include <glm/trigonometric.hpp>

@@ -6,12 +6,12 @@
 // with Recorder::computeBarrier (pixel writes visible to compute, transfer and indirect reads).
 #pragma once
 
-#include "blobtree/program.h"
-#include "vk/context.h"
-#include "vk/gpu_program.h"
-#include "vk/raycast_lipschitz.h"
-#include "vk/render_camera.h"
-#include "vk/render_image.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/context.h"
+#include "blobvk/vk/gpu_program.h"
+#include "blobvk/vk/raycast_lipschitz.h"
+#include "blobvk/vk/render_camera.h"
+#include "blobvk/vk/render_image.h"
 
 #include <array>
 #include <cstdint>

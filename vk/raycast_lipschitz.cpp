@@ -1,4 +1,4 @@
-#include "vk/raycast_lipschitz.h"
+#include "blobvk/vk/raycast_lipschitz.h"
 
 #include <glm/geometric.hpp>
 

@@ -14,7 +14,7 @@
 //    reachable in the region (R_uv: the largest distance from the twist's axis).
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <cstdint>
 #include <vector>

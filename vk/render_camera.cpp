@@ -1,4 +1,4 @@
-#include "vk/render_camera.h"
+#include "blobvk/vk/render_camera.h"
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>

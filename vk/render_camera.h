@@ -3,8 +3,8 @@
 // section, or auto-framing of the model's bounds. Y is up. No Vulkan here.
 #pragma once
 
-#include "blobtree/program.h"
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>

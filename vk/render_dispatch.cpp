@@ -1,6 +1,6 @@
-#include "vk/render_dispatch.h"
+#include "blobvk/vk/render_dispatch.h"
 
-#include "vk/error.h"
+#include "blobvk/vk/error.h"
 
 #include <string>
 

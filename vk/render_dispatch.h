@@ -3,7 +3,7 @@
 // renderer works with whatever loader the engine uses. All are Vulkan 1.0 core.
 #pragma once
 
-#include "vk/dispatch.h"
+#include "blobvk/vk/dispatch.h"
 
 namespace blobvk::vk {
 

@@ -1,6 +1,6 @@
-#include "vk/render_gpu_mesh.h"
+#include "blobvk/vk/render_gpu_mesh.h"
 
-#include "vk/slab_polygonizer.h"
+#include "blobvk/vk/slab_polygonizer.h"
 
 #include <algorithm>
 #include <array>

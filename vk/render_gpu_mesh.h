@@ -9,10 +9,10 @@
 // z-slab (vk/polygonize.h) are drawn from the read-back mesh instead (`fromReadback`).
 #pragma once
 
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "vk/polygonize.h"
-#include "vk/render_mesh.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/render_mesh.h"
 
 #include <memory>
 

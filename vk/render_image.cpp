@@ -1,4 +1,4 @@
-#include "vk/render_image.h"
+#include "blobvk/vk/render_image.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,9 +1,9 @@
-#include "vk/render_mesh.h"
+#include "blobvk/vk/render_mesh.h"
 
-#include "vk/error.h"
-#include "vk/render_target.h"
-#include "vk/shader_layout.h"
-#include "vk/shader_registry.h"
+#include "blobvk/vk/error.h"
+#include "blobvk/vk/render_target.h"
+#include "blobvk/vk/shader_layout.h"
+#include "blobvk/vk/shader_registry.h"
 
 #include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>

@@ -9,11 +9,11 @@
 // vertex/index bindings changed, nothing else.
 #pragma once
 
-#include "mesh/trimesh.h"
-#include "vk/context.h"
-#include "vk/render_camera.h"
-#include "vk/render_dispatch.h"
-#include "vk/render_image.h"
+#include "blobvk/mesh/trimesh.h"
+#include "blobvk/vk/context.h"
+#include "blobvk/vk/render_camera.h"
+#include "blobvk/vk/render_dispatch.h"
+#include "blobvk/vk/render_image.h"
 
 #include <array>
 #include <cstdint>

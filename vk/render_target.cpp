@@ -1,6 +1,6 @@
-#include "vk/render_target.h"
+#include "blobvk/vk/render_target.h"
 
-#include "vk/error.h"
+#include "blobvk/vk/error.h"
 
 #include <cstring>
 #include <vector>

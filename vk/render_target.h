@@ -8,9 +8,9 @@
 // pass's colour writes before a later transfer read (recordReadback).
 #pragma once
 
-#include "vk/context.h"
-#include "vk/render_dispatch.h"
-#include "vk/render_image.h"
+#include "blobvk/vk/context.h"
+#include "blobvk/vk/render_dispatch.h"
+#include "blobvk/vk/render_image.h"
 
 #include <cstdint>
 

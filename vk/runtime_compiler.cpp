@@ -1,7 +1,7 @@
-#include "vk/runtime_compiler.h"
+#include "blobvk/vk/runtime_compiler.h"
 
-#include "vk/error.h"
-#include "vk/shader_sources.h"
+#include "blobvk/vk/error.h"
+#include "blobvk/vk/shader_sources.h"
 
 #include <glslang/Public/ResourceLimits.h>
 #include <glslang/Public/ShaderLang.h>

@@ -1,4 +1,4 @@
-#include "vk/scan.h"
+#include "blobvk/vk/scan.h"
 
 #include <array>
 

@@ -4,7 +4,7 @@
 // kScanChunk consecutive values serially (shaders/scan_*.comp).
 #pragma once
 
-#include "vk/context.h"
+#include "blobvk/vk/context.h"
 
 #include <cstdint>
 

@@ -1,10 +1,10 @@
-#include "vk/slab_polygonizer.h"
+#include "blobvk/vk/slab_polygonizer.h"
 
-#include "mesh/marching_cubes.h"
-#include "vk/error.h"
-#include "vk/evaluator_choice.h"
-#include "vk/field.h"
-#include "vk/scan.h"
+#include "blobvk/mesh/marching_cubes.h"
+#include "blobvk/vk/error.h"
+#include "blobvk/vk/evaluator_choice.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/scan.h"
 
 #include <algorithm>
 #include <array>

@@ -11,10 +11,10 @@
 // (kOverflowWord, EmitOverflow).
 #pragma once
 
-#include "blobtree/grid.h"
-#include "vk/field.h"
-#include "vk/gpu_program.h"
-#include "vk/polygonize.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/gpu_program.h"
+#include "blobvk/vk/polygonize.h"
 
 #include <cstdint>
 #include <memory>

@@ -1,4 +1,4 @@
-#include "vk/stack_program.h"
+#include "blobvk/vk/stack_program.h"
 
 #include <stdexcept>
 #include <string>

@@ -10,7 +10,7 @@
 // register code saves.
 #pragma once
 
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 
 #include <cstdint>
 #include <vector>

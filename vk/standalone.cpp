@@ -1,7 +1,7 @@
 // Links libvulkan for the loader entry point only; everything else goes through Dispatch.
-#include "vk/standalone.h"
+#include "blobvk/vk/standalone.h"
 
-#include "vk/error.h"
+#include "blobvk/vk/error.h"
 
 #include <vulkan/vulkan.h>
 

@@ -1,7 +1,7 @@
 // A headless instance and device for the CLI and tests: no window system, one compute queue.
 #pragma once
 
-#include "vk/context.h"
+#include "blobvk/vk/context.h"
 
 #include <memory>
 #include <optional>

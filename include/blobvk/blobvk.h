@@ -7,16 +7,17 @@
 //   auto grid    = blobvk::blobtree::chooseGrid(program, scene.grid, {});
 //   float f      = blobvk::blobtree::evaluate(program, {0, 1, 0}); // inside where f >= 0.5
 //
-// CMake: find_package(blobvk) then target_link_libraries(app PRIVATE blobvk::blobtree blobvk::mesh)
-// (blobvk::vk for the GPU, see <blobvk/vulkan.h>).
+// CMake: find_package(blobvk COMPONENTS cpu) then target_link_libraries(app PRIVATE blobvk::cpu)
+// (blobvk::blobtree, blobvk::mesh come with it; COMPONENTS vk and blobvk::vk for the GPU, see
+// <blobvk/vulkan.h>).
 //
 // Thread safety: Program, Tree and GridSpec are plain values; evaluating one Program from many
 // threads at once is safe (const access only). There is no global state anywhere in the library.
 #pragma once
 
-#include "blobtree/evaluate.h"
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "blobtree/scene_io.h"
-#include "blobtree/tree.h"
-#include "mesh/trimesh.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/blobtree/tree.h"
+#include "blobvk/mesh/trimesh.h"

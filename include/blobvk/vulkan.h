@@ -55,16 +55,16 @@
 //   blobvk::vk::MeshRenderer renderer(ctx.device(), 512, 512); // MSAA, Blinn-Phong, PNG-ready
 //   auto image = renderer.render(mesh, camera);  blobvk::vk::writePng("out.png", image);
 //
-// CMake: find_package(blobvk) then target_link_libraries(app PRIVATE blobvk::vk).
+// CMake: find_package(blobvk COMPONENTS vk) then target_link_libraries(app PRIVATE blobvk::vk).
 #pragma once
 
 #include "blobvk/blobvk.h"
-#include "vk/context.h"
-#include "vk/png_io.h"
-#include "vk/polygonize.h"
-#include "vk/raycast.h"
-#include "vk/render_camera.h"
-#include "vk/render_gpu_mesh.h"
-#include "vk/render_mesh.h"
-#include "vk/slab_polygonizer.h"
-#include "vk/standalone.h"
+#include "blobvk/vk/context.h"
+#include "blobvk/vk/png_io.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/raycast.h"
+#include "blobvk/vk/render_camera.h"
+#include "blobvk/vk/render_gpu_mesh.h"
+#include "blobvk/vk/render_mesh.h"
+#include "blobvk/vk/slab_polygonizer.h"
+#include "blobvk/vk/standalone.h"

@@ -1,7 +1,7 @@
 // The bad-input catalogue: every malformed file in tests/data/bad/ must be refused with a
 // SceneError that names the file, the exact JSON pointer or line, and the problem.
-#include "blobtree/scene_error.h"
-#include "blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_io.h"
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
 // compile(): the Program preserves the field of the tree (against a double-precision tree walk),
 // registers stay minimal for every tree shape, boxes never change the field, and records stay
 // small.
-#include "blobtree/evaluate.h"
-#include "blobtree/program.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/program.h"
 #include "test_helpers.h"
 #include "tree_walk.h"
 

@@ -1,6 +1,6 @@
 // Procedural models: node counts from their definitions, determinism, and the PRNG against
 // the published SplitMix64 test vector.
-#include "blobtree/generators.h"
+#include "blobvk/blobtree/generators.h"
 #include "test_scene_compare.h"
 
 #include <gtest/gtest.h>

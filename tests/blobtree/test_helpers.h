@@ -1,7 +1,7 @@
 // Small builders for BlobTree nodes used across the blobtree tests.
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <utility>
 #include <vector>

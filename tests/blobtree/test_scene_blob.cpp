@@ -1,8 +1,8 @@
 // Legacy .blob/.scene reader: the shipped legacy files, every primitive and warp, the old
 // spellings (SkeletonType, lower-case operators, NUL bytes), instancing and shared children.
-#include "blobtree/scene_blob.h"
-#include "blobtree/scene_error.h"
-#include "blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_blob.h"
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_io.h"
 #include "test_scene_compare.h"
 
 #include <gtest/gtest.h>

@@ -2,7 +2,7 @@
 // could lose, compared with a tolerance for the doubles.
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
 // JSON scene format: round trips for every node type, the documented defaults and shorthands,
 // instancing, and the limits that protect the reader.
-#include "blobtree/scene_error.h"
-#include "blobtree/scene_io.h"
-#include "blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_json.h"
 #include "test_scene_compare.h"
 
 #include <gtest/gtest.h>

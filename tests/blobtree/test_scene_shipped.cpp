@@ -1,9 +1,9 @@
 // Every shipped scene loads, compiles and has its surface where its construction says; the
 // generated ones are exactly what the generators produce.
-#include "blobtree/evaluate.h"
-#include "blobtree/generators.h"
-#include "blobtree/program.h"
-#include "blobtree/scene_io.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
 #include "test_scene_compare.h"
 
 #include <gtest/gtest.h>

@@ -2,7 +2,7 @@
 // the independent oracle that proves compile() preserves the field. Test-only.
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 namespace blobvk::testing {
 

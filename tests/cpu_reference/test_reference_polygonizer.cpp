@@ -1,11 +1,11 @@
 // The reference polygonizer is checked against geometry it must reproduce (the analytic sphere of
 // a point primitive), against its own documented rules recomputed independently here (edge keys,
 // linear interpolation, cell locality), and for watertightness on blends.
-#include "cpu_simd/reference_polygonizer.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
 
-#include "blobtree/evaluate.h"
-#include "blobtree/tree.h"
-#include "mesh/checks.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/tree.h"
+#include "blobvk/mesh/checks.h"
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>

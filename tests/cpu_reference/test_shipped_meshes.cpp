@@ -1,8 +1,8 @@
 // Every shipped scene polygonizes into a closed, edge-manifold, consistently oriented mesh with
 // positive volume, at two resolutions.
-#include "blobtree/scene_io.h"
-#include "cpu_simd/reference_polygonizer.h"
-#include "mesh/checks.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/mesh/checks.h"
 
 #include <gtest/gtest.h>
 

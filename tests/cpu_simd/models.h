@@ -3,8 +3,8 @@
 // blobtree/generators.h and the early-discard traps (tiny primitives, thin shells, grazing).
 #pragma once
 
-#include "blobtree/generators.h"
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <glm/gtc/quaternion.hpp>
 

@@ -1,9 +1,9 @@
 // The MPU polygonizer against the reference polygonizer: the same mesh (topology exactly,
 // positions within 1e-5 of a cell), the same bytes for 1, 2 and 3 threads, and no surface lost
 // to the early discard on models built to fool it.
-#include "blobtree/program.h"
-#include "cpu_simd/mpu_polygonizer.h"
-#include "cpu_simd/reference_polygonizer.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "tests/cpu_simd/models.h"
 
 #include <gtest/gtest.h>

@@ -1,9 +1,9 @@
 // The SIMD evaluators against the scalar reference: every node type, warps, partial and full
 // box skips, colours and normals, on random points around each model (array lengths that are
 // not a multiple of the lane width exercise the padded tail).
-#include "blobtree/evaluate.h"
-#include "blobtree/program.h"
-#include "cpu_simd/simd_evaluator.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
 #include "tests/cpu_simd/models.h"
 
 #include <glm/geometric.hpp>

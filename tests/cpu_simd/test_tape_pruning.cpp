@@ -1,10 +1,10 @@
 // Pruned tapes against the full Program: the same field bits (and, for colour tapes, the same
 // colour bits) at random points of the region, with the scalar reference and the SIMD kernels,
 // on every test model; and pruning really shortens the code of a large blend.
-#include "blobtree/evaluate.h"
-#include "blobtree/program.h"
-#include "cpu_simd/simd_evaluator.h"
-#include "cpu_simd/tape_pruning.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/cpu_simd/simd_evaluator.h"
+#include "blobvk/cpu_simd/tape_pruning.h"
 #include "tests/cpu_simd/models.h"
 
 #include <gtest/gtest.h>

@@ -1,9 +1,9 @@
 // Many sweeps through a block of ~25k tets: topology stays valid, volume is conserved, the change
 // sets replay to the same mesh, quality bounds hold; full and closed cuts separate parts.
-#include "cutting/blade_run.h"
-#include "cutting/cutter.h"
-#include "cutting/parts.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/blade_run.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/parts.h"
+#include "blobvk/cutting/vec.h"
 #include "test_helpers.h"
 
 #include <gtest/gtest.h>

@@ -1,9 +1,9 @@
 // The sub-element "tables", checked exhaustively: every cut code allowed after filtering, every
 // order of vertex keys, many cut parameters.
-#include "cutting/cutter.h"
-#include "cutting/decompose.h"
-#include "cutting/topology.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/decompose.h"
+#include "blobvk/cutting/topology.h"
+#include "blobvk/cutting/vec.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The flat containers behind the topology: open-addressing map (backward-shift deletion) and set, and
 // pooled incidence lists, checked against std containers under random operation sequences.
-#include "cutting/flat_hash.h"
-#include "cutting/incidence_lists.h"
+#include "blobvk/cutting/flat_hash.h"
+#include "blobvk/cutting/incidence_lists.h"
 
 #include <gtest/gtest.h>
 

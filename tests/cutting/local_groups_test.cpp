@@ -1,6 +1,6 @@
 // LocalGroups names every group by its smallest member, whichever representation it uses (bit
 // masks up to 64 items, union-find beyond): checked against a plain flood fill on random graphs.
-#include "cutting/local_groups.h"
+#include "blobvk/cutting/local_groups.h"
 
 #include <gtest/gtest.h>
 

@@ -1,10 +1,10 @@
 // Issue 7 follow-up: a blade whose swept surface passes exactly (or within rounding) through a
 // plane of mesh nodes, so the crack must run along existing faces (case Z everywhere, every
 // touched node a cut node). It used to produce no cut at all.
-#include "cutting/blade_run.h"
-#include "cutting/cutter.h"
-#include "cutting/parts.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/blade_run.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/parts.h"
+#include "blobvk/cutting/vec.h"
 #include "test_helpers.h"
 
 #include <gtest/gtest.h>

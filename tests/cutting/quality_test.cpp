@@ -1,4 +1,4 @@
-#include "cutting/quality.h"
+#include "blobvk/cutting/quality.h"
 #include "test_helpers.h"
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 // radixSort must order exactly as std::stable_sort by the same key (the cutter relies on the
 // input order among equal keys to reproduce a sort of packed key << 32 | index integers).
-#include "cutting/radix_sort.h"
+#include "blobvk/cutting/radix_sort.h"
 
 #include <gtest/gtest.h>
 

@@ -1,9 +1,9 @@
 // Every cut case on single tets (or a tet pair for Z) at many positions and orientations: the
 // split is conforming, the two sides end up separated across the cut, and volume is conserved.
-#include "cutting/cutter.h"
-#include "cutting/parts.h"
-#include "cutting/predicates.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/parts.h"
+#include "blobvk/cutting/predicates.h"
+#include "blobvk/cutting/vec.h"
 #include "test_helpers.h"
 
 #include <gtest/gtest.h>

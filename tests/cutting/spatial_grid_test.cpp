@@ -1,8 +1,8 @@
 // The spatial hash's slab query must never miss a tet that meets a swept triangle: checked
 // against brute force on random triangles, before and after cuts (stale entries, new tets).
-#include "cutting/cutter.h"
-#include "cutting/spatial_grid.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/spatial_grid.h"
+#include "blobvk/cutting/vec.h"
 #include "test_helpers.h"
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 #include "test_helpers.h"
 
-#include "cutting/vec.h"
+#include "blobvk/cutting/vec.h"
 
 #include <cmath>
 

@@ -1,8 +1,8 @@
 // Meshes and blades for the cutting tests.
 #pragma once
 
-#include "cutting/blade.h"
-#include "mesh/tetmesh.h"
+#include "blobvk/cutting/blade.h"
+#include "blobvk/mesh/tetmesh.h"
 
 #include <random>
 

@@ -1,6 +1,6 @@
-#include "cutting/parts.h"
-#include "cutting/topology.h"
-#include "cutting/vec.h"
+#include "blobvk/cutting/parts.h"
+#include "blobvk/cutting/topology.h"
+#include "blobvk/cutting/vec.h"
 #include "test_helpers.h"
 
 #include <gtest/gtest.h>

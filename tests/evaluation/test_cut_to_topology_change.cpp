@@ -3,11 +3,11 @@
 // mesh (same nodes, tets slot by slot, rest positions and rest volume) and keep stepping finite.
 #include "apps/cut_to_topology_change.h"
 
-#include "cutting/blade.h"
-#include "cutting/cutter.h"
-#include "cutting/parts.h"
-#include "fem/simulation.h"
-#include "fem/voxel_mesher.h"
+#include "blobvk/cutting/blade.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/parts.h"
+#include "blobvk/fem/simulation.h"
+#include "blobvk/fem/voxel_mesher.h"
 
 #include <gtest/gtest.h>
 

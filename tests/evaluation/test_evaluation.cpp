@@ -6,9 +6,9 @@
 // The craniotomy's tissue materials (materialFromPrimitive) are checked against the tissue
 // geometry, with the library's own evaluator.
 #include "tests/cli/run_cli.h"
-#include "blobtree/evaluate.h"
-#include "blobtree/scene_json.h"
-#include "mesh/io.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/scene_json.h"
+#include "blobvk/mesh/io.h"
 
 #include <glm/common.hpp>
 #include <glm/vec3.hpp>

@@ -2,7 +2,7 @@
 // tet around an edge at an interior point, and duplicating nodes across a crack.
 #pragma once
 
-#include "fem/simulation.h"
+#include "blobvk/fem/simulation.h"
 
 #include <algorithm>
 #include <functional>

@@ -2,8 +2,8 @@
 // vertices pushed onto the sphere (every triangle angle > 54 degrees, closed, outward).
 #pragma once
 
-#include "mesh/tetmesh.h"  // Double3
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/tetmesh.h"  // Double3
+#include "blobvk/mesh/trimesh.h"
 
 #include <algorithm>
 #include <array>

@@ -2,7 +2,7 @@
 // a dihedral angle written apart from fem/ (the sliver pass is judged by it, not by its own).
 #pragma once
 
-#include "fem/voxel_mesher.h"
+#include "blobvk/fem/voxel_mesher.h"
 
 #include <algorithm>
 #include <array>

@@ -1,8 +1,8 @@
 // Meshers and input validation: voxel conformity and volume, TetGen quality and rejections.
-#include "fem/simulation.h"
-#include "fem/tet_utils.h"
-#include "fem/tetgen_mesher.h"
-#include "mesh/checks.h"
+#include "blobvk/fem/simulation.h"
+#include "blobvk/fem/tet_utils.h"
+#include "blobvk/fem/tetgen_mesher.h"
+#include "blobvk/mesh/checks.h"
 #include "test_helpers.h"
 
 #include <gtest/gtest.h>

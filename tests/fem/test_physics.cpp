@@ -1,8 +1,8 @@
 // Physics of the corotational model: patch test, rotation invariance, cantilever vs
 // Euler-Bernoulli, energy decay, volume drift, and a long tool-contact run.
-#include "fem/rotation.h"
-#include "fem/simulation.h"
-#include "fem/tet_utils.h"
+#include "blobvk/fem/rotation.h"
+#include "blobvk/fem/simulation.h"
+#include "blobvk/fem/tet_utils.h"
 #include "test_helpers.h"
 
 #include <gtest/gtest.h>

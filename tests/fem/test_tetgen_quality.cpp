@@ -1,10 +1,10 @@
 // The sliver pass after TetGen (fem/tetgen_slivers.h) and the minimum dihedral angle that
 // tetrahedralize() delivers with it: slivers are raised above the bound while the mesh stays
 // valid, keeps its volume, and keeps its surface (input vertices and boundary planes).
-#include "fem/tet_utils.h"
-#include "fem/tetgen_mesher.h"
-#include "fem/tetgen_slivers.h"
-#include "mesh/checks.h"
+#include "blobvk/fem/tet_utils.h"
+#include "blobvk/fem/tetgen_mesher.h"
+#include "blobvk/fem/tetgen_slivers.h"
+#include "blobvk/mesh/checks.h"
 #include "icosphere.h"
 #include "test_helpers.h"
 

@@ -1,9 +1,9 @@
 // Simulation::applyTopologyChange: an incrementally edited simulation must match a fresh one
 // built on the changed mesh with the same state; invalid changes throw and change nothing.
 #include "cut_changes.h"
-#include "fem/node_incidence.h"
-#include "fem/simulation.h"
-#include "fem/tet_utils.h"
+#include "blobvk/fem/node_incidence.h"
+#include "blobvk/fem/simulation.h"
+#include "blobvk/fem/tet_utils.h"
 #include "test_helpers.h"
 
 #include <gtest/gtest.h>

@@ -2,9 +2,9 @@
 // exceptions; anything else (a crash, a sanitizer report, another exception type) is a finding.
 #pragma once
 
-#include "blobtree/evaluate.h"
-#include "blobtree/program.h"
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <cmath>
 #include <cstdlib>

@@ -1,6 +1,6 @@
 // Fuzz target: the PLY, OBJ and STL readers. They take paths, so the input goes through a
 // per-process temporary file; the first byte picks the format.
-#include "mesh/io.h"
+#include "blobvk/mesh/io.h"
 
 #include <unistd.h>
 

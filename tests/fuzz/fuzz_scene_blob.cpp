@@ -1,6 +1,6 @@
 // Fuzz target: the legacy .blob/.scene reader, then compile() and evaluation.
-#include "blobtree/scene_blob.h"
-#include "blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_blob.h"
+#include "blobvk/blobtree/scene_error.h"
 #include "fuzz_common.h"
 
 #include <cstdint>

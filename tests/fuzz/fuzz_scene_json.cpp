@@ -1,6 +1,6 @@
 // Fuzz target: the JSON scene reader, then compile() and evaluation of whatever it accepts.
-#include "blobtree/scene_error.h"
-#include "blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_json.h"
 #include "fuzz_common.h"
 
 #include <cstdint>

@@ -1,7 +1,7 @@
 // A unit cube [0,1]^3 as 8 vertices and 12 outward triangles, built by hand for the tests.
 #pragma once
 
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 namespace blobvk::testing {
 

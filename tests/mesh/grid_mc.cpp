@@ -1,6 +1,6 @@
 #include "grid_mc.h"
 
-#include "mesh/marching_cubes.h"
+#include "blobvk/mesh/marching_cubes.h"
 
 #include <unordered_map>
 

@@ -2,7 +2,7 @@
 // of the library's polygonizers so the case table can be tested on its own.
 #pragma once
 
-#include "mesh/trimesh.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <vector>
 

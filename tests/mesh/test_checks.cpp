@@ -1,6 +1,6 @@
 #include "cube_mesh.h"
 
-#include "mesh/checks.h"
+#include "blobvk/mesh/checks.h"
 
 #include <gtest/gtest.h>
 

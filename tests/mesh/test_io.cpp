@@ -1,7 +1,7 @@
 #include "cube_mesh.h"
 
-#include "mesh/checks.h"
-#include "mesh/io.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/io.h"
 
 #include <gtest/gtest.h>
 

@@ -3,8 +3,8 @@
 // the table commutes with cube rotations, and polygonized sign grids are watertight and outward.
 #include "grid_mc.h"
 
-#include "mesh/checks.h"
-#include "mesh/marching_cubes.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/marching_cubes.h"
 
 #include <gtest/gtest.h>
 

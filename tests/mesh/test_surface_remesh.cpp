@@ -4,8 +4,8 @@
 #include "cube_mesh.h"
 #include "grid_mc.h"
 
-#include "mesh/checks.h"
-#include "mesh/surface_remesh.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/surface_remesh.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The remesher's triangle crossing tests and its face grid (mesh/surface_remesh_intersections.h).
 #include "cube_mesh.h"
 
-#include "mesh/surface_remesh_intersections.h"
+#include "blobvk/mesh/surface_remesh_intersections.h"
 
 #include <gtest/gtest.h>
 

@@ -2,9 +2,9 @@
 // recursively, so it must refuse depths whose recursion would overflow the stack: a 20000-level
 // chain used to segfault (stack overflow in lowerOperator) although compile() claimed a limit
 // of 100000 levels. Regression test for that crash.
-#include "blobtree/program.h"
-#include "blobtree/scene_limits.h"
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_limits.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <gtest/gtest.h>
 

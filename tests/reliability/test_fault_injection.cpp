@@ -3,13 +3,13 @@
 // hands out wrappers for vkQueueSubmit / vkAllocateMemory. Failing the k-th call, for every k a
 // GPU polygonization reaches, must end in a VulkanError carrying that VkResult: never a crash,
 // a hang, a partial mesh or a validation message (leaked or misused objects on error paths).
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "blobtree/tree.h"
-#include "cpu_simd/reference_polygonizer.h"
-#include "vk/error.h"
-#include "vk/polygonize.h"
-#include "vk/standalone.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/tree.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/error.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/standalone.h"
 #include "vulkan_required.h"
 
 #include <gtest/gtest.h>

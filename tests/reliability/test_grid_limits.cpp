@@ -1,8 +1,8 @@
 // Hostile grid requests: chooseGrid must refuse them with std::invalid_argument before any
 // polygonizer allocates a byte, so a typo like --resolution 1000000 cannot eat the machine.
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <gtest/gtest.h>
 

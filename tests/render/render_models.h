@@ -1,7 +1,7 @@
 // Small models with known geometry for the renderer tests.
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <cmath>
 #include <utility>

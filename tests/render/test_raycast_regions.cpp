@@ -5,13 +5,13 @@
 #include "../vk/vk_fixture.h"
 #include "render_models.h"
 
-#include "blobtree/evaluate.h"
-#include "blobtree/program.h"
-#include "blobtree/scene_io.h"
-#include "cpu_simd/reference_polygonizer.h"
-#include "vk/raycast.h"
-#include "vk/raycast_lipschitz.h"
-#include "vk/render_mesh.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/raycast.h"
+#include "blobvk/vk/raycast_lipschitz.h"
+#include "blobvk/vk/render_mesh.h"
 
 #include <glm/geometric.hpp>
 #include <glm/trigonometric.hpp>

@@ -1,10 +1,10 @@
 #include "../vk/vk_fixture.h"
 #include "render_models.h"
 
-#include "blobtree/program.h"
-#include "cpu_simd/reference_polygonizer.h"
-#include "vk/render_gpu_mesh.h"
-#include "vk/render_mesh.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/render_gpu_mesh.h"
+#include "blobvk/vk/render_mesh.h"
 
 #include <glm/trigonometric.hpp>
 #include <gtest/gtest.h>

@@ -1,7 +1,7 @@
 // Small test models covering every primitive, operator and warp type.
 #pragma once
 
-#include "blobtree/tree.h"
+#include "blobvk/blobtree/tree.h"
 
 #include <string>
 #include <utility>

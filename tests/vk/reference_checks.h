@@ -3,10 +3,10 @@
 // never only against another GPU result.
 #pragma once
 
-#include "blobtree/evaluate.h"
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "mesh/trimesh.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <gtest/gtest.h>
 

@@ -2,14 +2,14 @@
 // nothing is written past the capacities (guard words after them survive), what is written is
 // the reference mesh's prefix, the overflow is reported, the overflowing slab leaves the indirect
 // draw, and the validation layer (core and synchronisation checks, the fixture) stays silent.
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "blobtree/scene_io.h"
-#include "cpu_simd/reference_polygonizer.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "models.h"
-#include "vk/error.h"
-#include "vk/polygonize.h"
-#include "vk/slab_polygonizer.h"
+#include "blobvk/vk/error.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/slab_polygonizer.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

@@ -3,14 +3,14 @@
 // its field is bit for bit the CPU reference's and the interpreter's, whole and per pruned tile;
 // and the cost model (vk/evaluator_choice.h) picks the interpreter for the tower and the
 // specialised code where its build pays back.
-#include "blobtree/evaluate.h"
-#include "blobtree/generators.h"
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "vk/evaluator_choice.h"
-#include "vk/field.h"
-#include "vk/program_codegen.h"
-#include "vk/program_shape.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/evaluator_choice.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/program_codegen.h"
+#include "blobvk/vk/program_shape.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
-#include "vk/error.h"
-#include "vk/shader_registry.h"
-#include "vk/standalone.h"
+#include "blobvk/vk/error.h"
+#include "blobvk/vk/shader_registry.h"
+#include "blobvk/vk/standalone.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

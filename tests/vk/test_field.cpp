@@ -1,11 +1,11 @@
-#include "blobtree/evaluate.h"
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
 #include "models.h"
 #include "reference_checks.h"
-#include "vk/field.h"
-#include "vk/program_codegen.h"
-#include "vk/stack_program.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/program_codegen.h"
+#include "blobvk/vk/stack_program.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

@@ -1,15 +1,15 @@
 // How blobvk behaves as a guest on a host's device: it never waits on the host's device, its
 // pipeline cache is bounded, it keeps no global state, and its uploads can be recorded into the
 // host's command buffer instead of blocking submits.
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "cpu_simd/reference_polygonizer.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "models.h"
-#include "vk/field.h"
-#include "vk/memory.h"
-#include "vk/polygonize.h"
-#include "vk/scan.h"
-#include "vk/slab_polygonizer.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/memory.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/scan.h"
+#include "blobvk/vk/slab_polygonizer.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

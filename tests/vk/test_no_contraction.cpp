@@ -3,11 +3,11 @@
 // carries SPIR-V's NoContraction (GLSL `precise`), both in the embedded shaders and in the
 // specialised evaluator the code generator writes. Read straight from the SPIR-V words, so a
 // formula added later without `precise` fails here, on any machine (no device needed).
-#include "blobtree/program.h"
+#include "blobvk/blobtree/program.h"
 #include "models.h"
-#include "vk/program_codegen.h"
-#include "vk/runtime_compiler.h"
-#include "vk/shader_registry.h"
+#include "blobvk/vk/program_codegen.h"
+#include "blobvk/vk/runtime_compiler.h"
+#include "blobvk/vk/shader_registry.h"
 
 #include <gtest/gtest.h>
 

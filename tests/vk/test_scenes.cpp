@@ -1,13 +1,13 @@
 // Every shipped scene (scenes/*.json): the GPU field of both traversals against the scalar CPU
 // reference. The shipped scenes mix box skips that some lanes of a subgroup take and others do
 // not, which is what the stackless evaluator's masked skips (eval_body.glsl) must get right.
-#include "blobtree/evaluate.h"
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "blobtree/scene_io.h"
-#include "cpu_simd/reference_polygonizer.h"
-#include "vk/field.h"
-#include "vk/polygonize.h"
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/polygonize.h"
 #include "shipped_scenes.h"
 #include "vk_fixture.h"
 

@@ -3,17 +3,17 @@
 // the SPIR-V words, and against what every pipeline's C++ side binds and pushes: a Recorder
 // refuses a dispatch that disagrees with the reflected layout, so running every pipeline once
 // with no error proves the C++ usage matches.
-#include "blobtree/grid.h"
-#include "blobtree/program.h"
-#include "blobtree/scene_io.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
 #include "models.h"
-#include "vk/error.h"
-#include "vk/field.h"
-#include "vk/polygonize.h"
-#include "vk/raycast.h"
-#include "vk/render_camera.h"
-#include "vk/shader_layout.h"
-#include "vk/shader_registry.h"
+#include "blobvk/vk/error.h"
+#include "blobvk/vk/field.h"
+#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/raycast.h"
+#include "blobvk/vk/render_camera.h"
+#include "blobvk/vk/shader_layout.h"
+#include "blobvk/vk/shader_registry.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

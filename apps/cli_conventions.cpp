@@ -1,0 +1,101 @@
+#include "cli_conventions.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <system_error>
+
+namespace blobvk::app {
+namespace {
+bool quietFlag = false;
+
+std::string lowerExtension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext;
+}
+}  // namespace
+
+bool quiet() { return quietFlag; }
+void setQuiet(bool q) { quietFlag = q; }
+
+const char* versionString() { return "blobvk " BLOBVK_VERSION; }
+
+std::string printable(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (unsigned char c : text) {
+    if ((c >= 0x20 && c < 0x7f) || c == '\t') {
+      out += char(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    }
+  }
+  return out;
+}
+
+std::string systemReason(int err) { return std::strerror(err); }
+
+bool checkOutputFile(const std::string& path, std::initializer_list<std::string_view> extensions, bool streamable,
+                     const char* what) {
+  std::string known;
+  for (std::string_view e : extensions) known += (known.empty() ? "" : ", ") + std::string(e);
+  if (path == "-") {
+    if (!streamable) throw UsageError(std::string(what) + " cannot be written to standard output ('-'); give a file name");
+    return true;
+  }
+  const std::string ext = lowerExtension(path);
+  if (std::find(extensions.begin(), extensions.end(), ext) == extensions.end()) {
+    throw UsageError(printable(path) + ": cannot write " + what + " as '" + printable(ext.empty() ? "(no extension)" : ext) +
+                     "' (supported: " + known + ")");
+  }
+  std::error_code ec;
+  const std::filesystem::path p(path);
+  if (std::filesystem::is_directory(p, ec)) throw std::runtime_error(printable(path) + ": cannot write: Is a directory");
+  if (std::filesystem::exists(p, ec)) {
+    if (access(path.c_str(), W_OK) != 0) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
+    return false;
+  }
+  const std::filesystem::path parent = p.has_parent_path() ? p.parent_path() : std::filesystem::path(".");
+  if (!std::filesystem::is_directory(parent, ec)) {
+    const int err = std::filesystem::exists(parent, ec) ? ENOTDIR : ENOENT;
+    throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(err));
+  }
+  if (access(parent.c_str(), W_OK | X_OK) != 0) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
+  return false;
+}
+
+void prepareOutputFolder(const std::string& path) {
+  if (path == "-") throw UsageError("the output is a folder of frames; '-' (standard output) is not one");
+  std::error_code ec;
+  std::filesystem::create_directories(path, ec);
+  if (ec) throw std::runtime_error(printable(path) + ": cannot create the folder: " + ec.message());
+  if (!std::filesystem::is_directory(path, ec)) throw std::runtime_error(printable(path) + ": cannot create the folder: " + systemReason(EEXIST));
+  if (access(path.c_str(), W_OK | X_OK) != 0) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
+}
+
+void writeStdout(std::string_view bytes) {
+  std::fflush(stdout);
+  if (std::fwrite(bytes.data(), 1, bytes.size(), stdout) != bytes.size() || std::fflush(stdout) != 0) {
+    throw std::runtime_error("standard output: write error: " + systemReason(errno));
+  }
+}
+
+void writeOutput(const std::string& path, std::string_view bytes) {
+  if (path == "-") return writeStdout(bytes);
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
+  out.write(bytes.data(), std::streamsize(bytes.size()));
+  out.close();
+  if (!out) throw std::runtime_error(printable(path) + ": write error: " + systemReason(errno));
+}
+
+}  // namespace blobvk::app

@@ -1,0 +1,212 @@
+// Every command once, as a user runs it, with its output checked by an independent reader:
+// meshes by the mesh checks on the PLY read back, images decoded by libpng, JSON parsed and
+// compared with counts taken from the files themselves.
+#include "cli_files.h"
+#include "run_cli.h"
+
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/io.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace blobvk::testing;
+namespace fs = std::filesystem;
+
+fs::path dir(const std::string& name) {
+  const fs::path d = scratchDir() / name;
+  fs::create_directories(d);
+  return d;
+}
+
+const std::string tower = sourcePath("scenes/tower.json");
+
+class CliCommands : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { setenv("LP_NUM_THREADS", "2", 0); }
+};
+
+TEST_F(CliCommands, InfoJsonCountsWhatTheFileHolds) {
+  const fs::path cwd = dir("info");
+  ASSERT_EQ(runCliSplit("generate random --count 7 --seed 3 -o r.json", cwd).status, 0);
+  const CliSplitRun r = runCliSplit("info r.json --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json info = nlohmann::json::parse(r.out);
+  EXPECT_EQ(info["blobvk_version"], BLOBVK_VERSION);
+  EXPECT_EQ(info["nodes"]["primitives"], 7);
+  EXPECT_EQ(info["program"]["primitives"], 7);
+  EXPECT_GT(info["program"]["instructions"].get<int>(), 7);
+  const auto lo = info["bounds"]["lo"], hi = info["bounds"]["hi"];
+  for (int a = 0; a < 3; ++a) EXPECT_LT(lo[a].get<double>(), hi[a].get<double>());
+  const CliSplitRun text = runCliSplit("info r.json", cwd);
+  EXPECT_NE(text.out.find("7 primitives"), std::string::npos) << text.out;
+}
+
+TEST_F(CliCommands, GenerateWritesScenesThatLoad) {
+  const fs::path cwd = dir("generate");
+  for (const std::string& kind : std::vector<std::string>{"tower --levels 2 --pillars 4", "eggshell", "random --count 5"}) {
+    const CliSplitRun r = runCliSplit("generate " + kind + " -o g.json", cwd);
+    ASSERT_EQ(r.status, 0) << kind << r.err;
+    const nlohmann::json scene = nlohmann::json::parse(fileBytes(cwd / "g.json"));
+    const nlohmann::json info = nlohmann::json::parse(runCliSplit("info g.json --json", cwd).out);
+    EXPECT_EQ(info["nodes"]["primitives"].get<std::size_t>(), countJsonPrimitives(scene["root"])) << kind;
+  }
+}
+
+// convert keeps the model: the legacy file and its JSON mesh to the same bytes.
+TEST_F(CliCommands, ConvertKeepsTheModel) {
+  const fs::path cwd = dir("convert");
+  const std::string blob = sourcePath("scenes/legacy/peanut.blob");
+  CliSplitRun r = runCliSplit("convert " + blob + " p.json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  ASSERT_EQ(runCliSplit("mesh " + blob + " -o a.ply --resolution 40 -q", cwd).status, 0);
+  ASSERT_EQ(runCliSplit("mesh p.json -o b.ply --resolution 40 -q", cwd).status, 0);
+  EXPECT_EQ(fileBytes(cwd / "a.ply"), fileBytes(cwd / "b.ply"));
+  EXPECT_TRUE(blobvk::mesh::checkMesh(blobvk::mesh::readPly((cwd / "b.ply").string())).watertight());
+}
+
+TEST_F(CliCommands, MeshJsonMatchesTheFileWritten) {
+  const fs::path cwd = dir("mesh_json");
+  const CliSplitRun r = runCliSplit("mesh " + tower + " -o t.ply --resolution 40 --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  const blobvk::mesh::TriMesh mesh = blobvk::mesh::readPly((cwd / "t.ply").string());
+  EXPECT_EQ(j["blobvk_version"], BLOBVK_VERSION);
+  EXPECT_EQ(j["triangles"].get<std::size_t>(), mesh.triangleCount());
+  EXPECT_EQ(j["vertices"].get<std::size_t>(), mesh.vertexCount());
+  EXPECT_EQ(j["bytes"].get<std::size_t>(), fs::file_size(cwd / "t.ply"));
+  EXPECT_EQ(j["check"]["watertight"], blobvk::mesh::checkMesh(mesh).watertight());
+  EXPECT_EQ(j["grid"]["cells"][0].get<int>() > 0, true);
+}
+
+// bench's counts are the mesh's: the triangles of a `mesh` run at the same resolution.
+TEST_F(CliCommands, BenchJsonReportsTheMeshItTimed) {
+  const fs::path cwd = dir("bench");
+  CliSplitRun r = runCliSplit("bench " + tower + " --resolution 32 --repeats 2 --warmup 0 --backend cpu reference --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json rows = nlohmann::json::parse(r.out);
+  ASSERT_EQ(rows.size(), 2u);
+  ASSERT_EQ(runCliSplit("mesh " + tower + " -o t.ply --resolution 32 -q", cwd).status, 0);
+  const std::size_t triangles = blobvk::mesh::readPly((cwd / "t.ply").string()).triangleCount();
+  for (const auto& row : rows) {
+    EXPECT_EQ(row["triangles"].get<std::size_t>(), triangles) << row.dump();
+    EXPECT_GT(row["median_s"].get<double>(), 0.0);
+    EXPECT_LE(row["min_s"].get<double>(), row["max_s"].get<double>());
+  }
+  EXPECT_NE(r.err.find("bench 100% (2/2)"), std::string::npos) << r.err;
+  r = runCliSplit("bench " + tower + " --resolution 16 --repeats 1", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("median s"), std::string::npos) << r.out;
+}
+
+#ifdef BLOBVK_HAVE_VULKAN
+TEST_F(CliCommands, DevicesListsLavapipeWithItsDriver) {
+  const fs::path cwd = dir("devices");
+  CliSplitRun r = runCliSplit("devices --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["blobvk_version"], BLOBVK_VERSION);
+  bool lavapipe = false;
+  for (const auto& d : j["devices"]) {
+    if (d["name"].get<std::string>().find("llvmpipe") == std::string::npos) continue;
+    lavapipe = true;
+    EXPECT_EQ(d["type"], "CPU");
+    EXPECT_EQ(d["driver_name"], "llvmpipe");
+    EXPECT_NE(d["driver_info"].get<std::string>().find("Mesa"), std::string::npos) << d.dump();
+    EXPECT_GE(d["limits"]["max_storage_buffer_range"].get<std::uint64_t>(), 1u << 27);
+  }
+  EXPECT_TRUE(lavapipe) << r.out;
+  r = runCliSplit("devices", cwd);
+  ASSERT_EQ(r.status, 0);
+  EXPECT_NE(r.out.find("[0] "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("llvmpipe"), std::string::npos) << r.out;
+}
+
+// The vk backend on lavapipe writes the CPU backend's bytes (vertices ordered by edge key).
+TEST_F(CliCommands, MeshOnTheVulkanBackendEqualsTheCpuMesh) {
+  const fs::path cwd = dir("mesh_vk");
+  CliSplitRun r = runCliSplit("mesh " + tower + " -o vk.ply --resolution 48 --backend vk --validation --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_NE(j["device"]["name"].get<std::string>().find("llvmpipe"), std::string::npos) << r.out;
+  EXPECT_EQ(j["device"]["driver_name"], "llvmpipe");
+  ASSERT_EQ(runCliSplit("mesh " + tower + " -o cpu.ply --resolution 48 -q", cwd).status, 0);
+  const auto report = blobvk::mesh::checkMesh(blobvk::mesh::readPly((cwd / "vk.ply").string()));
+  EXPECT_TRUE(report.watertight()) << report.summary();
+  EXPECT_GT(report.triangles, 1000u);
+  EXPECT_EQ(fileBytes(cwd / "vk.ply"), fileBytes(cwd / "cpu.ply"));
+}
+
+TEST_F(CliCommands, RenderWritesTheImageAskedFor) {
+  const fs::path cwd = dir("render");
+  CliSplitRun r = runCliSplit("render " + tower + " -o m.png --size 64x48 --resolution 32 --validation", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Rgba mesh = decodePng(fileBytes(cwd / "m.png"));
+  ASSERT_EQ(mesh.width, 64u);
+  ASSERT_EQ(mesh.height, 48u);
+  // The corner is background; the model covers a good part of the frame.
+  const unsigned char* corner = mesh.pixels.data();
+  EXPECT_GT(mesh.pixelsDifferingFrom(corner[0], corner[1], corner[2]), 64u * 48u / 20u);
+  r = runCliSplit("render " + tower + " -o c.png --size 64x48 --mode raycast", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Rgba cast = decodePng(fileBytes(cwd / "c.png"));
+  ASSERT_EQ(cast.width, 64u);
+  EXPECT_GT(cast.pixelsDifferingFrom(cast.pixels[0], cast.pixels[1], cast.pixels[2]), 64u * 48u / 20u);
+  r = runCliSplit("render " + tower + " -o turn.png --size 32x32 --resolution 24 --turntable 3", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* f : {"turn_000.png", "turn_001.png", "turn_002.png"}) EXPECT_EQ(decodePng(fileBytes(cwd / f)).width, 32u) << f;
+  EXPECT_NE(fileBytes(cwd / "turn_000.png"), fileBytes(cwd / "turn_001.png"));
+}
+
+// --wireframe is honoured on every backend: the vk mesh is read back for its edges and the
+// picture equals the cpu backend's (same mesh), and differs from the plain one.
+TEST_F(CliCommands, RenderWireframeOnTheVulkanBackend) {
+  const fs::path cwd = dir("wireframe");
+  const std::string base = "render " + tower + " --size 96x96 --resolution 24 ";
+  ASSERT_EQ(runCliSplit(base + "-o plain.png --backend vk", cwd).status, 0);
+  CliSplitRun r = runCliSplit(base + "-o vk.png --backend vk --wireframe", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  ASSERT_EQ(runCliSplit(base + "-o cpu.png --backend cpu --wireframe", cwd).status, 0);
+  const Rgba plain = decodePng(fileBytes(cwd / "plain.png")), vk = decodePng(fileBytes(cwd / "vk.png")),
+             cpu = decodePng(fileBytes(cwd / "cpu.png"));
+  ASSERT_EQ(vk.width, 96u);
+  EXPECT_GT(vk.pixelsDifferingFrom(plain, 8), 96u * 96u / 100u);
+  EXPECT_LE(vk.pixelsDifferingFrom(cpu, 8), 96u * 96u / 200u);
+  EXPECT_EQ(runCliSplit(base + "-o x.png --mode raycast --wireframe", cwd).status, 2);
+}
+
+TEST_F(CliCommands, CompareJsonNamesVersionDeviceAndDriver) {
+  const fs::path cwd = dir("compare");
+  CliSplitRun r = runCliSplit("compare " + tower + " --resolution 24 --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["blobvk_version"], BLOBVK_VERSION);
+  EXPECT_EQ(j["device"]["driver_name"], "llvmpipe");
+  EXPECT_EQ(j["pass"], true);
+  EXPECT_EQ(j["mesh"]["identical_topology"], true);
+  ASSERT_EQ(runCliSplit("mesh " + tower + " -o t.ply --resolution 24 -q", cwd).status, 0);
+  EXPECT_EQ(j["mesh"]["cpu"]["triangles"].get<std::size_t>(), blobvk::mesh::readPly((cwd / "t.ply").string()).triangleCount());
+
+  // A zero threshold: either the fields agree exactly, or the message shows the difference
+  // with enough digits that it is visibly above zero.
+  r = runCliSplit("compare " + tower + " --resolution 24 --max-field-diff 0", cwd);
+  const double maxDiff = j["field"]["max_abs_diff"].get<double>();
+  if (maxDiff == 0.0) {
+    EXPECT_EQ(r.status, 0) << r.err;
+  } else {
+    EXPECT_EQ(r.status, 3) << r.err;
+    EXPECT_EQ(r.err.find("0.000000 > 0.000000"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("max field difference"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(" > 0"), std::string::npos) << r.err;
+  }
+}
+#endif
+
+}  // namespace

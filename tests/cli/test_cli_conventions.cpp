@@ -1,0 +1,221 @@
+// The conventions every command follows (apps/cli_conventions.h): exit codes, --version, --quiet,
+// output checked before work, "-" for standard output, the one resolution limit, error text.
+#include "cli_files.h"
+#include "run_cli.h"
+
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/io.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace blobvk::testing;
+namespace fs = std::filesystem;
+
+std::size_t lineCount(const std::string& s) {
+  std::size_t n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
+fs::path dir(const std::string& name) {
+  const fs::path d = scratchDir() / name;
+  fs::create_directories(d);
+  return d;
+}
+
+const std::string tower = sourcePath("scenes/tower.json");
+
+TEST(CliConventions, VersionIsTheProjectVersion) {
+  const CliSplitRun r = runCliSplit("--version", dir("version"));
+  EXPECT_EQ(r.status, 0);
+  EXPECT_EQ(r.out, std::string("blobvk ") + BLOBVK_VERSION + "\n");
+}
+
+TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
+  const fs::path cwd = dir("usage");
+  for (const std::string& args : std::vector<std::string>{std::string(""), "mesh", "mesh " + tower + " -o x.ply --bogus",
+                                 "mesh " + tower + " -o x.ply --resolution abc", "mesh " + tower + " -o x.ply --backend nope",
+                                 "generate", "render " + tower + " -o t.jpg", "convert " + tower + " out.blob",
+                                 "mesh " + tower + " -o x.xyz", "bench " + tower + " --traversal sideways"}) {
+    const CliSplitRun r = runCliSplit(args, cwd);
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
+    EXPECT_EQ(lineCount(r.err), 1u) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find("usage error"), std::string::npos) << args << "\n" << r.err;
+  }
+  EXPECT_TRUE(fs::is_empty(cwd)) << "a refused command wrote a file";
+  EXPECT_EQ(runCliSplit("--help", cwd).status, 0);
+  EXPECT_EQ(runCliSplit("mesh --help", cwd).status, 0);
+}
+
+// The output's format is its extension: a name that promises another format is refused before any
+// work, naming what is supported.
+TEST(CliConventions, OutputExtensionIsChecked) {
+  const fs::path cwd = dir("extensions");
+  CliSplitRun r = runCliSplit("render " + tower + " -o t.jpg", cwd);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find(".png"), std::string::npos) << r.err;
+  r = runCliSplit("convert " + sourcePath("scenes/legacy/peanut.blob") + " a.blob", cwd);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find(".json"), std::string::npos) << r.err;
+  r = runCliSplit("mesh " + tower + " -o m.gltf", cwd);
+  EXPECT_EQ(r.status, 2);
+  for (const char* ext : {".ply", ".obj", ".stl"}) EXPECT_NE(r.err.find(ext), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_empty(cwd));
+  // Any case of a supported extension is that format.
+  r = runCliSplit("mesh " + tower + " -o upper.STL --resolution 16 -q", cwd);
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_GT(blobvk::mesh::readStl((cwd / "upper.STL").string()).triangleCount(), 100u);
+}
+
+// The output place is checked first: with an unreadable scene AND an unwritable output, the
+// error is about the output (the scene was never opened, nothing was computed).
+TEST(CliConventions, UnwritableOutputFailsBeforeAnyWork) {
+  const fs::path cwd = dir("unwritable");
+  CliSplitRun r = runCliSplit("mesh nope.json -o /nonexistent/x.ply", cwd);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, "blobvk: error: /nonexistent/x.ply: cannot write: No such file or directory\n");
+  r = runCliSplit("mesh " + tower + " -o /nonexistent/x.ply --resolution 2000", cwd);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(lineCount(r.err), 1u) << r.err;  // no progress line: polygonization never started
+  r = runCliSplit("render nope.json -o /nonexistent/t.png", cwd);
+  EXPECT_NE(r.err.find("/nonexistent/t.png: cannot write"), std::string::npos) << r.err;
+  r = runCliSplit("convert nope.json /nonexistent/t.json", cwd);
+  EXPECT_NE(r.err.find("/nonexistent/t.json: cannot write"), std::string::npos) << r.err;
+  r = runCliSplit("generate eggshell -o /nonexistent/e.json", cwd);
+  EXPECT_NE(r.err.find("/nonexistent/e.json: cannot write"), std::string::npos) << r.err;
+  // Folders of frames are created up front; a file in the way is reported with the reason.
+  std::ofstream(cwd / "file") << "x";
+  r = runCliSplit("simulate nope.json -o file/sub", cwd);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("file/sub: cannot create the folder"), std::string::npos) << r.err;
+  r = runCliSplit("mesh " + tower + " -o .", cwd);
+  EXPECT_NE(r.status, 0);
+}
+
+TEST(CliConventions, ErrorsGiveTheSystemReasonAndOnlyPrintableBytes) {
+  const fs::path cwd = dir("reasons");
+  CliSplitRun r = runCliSplit("info nope.json", cwd);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, "blobvk: error: nope.json: cannot open: No such file or directory\n");
+  // A binary file named .blob: the parser's message quotes some of it; the line must stay text.
+  std::string binary;
+  for (int i = 0; i < 4096; ++i) binary += char((i * 37 + 11) & 0xff);
+  std::ofstream(cwd / "binary.blob", std::ios::binary) << binary;
+  r = runCliSplit("info binary.blob", cwd);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(lineCount(r.err), 1u);
+  for (unsigned char c : r.err) EXPECT_TRUE((c >= 0x20 && c < 0x7f) || c == '\n') << int(c) << " in " << r.err;
+  EXPECT_NE(r.err.find("binary.blob"), std::string::npos) << r.err;
+}
+
+// One limit for every --resolution, derived from memory: the same number in every message.
+TEST(CliConventions, OneResolutionLimitForAllCommands) {
+  const fs::path cwd = dir("limits");
+  const std::string huge = " --resolution 100000000";
+  std::set<std::string> limits;
+  for (const std::string& args : std::vector<std::string>{"mesh " + tower + " -o x.ply", "render " + tower + " -o x.png", "bench " + tower,
+                                 "compare " + tower, "simulate " + tower + " -o f", "cut " + tower + " -o f"}) {
+    const CliSplitRun r = runCliSplit(args + huge, cwd);
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(r.err, m, std::regex("is above ([0-9]+)"))) << args << "\n" << r.err;
+    limits.insert(m[1]);
+  }
+  ASSERT_EQ(limits.size(), 1u);
+  const long limit = std::stol(*limits.begin());
+  // A machine with any memory takes a 512 grid; no machine has the bytes for a million cubed.
+  EXPECT_GE(limit, 512);
+  EXPECT_LT(limit, 1000000);
+  EXPECT_TRUE(fs::is_empty(cwd));
+}
+
+// Progress goes to stderr: lines in a pipe, nothing with -q (before or after the subcommand);
+// stdout keeps only the product.
+TEST(CliConventions, ProgressOnStderrAndQuiet) {
+  const fs::path cwd = dir("progress");
+  const std::string sim = "simulate " + sourcePath("scenes/soft_peanut.json") + " --steps 10 --no-png -o frames";
+  CliSplitRun r = runCliSplit(sim, cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("simulate 100% (10/10)"), std::string::npos) << r.err;
+  EXPECT_LE(lineCount(r.err), 14u) << "sparse lines, not one per step:\n" << r.err;
+  EXPECT_EQ(r.err.find('\r'), std::string::npos) << "no terminal redraws into a pipe";
+  EXPECT_EQ(r.out.find("100%"), std::string::npos);
+  for (const std::string& q : std::vector<std::string>{"-q " + sim, sim + " --quiet"}) {
+    r = runCliSplit(q, cwd);
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.err, "") << q;
+    EXPECT_NE(r.out.find("10 steps"), std::string::npos) << r.out;
+  }
+  r = runCliSplit("mesh " + tower + " -o t.ply --resolution 48", cwd);
+  EXPECT_NE(r.err.find("mesh 100%"), std::string::npos) << r.err;
+  r = runCliSplit("mesh " + tower + " -o t.ply --resolution 48 -q", cwd);
+  EXPECT_EQ(r.err, "");
+  EXPECT_EQ(r.out, "");
+}
+
+// On a terminal (util-linux `script` gives the command a pseudo-terminal) the progress is one
+// bar redrawn in place, ending at 100 %.
+TEST(CliConventions, ProgressIsABarOnATerminal) {
+  const fs::path cwd = dir("tty");
+  const std::string command = "cd '" + cwd.string() + "' && script -qec \"" + std::string(BLOBVK_CLI) + " mesh " + tower +
+                              " -o t.ply --resolution 64\" /dev/null";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string output;
+  char buf[4096];
+  while (std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) output.append(buf, n);
+  ASSERT_EQ(pclose(pipe), 0) << output;
+  EXPECT_NE(output.find("\rmesh ["), std::string::npos) << output;
+  EXPECT_NE(output.find("[####################] 100%"), std::string::npos) << output;
+  EXPECT_EQ(output.find("mesh 10% ("), std::string::npos) << "no log lines on a terminal";
+}
+
+// "-" is standard output for formats that stream; no file named "-" appears.
+TEST(CliConventions, DashWritesToStandardOutput) {
+  const fs::path cwd = dir("dash");
+  CliSplitRun r = runCliSplit("mesh " + tower + " -o - --resolution 32", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  ASSERT_EQ(runCliSplit("mesh " + tower + " -o file.ply --resolution 32 -q", cwd).status, 0);
+  EXPECT_EQ(r.out, fileBytes(cwd / "file.ply"));
+  std::ofstream(cwd / "piped.ply", std::ios::binary) << r.out;
+  const blobvk::mesh::MeshReport report = blobvk::mesh::checkMesh(blobvk::mesh::readPly((cwd / "piped.ply").string()));
+  EXPECT_TRUE(report.watertight()) << report.summary();
+  r = runCliSplit("mesh " + tower + " -o - --format obj --resolution 16", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("# written by blobvk", 0), 0u);
+
+  r = runCliSplit("convert " + sourcePath("scenes/legacy/peanut.blob") + " -", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json scene = nlohmann::json::parse(r.out);
+  EXPECT_EQ(scene["blobvk"], 1);
+  EXPECT_GT(countJsonPrimitives(scene["root"]), 1u);
+  r = runCliSplit("generate random --count 3 -o -", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(countJsonPrimitives(nlohmann::json::parse(r.out)["root"]), 3u);
+#ifdef BLOBVK_HAVE_VULKAN
+  r = runCliSplit("render " + tower + " -o - --size 40x30", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Rgba image = decodePng(r.out);
+  EXPECT_EQ(image.width, 40u);
+  EXPECT_EQ(image.height, 30u);
+#endif
+  EXPECT_FALSE(fs::exists(cwd / "-"));
+  // Where stdout cannot carry the product, "-" is refused as a usage error.
+  EXPECT_EQ(runCliSplit("mesh " + tower + " -o - --json", cwd).status, 2);
+  EXPECT_EQ(runCliSplit("render " + tower + " -o - --turntable 3", cwd).status, 2);
+  EXPECT_EQ(runCliSplit("simulate " + tower + " -o -", cwd).status, 2);
+  EXPECT_FALSE(fs::exists(cwd / "-"));
+}
+
+}  // namespace
