@@ -145,7 +145,7 @@ def vk_table(cpu_rows, vk_rows):
         same = ("yes" if c["triangles"] == r["triangles"] else "**no**") if c else "–"
         out.append([f"`{key[0]}`", key[1], fmt_time(c and c["min_s"]), fmt_time(r["min_s"]),
                     fmt_time(r["median_s"]), ratio, fmt_time(r["first_s"]),
-                    fmt_time(max(0.0, r["first_s"] - r["median_s"])), same])
+                    fmt_time(r["first_s"] - r["median_s"]) if r["first_s"] > r["median_s"] else "–", same])
     return table(header, out)
 
 
@@ -185,7 +185,7 @@ def chart_ns_per_triangle(cpu_rows, vk_rows, out_png):
                 d.write(f"{res} {ns}\n")
         files.append(f)
         plots.append(f"'{f}' using 1:2 with linespoints title '{scene}, {label}'")
-    script = f"""set terminal pngcairo size 900,520 font ',10'
+    script = f"""set terminal pngcairo noenhanced size 900,520 font ',10'
 set output '{out_png}'
 set logscale y
 set xlabel 'grid resolution (cells along the longest side)'
@@ -208,7 +208,7 @@ def chart_fem(runs, out_png):
     with open(f, "w") as d:
         for t, ms in sorted(pts):
             d.write(f"{t} {ms}\n")
-    script = f"""set terminal pngcairo size 700,420 font ',10'
+    script = f"""set terminal pngcairo noenhanced size 700,420 font ',10'
 set output '{out_png}'
 set logscale xy
 set xlabel 'tetrahedra'
@@ -264,9 +264,10 @@ def main():
         w("\n![ns per triangle against resolution](performance/ns_per_triangle.png)\n")
 
     w("\n## Vulkan polygonization on lavapipe against the CPU (`blobvk bench`)\n")
-    w("Same scenes, `--backend vk` (specialised kernels, field tiles) against `--backend cpu` on both\n"
-      "cores. *first run* includes kernel generation, glslang and pipeline creation in a fresh\n"
-      "process; the steady state is the minimum of the repeats after it.\n")
+    w("Same scenes, `--backend vk` (its default evaluator choice, see [vulkan.md](vulkan.md)) against\n"
+      "`--backend cpu` on both cores. *first run* includes kernel generation, glslang and pipeline\n"
+      "creation in a fresh process; the steady state is the minimum of the repeats after it (– where\n"
+      "the first run was not the slowest).\n")
     w(cmd("bench_vk"))
     w(vk_table(cpu_rows, vk_rows) if vk_rows else "_(not measured: no Vulkan device)_")
 
