@@ -25,6 +25,14 @@ int main(int argc, char** argv) {
   bool quietFlag = false;
   app.add_flag("-q,--quiet", quietFlag, "No progress or informational lines on stderr (mesh, render: no summary)");
   app.parse_complete_callback([&quietFlag] { setQuiet(quietFlag); });
+  // Where the Vulkan pipeline cache lives (vk/standalone.h): passed to the library through the
+  // variable it reads, so every command that creates a device honours it.
+  app.add_option_function<std::string>(
+         "--pipeline-cache", [](const std::string& dir) { setenv("BLOBVK_PIPELINE_CACHE", dir.c_str(), 1); },
+         "Vulkan pipeline cache directory, or 'off' (default: $BLOBVK_PIPELINE_CACHE, else "
+         "$XDG_CACHE_HOME/blobvk or ~/.cache/blobvk)")
+      ->type_name("DIR|off")
+      ->trigger_on_parse();
   // Usage errors are one line and exit 2 whatever CLI11's own code for them.
   app.failure_message([](const CLI::App* failed, const CLI::Error& e) {
     std::string command;  // "generate tower " for a nested subcommand, "" for the tool itself

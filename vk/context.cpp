@@ -61,9 +61,16 @@ Device::Device(const HostContext& host, const DeviceOptions& options)
   memory_ = std::make_unique<MemoryAllocator>(d_, host.physicalDevice, host.device, 64ull << 20,
                                               options.memorySimulation);
 
-  VkPipelineCacheCreateInfo cacheInfo{VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO};
-  check(d_.vkCreatePipelineCache(host.device, &cacheInfo, nullptr, &pipelineCache_),
-        "vkCreatePipelineCache");
+  if (host.pipelineCache) {
+    pipelineCache_ = host.pipelineCache;
+  } else {
+    VkPipelineCacheCreateInfo cacheInfo{VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO};
+    cacheInfo.initialDataSize = options.pipelineCacheData.size();
+    cacheInfo.pInitialData = options.pipelineCacheData.empty() ? nullptr : options.pipelineCacheData.data();
+    check(d_.vkCreatePipelineCache(host.device, &cacheInfo, nullptr, &pipelineCache_),
+          "vkCreatePipelineCache");
+    ownsPipelineCache_ = true;
+  }
   VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
   poolInfo.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
   poolInfo.queueFamilyIndex = host.queueFamilyIndex;
@@ -83,8 +90,19 @@ Device::~Device() {
   kernelLru_.clear();
   d_.vkDestroyFence(host_.device, fence_, nullptr);
   d_.vkDestroyCommandPool(host_.device, commandPool_, nullptr);
-  d_.vkDestroyPipelineCache(host_.device, pipelineCache_, nullptr);
+  if (ownsPipelineCache_) d_.vkDestroyPipelineCache(host_.device, pipelineCache_, nullptr);
   memory_.reset();
+}
+
+std::vector<std::uint8_t> Device::pipelineCacheData() const {
+  std::size_t size = 0;
+  check(d_.vkGetPipelineCacheData(host_.device, pipelineCache_, &size, nullptr), "vkGetPipelineCacheData");
+  std::vector<std::uint8_t> data(size);
+  // VK_INCOMPLETE only if the cache grew in between (another thread of the host using it).
+  const VkResult r = d_.vkGetPipelineCacheData(host_.device, pipelineCache_, &size, data.data());
+  if (r != VK_INCOMPLETE) check(r, "vkGetPipelineCacheData");
+  data.resize(size);
+  return data;
 }
 
 Buffer Device::createBuffer(VkDeviceSize size, MemoryUse use, VkBufferUsageFlags extraUsage) {

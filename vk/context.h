@@ -26,6 +26,10 @@ struct HostContext {
   std::uint32_t queueFamilyIndex = 0;  // must support VK_QUEUE_COMPUTE_BIT
   VkQueue queue = VK_NULL_HANDLE;      // used by Device::submitAndWait; externally synchronised
   PFN_vkGetInstanceProcAddr getInstanceProcAddr = nullptr;
+  // Optional: the engine's VkPipelineCache. When set, blobvk creates every pipeline (compute
+  // kernels, the mesh renderer's) with it and never destroys it; persisting it is the engine's
+  // business. When null, the Device creates a private one (DeviceOptions::pipelineCacheData).
+  VkPipelineCache pipelineCache = VK_NULL_HANDLE;
 };
 
 // A device buffer with its memory. Moves, never copies.
@@ -81,6 +85,10 @@ struct DeviceOptions {
   std::uint32_t pipelineCacheCapacity = 256;
   // Tests: present this memory layout instead of the device's (vk/memory.h).
   const MemorySimulation* memorySimulation = nullptr;
+  // Initial data of the Device's own VkPipelineCache (what pipelineCacheData() returned in an
+  // earlier process; StandaloneContext keeps it on disk). Ignored when the host hands in its own
+  // cache. Must begin with a VkPipelineCacheHeaderVersionOne matching the device.
+  std::span<const std::uint8_t> pipelineCacheData;
 };
 
 class Device {
@@ -134,6 +142,12 @@ class Device {
   // The same with a Recorder that stays alive (with its descriptor sets) until the fence.
   void run(const std::function<void(class Recorder&)>& record);
 
+  // The VkPipelineCache every pipeline is created with: the host's, or the Device's own.
+  VkPipelineCache pipelineCache() const { return pipelineCache_; }
+  bool ownsPipelineCache() const { return ownsPipelineCache_; }
+  // vkGetPipelineCacheData of that cache (what to persist for a later process).
+  std::vector<std::uint8_t> pipelineCacheData() const;
+
   // Nanoseconds per timestamp tick; 0 when the queue has no timestamps.
   double timestampPeriodNs() const { return timestampPeriod_; }
 
@@ -154,6 +168,7 @@ class Device {
   DeviceInfo info_;
   std::unique_ptr<MemoryAllocator> memory_;
   VkPipelineCache pipelineCache_ = VK_NULL_HANDLE;
+  bool ownsPipelineCache_ = false;  // false: the host's, never destroyed here
   VkCommandPool commandPool_ = VK_NULL_HANDLE;
   VkFence fence_ = VK_NULL_HANDLE;
   bool fencePending_ = false;  // submitted and not yet seen signalled (an error path)

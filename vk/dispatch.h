@@ -37,6 +37,7 @@ namespace blobvk::vk {
   X(vkDestroyPipeline)                 \
   X(vkCreatePipelineCache)             \
   X(vkDestroyPipelineCache)            \
+  X(vkGetPipelineCacheData)            \
   X(vkCreateDescriptorPool)            \
   X(vkDestroyDescriptorPool)           \
   X(vkResetDescriptorPool)             \

@@ -194,11 +194,11 @@ MeshPipeline::MeshPipeline(Device& device, const RenderDispatch& rd, VkRenderPas
     info.layout = layout_;
     info.renderPass = renderPass;
     info.subpass = 0;
-    check(rd_.vkCreateGraphicsPipelines(device.handle(), VK_NULL_HANDLE, 1, &info, nullptr, &triangles_),
+    check(rd_.vkCreateGraphicsPipelines(device.handle(), device.pipelineCache(), 1, &info, nullptr, &triangles_),
           "vkCreateGraphicsPipelines");
     // Wireframe: the same shaders over a line list of unique edges (no fillModeNonSolid needed).
     assembly.topology = VK_PRIMITIVE_TOPOLOGY_LINE_LIST;
-    check(rd_.vkCreateGraphicsPipelines(device.handle(), VK_NULL_HANDLE, 1, &info, nullptr, &lines_),
+    check(rd_.vkCreateGraphicsPipelines(device.handle(), device.pipelineCache(), 1, &info, nullptr, &lines_),
           "vkCreateGraphicsPipelines");
   } catch (...) {
     d.vkDestroyShaderModule(device.handle(), vert, nullptr);

@@ -2,6 +2,7 @@
 #include "blobvk/vk/standalone.h"
 
 #include "blobvk/vk/error.h"
+#include "blobvk/vk/pipeline_cache_file.h"
 
 #include <vulkan/vulkan.h>
 
@@ -242,14 +243,42 @@ StandaloneContext::StandaloneContext(const StandaloneOptions& options)
     check(vkCreateDevice(host_.physicalDevice, &deviceInfo, nullptr, &host_.device), "vkCreateDevice");
     host_.queueFamilyIndex = family;
     vkGetDeviceQueue(host_.device, family, 0, &host_.queue);
-    device_ = std::make_unique<Device>(host_);
+    DeviceOptions deviceOptions;
+    if (const auto dir = resolvePipelineCacheDir(options.pipelineCache); !dir.empty()) {
+      VkPhysicalDeviceProperties properties;
+      vkGetPhysicalDeviceProperties(host_.physicalDevice, &properties);
+      cacheKey_ = std::make_unique<PipelineCacheKey>(pipelineCacheKey(properties));
+      cacheFile_ = vk::pipelineCacheFile(dir, *cacheKey_);
+      std::string problem;
+      cacheLoaded_ = readPipelineCacheFile(cacheFile_, *cacheKey_, problem);
+      if (!problem.empty()) {
+        std::fprintf(stderr, "blobvk: warning: pipeline cache %s %s; ignoring it (it is rewritten on exit)\n",
+                     cacheFile_.c_str(), problem.c_str());
+      }
+      deviceOptions.pipelineCacheData = cacheLoaded_;
+    }
+    device_ = std::make_unique<Device>(host_, deviceOptions);
   } catch (...) {
     release();
     throw;
   }
 }
 
-StandaloneContext::~StandaloneContext() { release(); }
+StandaloneContext::~StandaloneContext() {
+  savePipelineCache();
+  release();
+}
+
+void StandaloneContext::savePipelineCache() noexcept {
+  if (!device_ || cacheFile_.empty()) return;
+  try {
+    const auto data = device_->pipelineCacheData();
+    if (data == cacheLoaded_) return;  // nothing new: leave the file (and its readers) alone
+    writePipelineCacheFile(cacheFile_, *cacheKey_, data);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "blobvk: warning: pipeline cache not saved: %s\n", e.what());
+  }
+}
 
 void StandaloneContext::release() {
   device_.reset();

@@ -9,6 +9,7 @@
 //   host.queueFamilyIndex = family;          // compute (and graphics, for the mesh renderer)
 //   host.queue = queue;                      // only for blobvk's upload/one-shot helpers
 //   host.getInstanceProcAddr = vkGetInstanceProcAddr;   // any loader: volk, static, dynamic
+//   host.pipelineCache = engineCache;        // optional: pipelines go into it; never destroyed
 //   blobvk::vk::Device device(host);         // private dispatch table, allocator, pipelines
 // Requirements: Vulkan 1.1, no extension and no optional feature. The library loads its own
 // function pointers through getInstanceProcAddr; it never calls global vk* prototypes.

@@ -19,10 +19,13 @@ class VulkanTest : public ::testing::Test {
     // Lavapipe on 2 threads unless the caller picked a driver and thread count.
     setenv("VK_ICD_FILENAMES", "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json", 0);
     setenv("LP_NUM_THREADS", "2", 0);
+    // Contexts a test makes itself: no pipeline cache unless ctest (or the caller) chose one.
+    setenv("BLOBVK_PIPELINE_CACHE", "off", 0);
     if (context_ || !reason_.empty()) return;
     if (!vk::vulkanAvailable(&reason_)) return;
     vk::StandaloneOptions options;
     options.validation = true;
+    options.pipelineCache = "off";  // never the user's cache; tests/vk/test_pipeline_cache.cpp tests it
     if (const char* d = std::getenv("BLOBVK_TEST_DEVICE")) options.device = d;
     context_ = std::make_unique<vk::StandaloneContext>(options);
   }
