@@ -99,7 +99,17 @@ std::vector<std::uint8_t> readPipelineCacheFile(const std::filesystem::path& fil
                                                 std::string& problem) {
   problem.clear();
   std::error_code ec;
-  if (!std::filesystem::exists(file, ec)) return {};
+  const auto status = std::filesystem::status(file, ec);
+  if (!std::filesystem::exists(status)) return {};
+  if (!std::filesystem::is_regular_file(status)) {
+    problem = "is not a regular file";
+    return {};
+  }
+  // Never read a huge file to find it is not ours.
+  if (const auto size = std::filesystem::file_size(file, ec); !ec && size > kMaxPayload + 8192) {
+    problem = "is too large (" + std::to_string(size) + " bytes) to be a blobvk pipeline cache";
+    return {};
+  }
   std::ifstream in(file, std::ios::binary);
   if (!in) {
     problem = "cannot be opened";
