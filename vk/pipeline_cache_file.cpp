@@ -1,4 +1,4 @@
-#include "vk/pipeline_cache_file.h"
+#include "blobvk/vk/pipeline_cache_file.h"
 
 #include <unistd.h>
 
