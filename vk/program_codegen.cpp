@@ -1,5 +1,6 @@
 #include "blobvk/vk/program_codegen.h"
 
+#include "blobvk/vk/codegen_text.h"
 #include "blobvk/vk/program_codegen_loops.h"
 
 #include <cmath>
@@ -13,26 +14,9 @@ namespace {
 
 using layout::Instruction;
 
-// A float literal that parses back to exactly `v` (9 significant digits round-trip a float).
-std::string lit(float v) {
-  if (!std::isfinite(v)) {
-    std::uint32_t bits;
-    std::memcpy(&bits, &v, 4);
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "uintBitsToFloat(0x%08xu)", bits);
-    return buf;
-  }
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.9g", double(v));
-  std::string s = buf;
-  if (s.find_first_of(".e") == std::string::npos) s += ".0";
-  return s;
-}
-
-std::string vec3Lit(const layout::vec4& v) { return "vec3(" + lit(v.x) + ", " + lit(v.y) + ", " + lit(v.z) + ")"; }
-std::string vec4Lit(const layout::vec4& v) {
-  return "vec4(" + lit(v.x) + ", " + lit(v.y) + ", " + lit(v.z) + ", " + lit(v.w) + ")";
-}
+using codegen::lit;
+using codegen::vec3Lit;
+using codegen::vec4Lit;
 
 // The qualifier on the generated function and its colour registers: glslang makes every
 // operation feeding them NoContraction, so no driver fuses a * b + c (issue 15; the formulas it

@@ -300,20 +300,23 @@ std::uint32_t CodeShapes::computeBlockWords(std::uint32_t shape) {
   return words;
 }
 
+// A run's instances get their data blocks in order: the head's, then each tail child's.
+void CodeShapes::layoutRun(std::int32_t owner, const CodeRun& run) {
+  const CodeExpr& e = exprs_[std::size_t(owner)];
+  if (run.withHead) {
+    headOffset_[std::size_t(owner)] = std::uint32_t(data_.size());
+    layoutBlock(owner, true);
+  }
+  for (std::uint32_t t = run.firstTail; t < run.endTail; ++t) {
+    childOffset_[std::size_t(e.tails[t].child)] = std::uint32_t(data_.size());
+    layoutBlock(e.tails[t].child, false);
+  }
+}
+
 void CodeShapes::layoutLiteral(std::int32_t expr) {
   walkInstance(
       program_, exprs_, loops_, expr, false, [](const uvec4&) {},
-      [&](std::int32_t owner, const CodeRun& run) {
-        const CodeExpr& e = exprs_[std::size_t(owner)];
-        if (run.withHead) {
-          headOffset_[std::size_t(owner)] = std::uint32_t(data_.size());
-          layoutBlock(owner, true);
-        }
-        for (std::uint32_t t = run.firstTail; t < run.endTail; ++t) {
-          childOffset_[std::size_t(e.tails[t].child)] = std::uint32_t(data_.size());
-          layoutBlock(e.tails[t].child, false);
-        }
-      });
+      [&](std::int32_t owner, const CodeRun& run) { layoutRun(owner, run); });
 }
 
 void CodeShapes::layoutBlock(std::int32_t expr, bool head) {
@@ -325,17 +328,7 @@ void CodeShapes::layoutBlock(std::int32_t expr, bool head) {
       [&](const uvec4& w) {
         if (!literal_[shape][k++]) data_.push_back(w);
       },
-      [&](std::int32_t owner, const CodeRun& run) {
-        const CodeExpr& e = exprs_[std::size_t(owner)];
-        if (run.withHead) {
-          headOffset_[std::size_t(owner)] = std::uint32_t(data_.size());
-          layoutBlock(owner, true);
-        }
-        for (std::uint32_t t = run.firstTail; t < run.endTail; ++t) {
-          childOffset_[std::size_t(e.tails[t].child)] = std::uint32_t(data_.size());
-          layoutBlock(e.tails[t].child, false);
-        }
-      });
+      [&](std::int32_t owner, const CodeRun& run) { layoutRun(owner, run); });
 }
 
 }  // namespace blobvk::vk

@@ -101,6 +101,7 @@ class CodeShapes {
   std::uint32_t computeBlockWords(std::uint32_t shape);
   void layoutLiteral(std::int32_t expr);                  // an expression emitted with literals
   void layoutBlock(std::int32_t expr, bool head);         // an instance's block, appended to data_
+  void layoutRun(std::int32_t owner, const CodeRun& run);  // a run's blocks, head then tails
 
   const blobtree::Program& program_;
   std::vector<CodeExpr> exprs_;

@@ -11,6 +11,7 @@
 #include "blobvk/vk/field.h"
 #include "blobvk/vk/program_codegen.h"
 #include "blobvk/vk/program_shape.h"
+#include "reference_checks.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
@@ -26,15 +27,6 @@ blobtree::GridSpec gridAt(const blobtree::Program& program, int resolution) {
   blobtree::GridRequest request;
   request.resolution = resolution;
   return blobtree::chooseGrid(program, {}, request);
-}
-
-std::vector<float> referenceField(const blobtree::Program& program, const blobtree::GridSpec& grid) {
-  std::vector<float> f(grid.pointCount());
-  const auto pts = grid.points();
-  for (int k = 0; k < pts.z; ++k)
-    for (int j = 0; j < pts.y; ++j)
-      for (int i = 0; i < pts.x; ++i) f[grid.pointIndex(i, j, k)] = blobtree::evaluate(program, grid.point(i, j, k));
-  return f;
 }
 
 bool sameBits(const std::vector<float>& a, const std::vector<float>& b) {
