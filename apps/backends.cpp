@@ -7,8 +7,8 @@
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "blobvk/vk/polygonize.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/device/standalone.h"
 #endif
 
 #include <chrono>

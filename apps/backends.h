@@ -13,7 +13,7 @@
 #include <vector>
 
 namespace blobvk::vk {
-enum class Traversal;  // vk/gpu_program.h
+enum class Traversal;  // vk/eval/gpu_program.h
 }
 
 namespace blobvk::app {

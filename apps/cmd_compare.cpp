@@ -22,8 +22,8 @@
 #include <stdexcept>
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "blobvk/vk/field.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/device/standalone.h"
 #endif
 
 namespace blobvk::app {

@@ -8,11 +8,11 @@
 #include <nlohmann/json.hpp>
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "blobvk/vk/png_io.h"
-#include "blobvk/vk/raycast.h"
-#include "blobvk/vk/render_gpu_mesh.h"
-#include "blobvk/vk/render_mesh.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/render/png_io.h"
+#include "blobvk/vk/render/raycast.h"
+#include "blobvk/vk/render/render_gpu_mesh.h"
+#include "blobvk/vk/render/render_mesh.h"
+#include "blobvk/vk/device/standalone.h"
 #endif
 
 #include <cmath>

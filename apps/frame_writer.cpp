@@ -9,10 +9,10 @@
 #include <filesystem>
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "blobvk/vk/png_io.h"
-#include "blobvk/vk/render_camera.h"
-#include "blobvk/vk/render_mesh.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/render/png_io.h"
+#include "blobvk/vk/render/render_camera.h"
+#include "blobvk/vk/render/render_mesh.h"
+#include "blobvk/vk/device/standalone.h"
 #endif
 
 namespace blobvk::app {

@@ -3,7 +3,7 @@
 #include "cli_conventions.h"
 
 #ifdef BLOBVK_HAVE_VULKAN
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/device/standalone.h"
 #endif
 
 #include <cstring>

@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
   bool quietFlag = false;
   app.add_flag("-q,--quiet", quietFlag, "No progress or informational lines on stderr (mesh, render: no summary)");
   app.parse_complete_callback([&quietFlag] { setQuiet(quietFlag); });
-  // Where the Vulkan pipeline cache lives (vk/standalone.h): passed to the library through the
+  // Where the Vulkan pipeline cache lives (vk/device/standalone.h): passed to the library through the
   // variable it reads, so every command that creates a device honours it.
   app.add_option_function<std::string>(
          "--pipeline-cache", [](const std::string& dir) { setenv("BLOBVK_PIPELINE_CACHE", dir.c_str(), 1); },

@@ -1,5 +1,5 @@
 // `blobvk render`: a scene to PNG, by rasterizing its mesh or ray-casting its field (vk/render*,
-// vk/raycast*). Registered by main.cpp next to the commands of commands.h.
+// vk/render/raycast*). Registered by main.cpp next to the commands of commands.h.
 #pragma once
 
 namespace CLI {

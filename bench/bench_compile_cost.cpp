@@ -12,10 +12,10 @@
 #include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
-#include "blobvk/vk/evaluator_choice.h"
-#include "blobvk/vk/polygonize.h"
-#include "blobvk/vk/program_codegen.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/device/standalone.h"
 
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>

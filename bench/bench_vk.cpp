@@ -16,12 +16,12 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/simd_evaluator.h"
-#include "blobvk/vk/field.h"
-#include "blobvk/vk/polygonize.h"
-#include "blobvk/vk/program_codegen.h"
-#include "blobvk/vk/runtime_compiler.h"
-#include "blobvk/vk/scan.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/eval/runtime_compiler.h"
+#include "blobvk/vk/extract/scan.h"
+#include "blobvk/vk/device/standalone.h"
 
 #include <benchmark/benchmark.h>
 #include <tbb/parallel_for.h>

@@ -1,5 +1,5 @@
 #version 450
-// One invocation at the start of a slab's emit pass (vk/slab_polygonizer.cpp): checks the slab's
+// One invocation at the start of a slab's emit pass (vk/extract/slab_polygonizer.cpp): checks the slab's
 // vertex and triangle counts (draw_args.comp's words 11 and 12) against the
 // capacities of the caller's output buffers. Word 10 gets the overflow bits (1: vertices,
 // 2: triangles; 0 when everything fits). On overflow the slab's triangles leave the indexed

@@ -1,6 +1,6 @@
 // The field, warp and box formulas of blobtree/evaluate.cpp as pure functions of their record
 // values, shared by the interpreting evaluator (eval_program.glsl, which loads the values from the
-// Program's buffers) and the specialised one (vk/program_codegen.cpp, which passes literals).
+// Program's buffers) and the specialised one (vk/eval/program_codegen.cpp, which passes literals).
 // One copy of each formula means both evaluators compute the same float operations in the same
 // order as the C++ reference; keep them in step with evaluate.cpp.
 //

@@ -111,7 +111,7 @@ bool outsideBoxAt(uint index, vec3 p) {
 
 // Two evaluators over the same primitive and warp formulas, each instantiated with and without
 // colour (the field-only path does no colour work): the stackless register machine and the
-// stack-based tree walk (vk/stack_program.h). Specialization constant 1 picks one per pipeline.
+// stack-based tree walk (vk/eval/stack_program.h). Specialization constant 1 picks one per pipeline.
 
 const uint TREE_LEAF = 1u;
 const uint TREE_OP = 2u;

@@ -1,4 +1,4 @@
-// Body of the stack-based tree walk (vk/stack_program.h encoding), included twice by
+// Body of the stack-based tree walk (vk/eval/stack_program.h encoding), included twice by
 // eval_program.glsl (EVAL_COLOUR 0 / 1). No include guard on purpose.
 // precise: no fused multiply-add anywhere in the field or its colour blend (eval_formulas.glsl).
 precise float EVAL_NAME(EVAL_PARAMS) {

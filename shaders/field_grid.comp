@@ -3,7 +3,7 @@
 // (i0 + a, j0 + b, k0 + c) for a < tileNx, b < tileNy, and writes it into the slab buffer at the
 // grid-layout index of (i, j, k - outK0) (i fastest), so the tiles of a slab fill it like one
 // dispatch would. The same point formula as GridSpec::point: origin + h * (i, j, k). With the
-// specialised evaluator each tile has its own pipeline, pruned to the tile (vk/field_tiles.h).
+// specialised evaluator each tile has its own pipeline, pruned to the tile (vk/eval/field_tiles.h).
 // Work groups: shaders/grid_dispatch.glsl.
 #extension GL_GOOGLE_include_directive : require
 #define PROGRAM_SET 0

@@ -1,7 +1,7 @@
 #version 450
 // Direct ray-casting of the field, no mesh: one invocation per pixel marches from where its ray
 // enters the Program's bounds. The bounds are split into cells, each with its own Lipschitz
-// bound L of the field (vk/raycast_lipschitz.h: a far, steep component only slows the rays that
+// bound L of the field (vk/render/raycast_lipschitz.h: a far, steep component only slows the rays that
 // pass near it). The ray walks the cells in order (a 3-D DDA) and, inside a cell, steps
 // (iso - f) / L, never past the cell's exit face: it can never step across the surface (down to
 // the step floor: a crossing where the field rises less than minRise above iso may be missed). The first sample inside

@@ -1,6 +1,6 @@
 #version 450
-// The vertex pass of one field tile (vk/slab_polygonizer.cpp), so each tile's vertices run the
-// evaluator pruned to the tile (vk/field_tiles.h), as its field did. One invocation per vertex of
+// The vertex pass of one field tile (vk/extract/slab_polygonizer.cpp), so each tile's vertices run the
+// evaluator pruned to the tile (vk/eval/field_tiles.h), as its field did. One invocation per vertex of
 // the tile in this slab (dispatched indirectly from tile_args.comp): the tile's rows (x runs of
 // its points) have their vertex counts scanned in rowScan (tile_rows.comp + a scan); invocation v
 // finds its row by binary search there, then its point within the row by binary search over the

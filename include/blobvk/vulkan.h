@@ -22,7 +22,7 @@
 //   // then vkCmdDrawIndexedIndirect(cmd, poly.drawArgs().handle(), 0, 1, 0) in your pass.
 // Capacity: a mesh has at most 3 vertices per grid point and 5 triangles per cell
 // (SlabPlan::ownedPoints, SlabPlan::cells); allocate that, or read back drawArgs() words 5 and 6
-// after recordClassify to size the buffers exactly (vk/render_gpu_mesh.h does both). The emit
+// after recordClassify to size the buffers exactly (vk/render/render_gpu_mesh.h does both). The emit
 // pass never writes past the capacities you pass; a mesh that does not fit sets drawArgs() word
 // kOverflowWord (SlabPolygonizer::readOverflow()) and is left out of the indirect draw.
 //
@@ -35,10 +35,10 @@
 //  - Leaves (after every record* call): its shader writes made available to COMPUTE_SHADER,
 //    TRANSFER and DRAW_INDIRECT (SHADER_READ|WRITE, TRANSFER_READ|WRITE, INDIRECT_COMMAND_READ).
 //    To draw, add VERTEX_INPUT (VERTEX_ATTRIBUTE_READ | INDEX_READ) yourself, as embed_host does.
-//  - Images: the headless mesh renderer (vk/render_mesh.h: MeshPipeline::recordDraw) records
+//  - Images: the headless mesh renderer (vk/render/render_mesh.h: MeshPipeline::recordDraw) records
 //    inside YOUR render pass when you pass it at construction; OffscreenTarget documents its own
 //    layouts (attachments from UNDEFINED, resolved colour left in TRANSFER_SRC_OPTIMAL).
-//  - The ray-caster (vk/raycast.h: Raycaster::recordRaycast) writes packed RGBA8 into a buffer
+//  - The ray-caster (vk/render/raycast.h: Raycaster::recordRaycast) writes packed RGBA8 into a buffer
 //    you give it and leaves the same compute barrier; rays that ran out of steps are drawn
 //    kRaycastBudgetMarker and counted (Raycaster::exhaustedRays() once the work completed).
 //
@@ -60,12 +60,12 @@
 #pragma once
 
 #include "blobvk/blobvk.h"
-#include "blobvk/vk/context.h"
-#include "blobvk/vk/png_io.h"
-#include "blobvk/vk/polygonize.h"
-#include "blobvk/vk/raycast.h"
-#include "blobvk/vk/render_camera.h"
-#include "blobvk/vk/render_gpu_mesh.h"
-#include "blobvk/vk/render_mesh.h"
-#include "blobvk/vk/slab_polygonizer.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/device/context.h"
+#include "blobvk/vk/render/png_io.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/render/raycast.h"
+#include "blobvk/vk/render/render_camera.h"
+#include "blobvk/vk/render/render_gpu_mesh.h"
+#include "blobvk/vk/render/render_mesh.h"
+#include "blobvk/vk/extract/slab_polygonizer.h"
+#include "blobvk/vk/device/standalone.h"

@@ -1,6 +1,6 @@
 // The VkResult -> message mapping users see when a device fails: one line, naming the call and
 // the result, and saying what to do.
-#include "blobvk/vk/error.h"
+#include "blobvk/vk/device/error.h"
 
 #include <gtest/gtest.h>
 

@@ -7,9 +7,9 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/tree.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
-#include "blobvk/vk/error.h"
-#include "blobvk/vk/polygonize.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/device/standalone.h"
 #include "vulkan_required.h"
 
 #include <gtest/gtest.h>

@@ -1,8 +1,8 @@
 // No Vulkan driver at all: the loader is pointed at a manifest that does not exist. Each case
 // runs in a death-test child so the environment change cannot leak into other tests (the loader
 // reads VK_ICD_FILENAMES / VK_DRIVER_FILES when an instance is created).
-#include "blobvk/vk/error.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/device/standalone.h"
 
 #include <gtest/gtest.h>
 

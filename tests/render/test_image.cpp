@@ -1,5 +1,5 @@
-#include "blobvk/vk/png_io.h"
-#include "blobvk/vk/render_image.h"
+#include "blobvk/vk/render/png_io.h"
+#include "blobvk/vk/render/render_image.h"
 
 #include <gtest/gtest.h>
 #include <zlib.h>

@@ -5,9 +5,9 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
-#include "blobvk/vk/raycast.h"
-#include "blobvk/vk/raycast_lipschitz.h"
-#include "blobvk/vk/render_mesh.h"
+#include "blobvk/vk/render/raycast.h"
+#include "blobvk/vk/render/raycast_lipschitz.h"
+#include "blobvk/vk/render/render_mesh.h"
 
 #include <glm/geometric.hpp>
 #include <glm/trigonometric.hpp>

@@ -1,4 +1,4 @@
-// The ray-caster never drops a surface silently (vk/raycast.h): per-cell Lipschitz bounds keep a
+// The ray-caster never drops a surface silently (vk/render/raycast.h): per-cell Lipschitz bounds keep a
 // far, steep component from slowing every ray, and a ray that still runs out of its step budget
 // is counted and its pixel marked. Oracles: analytic silhouettes, the raster image of the CPU
 // reference mesh, and sampled slopes of the CPU reference field.
@@ -9,9 +9,9 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
-#include "blobvk/vk/raycast.h"
-#include "blobvk/vk/raycast_lipschitz.h"
-#include "blobvk/vk/render_mesh.h"
+#include "blobvk/vk/render/raycast.h"
+#include "blobvk/vk/render/raycast_lipschitz.h"
+#include "blobvk/vk/render/render_mesh.h"
 
 #include <glm/geometric.hpp>
 #include <glm/trigonometric.hpp>

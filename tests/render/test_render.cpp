@@ -3,8 +3,8 @@
 
 #include "blobvk/blobtree/program.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
-#include "blobvk/vk/render_gpu_mesh.h"
-#include "blobvk/vk/render_mesh.h"
+#include "blobvk/vk/render/render_gpu_mesh.h"
+#include "blobvk/vk/render/render_mesh.h"
 
 #include <glm/trigonometric.hpp>
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Output capacities of the emit pass (vk/slab_polygonizer.h): with buffers smaller than the mesh,
+// Output capacities of the emit pass (vk/extract/slab_polygonizer.h): with buffers smaller than the mesh,
 // nothing is written past the capacities (guard words after them survive), what is written is
 // the reference mesh's prefix, the overflow is reported, the overflowing slab leaves the indirect
 // draw, and the validation layer (core and synchronisation checks, the fixture) stays silent.
@@ -7,9 +7,9 @@
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "models.h"
-#include "blobvk/vk/error.h"
-#include "blobvk/vk/polygonize.h"
-#include "blobvk/vk/slab_polygonizer.h"
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/slab_polygonizer.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

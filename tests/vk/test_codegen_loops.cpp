@@ -1,16 +1,16 @@
-// The specialised evaluator's compact form (vk/program_shape.h, vk/program_codegen_loops.cpp):
+// The specialised evaluator's compact form (vk/eval/program_shape.h, vk/eval/program_codegen_loops.cpp):
 // a generated tower of many equal instances becomes a few shared functions called in loops, and
 // its field is bit for bit the CPU reference's and the interpreter's, whole and per pruned tile;
-// and the cost model (vk/evaluator_choice.h) picks the interpreter for the tower and the
+// and the cost model (vk/eval/evaluator_choice.h) picks the interpreter for the tower and the
 // specialised code where its build pays back.
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
-#include "blobvk/vk/evaluator_choice.h"
-#include "blobvk/vk/field.h"
-#include "blobvk/vk/program_codegen.h"
-#include "blobvk/vk/program_shape.h"
+#include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/eval/program_shape.h"
 #include "reference_checks.h"
 #include "vk_fixture.h"
 

@@ -1,6 +1,6 @@
-#include "blobvk/vk/error.h"
-#include "blobvk/vk/shader_registry.h"
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/device/shader_registry.h"
+#include "blobvk/vk/device/standalone.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

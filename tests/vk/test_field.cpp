@@ -3,9 +3,9 @@
 #include "blobvk/blobtree/program.h"
 #include "models.h"
 #include "reference_checks.h"
-#include "blobvk/vk/field.h"
-#include "blobvk/vk/program_codegen.h"
-#include "blobvk/vk/stack_program.h"
+#include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/eval/stack_program.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

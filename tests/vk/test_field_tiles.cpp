@@ -1,14 +1,14 @@
-// Spatial tape pruning of the field pass (vk/field_tiles.h): the tile plan covers the grid exactly
+// Spatial tape pruning of the field pass (vk/eval/field_tiles.h): the tile plan covers the grid exactly
 // once and prunes real work, and tiled fields are bit for bit the untiled ones on every shipped
 // scene (the pruned subtrees and primitives are exactly 0 in their tiles).
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
-#include "blobvk/vk/field.h"
-#include "blobvk/vk/field_tiles.h"
-#include "blobvk/vk/polygonize.h"
-#include "blobvk/vk/program_codegen.h"
+#include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/eval/field_tiles.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/eval/program_codegen.h"
 #include "reference_checks.h"
 #include "shipped_scenes.h"
 #include "vk_fixture.h"

@@ -5,11 +5,11 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "models.h"
-#include "blobvk/vk/field.h"
-#include "blobvk/vk/memory.h"
-#include "blobvk/vk/polygonize.h"
-#include "blobvk/vk/scan.h"
-#include "blobvk/vk/slab_polygonizer.h"
+#include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/device/memory.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/scan.h"
+#include "blobvk/vk/extract/slab_polygonizer.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

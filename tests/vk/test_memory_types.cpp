@@ -1,13 +1,13 @@
-// Memory types per use, fallback and budgets (vk/memory.h), on layouts of real GPU kinds: the
+// Memory types per use, fallback and budgets (vk/device/memory.h), on layouts of real GPU kinds: the
 // ranking as a pure function, then a simulated discrete GPU over lavapipe (MemorySimulation),
 // whose meshes must equal the CPU reference and, byte for byte, lavapipe's own.
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "models.h"
-#include "blobvk/vk/error.h"
-#include "blobvk/vk/memory.h"
-#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/device/memory.h"
+#include "blobvk/vk/extract/polygonize.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

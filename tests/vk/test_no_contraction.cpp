@@ -5,9 +5,9 @@
 // formula added later without `precise` fails here, on any machine (no device needed).
 #include "blobvk/blobtree/program.h"
 #include "models.h"
-#include "blobvk/vk/program_codegen.h"
-#include "blobvk/vk/runtime_compiler.h"
-#include "blobvk/vk/shader_registry.h"
+#include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/eval/runtime_compiler.h"
+#include "blobvk/vk/device/shader_registry.h"
 
 #include <gtest/gtest.h>
 

@@ -2,7 +2,7 @@
 // next context, bad files ignored with one warning and replaced, "off" writes nothing) and a
 // host's own VkPipelineCache (used for every pipeline, never destroyed by blobvk). Every test
 // works in its own temporary directory, never in the user's cache.
-#include "blobvk/vk/pipeline_cache_file.h"
+#include "blobvk/vk/device/pipeline_cache_file.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

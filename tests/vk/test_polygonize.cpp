@@ -5,8 +5,8 @@
 #include "blobvk/mesh/checks.h"
 #include "models.h"
 #include "reference_checks.h"
-#include "blobvk/vk/field.h"
-#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/extract/polygonize.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-#include "blobvk/vk/scan.h"
+#include "blobvk/vk/extract/scan.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

@@ -6,8 +6,8 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
-#include "blobvk/vk/field.h"
-#include "blobvk/vk/polygonize.h"
+#include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/extract/polygonize.h"
 #include "shipped_scenes.h"
 #include "vk_fixture.h"
 

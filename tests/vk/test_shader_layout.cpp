@@ -1,4 +1,4 @@
-// Descriptor and push-constant layouts come from the shaders' SPIR-V (vk/shader_layout.h,
+// Descriptor and push-constant layouts come from the shaders' SPIR-V (vk/device/shader_layout.h,
 // generated at build time by spirv-cross --reflect). Checked against an independent reading of
 // the SPIR-V words, and against what every pipeline's C++ side binds and pushes: a Recorder
 // refuses a dispatch that disagrees with the reflected layout, so running every pipeline once
@@ -7,13 +7,13 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "models.h"
-#include "blobvk/vk/error.h"
-#include "blobvk/vk/field.h"
-#include "blobvk/vk/polygonize.h"
-#include "blobvk/vk/raycast.h"
-#include "blobvk/vk/render_camera.h"
-#include "blobvk/vk/shader_layout.h"
-#include "blobvk/vk/shader_registry.h"
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/render/raycast.h"
+#include "blobvk/vk/render/render_camera.h"
+#include "blobvk/vk/device/shader_layout.h"
+#include "blobvk/vk/device/shader_registry.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>

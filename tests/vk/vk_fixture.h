@@ -2,7 +2,7 @@
 // is slow on 2 cores). Each test asserts that it produced no validation message.
 #pragma once
 
-#include "blobvk/vk/standalone.h"
+#include "blobvk/vk/device/standalone.h"
 #include "vulkan_required.h"
 
 #include <gtest/gtest.h>

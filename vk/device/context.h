@@ -1,0 +1,279 @@
+// How the library meets a Vulkan device: a HostContext holds the engine's handles (never
+// destroyed by us); a Device wraps one with our private dispatch table, memory allocator,
+// pipeline cache and a one-shot submit path. StandaloneContext (standalone.h) creates its own.
+#pragma once
+
+#include "blobvk/vk/device/dispatch.h"
+#include "blobvk/vk/device/memory.h"
+
+#include <cstdint>
+#include <functional>
+#include <list>
+#include <memory>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace blobvk::vk {
+
+// The engine's objects. All must outlive the Device built on them. The device must support
+// Vulkan 1.1 and a queue family with compute; no extension or optional feature is needed.
+struct HostContext {
+  VkInstance instance = VK_NULL_HANDLE;
+  VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  std::uint32_t queueFamilyIndex = 0;  // must support VK_QUEUE_COMPUTE_BIT
+  VkQueue queue = VK_NULL_HANDLE;      // used by Device::submitAndWait; externally synchronised
+  PFN_vkGetInstanceProcAddr getInstanceProcAddr = nullptr;
+  // Optional: the engine's VkPipelineCache. When set, blobvk creates every pipeline (compute
+  // kernels, the mesh renderer's) with it and never destroys it; persisting it is the engine's
+  // business. When null, the Device creates a private one (DeviceOptions::pipelineCacheData).
+  VkPipelineCache pipelineCache = VK_NULL_HANDLE;
+};
+
+// A device buffer with its memory. Moves, never copies.
+class Buffer {
+ public:
+  Buffer() = default;
+  Buffer(Buffer&& o) noexcept { *this = std::move(o); }
+  Buffer& operator=(Buffer&& o) noexcept;
+  ~Buffer();
+
+  VkBuffer handle() const { return buffer_; }
+  VkDeviceSize size() const { return size_; }
+  void* mapped() const { return allocation_.mapped; }  // null when not host visible
+  std::uint32_t memoryType() const { return allocation_.type; }  // index chosen by the allocator
+  explicit operator bool() const { return buffer_ != VK_NULL_HANDLE; }
+
+ private:
+  friend class Device;
+  class Device* device_ = nullptr;
+  VkBuffer buffer_ = VK_NULL_HANDLE;
+  VkDeviceSize size_ = 0;
+  Allocation allocation_{};
+};
+
+// A compute pipeline. Its descriptor-set layout (set 0: one buffer per binding) and push-constant
+// range come from the shader's SPIR-V reflection (vk/device/shader_layout.h). Owned by shared pointers:
+// the Device's pipeline cache holds one until it evicts the kernel, every holder (a FieldPass, a
+// Recorder that bound it) keeps it alive, and the last one destroys its Vulkan objects.
+struct Kernel : std::enable_shared_from_this<Kernel> {
+  VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  const struct ShaderLayout* shaderLayout = nullptr;
+  std::uint32_t bindings = 0;           // buffers bound at set 0, bindings 0..n-1
+  std::uint32_t pushConstantBytes = 0;  // the shader's block; pushes must cover it
+  std::uint32_t pushConstantRange = 0;  // the layout's range (the block rounded up to 16 bytes)
+  std::uint32_t workgroupSize = 0;
+};
+using KernelPtr = std::shared_ptr<const Kernel>;
+
+struct DeviceInfo {
+  std::string name;
+  VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
+  std::uint32_t apiVersion = 0;
+  std::uint32_t subgroupSize = 0;
+  VkPhysicalDeviceLimits limits{};
+};
+
+// What a Device is created with besides the host's handles (all optional).
+struct DeviceOptions {
+  // Compute pipelines kept in the Device's cache, least recently used evicted first (a viewer
+  // that edits a model builds a specialised kernel per edit). At least 1.
+  std::uint32_t pipelineCacheCapacity = 256;
+  // Tests: present this memory layout instead of the device's (vk/device/memory.h).
+  const MemorySimulation* memorySimulation = nullptr;
+  // Initial data of the Device's own VkPipelineCache (what pipelineCacheData() returned in an
+  // earlier process; StandaloneContext keeps it on disk). Ignored when the host hands in its own
+  // cache. Must begin with a VkPipelineCacheHeaderVersionOne matching the device.
+  std::span<const std::uint8_t> pipelineCacheData;
+};
+
+class Device {
+ public:
+  explicit Device(const HostContext& host, const DeviceOptions& options = {});
+  ~Device();
+  Device(const Device&) = delete;
+  Device& operator=(const Device&) = delete;
+
+  const Dispatch& d() const { return d_; }
+  VkDevice handle() const { return host_.device; }
+  const HostContext& host() const { return host_; }
+  const DeviceInfo& info() const { return info_; }
+  MemoryAllocator& memory() { return *memory_; }
+
+  // Storage buffer (also transfer src/dst and indirect). `use` picks the memory (vk/device/memory.h).
+  Buffer createBuffer(VkDeviceSize size, MemoryUse use = MemoryUse::DeviceLocal,
+                      VkBufferUsageFlags extraUsage = 0);
+  // Copies host data into a buffer: a memcpy when it is mapped, else through an Upload staging
+  // buffer, copied by a one-shot submit or, while an UploadBatch is open, by a copy the batch
+  // records into the host's command buffer.
+  void upload(Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
+  // Copies a buffer out: a memcpy when it is mapped host-cached memory, else through a Readback
+  // staging buffer and a one-shot submit (reading uncached memory is slow on discrete GPUs).
+  void download(const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
+  // forceStaging: device-local buffers created from now on are not mapped, so data goes through
+  // staging copies (the discrete-GPU path on lavapipe; MemorySimulation does the whole layout).
+  void setForceStaging(bool on) { forceStaging_ = on; }
+  bool forceStaging() const { return forceStaging_; }
+
+  // Cached compute pipeline for an embedded shader with specialization constants
+  // (constant_id i = specs[i]; constant 0 is the workgroup size by convention). Its layout is
+  // the shader's reflected one (vk/device/shader_layout.h).
+  KernelPtr kernel(const std::string& shader, std::span<const std::uint32_t> specs);
+  // The same for SPIR-V made at run time (vk/eval/runtime_compiler.h) from the embedded shader
+  // `layoutOf` (whose reflected layout it shares); `name` must identify the code (e.g. shader +
+  // a hash of the source), since pipelines are cached by name and specs.
+  KernelPtr kernel(const std::string& name, std::span<const std::uint32_t> code, const std::string& layoutOf,
+                   std::span<const std::uint32_t> specs);
+  // A cached pipeline, or null (lets callers skip generating code that is already built).
+  KernelPtr findKernel(const std::string& name, std::span<const std::uint32_t> specs);
+  // Pipelines in the cache, and how many it has evicted since creation.
+  std::size_t cachedKernels() const { return kernelLru_.size(); }
+  std::uint64_t evictedKernels() const { return evictedKernels_; }
+  // The names of the embedded shaders that kernels were built from (tests of coverage).
+  const std::vector<std::string>& shadersUsed() const { return shadersUsed_; }
+
+  // Records with `record`, submits to the host queue and waits on blobvk's own fence (never on
+  // the host's device or queue). Throws on device loss.
+  void submitAndWait(const std::function<void(VkCommandBuffer)>& record);
+  // The same with a Recorder that stays alive (with its descriptor sets) until the fence.
+  void run(const std::function<void(class Recorder&)>& record);
+
+  // The VkPipelineCache every pipeline is created with: the host's, or the Device's own.
+  VkPipelineCache pipelineCache() const { return pipelineCache_; }
+  bool ownsPipelineCache() const { return ownsPipelineCache_; }
+  // vkGetPipelineCacheData of that cache (what to persist for a later process).
+  std::vector<std::uint8_t> pipelineCacheData() const;
+
+  // Nanoseconds per timestamp tick; 0 when the queue has no timestamps.
+  double timestampPeriodNs() const { return timestampPeriod_; }
+
+  // Per-Device state of the field planner (vk/eval/field.cpp's tile plans): kept here so that two
+  // Devices share nothing; type-erased to keep this header light.
+  std::shared_ptr<void>& tilePlanCache() { return tilePlanCache_; }
+
+ private:
+  friend class Buffer;
+  friend class UploadBatch;
+  void destroyBuffer(Buffer& b);
+  KernelPtr createKernel(const std::string& key, const std::string& shader, std::span<const std::uint32_t> code,
+                         const std::string& layoutOf, std::span<const std::uint32_t> specs);
+  KernelPtr touch(const std::string& key);
+
+  HostContext host_;
+  Dispatch d_;
+  DeviceInfo info_;
+  std::unique_ptr<MemoryAllocator> memory_;
+  VkPipelineCache pipelineCache_ = VK_NULL_HANDLE;
+  bool ownsPipelineCache_ = false;  // false: the host's, never destroyed here
+  VkCommandPool commandPool_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+  bool fencePending_ = false;  // submitted and not yet seen signalled (an error path)
+  bool forceStaging_ = false;
+  double timestampPeriod_ = 0.0;
+  // The pipeline cache: most recently used first.
+  std::uint32_t kernelCapacity_ = 256;
+  std::list<std::pair<std::string, KernelPtr>> kernelLru_;
+  std::unordered_map<std::string, std::list<std::pair<std::string, KernelPtr>>::iterator> kernels_;
+  std::uint64_t evictedKernels_ = 0;
+  std::vector<std::string> shadersUsed_;
+  std::shared_ptr<void> tilePlanCache_;
+  class UploadBatch* uploadBatch_ = nullptr;  // the open batch, if any
+};
+
+// Uploads recorded into the host's command buffer instead of blocking submits. While a batch is
+// open on a Device, Device::upload to a buffer that is not host visible (program records,
+// tables: everything a SlabPolygonizer, FieldPass or Raycaster uploads at construction) writes
+// a staging buffer and queues a copy; record() puts the queued copies into `cmd` followed by
+// one barrier: TRANSFER_WRITE -> SHADER_READ | SHADER_WRITE | TRANSFER_READ | TRANSFER_WRITE at
+// COMPUTE_SHADER | TRANSFER. Uploads to mapped buffers are plain memcpys and need nothing.
+// Keep the batch alive until `cmd` has executed (it owns the staging buffers), and not past its
+// Device; batches on one Device close in reverse order of opening. A Device::run or
+// submitAndWait while copies are queued records them first in its own command buffer.
+class UploadBatch {
+ public:
+  explicit UploadBatch(Device& device);
+  ~UploadBatch();  // closes the batch; copies never recorded are dropped
+  UploadBatch(const UploadBatch&) = delete;
+  UploadBatch& operator=(const UploadBatch&) = delete;
+
+  void record(VkCommandBuffer cmd);
+  std::size_t queuedCopies() const { return copies_.size(); }
+  std::size_t stagingBuffers() const { return staging_.size(); }
+
+ private:
+  friend class Device;
+  struct Copy {
+    VkBuffer src, dst;
+    VkBufferCopy region;
+  };
+  Device& device_;
+  UploadBatch* previous_;
+  std::vector<Buffer> staging_;
+  std::vector<Copy> copies_;
+};
+
+// The dispatch recorder: binds a kernel, its buffers (through a descriptor pool it owns) and
+// push constants. Descriptor sets live until the recorder is destroyed or reset(), so keep it
+// alive until the command buffer has executed.
+struct BufferRange {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceSize offset = 0;
+  VkDeviceSize size = VK_WHOLE_SIZE;
+  BufferRange() = default;
+  BufferRange(const Buffer& b) : buffer(b.handle()), offset(0), size(VK_WHOLE_SIZE) {}
+  BufferRange(VkBuffer b, VkDeviceSize o, VkDeviceSize s) : buffer(b), offset(o), size(s) {}
+};
+
+class Recorder {
+ public:
+  Recorder(Device& device, VkCommandBuffer cmd);
+  ~Recorder();
+  Recorder(const Recorder&) = delete;
+  Recorder& operator=(const Recorder&) = delete;
+
+  VkCommandBuffer cmd() const { return cmd_; }
+  Device& device() { return device_; }
+
+  // Dispatches groups (x, y) of `kernel`; pushSize <= 128.
+  void dispatch(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,
+                std::uint32_t pushSize, std::uint32_t groupsX, std::uint32_t groupsY = 1,
+                std::uint32_t groupsZ = 1);
+  // The same with the group counts read on the device from a VkDispatchIndirectCommand in
+  // `args` at `offset` (counts that never come back to the host).
+  void dispatchIndirect(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push,
+                        std::uint32_t pushSize, const Buffer& args, VkDeviceSize offset);
+  // Compute writes -> compute reads/writes, transfers and indirect reads (one global barrier:
+  // cheap on every driver and what lavapipe does anyway).
+  void computeBarrier();
+  // Compute/transfer writes -> host reads, before the fence the host waits on.
+  void hostBarrier();
+  void fill(const Buffer& b, std::uint32_t value);
+
+ private:
+  VkDescriptorSet allocateSet(const Kernel& kernel);
+  void bind(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push, std::uint32_t pushSize);
+  Device& device_;
+  VkCommandBuffer cmd_;
+  std::vector<VkDescriptorPool> pools_;
+  std::uint32_t setsLeft_ = 0, buffersLeft_ = 0, uniformsLeft_ = 0;
+  std::vector<KernelPtr> kernels_;  // bound kernels live until the command buffer has executed
+};
+
+// Splits `invocations` into a 2-D grid of workgroups (x <= 65535) so big grids need no loop.
+// Shaders rebuild the linear index as gl_GlobalInvocationID.x + gl_GlobalInvocationID.y *
+// gl_NumWorkGroups.x * workgroupSize.
+struct Groups { std::uint32_t x = 1, y = 1; };
+Groups groupsFor(std::uint64_t invocations, std::uint32_t workgroupSize);
+
+// The grid kernels' work groups (shaders/grid_dispatch.glsl): 8 x rows, rows = workgroupSize / 8
+// (at least 1), their specialization constant 0; gridGroups covers nx x ny x layers invocations.
+inline constexpr std::uint32_t kGridGroupWidth = 8;
+std::uint32_t gridGroupRows(std::uint32_t workgroupSize);
+struct Groups3 { std::uint32_t x = 1, y = 1, z = 1; };
+Groups3 gridGroups(std::uint32_t nx, std::uint32_t ny, std::uint32_t layers, std::uint32_t workgroupSize);
+
+}  // namespace blobvk::vk

@@ -1,0 +1,54 @@
+// Which evaluator runs a job (Traversal::Auto): the interpreter, or the specialised code as one
+// kernel or per field tile, whichever the measured costs (vk/eval/evaluator_costs.h) say finishes
+// first, counting the kernels' build time once and the evaluation once per repeat.
+//
+// Why: the specialised code evaluates faster than the interpreter, but lavapipe builds it slowly
+// and the build grows faster than the code; a mesh of a few thousand instructions took minutes to
+// build for a second's work. The answer depends on the program, the grid and how often the
+// kernels are reused, so it is computed, not capped.
+#pragma once
+
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/device/context.h"
+#include "blobvk/vk/eval/field_tiles.h"
+#include "blobvk/vk/eval/gpu_program.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace blobvk::vk {
+
+struct EvaluatorJob {
+  bool vertexPass = false;      // polygonization: a vertex kernel evaluates too
+  int refineSteps = 0;          // per vertex (vertex pass)
+  std::uint32_t repeats = 1;    // runs of the job with the same kernels
+  FieldTilingOptions tiling;    // the field pass's tiles when specialised
+};
+
+struct EvaluatorEstimate {
+  Traversal traversal = Traversal::Stackless;
+  std::uint32_t fieldKernels = 1;  // specialised: 1 = one kernel for the grid; more = per tile
+  double buildSeconds = 0.0, runSeconds = 0.0;
+  double buildMegabytes = 0.0;  // peak memory of its largest kernel build, beyond the process's
+  double total(std::uint32_t repeats) const { return buildSeconds + repeats * runSeconds; }
+};
+
+struct EvaluatorChoice {
+  EvaluatorEstimate chosen;
+  std::vector<EvaluatorEstimate> candidates;  // what was compared, chosen among them
+};
+
+// The evaluator for `job` on `grid`. Devices other than CPU drivers keep the specialised code
+// (their kernels build fast and the model's constants are lavapipe's).
+EvaluatorChoice chooseEvaluator(const Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                const EvaluatorJob& job, const CodegenOptions& codegen);
+
+// The same from the device type alone (tests and benchmarks).
+EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                const EvaluatorJob& job, const CodegenOptions& codegen);
+
+// Build seconds of one specialised kernel spelling out `instructions` per evaluator copy.
+double specialisedKernelSeconds(double instructions, double copies);
+
+}  // namespace blobvk::vk

@@ -1,0 +1,54 @@
+// Measured costs of the evaluators on lavapipe (Mesa 22.3 llvmpipe, LLVM 15, LP_NUM_THREADS=2,
+// this project's 2-core Debian 12 machine), the constants of vk/eval/evaluator_choice.cpp's model.
+// Re-measure after changing the shaders or the code generator:
+//
+//   LP_NUM_THREADS=2 MESA_SHADER_CACHE_DISABLE=true build/release/bench/bench_compile_cost
+//       --benchmark_counters_tabular=true
+//
+// Compile times include what llvmpipe does at a pipeline's first dispatch (NIR -> LLVM ->
+// machine code): lavapipe builds the LLVM variant there, not in vkCreateComputePipelines.
+#pragma once
+
+namespace blobvk::vk::costs {
+
+// Figures are wall seconds with other builds running on the machine (load average 6-9), so
+// about 2x a quiet machine's; only their ratios decide.
+
+// Building one kernel that embeds the interpreter (field_grid or vertices): SPIR-V is embedded,
+// so this is pipeline creation and LLVM, independent of the program. (A mesh's kernels: 3.7-4.9 s
+// for the interpreter, of which ~1.9 s the fixed extraction kernels every evaluator builds.)
+inline constexpr double kInterpreterKernelSeconds = 1.2;
+
+// Building one specialised kernel: a fixed part, then per instruction the generated evaluator
+// spells out times the copies of the evaluator in the kernel (field_grid 1, vertices 9:
+// refinement, six normal samples, the field and its colour), and a quadratic term: LLVM's time
+// on long straight-line code grows much faster than the code. Unrolled towers, a mesh's kernels:
+// 67 instructions 2.8 s, 201 4.9 s, 808 103 s and 734 MB. The quadratic term is fitted so that
+// the shipped tower (268 instructions, a 2,412-instruction vertex kernel) builds in the ~1.5 s
+// `blobvk bench scenes/tower.json --backend vk --traversal specialised --resolution 128` shows
+// for its first run beyond the interpreter's; past ~470 instructions the memory bound below
+// rules the vertex kernel out before this term matters.
+inline constexpr double kSpecialisedKernelSeconds = 0.1;
+inline constexpr double kSpecialisedSecondsPerInstruction = 1.0e-4;
+inline constexpr double kSpecialisedSecondsPerInstruction2 = 2.5e-7;
+inline constexpr double kVertexKernelCopies = 9.0;
+// Peak memory of the build grows about linearly (808 instructions x 10 copies: +570 MB); a
+// candidate predicted above kMaxBuildMegabytes is not taken whatever its time.
+inline constexpr double kBuildMegabytesPerInstruction = 0.07;
+inline constexpr double kMaxBuildMegabytes = 300.0;
+
+// Evaluating: seconds per point and unit of prunedEvaluationCost (a primitive 8, an operator 1).
+// The interpreter's subgroups jump over skipped subtrees, so its cost is the tiles' pruned cost;
+// llvmpipe runs every line of the specialised code (no real branches), so its cost is the cost of
+// the code in the kernel. From field evaluations on 129^3 grids (bench_vk
+// --benchmark_filter='field/.*/128'): tower 10.9 M/s specialised (8 tiles) against 0.62 M/s
+// interpreted, random128 7.9 against 0.10 M/s.
+inline constexpr double kInterpreterSecondsPerCost = 6.0e-9;
+inline constexpr double kSpecialisedSecondsPerCost = 1.5e-10;
+
+// Vertex pass: vertices ~ this many per grid point^(2/3) (a surface's cells), each evaluated
+// 8 times plus the refinement steps.
+inline constexpr double kVerticesPerSurfacePoint = 10.0;
+inline constexpr double kEvaluationsPerVertex = 8.0;
+
+}  // namespace blobvk::vk::costs

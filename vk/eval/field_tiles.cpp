@@ -1,0 +1,85 @@
+#include "blobvk/vk/eval/field_tiles.h"
+
+#include <algorithm>
+
+namespace blobvk::vk {
+namespace {
+
+FieldTile makeTile(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                   const std::array<std::uint32_t, 3>& first, const std::array<std::uint32_t, 3>& last) {
+  FieldTile t;
+  t.first = first;
+  t.last = last;
+  t.region = regionOfPoints(grid, first, last);
+  t.cost = prunedEvaluationCost(program, t.region);
+  return t;
+}
+
+double work(const FieldTile& t) { return double(t.points()) * double(t.cost); }
+
+}  // namespace
+
+PointRegion regionOfPoints(const blobtree::GridSpec& grid, const std::array<std::uint32_t, 3>& first,
+                           const std::array<std::uint32_t, 3>& last) {
+  const glm::vec3 a = grid.point(int(first[0]), int(first[1]), int(first[2]));
+  const glm::vec3 b = grid.point(int(last[0]), int(last[1]), int(last[2]));
+  const float pad = 0.01f * grid.cellSize;
+  PointRegion r;
+  r.valid = true;
+  for (int i = 0; i < 3; ++i) {
+    r.lo[i] = std::min(a[i], b[i]) - pad;
+    r.hi[i] = std::max(a[i], b[i]) + pad;
+  }
+  return r;
+}
+
+bool specialiseTile(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
+  if (!canSpecialise(program, region, loops)) return false;
+  return canSpecialise(program, {}, loops) || specialisedCodeSize(program, region, loops) <= kMaxTileInstructions;
+}
+
+std::vector<FieldTile> planFieldTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                      const FieldTilingOptions& options) {
+  const auto pts = grid.points();
+  std::vector<FieldTile> tiles;
+  if (pts.x < 1 || pts.y < 1 || pts.z < 1) return tiles;
+  tiles.push_back(makeTile(program, grid, {0, 0, 0},
+                           {std::uint32_t(pts.x - 1), std::uint32_t(pts.y - 1), std::uint32_t(pts.z - 1)}));
+  const std::uint32_t minExtent = std::max<std::uint32_t>(options.minExtent, 1);
+  while (tiles.size() < std::max<std::uint32_t>(options.maxTiles, 1)) {
+    double total = 0.0;
+    for (const auto& t : tiles) total += work(t);
+    // The best split over every tile, axis and position (the first best wins ties).
+    double bestGain = 0.0;
+    std::size_t bestTile = 0;
+    FieldTile bestLow, bestHigh;
+    for (std::size_t ti = 0; ti < tiles.size(); ++ti) {
+      const FieldTile& t = tiles[ti];
+      for (int axis = 0; axis < 3; ++axis) {
+        const std::uint32_t extent = t.last[std::size_t(axis)] - t.first[std::size_t(axis)] + 1;
+        if (extent < 2 * minExtent) continue;
+        for (std::uint32_t eighth = 1; eighth <= 7; ++eighth) {
+          const std::uint32_t lowCount = std::clamp(extent * eighth / 8, minExtent, extent - minExtent);
+          auto lowLast = t.last, highFirst = t.first;
+          lowLast[std::size_t(axis)] = t.first[std::size_t(axis)] + lowCount - 1;
+          highFirst[std::size_t(axis)] = t.first[std::size_t(axis)] + lowCount;
+          FieldTile low = makeTile(program, grid, t.first, lowLast);
+          FieldTile high = makeTile(program, grid, highFirst, t.last);
+          const double gain = work(t) - work(low) - work(high);
+          if (gain > bestGain) {
+            bestGain = gain;
+            bestTile = ti;
+            bestLow = low;
+            bestHigh = high;
+          }
+        }
+      }
+    }
+    if (bestGain <= options.minGain * total) break;
+    tiles[bestTile] = bestLow;
+    tiles.insert(tiles.begin() + std::ptrdiff_t(bestTile) + 1, bestHigh);
+  }
+  return tiles;
+}
+
+}  // namespace blobvk::vk

@@ -1,0 +1,124 @@
+#include "blobvk/vk/eval/gpu_program.h"
+
+#include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/eval/runtime_compiler.h"
+#include "blobvk/vk/eval/stack_program.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <functional>
+#include <stdexcept>
+#include <string>
+
+namespace blobvk::vk {
+namespace {
+constexpr std::uint32_t kMaskHasMatrix = 0x80000000u;  // MASK_HAS_MATRIX in eval_program.glsl
+
+template <class T>
+Buffer uploadArray(Device& device, const std::vector<T>& v) {
+  Buffer b = device.createBuffer(std::max<std::size_t>(v.size(), 1) * sizeof(T));
+  device.upload(b, v.data(), v.size() * sizeof(T));
+  return b;
+}
+}  // namespace
+
+const char* traversalName(Traversal traversal) {
+  switch (traversal) {
+    case Traversal::Stackless: return "stackless";
+    case Traversal::StackBased: return "stack-based";
+    case Traversal::Specialised: return "specialised";
+    case Traversal::Auto: return "auto";
+  }
+  return "?";
+}
+
+GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Traversal traversal,
+                         const CodegenOptions* codegenOverride) {
+  if (program.fieldRegisters > layout::MAX_FIELD_REGISTERS ||
+      program.pointRegisters > layout::MAX_POINT_REGISTERS) {
+    throw std::invalid_argument("Program needs " + std::to_string(program.fieldRegisters) +
+                                " field and " + std::to_string(program.pointRegisters) +
+                                " point registers, above the shader's register file");
+  }
+  GpuProgram g;
+  if (traversal == Traversal::StackBased) {
+    const auto tree = buildStackProgram(program);
+    g.code = uploadArray(device, tree);
+    g.codeLength = std::uint32_t(tree.size());
+  } else if (traversal == Traversal::Specialised) {
+    // The instructions (for kernels that interpret), then the record words the generated loops
+    // read (vk/eval/program_codegen.h).
+    g.codegen = codegenOverride ? *codegenOverride : defaultCodegenOptions(device);
+    std::vector<layout::Instruction> words = program.code;
+    for (const layout::uvec4& w : specialisedData(program, g.codegen.loops)) words.push_back({w});
+    g.code = uploadArray(device, words);
+    g.codeLength = std::uint32_t(program.code.size());
+  } else {
+    g.code = uploadArray(device, program.code);
+    g.codeLength = std::uint32_t(program.code.size());
+  }
+  // Masks describe the register code, which the stack encoding is rebuilt from: both
+  // traversals meet the same primitive and warp types.
+  g.fieldRegisters = std::max<std::uint32_t>(program.fieldRegisters, 1);
+  g.opMask = 0;
+  for (const auto& in : program.code) g.opMask |= 1u << (in.code.x & 0x1fu);
+  g.primitiveMask = 0;
+  for (const auto& prim : program.primitives) {
+    g.primitiveMask |= 1u << (prim.meta.x & 0x1fu);
+    if (prim.meta.y != 0) g.primitiveMask |= kMaskHasMatrix;
+  }
+  g.warpMask = 0;
+  for (const auto& warp : program.warps) {
+    g.warpMask |= 1u << (warp.meta.x & 0x1fu);
+    if (warp.meta.w != 0) g.warpMask |= kMaskHasMatrix;
+  }
+  if (traversal == Traversal::Specialised) {
+    g.fingerprint = programFingerprint(program);
+    if (canSpecialise(program, {}, g.codegen.loops)) g.specialised = std::make_shared<const blobtree::Program>(program);
+  }
+  g.primitives = uploadArray(device, program.primitives);
+  g.matrices = uploadArray(device, program.matrices);
+  g.boxes = uploadArray(device, program.boxes);
+  g.warps = uploadArray(device, program.warps);
+  return g;
+}
+
+KernelPtr evaluatorKernel(Device& device, const GpuProgram& program, const std::string& shader,
+                          std::uint32_t workgroupSize, Traversal traversal) {
+  if (traversal != Traversal::Specialised || !program.specialised)
+    return device.kernel(shader, program.specs(workgroupSize, traversal == Traversal::StackBased
+                                                                            ? Traversal::StackBased
+                                                                            : Traversal::Stackless));
+  return specialisedKernel(device, *program.specialised, program.fingerprint, program.codegen, shader, workgroupSize);
+}
+
+KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, const CodegenOptions& codegen,
+                            const std::string& shader, std::uint32_t workgroupSize) {
+  return specialisedKernel(device, program, programFingerprint(program), codegen, shader, workgroupSize);
+}
+
+KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, std::uint64_t fingerprint,
+                            const CodegenOptions& codegen, const std::string& shader, std::uint32_t workgroupSize) {
+  // Only the workgroup size (constant 0) matters to the generated evaluator.
+  const std::array<std::uint32_t, 1> specs{workgroupSize};
+  char key[17];
+  std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(evaluatorFingerprint(fingerprint, codegen)));
+  const std::string name = shader + "/specialised:" + key;
+  if (KernelPtr k = device.findKernel(name, specs)) return k;
+  const auto code =
+      compileComputeShader(shader + ".comp", {{"eval_program.glsl", generateSpecialisedEvaluator(program, codegen)}});
+  return device.kernel(name, code, shader, specs);
+}
+
+CodegenOptions defaultCodegenOptions(const Device& device) {
+  CodegenOptions c;
+  const bool cpu = device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  c.branchOnSkips = !cpu;
+  // llvmpipe turns each buffer load inside a loop into a loop over the lanes: the looped code
+  // built slower than the unrolled one there (tower at 32 cells: 5.6 s against 4.8 s for its
+  // first mesh) and ran 4x slower, so CPU drivers get unrolled code.
+  c.loops.enabled = !cpu;
+  return c;
+}
+
+}  // namespace blobvk::vk

@@ -1,0 +1,378 @@
+#include "blobvk/vk/eval/program_codegen.h"
+
+#include "blobvk/vk/eval/codegen_text.h"
+#include "blobvk/vk/eval/program_codegen_loops.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace blobvk::vk {
+namespace {
+
+using layout::Instruction;
+
+using codegen::lit;
+using codegen::vec3Lit;
+using codegen::vec4Lit;
+
+// The qualifier on the generated function and its colour registers: glslang makes every
+// operation feeding them NoContraction, so no driver fuses a * b + c (issue 15; the formulas it
+// calls are precise in eval_formulas.glsl). docs/vulkan.md, "Floating point".
+std::string precise(const char* type) { return std::string("precise ") + type; }
+
+class Generator {
+ public:
+  Generator(const blobtree::Program& program, const CodegenOptions& options, bool colour)
+      : p_(program), options_(options), colour_(colour) {}
+
+  std::string function() {
+    out_ += precise("float") + (colour_ ? " evaluateFieldColour(vec3 p, uint n, out vec3 colour) {\n"
+                                         : " evaluateField(vec3 p, uint n) {\n");
+    const std::uint32_t regs = std::max<std::uint32_t>(p_.fieldRegisters, 1);
+    for (std::uint32_t r = 0; r < regs; ++r) {
+      line(1, "float " + reg(r) + " = 0.0;");
+      if (colour_) line(1, precise("vec3 ") + col(r) + " = vec3(0.0);");
+    }
+    for (std::uint32_t q = 1; q < p_.pointRegisters; ++q) line(1, "vec3 " + point(q) + " = p;");
+    emitRange(0, std::uint32_t(p_.code.size()), 1);
+    if (colour_) out_ += "  colour = c0;\n";
+    out_ += "  return r0;\n}\n\n";
+    return std::move(out_);
+  }
+
+ private:
+  // Built by append: gcc 12's -Wrestrict misfires on `"x" + std::to_string(n)`.
+  static std::string named(char prefix, std::uint32_t n) {
+    std::string s(1, prefix);
+    s.append(std::to_string(n));
+    return s;
+  }
+  static std::string reg(std::uint32_t r) { return named('r', r); }
+  static std::string col(std::uint32_t r) { return named('c', r); }
+  static std::string point(std::uint32_t q) { return q == 0 ? std::string("p") : named('q', q); }
+  void line(int depth, const std::string& s) { out_ += std::string(std::size_t(depth) * 2, ' ') + s + "\n"; }
+
+  void checkRegister(std::uint32_t r, std::uint32_t limit, const char* what) const {
+    if (r >= limit) throw std::invalid_argument(std::string("specialised evaluator: ") + what + " register out of range");
+  }
+
+  std::string localPoint(std::uint32_t matrix, std::uint32_t q) const {
+    if (matrix == 0) return point(q);
+    if (matrix >= p_.matrices.size()) throw std::invalid_argument("specialised evaluator: matrix index out of range");
+    const auto& m = p_.matrices[matrix];
+    return "toLocalRows(" + vec4Lit(m.r0) + ", " + vec4Lit(m.r1) + ", " + vec4Lit(m.r2) + ", " + point(q) + ")";
+  }
+
+  std::string primitiveField(const layout::PrimitiveRecord& r, const std::string& at) const {
+    const std::string p0 = vec3Lit(r.p0);
+    switch (r.meta.x) {
+      case layout::PRIM_POINT: return "wyvill(ddPoint(" + at + ", " + p0 + "))";
+      case layout::PRIM_LINE: return "wyvill(ddLine(" + at + ", " + p0 + ", " + vec4Lit(r.p1) + "))";
+      case layout::PRIM_CYLINDER:
+        return "wyvill(ddCylinder(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + ", " + lit(r.p2.x) + ", " + lit(r.p2.y) + "))";
+      case layout::PRIM_DISC: return "wyvill(ddDisc(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + ", " + lit(r.p2.x) + "))";
+      case layout::PRIM_RING: return "wyvill(ddRing(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + ", " + lit(r.p2.x) + "))";
+      case layout::PRIM_CUBE: return "wyvill(ddCube(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + "))";
+      case layout::PRIM_TRIANGLE:
+        return "wyvill(triangleDistance2(" + at + ", " + p0 + ", " + vec3Lit(r.p1) + ", " + vec3Lit(r.p2) + "))";
+      case layout::PRIM_QUADRIC: return "quadricField(" + at + ", " + p0 + ", " + lit(r.p0.w) + ")";
+      default: return "wyvill(1.0)";  // the interpreter's "no field for an unknown type"
+    }
+  }
+
+  std::string warp(const layout::WarpRecord& w, const std::string& at) const {
+    const std::string a = std::to_string(w.meta.y) + "u", b = std::to_string(w.meta.z) + "u";
+    switch (w.meta.x) {
+      case layout::WARP_TWIST: return "warpTwist(" + at + ", " + a + ", " + lit(w.params.x) + ")";
+      case layout::WARP_TAPER: return "warpTaper(" + at + ", " + a + ", " + b + ", " + lit(w.params.x) + ")";
+      case layout::WARP_SHEAR: return "warpShear(" + at + ", " + a + ", " + b + ", " + lit(w.params.x) + ")";
+      case layout::WARP_BEND: return "warpBend(" + at + ", " + a + ", " + b + ", " + vec4Lit(w.params) + ")";
+      default: return at;
+    }
+  }
+
+  // Instructions [begin, end) at nesting `depth`. A skip's subtree [pc + 1, w) becomes a block
+  // the subgroup enters unless all its lanes are outside the box (with branchOnSkips; else it is
+  // always run); lanes outside get field and colour 0 in the skip's register afterwards. The subtree only writes its own register and the
+  // ones above it (the register code is a stack discipline), which are dead once it is done, so
+  // letting outside lanes run it when their neighbours need it changes nothing they keep.
+  void emitRange(std::uint32_t begin, std::uint32_t end, int depth) {
+    const std::uint32_t regs = std::max<std::uint32_t>(p_.fieldRegisters, 1);
+    for (std::uint32_t pc = begin; pc < end; ++pc) {
+      const auto& in = p_.code[pc].code;
+      const std::uint32_t op = in.x & 0xffu, dst = in.x >> 8;
+      const std::string d = reg(dst), c = col(dst);
+      switch (op) {
+        case layout::OP_PRIM: {
+          checkRegister(dst, regs, "field");
+          checkRegister(in.z, p_.pointRegisters, "point");
+          if (in.y >= p_.primitives.size()) throw std::invalid_argument("specialised evaluator: primitive index out of range");
+          const auto& prim = p_.primitives[in.y];
+          if (in.z == 0 && in.y < p_.primitiveBoxes.size() && regionMissesBox(options_.region, p_.primitiveBoxes[in.y]))
+            line(depth, d + " = 0.0;  // pruned: the primitive is 0 in the region");
+          else
+            line(depth, d + " = " + primitiveField(prim, localPoint(prim.meta.y, in.z)) + ";");
+          if (colour_) line(depth, c + " = unpackColour(" + std::to_string(prim.meta.z) + "u);");
+          break;
+        }
+        case layout::OP_ADD:
+        case layout::OP_MAX:
+        case layout::OP_MIN:
+        case layout::OP_DIFF:
+        case layout::OP_SDIFF:
+        case layout::OP_MUL: {
+          checkRegister(dst, regs, "field");
+          checkRegister(in.y, regs, "field");
+          const std::string b = reg(in.y), cb = col(in.y);
+          if (op == layout::OP_ADD) {
+            if (colour_)
+              line(depth, "{ float wa = max(" + d + ", 0.0), wb = max(" + b + ", 0.0); float w = wa + wb; if (w > 0.0) " + c +
+                              " = (" + c + " * wa + " + cb + " * wb) / w; }");
+            line(depth, d + " = " + d + " + " + b + ";");
+          } else if (op == layout::OP_MAX) {
+            if (colour_) line(depth, "if (" + b + " > " + d + ") " + c + " = " + cb + ";");
+            line(depth, d + " = max(" + d + ", " + b + ");");
+          } else if (op == layout::OP_MIN) {
+            if (colour_) line(depth, "if (" + b + " < " + d + ") " + c + " = " + cb + ";");
+            line(depth, d + " = min(" + d + ", " + b + ");");
+          } else if (op == layout::OP_DIFF) {
+            line(depth, "{ float cut = 1.0 - " + b + ";");
+            if (colour_) line(depth, "  if (cut < " + d + ") " + c + " = " + cb + ";");
+            line(depth, "  " + d + " = min(" + d + ", cut); }");
+          } else if (op == layout::OP_SDIFF) {
+            line(depth, "{ float keep = 1.0 - " + b + ";");
+            if (colour_) line(depth, "  if (keep < " + d + ") " + c + " = " + cb + ";");
+            line(depth, "  " + d + " = " + d + " * keep; }");
+          } else {
+            if (colour_) line(depth, "if (" + b + " < " + d + ") " + c + " = " + cb + ";");
+            line(depth, d + " = " + d + " * " + b + ";");
+          }
+          break;
+        }
+        case layout::OP_ONE_MINUS:
+          checkRegister(dst, regs, "field");
+          line(depth, d + " = 1.0 - " + d + ";");
+          break;
+        case layout::OP_POW: {
+          checkRegister(dst, regs, "field");
+          float e;
+          std::memcpy(&e, &in.w, 4);
+          // GLSL leaves pow(0, y) undefined; std::pow gives 0 for y > 0 (as in eval_body.glsl).
+          line(depth, "{ float base = max(" + d + ", 0.0); " + d + " = base > 0.0 ? pow(base, " + lit(e) + ") : 0.0; }");
+          break;
+        }
+        case layout::OP_WARP: {
+          checkRegister(dst, p_.pointRegisters, "point");
+          checkRegister(in.z, p_.pointRegisters, "point");
+          if (dst == 0) throw std::invalid_argument("specialised evaluator: a warp writes point register 0");
+          if (in.y >= p_.warps.size()) throw std::invalid_argument("specialised evaluator: warp index out of range");
+          const auto& w = p_.warps[in.y];
+          line(depth, point(dst) + " = " + warp(w, localPoint(w.meta.w, in.z)) + ";");
+          break;
+        }
+        case layout::OP_SKIP: {
+          checkRegister(dst, regs, "field");
+          checkRegister(in.z, p_.pointRegisters, "point");
+          if (in.y >= p_.boxes.size()) throw std::invalid_argument("specialised evaluator: box index out of range");
+          const std::uint32_t target = in.w;
+          if (target <= pc || target > end) throw std::invalid_argument("specialised evaluator: skip target out of its range");
+          const auto& box = p_.boxes[in.y];
+          if (in.z == 0 && regionMissesBox(options_.region, box)) {
+            line(depth, d + " = 0.0;" + (colour_ ? " " + c + " = vec3(0.0);" : std::string()) + "  // pruned: outside the region");
+            pc = target - 1;
+            break;
+          }
+          std::string o = "out";
+          o.append(std::to_string(pc));
+          line(depth, "{");
+          line(depth + 1, "bool " + o + " = outsideBoxBounds(" + vec3Lit(box.lo) + ", " + vec3Lit(box.hi) + ", " +
+                              point(in.z) + ");");
+          if (options_.branchOnSkips && target - pc - 1 >= options_.minBranchInstructions) {
+            // A loop rather than an `if`: the subgroup leaves it as soon as no lane is active.
+            line(depth + 1, "while (!subgroupAll(" + o + ")) {");
+            emitRange(pc + 1, target, depth + 2);
+            line(depth + 2, "break;");
+            line(depth + 1, "}");
+          } else {
+            emitRange(pc + 1, target, depth + 1);
+          }
+          line(depth + 1, "if (" + o + ") { " + d + " = 0.0;" + (colour_ ? " " + c + " = vec3(0.0);" : std::string()) + " }");
+          line(depth, "}");
+          pc = target - 1;
+          break;
+        }
+        default:
+          throw std::invalid_argument("specialised evaluator: unknown opcode " + std::to_string(op));
+      }
+    }
+  }
+
+  const blobtree::Program& p_;
+  CodegenOptions options_;
+  bool colour_;
+  std::string out_;
+};
+
+}  // namespace
+
+bool regionMissesBox(const PointRegion& region, const layout::BoxRecord& box) {
+  if (!region.valid) return false;
+  const float lo[3] = {box.lo.x, box.lo.y, box.lo.z}, hi[3] = {box.hi.x, box.hi.y, box.hi.z};
+  for (int a = 0; a < 3; ++a)
+    if (region.hi[a] < lo[a] || region.lo[a] > hi[a]) return true;
+  return false;
+}
+
+std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const PointRegion& region) {
+  std::uint32_t count = 0;
+  for (std::size_t pc = 0; pc < program.code.size(); ++pc) {
+    const auto& in = program.code[pc].code;
+    const std::uint32_t op = in.x & 0xffu;
+    if (op == layout::OP_SKIP && in.z == 0 && in.y < program.boxes.size() && in.w > pc &&
+        regionMissesBox(region, program.boxes[in.y])) {
+      pc = std::size_t(in.w) - 1;
+      continue;
+    }
+    if (op == layout::OP_PRIM && in.z == 0 && in.y < program.primitiveBoxes.size() &&
+        regionMissesBox(region, program.primitiveBoxes[in.y]))
+      continue;
+    count += op == layout::OP_PRIM || op == layout::OP_WARP ? kPrimitiveCost : 1;
+  }
+  return count;
+}
+
+namespace {
+// FNV-1a, 64 bits: fast, and the records are plain data without padding holes (the layout header
+// asserts their sizes).
+struct Fnv {
+  std::uint64_t h = 14695981039346656037ull;
+  void bytes(const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  }
+  template <class T>
+  void array(const std::vector<T>& v) {
+    const std::uint64_t n = v.size();
+    bytes(&n, sizeof n);
+    bytes(v.data(), v.size() * sizeof(T));
+  }
+  template <class T>
+  void value(const T& v) { bytes(&v, sizeof v); }
+};
+}  // namespace
+
+std::uint64_t programFingerprint(const blobtree::Program& program) {
+  Fnv f;
+  f.array(program.code);
+  f.array(program.primitives);
+  f.array(program.matrices);
+  f.array(program.boxes);
+  f.array(program.warps);
+  f.array(program.primitiveBoxes);
+  f.value(program.fieldRegisters);
+  f.value(program.pointRegisters);
+  return f.h;
+}
+
+std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const CodegenOptions& options) {
+  Fnv f;
+  f.value(programFingerprint);
+  f.value(options.branchOnSkips);
+  f.value(options.minBranchInstructions);
+  f.value(options.region.valid);
+  f.value(options.loops.enabled);
+  f.value(options.loops.minCount);
+  f.value(options.loops.minInstructions);
+  if (options.region.valid) {
+    f.value(options.region.lo);
+    f.value(options.region.hi);
+  }
+  return f.h;
+}
+
+std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const CodegenOptions& options) {
+  return evaluatorFingerprint(programFingerprint(program), options);
+}
+
+std::uint32_t prunedInstructionCount(const blobtree::Program& program, const PointRegion& region) {
+  std::uint32_t count = 0;
+  for (std::size_t pc = 0; pc < program.code.size(); ++pc, ++count) {
+    const auto& in = program.code[pc].code;
+    if ((in.x & 0xffu) == layout::OP_SKIP && in.z == 0 && in.y < program.boxes.size() && in.w > pc &&
+        regionMissesBox(region, program.boxes[in.y]))
+      pc = std::size_t(in.w) - 1;
+  }
+  return count;
+}
+
+namespace {
+bool registersFit(const blobtree::Program& program) {
+  return !program.code.empty() && program.fieldRegisters <= layout::MAX_FIELD_REGISTERS && program.pointRegisters >= 1 &&
+         program.pointRegisters <= layout::MAX_POINT_REGISTERS;
+}
+
+struct Generated {
+  std::string glsl;
+  std::uint32_t emitted = 0;
+};
+
+// The looped form when the code parses into shapes (and loops are on), else unrolled.
+Generated generate(const blobtree::Program& program, const CodegenOptions& options) {
+  Generated g;
+  std::unique_ptr<CodeShapes> shapes;
+  if (options.loops.enabled) shapes = CodeShapes::analyse(program, options.loops);
+  if (shapes) {
+    g.glsl = generateLoopedEvaluators(program, *shapes, options, &g.emitted);
+  } else {
+    g.emitted = prunedInstructionCount(program, options.region);
+    g.glsl = Generator(program, options, false).function() + Generator(program, options, true).function();
+  }
+  return g;
+}
+}  // namespace
+
+std::uint32_t specialisedCodeSize(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
+  if (!loops.enabled) return prunedInstructionCount(program, region);
+  CodegenOptions o;
+  o.region = region;
+  o.loops = loops;
+  return generate(program, o).emitted;
+}
+
+bool canSpecialise(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
+  if (!registersFit(program)) return false;
+  if (program.code.size() <= kMaxSpecialisedInstructions) return true;
+  return specialisedCodeSize(program, region, loops) <= kMaxSpecialisedInstructions;
+}
+
+std::vector<layout::uvec4> specialisedData(const blobtree::Program& program, const LoopOptions& loops) {
+  if (!loops.enabled) return {};
+  const auto shapes = CodeShapes::analyse(program, loops);
+  return shapes ? shapes->data() : std::vector<layout::uvec4>{};
+}
+
+std::string generateSpecialisedEvaluator(const blobtree::Program& program, const CodegenOptions& options,
+                                         std::uint32_t* emitted) {
+  if (!registersFit(program))
+    throw std::invalid_argument("specialised evaluator: the program is empty or uses too many registers");
+  Generated g = generate(program, options);
+  if (g.emitted > kMaxSpecialisedInstructions)
+    throw std::invalid_argument("specialised evaluator: the program spells out " + std::to_string(g.emitted) +
+                                " instructions in its region (1.." + std::to_string(kMaxSpecialisedInstructions) +
+                                " can be specialised)");
+  if (emitted) *emitted = g.emitted;
+  std::string s =
+      "// Generated by vk/eval/program_codegen.cpp: the specialised evaluator of one Program, in place of\n"
+      "// shaders/eval_program.glsl (same interface).\n"
+      "#ifndef BLOBVK_EVAL_PROGRAM_GLSL\n#define BLOBVK_EVAL_PROGRAM_GLSL\n"
+      "#extension GL_KHR_shader_subgroup_vote : require\n"
+      "#include \"program_layout.h\"\n#include \"eval_formulas.glsl\"\n\n";
+  s += g.glsl;
+  s += "#endif\n";
+  return s;
+}
+
+}  // namespace blobvk::vk

@@ -1,0 +1,96 @@
+// The specialised evaluator: a compiled Program turned into GLSL straight-line code (the
+// Traversal::Specialised path). Each instruction of the stackless register code becomes a few
+// statements with the records' values as literals, registers become local variables, and every
+// OP_SKIP becomes a branch the whole subgroup takes when all its lanes are outside the box (or,
+// on CPU drivers, code every lane runs, its result masked).
+//
+// Why: an interpreter pays, per instruction and lane, for loading the instruction and records and
+// for selecting registers by index; llvmpipe (lavapipe) additionally runs both sides of every
+// `if` and turns each storage-buffer load into a per-lane loop. Straight-line code leaves LLVM
+// nothing to interpret. The formulas are those of shaders/eval_formulas.glsl, the same ones the
+// interpreter calls, so results stay operation-for-operation those of blobtree/evaluate.cpp.
+#pragma once
+
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/eval/program_shape.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace blobvk::vk {
+
+// The generator refuses code that would spell out more than this many instructions (after loops
+// and pruning): beyond it glslang and LLVM take tens of seconds and gigabytes. Which evaluator
+// pays within a job is the cost model's choice (vk/eval/evaluator_choice.h), not this cap.
+inline constexpr std::size_t kMaxSpecialisedInstructions = 4096;
+
+// A box of world-space points (inclusive). `valid` false: anywhere.
+struct PointRegion {
+  bool valid = false;
+  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+};
+
+struct CodegenOptions {
+  // true: each OP_SKIP becomes a loop the subgroup leaves when all its lanes are outside the box
+  // (GPUs, where a uniform branch is cheap). false: the subtree always runs and outside lanes
+  // get 0 afterwards — faster on llvmpipe, where loops and subgroup votes cost more than the
+  // straight-line code they would skip (measured: tower 2x, random128 even; docs/vulkan.md).
+  bool branchOnSkips = true;
+  // With branchOnSkips, only subtrees of at least this many instructions get a branch; smaller
+  // ones run masked (a branch costs more than a short subtree).
+  std::uint32_t minBranchInstructions = 0;
+  // The evaluator will only be called at points inside this region: every skip on the
+  // world-space point whose box misses it becomes "field 0" with no code for its subtree — the
+  // same result at those points, bit for bit (tape pruning at compile time; vk/eval/field_tiles.h).
+  PointRegion region;
+  // Runs of equal siblings (instances) become loops over one shared function
+  // (vk/eval/program_shape.h); the instances' record values are read from the code buffer after the
+  // instructions (specialisedData), so uploadProgram must be given the same options.
+  LoopOptions loops;
+};
+
+// True when the skip box [lo, hi] holds no point of the region (a conservative test: false
+// when the region is not valid).
+bool regionMissesBox(const PointRegion& region, const layout::BoxRecord& box);
+
+// Relative cost per point of the evaluator within `region` once pruned as above: a primitive or
+// warp counts kPrimitiveCost, any other instruction 1, what pruning removed 0 (a constant is left).
+inline constexpr std::uint32_t kPrimitiveCost = 8;
+std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const PointRegion& region);
+
+// A fingerprint of everything generateSpecialisedEvaluator's output depends on (the records, the
+// register counts and the options): equal fingerprints mean equal code, so kernels can be looked
+// up without generating their source again (2-3 ms for a 270-instruction program).
+std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const CodegenOptions& options);
+// The same from programFingerprint(program), for callers generating many variants of one program.
+std::uint64_t programFingerprint(const blobtree::Program& program);
+std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const CodegenOptions& options);
+
+// Instructions of the generated code once pruned to `region` (what kMaxSpecialisedInstructions
+// limits): a pruned subtree or primitive counts as one.
+std::uint32_t prunedInstructionCount(const blobtree::Program& program, const PointRegion& region);
+
+// Instructions the generated code spells out for the program pruned to `region`, with loops as
+// in `loops` (a shared function counts once): what compile time grows with.
+std::uint32_t specialisedCodeSize(const blobtree::Program& program, const PointRegion& region = {},
+                                  const LoopOptions& loops = {});
+
+// True when generateSpecialisedEvaluator accepts the program pruned to `region` (anywhere by
+// default): a program too large as a whole can still be specialised for a small region.
+bool canSpecialise(const blobtree::Program& program, const PointRegion& region = {}, const LoopOptions& loops = {});
+
+// The record words the generated loops read, to be uploaded after the instructions in the code
+// buffer (empty when the code has no loops).
+std::vector<layout::uvec4> specialisedData(const blobtree::Program& program, const LoopOptions& loops);
+
+// GLSL that replaces shaders/eval_program.glsl for this program: it defines
+// evaluateField(vec3 p, uint n) and evaluateFieldColour(vec3 p, uint n, out vec3 colour) (n is
+// ignored). It reads no Program buffer, except the code buffer's words after the instructions
+// (specialisedData) when it has loops. Throws std::invalid_argument when !canSpecialise.
+// `emitted` (optional) receives specialisedCodeSize.
+std::string generateSpecialisedEvaluator(const blobtree::Program& program, const CodegenOptions& options = {},
+                                         std::uint32_t* emitted = nullptr);
+
+}  // namespace blobvk::vk
