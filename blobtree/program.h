@@ -42,7 +42,7 @@ struct Program {
   std::vector<layout::WarpRecord> warps;
   // Host only (not uploaded): per primitive, a box outside which its field is exactly 0, in the
   // space of the point register it reads. Code generators use it to drop primitives from code
-  // that only runs elsewhere (vk/program_codegen.h); empty when unknown.
+  // that only runs elsewhere (vk/eval/program_codegen.h); empty when unknown.
   std::vector<layout::BoxRecord> primitiveBoxes;
   std::uint32_t fieldRegisters = 0;  // registers the code uses (<= MAX_FIELD_REGISTERS)
   std::uint32_t pointRegisters = 1;  // 1 + deepest warp nesting (<= MAX_POINT_REGISTERS)

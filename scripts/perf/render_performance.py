@@ -289,7 +289,7 @@ def main():
           "builds machine code at a kernel's first dispatch): `build_s` wall seconds, `peak_MB` the\n"
           "process's peak memory, `emitted` the instructions the generated code spells out. `default` 1\n"
           "marks the evaluator `Traversal::Auto` picks for a mesh of that program at 64 cells\n"
-          "(vk/evaluator_choice.h); specialised builds predicted above 60 s are not run.\n")
+          "(vk/eval/evaluator_choice.h); specialised builds predicted above 60 s are not run.\n")
         w(cmd("gb_bench_compile_cost"))
         w(gb_table(gb["bench_compile_cost"]))
 
