@@ -296,7 +296,10 @@ const mesh::TriMesh& IncrementalPolygonizer::update(const blobtree::Program& pro
   mesh::TriMesh& out = s.mesh;
   const int threads = s.options.threads > 0 ? s.options.threads : tbb::info::default_concurrency();
   tbb::task_arena arena(threads);
-  arena.execute([&] {
+  const auto moves = [](const Plan& p) {
+    return p.newSize != p.oldSize || std::any_of(p.runs.begin(), p.runs.end(), [](const Run& r) { return r.delta != 0; });
+  };
+  if (moves(vp) || moves(tp)) arena.execute([&] {
     tbb::parallel_invoke(
         [&] { moveRuns(out.positions, vp.runs, vp.oldSize, vp.newSize); },
         [&] { moveRuns(out.edgeKeys, vp.runs, vp.oldSize, vp.newSize); },
@@ -312,7 +315,6 @@ const mesh::TriMesh& IncrementalPolygonizer::update(const blobtree::Program& pro
   // a + 1) of the global order; when no dirty vertex segment lies in that window, they all
   // share one delta (usually the case: one add over the whole tail). Otherwise, corner by
   // corner through the vertex runs.
-  const std::vector<Run>& vr = vp.runs;
   const auto window = [&](std::size_t tFirst, std::size_t tLast) {
     const std::size_t mx = std::size_t(s.mpus.x), cy = std::size_t(s.grid.cells.y);
     const std::size_t a0 = tFirst % mx, j0 = (tFirst / mx) % cy, k0 = tFirst / (mx * cy);
@@ -391,7 +393,7 @@ const mesh::TriMesh& IncrementalPolygonizer::update(const blobtree::Program& pro
       if (i < triangleDirty.size()) next = triangleDirty[i].segment + 1;
     }
   }
-  if (vp.newSize != vp.oldSize || std::any_of(vr.begin(), vr.end(), [](const Run& r) { return r.delta != 0; })) {
+  if (moves(vp)) {
     arena.execute([&] {
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stretches.size(), 1), [&](const auto& range) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
