@@ -1,5 +1,7 @@
 // `blobvk mesh SCENE -o out.ply`: polygonize a scene and write the mesh ("-o -" streams a binary
-// PLY, or --format's, to standard output). The output is checked before any work.
+// PLY, or --format's, to standard output). The output is checked before any work. .gltf/.glb
+// write glTF 2.0 (engine-ready: vertex-cache/fetch ordered unless --no-optimize); --simplify
+// reduces the mesh with meshoptimizer and the check line says whether it stayed closed.
 #include "backends.h"
 #include "cli_conventions.h"
 #include "commands.h"
@@ -10,6 +12,9 @@
 #include "resource_limits.h"
 
 #include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/engine/gltf.h"
+#include "blobvk/mesh/engine/simplify.h"
+#include "blobvk/mesh/engine/vertex_order.h"
 #include "blobvk/mesh/io.h"
 
 #include <CLI/CLI.hpp>
@@ -29,15 +34,17 @@ void addMeshCommand(CLI::App& app) {
     std::optional<int> resolution;
     PolygonizeSettings settings;
     bool ascii = false, json = false;
+    std::string simplify;  // parsed by mesh::parseSimplifyTarget
+    bool optimize = false, noOptimize = false;  // neither: on for glTF, off otherwise
     std::string maxMemory;
     Limits limits;
   };
   auto a = std::make_shared<Args>();
-  auto* cmd = app.add_subcommand("mesh", "Polygonize a scene into a mesh (.ply, .obj, .stl)");
+  auto* cmd = app.add_subcommand("mesh", "Polygonize a scene into a mesh (.ply, .obj, .stl, .gltf, .glb)");
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
-  cmd->add_option("-o,--output", a->out, "Output mesh (.ply, .obj, .stl; - for standard output)")->required();
-  cmd->add_option("--format", a->format, "Format for -o - (ply, obj, stl; default ply)")
-      ->check(CLI::IsMember(std::vector<std::string>{"ply", "obj", "stl"}));
+  cmd->add_option("-o,--output", a->out, "Output mesh (.ply, .obj, .stl, .gltf, .glb; - for standard output)")->required();
+  cmd->add_option("--format", a->format, "Format for -o - (ply, obj, stl, gltf, glb; default ply)")
+      ->check(CLI::IsMember(std::vector<std::string>{"ply", "obj", "stl", "gltf", "glb"}));
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")
                  ->check(CLI::PositiveNumber);
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model")
@@ -61,17 +68,33 @@ void addMeshCommand(CLI::App& app) {
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
   cmd->add_option("--max-memory", a->maxMemory, "Refuse jobs needing more (e.g. 2G; default: available)");
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
+  cmd->add_option("--simplify", a->simplify,
+                  "Simplify with meshoptimizer: RATIO of triangles kept (0.25) or ERROR% of the extent (0.5%); "
+                  "a closed mesh stays closed");
+  auto* opt = cmd->add_flag("--optimize", a->optimize,
+                            "Order triangles and vertices for the GPU's vertex cache and fetch (default for .gltf/.glb)");
+  cmd->add_flag("--no-optimize", a->noOptimize, "Keep the polygonizer's grid-edge vertex order in .gltf/.glb")->excludes(opt);
   cmd->add_flag("--ascii", a->ascii, "Write ASCII PLY instead of binary");
   cmd->add_flag("--json", a->json, "Print the summary as JSON (with the blobvk version and, for vk, the device)");
   cmd->callback([a] {
     // Everything about the output is checked before the (possibly long) polygonization.
-    const bool toStdout = checkOutputFile(a->out, {".ply", ".obj", ".stl"}, true, "a mesh");
+    const bool toStdout = checkOutputFile(a->out, {".ply", ".obj", ".stl", ".gltf", ".glb"}, true, "a mesh");
     if (toStdout && a->json) throw UsageError("--json and -o - both want standard output; write the mesh to a file");
     if (!a->format.empty() && !toStdout) throw UsageError("--format is for -o - (a file's format is its extension)");
     std::string format = toStdout ? (a->format.empty() ? "ply" : a->format) : a->out.substr(a->out.rfind('.') + 1);
     for (char& c : format) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (a->ascii && format != "ply") throw UsageError("--ascii is for PLY output");
     if (!a->maxMemory.empty()) a->limits.maxMemoryBytes = parseByteSize(a->maxMemory);
+    const bool gltf = format == "gltf" || format == "glb";
+    std::optional<mesh::SimplifyTarget> simplifyTarget;
+    if (!a->simplify.empty()) {
+      try {
+        simplifyTarget = mesh::parseSimplifyTarget(a->simplify);
+      } catch (const std::invalid_argument& e) {
+        throw UsageError(e.what());
+      }
+    }
+    const bool optimize = a->optimize || (gltf && !a->noOptimize);
 
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
@@ -88,11 +111,17 @@ void addMeshCommand(CLI::App& app) {
       Progress::note("mesh", "polygonizing a " + gridText + " grid on the " + a->settings.backend + " backend");
     }
     PolygonizeStats stats;
-    const mesh::TriMesh mesh = polygonize(model.program, grid, a->settings, &stats);
+    mesh::TriMesh mesh = polygonize(model.program, grid, a->settings, &stats);
     a->settings.progress = nullptr;  // it refers to `progress`, which ends here
     progress.reset();
     checkTriangles(mesh.triangleCount(), a->limits);
-    const std::string bytes = a->ascii ? mesh::encodePly(mesh, false) : mesh::encodeMesh(mesh, format);
+    std::optional<mesh::SimplifyReport> simplified;
+    if (simplifyTarget) mesh = mesh::simplifyMesh(mesh, *simplifyTarget, &simplified.emplace());
+    std::optional<mesh::VertexOrderReport> ordered;
+    if (optimize) ordered = mesh::optimizeVertexOrder(mesh);
+    const std::string bytes = a->ascii ? mesh::encodePly(mesh, false)
+                              : gltf   ? mesh::encodeGltf(mesh, format == "glb")
+                                       : mesh::encodeMesh(mesh, format);
     writeOutput(a->out, bytes);
     if (toStdout || (quiet() && !a->json)) return;
     const mesh::MeshReport report = mesh::checkMesh(mesh);
@@ -110,12 +139,24 @@ void addMeshCommand(CLI::App& app) {
       out["triangles"] = mesh.triangleCount();
       out["bytes"] = bytes.size();
       out["check"] = {{"watertight", report.watertight()}, {"volume", report.volume}, {"summary", report.summary()}};
+      if (simplified)
+        out["simplify"] = {{"triangles_before", simplified->trianglesBefore}, {"triangles_after", simplified->trianglesAfter},
+                           {"error", simplified->error}, {"watertight_before", simplified->watertightBefore},
+                           {"watertight_after", simplified->watertightAfter}, {"kept_input", simplified->keptInput},
+                           {"attempts", simplified->attempts}};
+      if (ordered)
+        out["vertex_order"] = {{"acmr_before", ordered->acmrBefore}, {"acmr_after", ordered->acmrAfter},
+                               {"overfetch_before", ordered->overfetchBefore}, {"overfetch_after", ordered->overfetchAfter}};
       std::printf("%s\n", out.dump(2).c_str());
       return;
     }
     std::printf("%s: %s cells of %.4g, backend %s, %.3f s\n", a->out.c_str(), gridText.c_str(), grid.cellSize,
                 a->settings.backend.c_str(), stats.seconds);
-    std::printf("%s\n", report.summary().c_str());
+    // One check line: the mesh's topology, then what simplification and reordering did to it.
+    std::string check = report.summary();
+    if (simplified) check += "; " + simplified->summary();
+    if (ordered) check += "; " + ordered->summary();
+    std::printf("%s\n", check.c_str());
   });
 }
 

@@ -59,7 +59,8 @@ foreach(component blobtree mesh cpu vk fem cutting)
           DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/blobvk)
   foreach(dir ${blobvk_component_${component}_headers})
     install(DIRECTORY ${PROJECT_SOURCE_DIR}/${dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/blobvk/${dir}
-            COMPONENT ${component} FILES_MATCHING PATTERN "*.h")
+            COMPONENT ${component} FILES_MATCHING PATTERN "*.h"
+            PATTERN "engine" EXCLUDE)  # mesh/engine (glTF, meshoptimizer) is the CLI's, not installed
   endforeach()
 endforeach()
 install(FILES ${PROJECT_SOURCE_DIR}/include/blobvk/blobvk.h DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/blobvk COMPONENT blobtree)

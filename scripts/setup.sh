@@ -7,6 +7,7 @@ packages=(
   build-essential cmake ninja-build ccache pkg-config
   libtbb-dev libeigen3-dev libglm-dev nlohmann-json3-dev libcli11-dev libpng-dev
   libgtest-dev libgmock-dev libbenchmark-dev libtet1.5-dev
+  libtinygltf-dev libmeshoptimizer-dev  # glTF export and simplification (mesh/engine)
   libvulkan-dev glslang-dev glslang-tools spirv-tools spirv-cross mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
   clang libclang-rt-14-dev
   gnuplot-nox  # charts of scripts/evaluation.sh

@@ -10,7 +10,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -84,6 +86,36 @@ TEST_F(CliCommands, MeshJsonMatchesTheFileWritten) {
   EXPECT_EQ(j["bytes"].get<std::size_t>(), fs::file_size(cwd / "t.ply"));
   EXPECT_EQ(j["check"]["watertight"], blobvk::mesh::checkMesh(mesh).watertight());
   EXPECT_EQ(j["grid"]["cells"][0].get<int>() > 0, true);
+}
+
+// --simplify: the PLY read back has the requested share of the plain run's triangles and is still
+// watertight, and the check line says so; .glb is a GLB container whose header length is the file's.
+TEST_F(CliCommands, MeshSimplifiesAndWritesGlb) {
+  const fs::path cwd = dir("mesh_simplify");
+  ASSERT_EQ(runCliSplit("mesh " + tower + " -o plain.ply --resolution 48 -q", cwd).status, 0);
+  CliSplitRun r = runCliSplit("mesh " + tower + " -o quarter.ply --resolution 48 --simplify 0.25", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const blobvk::mesh::TriMesh plain = blobvk::mesh::readPly((cwd / "plain.ply").string());
+  const blobvk::mesh::TriMesh quarter = blobvk::mesh::readPly((cwd / "quarter.ply").string());
+  EXPECT_NEAR(double(quarter.triangleCount()) / double(plain.triangleCount()), 0.25, 0.01);
+  EXPECT_TRUE(blobvk::mesh::checkMesh(quarter).watertight());
+  EXPECT_NE(r.out.find("simplified " + std::to_string(plain.triangleCount()) + " -> " +
+                       std::to_string(quarter.triangleCount()) + " triangles"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("still watertight"), std::string::npos) << r.out;
+
+  r = runCliSplit("mesh " + tower + " -o t.glb --resolution 48", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("vertex order: ACMR"), std::string::npos) << "glTF output is GPU-ordered by default: " << r.out;
+  const std::string glb = fileBytes(cwd / "t.glb");
+  ASSERT_GE(glb.size(), 20u);
+  EXPECT_EQ(glb.substr(0, 4), "glTF");
+  std::uint32_t length = 0;
+  std::memcpy(&length, glb.data() + 8, 4);
+  EXPECT_EQ(length, glb.size());
+  EXPECT_EQ(runCliSplit("mesh " + tower + " -o x.ply --simplify 1.5", cwd).status, 2);
+  EXPECT_EQ(runCliSplit("mesh " + tower + " -o x.glb --optimize --no-optimize", cwd).status, 2);
 }
 
 // bench's counts are the mesh's: the triangles of a `mesh` run at the same resolution.
