@@ -1,6 +1,7 @@
 // Scalar reference evaluator. The GLSL evaluator (shaders/eval_program.glsl) mirrors this file
 // operation for operation; keep them in step.
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/triangle_closest.h"
 
 #include <glm/geometric.hpp>
 
@@ -30,38 +31,7 @@ V3<T> toLocal(const layout::MatrixRecord& m, const V3<T>& p) {
 
 template <typename T>
 T triangleDistance2(V3<T> p, V3<T> a, V3<T> b, V3<T> c) {
-  const V3<T> ab = b - a, ac = c - a, ap = p - a;
-  const T d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
-  const T zero(0);
-  V3<T> closest;
-  if (d1 <= zero && d2 <= zero) {
-    closest = a;
-  } else {
-    const V3<T> bp = p - b;
-    const T d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
-    const V3<T> cp = p - c;
-    const T d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
-    const T vc = d1 * d4 - d3 * d2;
-    const T vb = d5 * d2 - d1 * d6;
-    const T va = d3 * d6 - d5 * d4;
-    if (d3 >= zero && d4 <= d3) {
-      closest = b;
-    } else if (d6 >= zero && d5 <= d6) {
-      closest = c;
-    } else if (vc <= zero && d1 >= zero && d3 <= zero) {
-      closest = a + ab * (d1 / (d1 - d3));
-    } else if (vb <= zero && d2 >= zero && d6 <= zero) {
-      closest = a + ac * (d2 / (d2 - d6));
-    } else if (va <= zero && (d4 - d3) >= zero && (d5 - d6) >= zero) {
-      closest = b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    } else {
-      const T sum = va + vb + vc;
-      // A degenerate (zero-area) triangle never reaches here with sum == 0 unless p is on it.
-      const T denom = sum != zero ? T(1) / sum : zero;
-      closest = a + ab * (vb * denom) + ac * (vc * denom);
-    }
-  }
-  const V3<T> d = p - closest;
+  const V3<T> d = p - detail::triangleClosest<T>(p, a, b, c);
   return glm::dot(d, d);
 }
 

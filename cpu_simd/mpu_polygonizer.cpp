@@ -17,6 +17,8 @@
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "blobvk/cpu_simd/mpu_results.h"
 
+#include "blobvk/blobtree/gradient.h"
+
 #include "blobvk/cpu_simd/field_bounds.h"
 #include "blobvk/cpu_simd/row_bits.h"
 #include "blobvk/cpu_simd/tape_pruning.h"
@@ -417,23 +419,28 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
     for (int i = 0; i < owned.x; ++i) r->faceZ[std::size_t(j * owned.x + i)] = rankOf(i, j, 0);
   st.vertices += msSince(t0);
 
-  // ---- attributes in SIMD batches ----
+  // ---- attributes in SIMD batches: one analytic-gradient pass gives normal and colour ----
   t0 = Clock::now();
-  if (ctx.options.normals) {
-    evaluateNormalBatch(*fieldProgram, s.px.data(), s.py.data(), s.pz.data(), s.nx.data(),
-                        s.ny.data(), s.nz.data(), nv, ctx.options.normalStep, ctx.level);
-    st.attribute += 6 * nv;
-    st.blocks += 6 * ctx.blocks(nv);
-    r->normals.resize(nv);
-    for (std::size_t e = 0; e < nv; ++e) r->normals[e] = {s.nx[e], s.ny[e], s.nz[e]};
-  }
-  if (ctx.options.colours) {
-    evaluateFieldColourBatch(*colourProgram, s.px.data(), s.py.data(), s.pz.data(), s.f.data(),
-                             s.cr.data(), s.cg.data(), s.cb.data(), nv, ctx.level);
+  if (ctx.options.normals || ctx.options.colours) {
+    // The colour tape computes the field tape's bits too (and its gradient: what pruning drops is
+    // exactly zero over the MPU, value and gradient), so one pass serves both attributes.
+    const bool colours = ctx.options.colours;
+    evaluateGradientBatch(colours ? *colourProgram : *fieldProgram, s.px.data(), s.py.data(), s.pz.data(), s.f.data(),
+                          s.nx.data(), s.ny.data(), s.nz.data(), colours ? s.cr.data() : nullptr, s.cg.data(),
+                          s.cb.data(), nv, ctx.level);
     st.attribute += nv;
     st.blocks += ctx.blocks(nv);
-    r->colours.resize(nv);
-    for (std::size_t e = 0; e < nv; ++e) r->colours[e] = {s.cr[e], s.cg[e], s.cb[e]};
+    if (ctx.options.normals) {
+      r->normals.resize(nv);
+      for (std::size_t e = 0; e < nv; ++e) {
+        const glm::vec3 n = blobtree::outwardNormal({s.nx[e], s.ny[e], s.nz[e]});
+        r->normals[e] = {n.x, n.y, n.z};
+      }
+    }
+    if (colours) {
+      r->colours.resize(nv);
+      for (std::size_t e = 0; e < nv; ++e) r->colours[e] = {s.cr[e], s.cg[e], s.cb[e]};
+    }
   }
   st.attributes += msSince(t0);
 

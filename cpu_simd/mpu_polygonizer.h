@@ -31,7 +31,7 @@ struct MpuOptions {
   // they save; see docs/performance.md).
   int subBlockCells = 0;
   std::optional<SimdLevel> simd;  // default: bestSimdLevel()
-  float normalStep = 1e-4f;   // central-difference step, as blobtree::normal's default
+  float normalStep = 1e-4f;   // margin around each MPU within which its pruned tapes stay exact
   // Called as groups of MPUs finish (done of total), from TBB worker threads, possibly at once
   // from several: the callee synchronises. For progress display; it must not throw.
   std::function<void(std::size_t done, std::size_t total)> progress;
@@ -39,7 +39,7 @@ struct MpuOptions {
 
 struct MpuStats {
   // Point evaluations of the field: grid points sampled, refinement steps on edges, attribute
-  // evaluations (6 per normal, 1 per colour).
+  // evaluations (1 per vertex: one analytic-gradient pass gives the normal and the colour).
   std::uint64_t gridEvaluations = 0, edgeEvaluations = 0, attributeEvaluations = 0;
   std::uint64_t pointEvaluations = 0;  // the sum of the three
   std::uint64_t simdBlocks = 0;        // SIMD calls (point evaluations / lane width, rounded up)

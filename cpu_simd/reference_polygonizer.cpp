@@ -14,14 +14,15 @@
 //    the order of a scan over points in index order with axes 0, 1, 2.
 // 4. Triangles: for each cell in cell index order (= pointIndex of its lowest corner), the case
 //    table's triangles for its configuration, mapped from cell edge ids to vertex ids.
-// 5. Attributes: normal = blobtree::normal(p), colour = evaluateWithColour(p).colour at the final
-//    vertex position.
+// 5. Attributes: normal = outwardNormal of the analytic gradient (blobtree/gradient.h) and the
+//    colour, both from one evaluateGradientColour pass at the final vertex position.
 //
 // Memory stays at a few z-slabs: field values of three point layers and vertex ids of two, so the
 // reference can run grids far larger than a whole-grid index array would allow.
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/gradient.h"
 #include "blobvk/mesh/marching_cubes.h"
 
 #include <limits>
@@ -119,13 +120,14 @@ mesh::TriMesh polygonizeReference(const blobtree::Program& program, const blobtr
           id = std::uint32_t(mesh.positions.size());
           mesh.positions.push_back({p.x, p.y, p.z});
           mesh.edgeKeys.push_back(grid.edgeKey(i, j, k, axis));
-          if (options.normals) {
-            const glm::vec3 n = blobtree::normal(program, p);
-            mesh.normals.push_back({n.x, n.y, n.z});
-          }
-          if (options.colours) {
-            const glm::vec3 c = blobtree::evaluateWithColour(program, p).colour;
-            mesh.colours.push_back({c.x, c.y, c.z});
+          if (options.normals || options.colours) {
+            const blobtree::FieldGradient fg = options.colours ? blobtree::evaluateGradientColour(program, p)
+                                                               : blobtree::evaluateGradient(program, p);
+            if (options.normals) {
+              const glm::vec3 n = blobtree::outwardNormal(fg.gradient);
+              mesh.normals.push_back({n.x, n.y, n.z});
+            }
+            if (options.colours) mesh.colours.push_back({fg.colour.x, fg.colour.y, fg.colour.z});
           }
         }
       }

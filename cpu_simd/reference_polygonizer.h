@@ -9,7 +9,7 @@
 namespace blobvk::cpu {
 
 struct ReferenceOptions {
-  bool normals = true;   // -gradient of the field, normalised
+  bool normals = true;   // -gradient of the field (analytic), normalised
   bool colours = true;
   int refineSteps = 0;   // extra bisection/secant steps on each crossing edge (0: linear interp.)
 };

@@ -50,12 +50,18 @@ inline bool all(M16 m) { return m.v == 0xffff; }
 }  // namespace blobvk::cpu::detail
 
 #include "blobvk/cpu_simd/simd_kernel_impl.h"
+#include "blobvk/cpu_simd/simd_gradient_impl.h"
 
 namespace blobvk::cpu::detail {
 
 void evaluateAvx512(const blobtree::Program& program, const float* x, const float* y,
                     const float* z, float* field, float* r, float* g, float* b, std::size_t n) {
   evaluateArrays<F16>(program, x, y, z, field, r, g, b, n);
+}
+
+void gradientAvx512(const blobtree::Program& program, const float* x, const float* y, const float* z,
+                  float* const* outputs, bool colour, std::size_t n) {
+  evaluateGradientArrays<F16>(program, x, y, z, outputs, colour, n);
 }
 
 }  // namespace blobvk::cpu::detail

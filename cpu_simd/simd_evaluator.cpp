@@ -4,6 +4,7 @@
 #include "blobvk/cpu_simd/simd_evaluator.h"
 
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/gradient.h"
 #include "blobvk/cpu_simd/simd_kernels.h"
 
 #include <cmath>
@@ -109,6 +110,32 @@ void evaluateFieldColourBatch(const blobtree::Program& program, const float* x, 
                               const float* z, float* field, float* r, float* g, float* b,
                               std::size_t n, SimdLevel level) {
   dispatch(program, x, y, z, field, r, g, b, n, level);
+}
+
+void evaluateGradientBatch(const blobtree::Program& program, const float* x, const float* y,
+                           const float* z, float* field, float* gx, float* gy, float* gz, float* r,
+                           float* g, float* b, std::size_t n, SimdLevel level) {
+  float* const outputs[7] = {field, gx, gy, gz, r, g, b};
+  const bool colour = r != nullptr;
+  switch (level) {
+    case SimdLevel::Avx512:
+      checkSupported(level);
+      detail::gradientAvx512(program, x, y, z, outputs, colour, n);
+      return;
+    case SimdLevel::Avx2:
+      checkSupported(level);
+      detail::gradientAvx2(program, x, y, z, outputs, colour, n);
+      return;
+    case SimdLevel::Scalar:
+      for (std::size_t i = 0; i < n; ++i) {
+        const glm::vec3 p(x[i], y[i], z[i]);
+        const blobtree::FieldGradient fg =
+            colour ? blobtree::evaluateGradientColour(program, p) : blobtree::evaluateGradient(program, p);
+        field[i] = fg.field, gx[i] = fg.gradient.x, gy[i] = fg.gradient.y, gz[i] = fg.gradient.z;
+        if (colour) r[i] = fg.colour.x, g[i] = fg.colour.y, b[i] = fg.colour.z;
+      }
+      return;
+  }
 }
 
 void evaluateNormalBatch(const blobtree::Program& program, const float* x, const float* y,

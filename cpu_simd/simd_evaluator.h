@@ -28,6 +28,12 @@ void evaluateFieldColourBatch(const blobtree::Program& program, const float* x, 
                               const float* z, float* field, float* r, float* g, float* b,
                               std::size_t n, SimdLevel level);
 
+// Field and analytic gradient (gx, gy, gz) per point, and the colour when r is not null, as
+// blobtree::evaluateGradient / evaluateGradientColour, bit for bit: one pass per point.
+void evaluateGradientBatch(const blobtree::Program& program, const float* x, const float* y,
+                           const float* z, float* field, float* gx, float* gy, float* gz, float* r,
+                           float* g, float* b, std::size_t n, SimdLevel level);
+
 // Outward unit normals as blobtree::normal(program, p, h): central differences, 6 evaluations per
 // point done as 6 SIMD batches.
 void evaluateNormalBatch(const blobtree::Program& program, const float* x, const float* y,

@@ -35,14 +35,22 @@ inline Vec3V<V> toLocal(const layout::MatrixRecord& m, const Vec3V<V>& p) {
           V(m.r2.x) * p.x + V(m.r2.y) * p.y + V(m.r2.z) * p.z + V(m.r2.w)};
 }
 
+// M^T g: a gradient in the matrix's output space taken back to its input space.
+template <class V>
+inline Vec3V<V> transposeTimesV(const layout::MatrixRecord& m, const Vec3V<V>& g) {
+  return {V(m.r0.x) * g.x + V(m.r1.x) * g.y + V(m.r2.x) * g.z, V(m.r0.y) * g.x + V(m.r1.y) * g.y + V(m.r2.y) * g.z,
+          V(m.r0.z) * g.x + V(m.r1.z) * g.y + V(m.r2.z) * g.z};
+}
+
 template <class V>
 inline V wyvillV(const V& dd) {
   const V t = V(1.0f) - dd;
   return select(dd < V(1.0f), t * t * t, V(0.0f));
 }
 
+// The squared distance to the triangle; `closest` (when given) receives the closest point.
 template <class V>
-V triangleDd(const Vec3V<V>& p, const layout::PrimitiveRecord& prim) {
+V triangleDd(const Vec3V<V>& p, const layout::PrimitiveRecord& prim, Vec3V<V>* closest = nullptr) {
   using M = typename V::Mask;
   const V zero(0.0f);
   const V ax(prim.p0.x), ay(prim.p0.y), az(prim.p0.z);
@@ -93,6 +101,7 @@ V triangleDd(const Vec3V<V>& p, const layout::PrimitiveRecord& prim) {
   qx = select(atB, bx, qx), qy = select(atB, by, qy), qz = select(atB, bz, qz);
   const M atA = (d1 <= zero) & (d2 <= zero);
   qx = select(atA, ax, qx), qy = select(atA, ay, qy), qz = select(atA, az, qz);
+  if (closest) *closest = {qx, qy, qz};
   const V ex = p.x - qx, ey = p.y - qy, ez = p.z - qz;
   return dot3(ex, ey, ez, ex, ey, ez);
 }

@@ -14,4 +14,10 @@ void evaluateAvx2(const blobtree::Program& program, const float* x, const float*
 void evaluateAvx512(const blobtree::Program& program, const float* x, const float* y,
                     const float* z, float* field, float* r, float* g, float* b, std::size_t n);
 
+// Field, gradient x, y, z and (colour) r, g, b into outputs[0..3] (and [4..6]), per point.
+void gradientAvx2(const blobtree::Program& program, const float* x, const float* y, const float* z,
+                  float* const* outputs, bool colour, std::size_t n);
+void gradientAvx512(const blobtree::Program& program, const float* x, const float* y, const float* z,
+                    float* const* outputs, bool colour, std::size_t n);
+
 }  // namespace blobvk::cpu::detail

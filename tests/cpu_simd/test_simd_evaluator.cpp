@@ -2,6 +2,7 @@
 // box skips, colours and normals, on random points around each model (array lengths that are
 // not a multiple of the lane width exercise the padded tail).
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/gradient.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/cpu_simd/simd_evaluator.h"
 #include "tests/cpu_simd/models.h"
@@ -93,6 +94,46 @@ TEST(SimdEvaluator, MatchesScalarReferenceOnEveryNodeType) {
       co.boxSkips = skips;
       const blobtree::Program program = blobtree::compile(node, co);
       for (SimdLevel level : levels()) expectMatchesReference(name, program, level);
+    }
+  }
+}
+
+// The analytic gradient pass: field, gradient and colour equal blobtree::evaluateGradient(Colour)
+// bit for bit at every level (the MPU normals are then the reference normals exactly).
+TEST(SimdEvaluator, GradientsAreTheReferenceBitsOnEveryNodeType) {
+  const auto bits = [](float v) { return std::bit_cast<std::uint32_t>(v); };
+  for (const auto& [name, node] : allModels()) {
+    for (bool skips : {true, false}) {
+      blobtree::CompileOptions co;
+      co.boxSkips = skips;
+      const blobtree::Program program = blobtree::compile(node, co);
+      const std::size_t n = 517;
+      const Points p = randomPoints(program, n, 13);
+      for (SimdLevel level : levels()) {
+        SCOPED_TRACE(name + " / " + toString(level) + (skips ? " / skips" : ""));
+        for (bool colour : {false, true}) {
+          std::vector<float> f(n), gx(n), gy(n), gz(n), r(n), g(n), b(n);
+          evaluateGradientBatch(program, p.x.data(), p.y.data(), p.z.data(), f.data(), gx.data(), gy.data(), gz.data(),
+                                colour ? r.data() : nullptr, g.data(), b.data(), n, level);
+          std::size_t nonZero = 0;
+          for (std::size_t i = 0; i < n; ++i) {
+            const glm::vec3 q(p.x[i], p.y[i], p.z[i]);
+            const blobtree::FieldGradient ref =
+                colour ? blobtree::evaluateGradientColour(program, q) : blobtree::evaluateGradient(program, q);
+            ASSERT_EQ(bits(f[i]), bits(ref.field)) << "point " << i;
+            ASSERT_EQ(bits(gx[i]), bits(ref.gradient.x)) << "point " << i << " " << gx[i] << " vs " << ref.gradient.x;
+            ASSERT_EQ(bits(gy[i]), bits(ref.gradient.y)) << "point " << i;
+            ASSERT_EQ(bits(gz[i]), bits(ref.gradient.z)) << "point " << i;
+            if (colour) {
+              ASSERT_EQ(bits(r[i]), bits(ref.colour.x)) << "point " << i;
+              ASSERT_EQ(bits(g[i]), bits(ref.colour.y)) << "point " << i;
+              ASSERT_EQ(bits(b[i]), bits(ref.colour.z)) << "point " << i;
+            }
+            nonZero += glm::length(ref.gradient) > 0.0f;
+          }
+          EXPECT_GT(nonZero, n / 100) << "the sample misses the model";
+        }
+      }
     }
   }
 }
