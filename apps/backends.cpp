@@ -76,6 +76,17 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     cpu::MpuStats mpu;
     mesh = cpu::polygonizeMpu(program, grid, options, &mpu);
     evaluations = double(mpu.pointEvaluations);
+    if (stats) {
+      const double parts[] = {mpu.cpuDiscard + mpu.cpuPrune, mpu.cpuField, mpu.cpuVertices, mpu.cpuAttributes, mpu.cpuCells};
+      double cpuSum = 0.0;
+      for (double v : parts) cpuSum += v;
+      const double share = cpuSum > 0.0 ? mpu.msMpus / cpuSum * 1e-3 : 0.0;  // ms of CPU -> s of wall
+      const char* names[] = {"classification", "field", "vertices", "normals_colours", "triangles"};
+      stats->phaseSeconds.clear();
+      stats->phaseSeconds.emplace_back("setup", mpu.msSetup * 1e-3);
+      for (int i = 0; i < 5; ++i) stats->phaseSeconds.emplace_back(names[i], parts[i] * share);
+      stats->phaseSeconds.emplace_back("welding", (mpu.msPrefix + mpu.msScatter) * 1e-3);
+    }
   } else if (settings.backend == "reference") {
     cpu::ReferenceOptions options;
     options.refineSteps = settings.refineSteps;

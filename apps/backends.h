@@ -10,6 +10,7 @@
 #include <functional>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace blobvk::vk {
@@ -38,6 +39,10 @@ struct PolygonizeSettings {
 struct PolygonizeStats {
   double seconds = 0.0;
   double pointEvaluations = 0.0;  // field evaluations, where the backend counts them
+  // Wall seconds per phase, where the backend measures them (cpu): the MPU phase is split by the
+  // CPU time its workers spent in each part (classification, field, vertices, attributes,
+  // triangles), then the serial welding (prefix sums, scatter into the welded arrays).
+  std::vector<std::pair<std::string, double>> phaseSeconds;
 };
 
 std::vector<std::string> backendNames();     // the backends this build has

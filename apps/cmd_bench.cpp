@@ -6,12 +6,17 @@
 #include "resolution_limit.h"
 #include "model.h"
 
+#include "blobvk/mesh/io.h"
+
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <memory>
+#include <string>
+#include <utility>
 #include <vector>
 
 namespace blobvk::app {
@@ -24,6 +29,8 @@ struct Row {
   double first = 0;  // the first run of the process (vk: includes shader compilation and JIT)
   std::size_t triangles = 0, vertices = 0;
   double evaluations = 0;
+  std::vector<std::pair<std::string, double>> phases;  // of the fastest run (cpu backend)
+  double outputSeconds = 0;  // encoding the mesh as binary PLY, once, after the timed runs
 };
 
 }  // namespace
@@ -88,16 +95,23 @@ void addBenchCommand(CLI::App& app) {
             settings.tiledVertices = a->tiledVertices;
             Row row{path, backend == "vk" ? backend + "-" + traversal : backend, resolution, threads};
             std::vector<double> times;
+            mesh::TriMesh last;
             for (int i = 0; i < a->warmup + a->repeats; ++i) {
               PolygonizeStats stats;
-              const mesh::TriMesh mesh = polygonize(model.program, grid, settings, &stats);
+              mesh::TriMesh mesh = polygonize(model.program, grid, settings, &stats);
               if (i == 0) row.first = stats.seconds;
               if (i < a->warmup) continue;
+              if (times.empty() || stats.seconds < *std::min_element(times.begin(), times.end())) row.phases = stats.phaseSeconds;
               times.push_back(stats.seconds);
               row.triangles = mesh.triangleCount();
               row.vertices = mesh.vertexCount();
               row.evaluations = stats.pointEvaluations;
+              last = std::move(mesh);
             }
+            // The output phase, as `blobvk mesh -o x.ply` runs it (file writing aside).
+            const auto encodeStart = std::chrono::steady_clock::now();
+            const std::string bytes = mesh::encodePly(last, true);
+            row.outputSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - encodeStart).count();
             std::sort(times.begin(), times.end());
             row.median = times[times.size() / 2];
             row.min = times.front();
@@ -118,7 +132,13 @@ void addBenchCommand(CLI::App& app) {
                        {"max_s", r.max}, {"first_s", r.first}, {"triangles", r.triangles}, {"vertices", r.vertices},
                        {"point_evaluations", r.evaluations},
                        {"fvept", r.triangles ? r.evaluations / double(r.triangles) : 0.0},
-                       {"evaluations_per_s", r.median > 0 ? r.evaluations / r.median : 0.0}});
+                       {"evaluations_per_s", r.median > 0 ? r.evaluations / r.median : 0.0},
+                       {"output_s", r.outputSeconds}});
+        if (!r.phases.empty()) {
+          nlohmann::json phases = nlohmann::json::object();
+          for (const auto& [name, seconds] : r.phases) phases[name] = seconds;
+          out.back()["phases_s"] = phases;
+        }
       }
       std::printf("%s\n", out.dump(2).c_str());
       return;
