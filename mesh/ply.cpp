@@ -10,6 +10,8 @@
 #include <limits>
 #include <vector>
 
+static_assert(sizeof(blobvk::mesh::Float3) == 12, "binary PLY copies positions and normals as 3 packed floats");
+
 namespace blobvk::mesh {
 
 // ---- writer ----------------------------------------------------------------------------------
@@ -33,6 +35,33 @@ std::string encodePly(const TriMesh& mesh, bool binary) {
     const float clamped = std::isnan(c) ? 0.0f : std::clamp(c, 0.0f, 1.0f);
     return std::uint8_t(std::lround(clamped * 255.0f));
   };
+  if (binary) {
+    // One allocation and straight copies: a pushed value at a time cost ~200 ns per triangle on
+    // a million-triangle mesh. The bytes are those of the per-value path (little-endian host;
+    // an int32 index has the bits of the uint32 one).
+    const std::size_t vertexBytes = 12 + (normals ? 12 : 0) + (colours ? 3 : 0);
+    const std::size_t headerBytes = out.size();
+    out.resize(headerBytes + mesh.positions.size() * vertexBytes + mesh.triangles.size() * 13);
+    char* w = out.data() + headerBytes;
+    for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+      std::memcpy(w, &mesh.positions[i], 12);
+      w += 12;
+      if (normals) {
+        std::memcpy(w, &mesh.normals[i], 12);
+        w += 12;
+      }
+      if (colours) {
+        const Float3& c = mesh.colours[i];
+        *w++ = char(toByte(c.x)), *w++ = char(toByte(c.y)), *w++ = char(toByte(c.z));
+      }
+    }
+    for (const auto& t : mesh.triangles) {
+      *w++ = 3;
+      std::memcpy(w, t.data(), 12);
+      w += 12;
+    }
+    return out;
+  }
   for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
     float values[6];
     int n = 0;

@@ -41,6 +41,9 @@ run() {  # key, then the command line (as shown in the page); stdout to $results
 
 run bench_cpu "$blobvk" bench $scenes --resolution $res_cpu --backend cpu --threads 1 2 \
   --repeats $rep_cpu --warmup 1 --json
+# Where the time goes: the issue-17 targets' scenes at 384, per phase (phases_s).
+run bench_phases "$blobvk" bench scenes/tower.json scenes/random128.json scenes/eggshell.json --resolution 384 \
+  --backend cpu --threads 1 2 --repeats $rep_cpu --warmup 1 --json
 run bench_vk "$blobvk" bench $scenes --resolution $res_vk --backend vk --repeats $rep_vk --json
 
 gb() {  # binary, filter

@@ -7,6 +7,7 @@ RESULTS_DIR holds what scripts/performance.sh measured:
   machine.json                   cores, CPU model, lavapipe/LLVM version, blobvk version
   commands.json                  {section: command line} as run
   bench_cpu.json, bench_vk.json  `blobvk bench --json` (whole-scene polygonization)
+  bench_phases.json              `blobvk bench --json` at 384 (the per-phase breakdown)
   gb_<binary>.json               Google Benchmark JSON (--benchmark_format=json)
 Every figure in the page comes from those files; nothing is typed by hand.
 """
@@ -131,6 +132,42 @@ def cpu_table(rows):
         out.append([f"`{scene}`", res, f"{tri:,}", fmt_time(one and one["min_s"]), ns(one),
                     fmt_time(two and two["min_s"]), ns(two), speed, f"{(two or one)['fvept']:.1f}"])
     return table(header, out)
+
+
+PHASES = [("classification", "classification"), ("field", "field"), ("vertices", "vertices"),
+          ("normals_colours", "normals + colours"), ("triangles", "triangles"), ("welding", "welding"),
+          ("setup", "setup")]
+
+
+def phase_table(rows, resolution):
+    """ns per output triangle in each phase of the fastest run (`phases_s` of `blobvk bench
+    --json`), and the binary-PLY output after it, at one resolution."""
+    header = ["scene", "threads", "ns/tri (min)"] + [label for _, label in PHASES] + ["output (PLY)", "FVEPT"]
+    out = []
+    for r in rows:
+        if r["resolution"] != resolution or not r.get("phases_s") or not r["triangles"]:
+            continue
+        ns = lambda s: f"{s * 1e9 / r['triangles']:.0f}"
+        out.append([f"`{scene_name(r['scene'])}`", r["threads"] or "all", ns(r["min_s"])] +
+                   [ns(r["phases_s"].get(k, 0.0)) for k, _ in PHASES] +
+                   [ns(r.get("output_s", 0.0)), f"{r['fvept']:.1f}"])
+    return table(header, out) if out else ""
+
+
+def phase_section(rows, command):
+    """The "where the time goes" section, from the rows of its own bench run."""
+    res = max((r["resolution"] for r in rows if r.get("phases_s")), default=None)
+    if res is None:
+        return ""
+    return ("\n## Where the CPU polygonizer's time goes (`blobvk bench --json`, `phases_s`)\n\n"
+            f"Per phase, in ns per output triangle, of the fastest of the repeats at {res}. The MPU phase\n"
+            "runs on the worker threads: its wall time is split by the CPU time the workers spent in\n"
+            "each part — *classification* (interval bound of each MPU group, tape pruning), *field*\n"
+            "(the SIMD field cache), *vertices* (crossing edges, positions), *normals + colours* (one\n"
+            "analytic-gradient pass per vertex), *triangles* (case index and the case table per cell).\n"
+            "*welding* is the prefix sums and the scatter of every MPU's vertices and triangles into the\n"
+            "welded arrays; *output* encodes the mesh as binary PLY, once, after the timed runs.\n"
+            + (f"\n```sh\n{command}\n```\n" if command else "") + "\n" + phase_table(rows, res) + "\n")
 
 
 def vk_table(cpu_rows, vk_rows):
@@ -262,6 +299,8 @@ def main():
     w(cpu_table(cpu_rows) if cpu_rows else "_(not measured)_")
     if chart_ns_per_triangle(cpu_rows, vk_rows, os.path.join(charts, "ns_per_triangle.png")):
         w("\n![ns per triangle against resolution](performance/ns_per_triangle.png)\n")
+    phase_rows = bench_rows(os.path.join(results, "bench_phases.json"))
+    w(phase_section(phase_rows, commands.get("bench_phases")))
 
     w("\n## Vulkan polygonization on lavapipe against the CPU (`blobvk bench`)\n")
     w("Same scenes, `--backend vk` (its default evaluator choice, see [vulkan.md](vulkan.md)) against\n"
