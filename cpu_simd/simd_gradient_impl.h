@@ -1,8 +1,8 @@
 // Internal: the analytic-gradient evaluator over a lane type V (the lane types of simd_avx2.cpp
 // and simd_avx512.cpp; include after simd_kernel_impl.h). Every formula mirrors
 // blobtree/evaluate_gradient.cpp operation for operation and in the same order, so each lane
-// computes the field, gradient and colour bits of blobtree::evaluateGradient(Colour). One block
-// of V::W points per pass: gradients are taken at vertices only, a small share of the points.
+// computes the field, gradient and colour bits of blobtree::evaluateGradient(Colour). Chunks of K
+// blocks share each instruction's decode, as in runBlocks.
 #pragma once
 
 #include "blobvk/blobtree/gradient.h"
@@ -132,150 +132,180 @@ V powDerivativeV(const V& base, float exponent, V& derivative) {
   return V::load(b);
 }
 
-// One block of V::W points: field, gradient and (kColour) colour, as blobtree::run<kColour> in
-// evaluate_gradient.cpp. Skips as in runBlocks: all active lanes outside -> jump; some -> zero
-// those lanes' register, gradient and colour at the skip's target.
-template <class V, bool kColour>
-void runGradientBlock(const blobtree::Program& program, const Vec3V<V>& p, V* out) {
+// K blocks of V::W points: field, gradient and (kColour) colour, as blobtree::run<kColour> in
+// evaluate_gradient.cpp. Each instruction is decoded once for the K blocks (as runBlocks does).
+// Skips as in runBlocks: all active lanes outside -> jump; some -> zero those lanes' register,
+// gradient and colour at the skip's target.
+template <class V, bool kColour, int K>
+void runGradientBlocks(const blobtree::Program& program, const Vec3V<V>* p, V (*out)[7]) {
   using M = typename V::Mask;
   constexpr std::size_t kC = kColour ? layout::MAX_FIELD_REGISTERS : 1;
-  V reg[layout::MAX_FIELD_REGISTERS];
-  Vec3V<V> grad[layout::MAX_FIELD_REGISTERS];
-  V cr[kC], cg[kC], cb[kC];
-  Vec3V<V> pts[layout::MAX_POINT_REGISTERS];
-  JacobianV<V> jac[layout::MAX_POINT_REGISTERS];
-  pts[0] = p;
+  const std::uint32_t regs = std::max<std::uint32_t>(program.fieldRegisters, 1);
+  V reg[layout::MAX_FIELD_REGISTERS][K];
+  Vec3V<V> grad[layout::MAX_FIELD_REGISTERS][K];
+  V cr[kC][K], cg[kC][K], cb[kC][K];
+  Vec3V<V> pts[layout::MAX_POINT_REGISTERS][K];
+  JacobianV<V> jac[layout::MAX_POINT_REGISTERS][K];
   const V zero(0.0f), one(1.0f);
-  for (auto& j : jac)
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) j.m[r][c] = r == c ? one : zero;
+  for (int b = 0; b < K; ++b) pts[0][b] = p[b];
+  if (program.pointRegisters > 1)
+    for (std::uint32_t r = 0; r < program.pointRegisters && r < layout::MAX_POINT_REGISTERS; ++r)
+      for (int b = 0; b < K; ++b)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) jac[r][b].m[i][j] = i == j ? one : zero;
   struct Frame {
     std::uint32_t target, dst;
-    M out, enclosingActive;
+    M out[K], enclosingActive[K];
   };
   thread_local std::vector<Frame> stack;
   if (stack.size() < program.code.size() + 1) stack.resize(program.code.size() + 1);
   Frame* frames = stack.data();
   int pending = 0;
-  M active = ~M::none();
+  M active[K];
+  for (int b = 0; b < K; ++b) active[b] = ~M::none();
   const std::size_t n = program.code.size();
   std::size_t stop = n, pc = 0;
-  const auto pick = [](M m, const Vec3V<V>& a, const Vec3V<V>& b) {
-    return Vec3V<V>{select(m, a.x, b.x), select(m, a.y, b.y), select(m, a.z, b.z)};
+  const auto pick = [](M m, const Vec3V<V>& a, const Vec3V<V>& c) {
+    return Vec3V<V>{select(m, a.x, c.x), select(m, a.y, c.y), select(m, a.z, c.z)};
   };
   for (;;) {
     while (pc >= stop && pending > 0) {
       const Frame& f = frames[--pending];
-      reg[f.dst] = select(f.out, zero, reg[f.dst]);
-      grad[f.dst] = pick(f.out, {zero, zero, zero}, grad[f.dst]);
-      if constexpr (kColour) {
-        cr[f.dst] = select(f.out, zero, cr[f.dst]);
-        cg[f.dst] = select(f.out, zero, cg[f.dst]);
-        cb[f.dst] = select(f.out, zero, cb[f.dst]);
+      for (int b = 0; b < K; ++b) {
+        reg[f.dst][b] = select(f.out[b], zero, reg[f.dst][b]);
+        grad[f.dst][b] = pick(f.out[b], {zero, zero, zero}, grad[f.dst][b]);
+        if constexpr (kColour) {
+          cr[f.dst][b] = select(f.out[b], zero, cr[f.dst][b]);
+          cg[f.dst][b] = select(f.out[b], zero, cg[f.dst][b]);
+          cb[f.dst][b] = select(f.out[b], zero, cb[f.dst][b]);
+        }
+        active[b] = f.enclosingActive[b];
       }
-      active = f.enclosingActive;
       stop = pending > 0 ? std::min<std::size_t>(n, frames[pending - 1].target) : n;
     }
     if (pc >= n) break;
     const layout::uvec4 in = program.code[pc].code;
     const std::uint32_t op = in.x & 0xffu, dst = in.x >> 8;
-    const std::uint32_t src = in.y < layout::MAX_FIELD_REGISTERS ? in.y : 0;
+    const std::uint32_t src = in.y < regs ? in.y : 0;
     switch (op) {
       case layout::OP_PRIM: {
         const auto& prim = program.primitives[in.y];
-        Vec3V<V> g;
-        reg[dst] = primitiveGradientV(program, prim, pts[in.z], g);
-        if (in.z != 0u) {
-          const JacobianV<V>& j = jac[in.z];
-          g = {j.m[0][0] * g.x + j.m[1][0] * g.y + j.m[2][0] * g.z, j.m[0][1] * g.x + j.m[1][1] * g.y + j.m[2][1] * g.z,
-               j.m[0][2] * g.x + j.m[1][2] * g.y + j.m[2][2] * g.z};
+        for (int b = 0; b < K; ++b) {
+          Vec3V<V> g;
+          reg[dst][b] = primitiveGradientV(program, prim, pts[in.z][b], g);
+          if (in.z != 0u) {
+            const JacobianV<V>& j = jac[in.z][b];
+            g = {j.m[0][0] * g.x + j.m[1][0] * g.y + j.m[2][0] * g.z, j.m[0][1] * g.x + j.m[1][1] * g.y + j.m[2][1] * g.z,
+                 j.m[0][2] * g.x + j.m[1][2] * g.y + j.m[2][2] * g.z};
+          }
+          grad[dst][b] = g;
         }
-        grad[dst] = g;
         if constexpr (kColour) {
           const std::uint32_t rgba = prim.meta.z;
-          cr[dst] = V(float(rgba & 0xffu) / 255.0f), cg[dst] = V(float((rgba >> 8) & 0xffu) / 255.0f),
-          cb[dst] = V(float((rgba >> 16) & 0xffu) / 255.0f);
+          const V r(float(rgba & 0xffu) / 255.0f), g(float((rgba >> 8) & 0xffu) / 255.0f),
+              bl(float((rgba >> 16) & 0xffu) / 255.0f);
+          for (int b = 0; b < K; ++b) cr[dst][b] = r, cg[dst][b] = g, cb[dst][b] = bl;
         }
         break;
       }
-      case layout::OP_ADD: {
-        const V a = reg[dst], b = reg[src];
-        if constexpr (kColour) {
-          const V wa = vmax(a, zero), wb = vmax(b, zero);
-          const V w = wa + wb;
-          const M m = w > zero;
-          cr[dst] = select(m, (cr[dst] * wa + cr[src] * wb) / w, cr[dst]);
-          cg[dst] = select(m, (cg[dst] * wa + cg[src] * wb) / w, cg[dst]);
-          cb[dst] = select(m, (cb[dst] * wa + cb[src] * wb) / w, cb[dst]);
+      case layout::OP_ADD:
+        for (int b = 0; b < K; ++b) {
+          const V a = reg[dst][b], c = reg[src][b];
+          if constexpr (kColour) {
+            const V wa = vmax(a, zero), wb = vmax(c, zero);
+            const V w = wa + wb;
+            const M m = w > zero;
+            cr[dst][b] = select(m, (cr[dst][b] * wa + cr[src][b] * wb) / w, cr[dst][b]);
+            cg[dst][b] = select(m, (cg[dst][b] * wa + cg[src][b] * wb) / w, cg[dst][b]);
+            cb[dst][b] = select(m, (cb[dst][b] * wa + cb[src][b] * wb) / w, cb[dst][b]);
+          }
+          reg[dst][b] = a + c;
+          grad[dst][b] = {grad[dst][b].x + grad[src][b].x, grad[dst][b].y + grad[src][b].y,
+                          grad[dst][b].z + grad[src][b].z};
         }
-        reg[dst] = a + b;
-        grad[dst] = {grad[dst].x + grad[src].x, grad[dst].y + grad[src].y, grad[dst].z + grad[src].z};
         break;
-      }
       case layout::OP_MAX:
       case layout::OP_MIN:
-      case layout::OP_DIFF: {
-        const V other = op == layout::OP_DIFF ? one - reg[src] : reg[src];
-        const M m = op == layout::OP_MAX ? other > reg[dst] : other < reg[dst];
-        if constexpr (kColour) {
-          cr[dst] = select(m, cr[src], cr[dst]);
-          cg[dst] = select(m, cg[src], cg[dst]);
-          cb[dst] = select(m, cb[src], cb[dst]);
+      case layout::OP_DIFF:
+        for (int b = 0; b < K; ++b) {
+          const V other = op == layout::OP_DIFF ? one - reg[src][b] : reg[src][b];
+          const M m = op == layout::OP_MAX ? other > reg[dst][b] : other < reg[dst][b];
+          if constexpr (kColour) {
+            cr[dst][b] = select(m, cr[src][b], cr[dst][b]);
+            cg[dst][b] = select(m, cg[src][b], cg[dst][b]);
+            cb[dst][b] = select(m, cb[src][b], cb[dst][b]);
+          }
+          const Vec3V<V>& gs = grad[src][b];
+          const Vec3V<V> og = op == layout::OP_DIFF ? Vec3V<V>{-gs.x, -gs.y, -gs.z} : gs;
+          grad[dst][b] = pick(m, og, grad[dst][b]);
+          reg[dst][b] = op == layout::OP_MAX ? vmax(reg[dst][b], other) : vmin(reg[dst][b], other);
         }
-        const Vec3V<V> og = op == layout::OP_DIFF ? Vec3V<V>{-grad[src].x, -grad[src].y, -grad[src].z} : grad[src];
-        grad[dst] = pick(m, og, grad[dst]);
-        reg[dst] = op == layout::OP_MAX ? vmax(reg[dst], other) : vmin(reg[dst], other);
         break;
-      }
       case layout::OP_SDIFF:
-      case layout::OP_MUL: {
-        const V other = op == layout::OP_SDIFF ? one - reg[src] : reg[src];
-        if constexpr (kColour) {
-          const M m = other < reg[dst];
-          cr[dst] = select(m, cr[src], cr[dst]);
-          cg[dst] = select(m, cg[src], cg[dst]);
-          cb[dst] = select(m, cb[src], cb[dst]);
+      case layout::OP_MUL:
+        for (int b = 0; b < K; ++b) {
+          const V other = op == layout::OP_SDIFF ? one - reg[src][b] : reg[src][b];
+          if constexpr (kColour) {
+            const M m = other < reg[dst][b];
+            cr[dst][b] = select(m, cr[src][b], cr[dst][b]);
+            cg[dst][b] = select(m, cg[src][b], cg[dst][b]);
+            cb[dst][b] = select(m, cb[src][b], cb[dst][b]);
+          }
+          const V a = reg[dst][b];
+          const Vec3V<V> ga = grad[dst][b], gb = grad[src][b];
+          // SDIFF: ga (1 - b) - gb a; MUL: ga b + gb a.
+          if (op == layout::OP_SDIFF)
+            grad[dst][b] = {ga.x * other - gb.x * a, ga.y * other - gb.y * a, ga.z * other - gb.z * a};
+          else
+            grad[dst][b] = {ga.x * other + gb.x * a, ga.y * other + gb.y * a, ga.z * other + gb.z * a};
+          reg[dst][b] = a * other;
         }
-        const V a = reg[dst];
-        const Vec3V<V>& ga = grad[dst];
-        const Vec3V<V>& gb = grad[src];
-        // SDIFF: ga (1 - b) - gb a; MUL: ga b + gb a.
-        if (op == layout::OP_SDIFF)
-          grad[dst] = {ga.x * other - gb.x * a, ga.y * other - gb.y * a, ga.z * other - gb.z * a};
-        else
-          grad[dst] = {ga.x * other + gb.x * a, ga.y * other + gb.y * a, ga.z * other + gb.z * a};
-        reg[dst] = a * other;
         break;
-      }
       case layout::OP_ONE_MINUS:
-        reg[dst] = one - reg[dst];
-        grad[dst] = {-grad[dst].x, -grad[dst].y, -grad[dst].z};
+        for (int b = 0; b < K; ++b) {
+          reg[dst][b] = one - reg[dst][b];
+          grad[dst][b] = {-grad[dst][b].x, -grad[dst][b].y, -grad[dst][b].z};
+        }
         break;
-      case layout::OP_POW: {
-        V d;
-        reg[dst] = powDerivativeV(reg[dst], std::bit_cast<float>(in.w), d);
-        grad[dst] = {grad[dst].x * d, grad[dst].y * d, grad[dst].z * d};
+      case layout::OP_POW:
+        for (int b = 0; b < K; ++b) {
+          V d;
+          reg[dst][b] = powDerivativeV(reg[dst][b], std::bit_cast<float>(in.w), d);
+          grad[dst][b] = {grad[dst][b].x * d, grad[dst][b].y * d, grad[dst][b].z * d};
+        }
         break;
-      }
       case layout::OP_WARP:
-        applyWarpJacobianV(program, program.warps[in.y], pts[in.z], jac[in.z], pts[dst], jac[dst]);
+        for (int b = 0; b < K; ++b)
+          applyWarpJacobianV(program, program.warps[in.y], pts[in.z][b], jac[in.z][b], pts[dst][b], jac[dst][b]);
         break;
       case layout::OP_SKIP: {
         const layout::BoxRecord& box = program.boxes[in.y];
-        const Vec3V<V>& q = pts[in.z];
-        const M outside = (q.x < V(box.lo.x)) | (q.y < V(box.lo.y)) | (q.z < V(box.lo.z)) | (q.x > V(box.hi.x)) |
-                          (q.y > V(box.hi.y)) | (q.z > V(box.hi.z));
-        if (all(outside | ~active)) {
-          reg[dst] = zero;
-          grad[dst] = {zero, zero, zero};
-          if constexpr (kColour) cr[dst] = zero, cg[dst] = zero, cb[dst] = zero;
+        const V lx(box.lo.x), ly(box.lo.y), lz(box.lo.z), hx(box.hi.x), hy(box.hi.y), hz(box.hi.z);
+        M outside[K];
+        bool allOut = true, anyOut = false;
+        for (int b = 0; b < K; ++b) {
+          const Vec3V<V>& q = pts[in.z][b];
+          outside[b] = (q.x < lx) | (q.y < ly) | (q.z < lz) | (q.x > hx) | (q.y > hy) | (q.z > hz);
+          allOut = allOut && all(outside[b] | ~active[b]);
+          anyOut = anyOut || any(outside[b]);
+        }
+        if (allOut) {
+          for (int b = 0; b < K; ++b) {
+            reg[dst][b] = zero;
+            grad[dst][b] = {zero, zero, zero};
+            if constexpr (kColour) cr[dst][b] = zero, cg[dst][b] = zero, cb[dst][b] = zero;
+          }
           pc = in.w;
           continue;
         }
-        if (any(outside)) {
+        if (anyOut) {
           Frame& f = frames[pending++];
-          f.target = in.w, f.dst = dst, f.out = outside, f.enclosingActive = active;
-          active = active & ~outside;
+          f.target = in.w, f.dst = dst;
+          for (int b = 0; b < K; ++b) {
+            f.out[b] = outside[b];
+            f.enclosingActive[b] = active[b];
+            active[b] = active[b] & ~outside[b];
+          }
           stop = std::min<std::size_t>(n, in.w);
         }
         break;
@@ -286,34 +316,50 @@ void runGradientBlock(const blobtree::Program& program, const Vec3V<V>& p, V* ou
     ++pc;
   }
   const bool any = n != 0;
-  out[0] = any ? reg[0] : zero;
-  out[1] = any ? grad[0].x : zero, out[2] = any ? grad[0].y : zero, out[3] = any ? grad[0].z : zero;
-  if constexpr (kColour) out[4] = any ? cr[0] : zero, out[5] = any ? cg[0] : zero, out[6] = any ? cb[0] : zero;
+  for (int b = 0; b < K; ++b) {
+    out[b][0] = any ? reg[0][b] : zero;
+    out[b][1] = any ? grad[0][b].x : zero, out[b][2] = any ? grad[0][b].y : zero, out[b][3] = any ? grad[0][b].z : zero;
+    if constexpr (kColour) out[b][4] = any ? cr[0][b] : zero, out[b][5] = any ? cg[0][b] : zero, out[b][6] = any ? cb[0][b] : zero;
+  }
 }
 
-// Any n, block by block; the tail padded by repeating the last point. `colour` null: no colour.
+// Any n: chunks of kChunkBlocks blocks (as the field kernel), then single blocks; the tail
+// padded by repeating the last point.
+template <class V, int K>
+void gradientChunk(const blobtree::Program& program, const float* x, const float* y, const float* z,
+                   float* const* outputs, bool colour, std::size_t i, std::size_t n) {
+  Vec3V<V> p[K];
+  for (int k = 0; k < K; ++k) {
+    alignas(64) float in[3][V::W];
+    for (int l = 0; l < V::W; ++l) {
+      const std::size_t s = std::min(i + std::size_t(k) * V::W + std::size_t(l), n - 1);
+      in[0][l] = x[s], in[1][l] = y[s], in[2][l] = z[s];
+    }
+    p[k] = {V::load(in[0]), V::load(in[1]), V::load(in[2])};
+  }
+  V out[K][7];
+  if (colour)
+    runGradientBlocks<V, true, K>(program, p, out);
+  else
+    runGradientBlocks<V, false, K>(program, p, out);
+  const int count = colour ? 7 : 4;
+  alignas(64) float lanes[V::W];
+  for (int k = 0; k < K; ++k)
+    for (int o = 0; o < count; ++o) {
+      V::store(lanes, out[k][o]);
+      const std::size_t base = i + std::size_t(k) * V::W;
+      for (std::size_t l = 0; l < std::size_t(V::W) && base + l < n; ++l) outputs[o][base + l] = lanes[l];
+    }
+}
+
 template <class V>
 void evaluateGradientArrays(const blobtree::Program& program, const float* x, const float* y, const float* z,
                             float* const* outputs, bool colour, std::size_t n) {
-  const int count = colour ? 7 : 4;
-  for (std::size_t i = 0; i < n; i += V::W) {
-    alignas(64) float in[3][V::W];
-    for (int l = 0; l < V::W; ++l) {
-      const std::size_t s = std::min(i + std::size_t(l), n - 1);
-      in[0][l] = x[s], in[1][l] = y[s], in[2][l] = z[s];
-    }
-    V out[7];
-    const Vec3V<V> p{V::load(in[0]), V::load(in[1]), V::load(in[2])};
-    if (colour)
-      runGradientBlock<V, true>(program, p, out);
-    else
-      runGradientBlock<V, false>(program, p, out);
-    alignas(64) float lanes[V::W];
-    for (int o = 0; o < count; ++o) {
-      V::store(lanes, out[o]);
-      for (std::size_t l = 0; l < std::size_t(V::W) && i + l < n; ++l) outputs[o][i + l] = lanes[l];
-    }
-  }
+  constexpr int K = kChunkBlocks<V>;
+  constexpr std::size_t chunk = std::size_t(K) * V::W;
+  std::size_t i = 0;
+  for (; i + chunk <= n; i += chunk) gradientChunk<V, K>(program, x, y, z, outputs, colour, i, n);
+  for (; i < n; i += V::W) gradientChunk<V, 1>(program, x, y, z, outputs, colour, i, n);
 }
 
 }  // namespace blobvk::cpu::detail

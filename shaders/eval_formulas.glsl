@@ -68,8 +68,8 @@ precise float ddCube(vec3 p, vec3 p0, vec3 halfExtents) {
   return dot3(e, e);
 }
 
-// Ericson, Real-Time Collision Detection 5.1.5, as in evaluate.cpp.
-precise float triangleDistance2(vec3 p, vec3 a, vec3 b, vec3 c) {
+// Ericson, Real-Time Collision Detection 5.1.5, as in blobtree/triangle_closest.h.
+precise vec3 triangleClosest(vec3 p, vec3 a, vec3 b, vec3 c) {
   vec3 ab = b - a, ac = c - a, ap = p - a;
   float d1 = dot3(ab, ap), d2 = dot3(ac, ap);
   vec3 closest;
@@ -100,7 +100,11 @@ precise float triangleDistance2(vec3 p, vec3 a, vec3 b, vec3 c) {
       closest = a + ab * (vb * denom) + ac * (vc * denom);
     }
   }
-  vec3 d = p - closest;
+  return closest;
+}
+
+precise float triangleDistance2(vec3 p, vec3 a, vec3 b, vec3 c) {
+  vec3 d = p - triangleClosest(p, a, b, c);
   return dot3(d, d);
 }
 

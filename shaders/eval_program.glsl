@@ -17,6 +17,9 @@
 // triangle-distance, sin/cos or pow would otherwise be paid on every instruction.
 #ifndef BLOBVK_EVAL_PROGRAM_GLSL
 #define BLOBVK_EVAL_PROGRAM_GLSL
+// This interpreter, not the generated evaluator that replaces it (which declares no record
+// buffers and no TRAVERSAL): eval_gradient.glsl and vertex_emit.glsl test it.
+#define BLOBVK_EVAL_INTERPRETER 1
 
 #extension GL_KHR_shader_subgroup_vote : require
 

@@ -1,10 +1,20 @@
 // Included by vertices.comp and vertices_tiled.comp after eval_program.glsl and common.glsl:
 // their shared bindings, push constants and the work of one vertex. Position, refinement, normal
 // and colour by the rules of cpu_simd/reference_polygonizer.cpp: t = (iso - fa) / (fb - fa) from
-// the edge's lower point, optional Illinois regula-falsi steps, normal = -gradient by central
-// differences (blobtree::normal), colour from the colour evaluator.
+// the edge's lower point, optional Illinois regula-falsi steps, then normal (-gradient,
+// normalised) and colour from one analytic-gradient pass (eval_gradient.glsl, as
+// blobtree::evaluateGradientColour). The stack-based traversal, whose code buffer holds a tree
+// encoding, keeps central differences (blobtree::normal) and the colour evaluator.
 #ifndef BLOBVK_VERTEX_EMIT_GLSL
 #define BLOBVK_VERTEX_EMIT_GLSL
+
+#include "eval_gradient.glsl"
+
+#ifdef BLOBVK_EVAL_INTERPRETER
+#define STACK_TRAVERSAL (TRAVERSAL == 1u)
+#else
+#define STACK_TRAVERSAL false  // the specialised evaluator
+#endif
 
 layout(std430, set = 0, binding = 5) readonly buffer Field { float field[]; };
 layout(std430, set = 0, binding = 6) readonly buffer Flags { uint flags[]; };
@@ -89,7 +99,23 @@ void emitVertex(uint v, uint idx) {
     positions[v] = p.x;
     positions[v + 1u] = p.y;
     positions[v + 2u] = p.z;
-    if ((pc.attributes & 1u) != 0u) {
+    if (!STACK_TRAVERSAL && pc.attributes != 0u) {
+      vec3 g, colour;
+      evaluateGradient(p, pc.codeLength, (pc.attributes & 2u) != 0u, g, colour);
+      if ((pc.attributes & 1u) != 0u) {
+        float len = length(g);
+        precise vec3 nrm = len > 0.0 ? -g / len : vec3(0.0, 0.0, 1.0);
+        normals[v] = nrm.x;
+        normals[v + 1u] = nrm.y;
+        normals[v + 2u] = nrm.z;
+      }
+      if ((pc.attributes & 2u) != 0u) {
+        colours[v] = colour.x;
+        colours[v + 1u] = colour.y;
+        colours[v + 2u] = colour.z;
+      }
+    }
+    if (STACK_TRAVERSAL && (pc.attributes & 1u) != 0u) {
       float h = pc.normalStep;
       float inv = 0.5 / h;
       precise vec3 g = vec3((evaluateField(p + vec3(h, 0, 0), pc.codeLength) - evaluateField(p - vec3(h, 0, 0), pc.codeLength)) * inv,
@@ -101,7 +127,7 @@ void emitVertex(uint v, uint idx) {
       normals[v + 1u] = nrm.y;
       normals[v + 2u] = nrm.z;
     }
-    if ((pc.attributes & 2u) != 0u) {
+    if (STACK_TRAVERSAL && (pc.attributes & 2u) != 0u) {
       vec3 colour;
       evaluateFieldColour(p, pc.codeLength, colour);
       colours[v] = colour.x;

@@ -3,6 +3,7 @@
 #include "blobvk/vk/eval/codegen_text.h"
 #include "blobvk/vk/eval/program_codegen_loops.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -370,6 +371,18 @@ std::string generateSpecialisedEvaluator(const blobtree::Program& program, const
       "#ifndef BLOBVK_EVAL_PROGRAM_GLSL\n#define BLOBVK_EVAL_PROGRAM_GLSL\n"
       "#extension GL_KHR_shader_subgroup_vote : require\n"
       "#include \"program_layout.h\"\n#include \"eval_formulas.glsl\"\n\n";
+  // What the whole program contains, for the vertex pass's gradient interpreter
+  // (shaders/eval_gradient.glsl), which runs the uploaded code and folds away what is absent.
+  std::uint32_t ops = 0, prims = 0, warps = 0;
+  for (const auto& in : program.code) ops |= 1u << (in.code.x & 0x1fu);
+  for (const auto& prim : program.primitives) prims |= (1u << (prim.meta.x & 0x1fu)) | (prim.meta.y ? 0x80000000u : 0u);
+  for (const auto& warp : program.warps) warps |= (1u << (warp.meta.x & 0x1fu)) | (warp.meta.w ? 0x80000000u : 0u);
+  char masks[256];
+  std::snprintf(masks, sizeof masks,
+                "#define GRADIENT_OP_MASK 0x%08xu\n#define GRADIENT_PRIM_MASK 0x%08xu\n#define GRADIENT_WARP_MASK 0x%08xu\n"
+                "#define GRADIENT_FIELD_REGS %uu\n\n",
+                ops, prims, warps, std::max<std::uint32_t>(program.fieldRegisters, 1));
+  s += masks;
   s += g.glsl;
   s += "#endif\n";
   return s;

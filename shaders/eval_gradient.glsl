@@ -1,0 +1,294 @@
+// The analytic gradient of a Program (field, gradient and colour in one pass): GLSL twin of
+// blobtree/evaluate_gradient.cpp, same formulas in the same order. Used at vertices only
+// (vertex_emit.glsl), so it is a plain interpreter over the Program's buffers whichever evaluator
+// computed the grid: kernels built around the specialised evaluator (vk/eval/program_codegen.h)
+// still have the register code and records bound (vk::uploadProgram puts the instructions first).
+// The stack-based traversal uploads a tree encoding instead; its kernels keep central differences.
+// Include after eval_program.glsl or the generated evaluator, with PROGRAM_SET/PROGRAM_BINDING set.
+#ifndef BLOBVK_EVAL_GRADIENT_GLSL
+#define BLOBVK_EVAL_GRADIENT_GLSL
+
+#include "program_layout.h"
+
+// What the program contains, so that code for absent opcodes, primitive and warp types folds
+// away (llvmpipe compiles and runs every branch it cannot prove dead): the interpreter's
+// specialization constants, or the GRADIENT_* literals the specialised evaluator's generated
+// source defines (vk/eval/program_codegen.cpp).
+#ifdef BLOBVK_EVAL_INTERPRETER
+#define GRAD_HAS_OP(o) HAS_OP(o)
+#define GRAD_HAS_PRIM(t) HAS_PRIM(t)
+#define GRAD_HAS_WARP(t) HAS_WARP(t)
+#define GRAD_HAS_MATRIX ((PRIM_MASK & MASK_HAS_MATRIX) != 0u)
+#define GRAD_WARP_HAS_MATRIX ((WARP_MASK & MASK_HAS_MATRIX) != 0u)
+#else
+#define GRAD_HAS_OP(o) ((GRADIENT_OP_MASK & (1u << (o))) != 0u)
+#define GRAD_HAS_PRIM(t) ((GRADIENT_PRIM_MASK & (1u << (t))) != 0u)
+#define GRAD_HAS_WARP(t) ((GRADIENT_WARP_MASK & (1u << (t))) != 0u)
+#define GRAD_HAS_MATRIX ((GRADIENT_PRIM_MASK & 0x80000000u) != 0u)
+#define GRAD_WARP_HAS_MATRIX ((GRADIENT_WARP_MASK & 0x80000000u) != 0u)
+#define FIELD_REGS GRADIENT_FIELD_REGS
+#endif
+#include "eval_registers.glsl"
+
+#ifndef BLOBVK_EVAL_INTERPRETER
+// The generated evaluator declares no record buffers: bind them here (aliasing its own view of
+// binding PROGRAM_BINDING + 0, which holds the instructions first).
+#include "eval_formulas.glsl"
+layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 0) readonly buffer GradientCode { Instruction programCode[]; };
+layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 1) readonly buffer GradientPrims { PrimitiveRecord programPrims[]; };
+layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 2) readonly buffer GradientMatrices { MatrixRecord programMatrices[]; };
+layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 3) readonly buffer GradientBoxes { BoxRecord programBoxes[]; };
+layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 4) readonly buffer GradientWarps { WarpRecord programWarps[]; };
+#endif
+
+// M^T g for a matrix record's rows.
+precise vec3 transposeTimesRows(vec4 r0, vec4 r1, vec4 r2, vec3 g) {
+  return vec3(r0.x * g.x + r1.x * g.y + r2.x * g.z, r0.y * g.x + r1.y * g.y + r2.y * g.z,
+              r0.z * g.x + r1.z * g.y + r2.z * g.z);
+}
+
+// Row-major Jacobians as three rows (j[i] = d out_i / d in).
+precise vec3 jacobianTransposeTimes(vec3 j0, vec3 j1, vec3 j2, vec3 g) {
+  return vec3(j0.x * g.x + j1.x * g.y + j2.x * g.z, j0.y * g.x + j1.y * g.y + j2.y * g.z,
+              j0.z * g.x + j1.z * g.y + j2.z * g.z);
+}
+
+// Field of primitive `index` at p; its gradient (in p's space) in `grad`.
+precise float primitiveGradient(uint index, vec3 p, out vec3 grad) {
+  uvec4 meta = programPrims[index].meta;
+  bool matrix = GRAD_HAS_MATRIX && meta.y != 0u;
+  if (matrix) {
+    MatrixRecord m = programMatrices[meta.y];
+    p = toLocalRows(m.r0, m.r1, m.r2, p);
+  }
+  vec3 p0 = programPrims[index].p0.xyz;
+  vec4 p1 = programPrims[index].p1;
+  vec4 p2 = programPrims[index].p2;
+  // precise on everything the gradient depends on: it leaves through an out parameter, which the
+  // return value's `precise` does not reach (test_no_contraction audits the SPIR-V).
+  precise vec3 d = p - p0;
+  precise float dd = 1.0;
+  precise vec3 dg = vec3(0.0);
+  precise vec3 g_;
+  precise float field;
+  uint type = meta.x;
+  if (GRAD_HAS_PRIM(PRIM_POINT) && type == PRIM_POINT) {
+    dd = dot3(d, d);
+    dg = d * 2.0;
+  } else if (GRAD_HAS_PRIM(PRIM_LINE) && type == PRIM_LINE) {
+    float t = clamp(dot3(d, p1.xyz) * p1.w, 0.0, 1.0);
+    vec3 e = d - p1.xyz * t;
+    dd = dot3(e, e);
+    dg = e * 2.0;
+  } else if ((GRAD_HAS_PRIM(PRIM_CYLINDER) && type == PRIM_CYLINDER) || (GRAD_HAS_PRIM(PRIM_DISC) && type == PRIM_DISC) ||
+             (GRAD_HAS_PRIM(PRIM_RING) && type == PRIM_RING)) {
+    vec3 n = p1.xyz;
+    float y = dot3(d, n);
+    float r2 = max(dot3(d, d) - y * y, 0.0);
+    float rl = sqrt(r2);
+    if (GRAD_HAS_PRIM(PRIM_CYLINDER) && type == PRIM_CYLINDER) {
+      float x = max(rl - p2.x, 0.0);
+      float below = -y, above = y - p2.y;
+      float h = max(max(below, above), 0.0);
+      dd = x * x + h * h;
+      float cx = x > 0.0 ? 2.0 * x / rl : 0.0;
+      float ch = h > 0.0 ? (below < above ? 2.0 * h : -2.0 * h) : 0.0;
+      dg = (d - n * y) * cx + n * ch;
+    } else {
+      float radial = type == PRIM_DISC ? max(rl - p2.x, 0.0) : rl - p2.x;
+      dd = radial * radial + y * y;
+      bool radialGradient = type == PRIM_DISC ? radial > 0.0 : rl > 0.0;
+      float cr = radialGradient ? 2.0 * radial / rl : 0.0;
+      dg = (d - n * y) * cr + n * (2.0 * y);
+    }
+  } else if (GRAD_HAS_PRIM(PRIM_CUBE) && type == PRIM_CUBE) {
+    vec3 e = max(abs(d) - p1.xyz, vec3(0.0));
+    dd = dot3(e, e);
+    dg = vec3(d.x < 0.0 ? -2.0 * e.x : 2.0 * e.x, d.y < 0.0 ? -2.0 * e.y : 2.0 * e.y,
+              d.z < 0.0 ? -2.0 * e.z : 2.0 * e.z);
+  } else if (GRAD_HAS_PRIM(PRIM_TRIANGLE) && type == PRIM_TRIANGLE) {
+    vec3 e = p - triangleClosest(p, p0, p1.xyz, p2.xyz);
+    dd = dot3(e, e);
+    dg = e * 2.0;
+  } else if (GRAD_HAS_PRIM(PRIM_QUADRIC) && type == PRIM_QUADRIC) {
+    dd = dot3(d, d);
+    float t = 1.0 - dd;
+    bool inside = dd < 1.0;
+    g_ = inside ? d * (2.0 * (-2.0 * programPrims[index].p0.w * t)) : vec3(0.0);  // S t^2: -2 S t
+    if (matrix) {
+      MatrixRecord m = programMatrices[meta.y];
+      g_ = transposeTimesRows(m.r0, m.r1, m.r2, g_);
+    }
+    grad = g_;
+    field = inside ? programPrims[index].p0.w * t * t : 0.0;
+    return field;
+  }
+  float t = 1.0 - dd;
+  bool inside = dd < 1.0;
+  g_ = inside ? dg * (-3.0 * t * t) : vec3(0.0);
+  if (matrix) {
+    MatrixRecord m = programMatrices[meta.y];
+    g_ = transposeTimesRows(m.r0, m.r1, m.r2, g_);
+  }
+  grad = g_;
+  field = inside ? t * t * t : 0.0;
+  return field;
+}
+
+// Warp `index` at p; (j0, j1, j2) replaced by J_warp(p) * J (its matrix included).
+precise vec3 applyWarpJacobian(uint index, vec3 p, inout vec3 j0, inout vec3 j1, inout vec3 j2) {
+  WarpRecord warp = programWarps[index];
+  precise mat3 jin = transpose(mat3(j0, j1, j2));  // columns = rows of J
+  if (GRAD_WARP_HAS_MATRIX && warp.meta.w != 0u) {
+    MatrixRecord m = programMatrices[warp.meta.w];
+    p = toLocalRows(m.r0, m.r1, m.r2, p);
+    jin = transpose(mat3(m.r0.xyz, m.r1.xyz, m.r2.xyz)) * jin;
+  }
+  uint a = warp.meta.y, b = warp.meta.z;
+  float k = warp.params.x;
+  precise mat3 w = mat3(1.0);  // w[col][row]
+  if (GRAD_HAS_WARP(WARP_TWIST) && warp.meta.x == WARP_TWIST) {
+    uint u = (a + 1u) % 3u, v = (a + 2u) % 3u;
+    p = warpTwist(p, a, k);
+    float theta = k * p[a];
+    float c = cos(theta), s = sin(theta);
+    w[u][u] = c;
+    w[v][u] = -s;
+    w[a][u] = -k * p[v];
+    w[u][v] = s;
+    w[v][v] = c;
+    w[a][v] = k * p[u];
+  } else if (GRAD_HAS_WARP(WARP_TAPER) && warp.meta.x == WARP_TAPER) {
+    w[b][b] = 1.0 + k * p[a];
+    w[a][b] = k * p[b];
+    p = warpTaper(p, a, b, k);
+  } else if (GRAD_HAS_WARP(WARP_SHEAR) && warp.meta.x == WARP_SHEAR) {
+    p = warpShear(p, a, b, k);
+    w[b][a] = k;
+  } else if (GRAD_HAS_WARP(WARP_BEND) && warp.meta.x == WARP_BEND && k != 0.0) {
+    vec4 params = warp.params;
+    float y = p[a], z = p[b];
+    float yc = clamp(y, params.z, params.w);
+    float theta = k * (yc - params.y);
+    float c = cos(theta), s = sin(theta);
+    float invK = 1.0 / k;
+    float beyond = y - yc;
+    p = warpBend(p, a, b, params);
+    bool bent = y > params.z && y < params.w;
+    float dTheta = bent ? k : 0.0, dBeyond = bent ? 0.0 : 1.0;
+    w[a][a] = -c * dTheta * (z - invK) - s * dTheta * beyond + c * dBeyond;
+    w[a][b] = -s * dTheta * (z - invK) + c * dTheta * beyond + s * dBeyond;
+    w[b][a] = -s;
+    w[b][b] = c;
+  }
+  precise mat3 jout = transpose(w * jin);
+  j0 = jout[0];
+  j1 = jout[1];
+  j2 = jout[2];
+  return p;
+}
+
+// Field at p, its gradient and (when wanted) its colour: blobtree::evaluateGradientColour.
+// Registers are scalar variables selected by index (eval_registers.glsl), as in eval_body.glsl.
+precise float evaluateGradient(vec3 p, uint n, bool wantColour, out vec3 gradient, out vec3 colour) {
+  REG_DECL(float, r, 0.0)
+  REG_DECL(precise vec3, g, vec3(0.0))
+  REG_DECL(precise vec3, c, vec3(0.0))
+  const bool warps = GRAD_HAS_OP(OP_WARP);
+  precise vec3 pts[MAX_POINT_REGISTERS];  // with their Jacobians' rows: only used when the program warps
+  precise vec3 ja[MAX_POINT_REGISTERS], jb[MAX_POINT_REGISTERS], jc[MAX_POINT_REGISTERS];
+  if (warps) {
+    for (uint i = 0u; i < MAX_POINT_REGISTERS; ++i) {
+      pts[i] = p;
+      ja[i] = vec3(1.0, 0.0, 0.0);
+      jb[i] = vec3(0.0, 1.0, 0.0);
+      jc[i] = vec3(0.0, 0.0, 1.0);
+    }
+  }
+  for (uint pc_ = 0u; pc_ < n; ++pc_) {
+    uvec4 in_ = programCode[pc_].code;
+    uint op = in_.x & 0xffu;
+    uint dst = in_.x >> 8;
+    uint pz = warps ? min(in_.z, MAX_POINT_REGISTERS - 1u) : 0u;
+    vec3 at = warps ? pts[pz] : p;
+    float a, b;
+    vec3 ga, gb, ca, cb;
+    REG_READ(a, r, dst)
+    REG_READ(b, r, in_.y)
+    REG_READ(ga, g, dst)
+    REG_READ(gb, g, in_.y)
+    REG_READ(ca, c, dst)
+    REG_READ(cb, c, in_.y)
+    precise float v = a;
+    precise vec3 gv = ga, cv = ca;
+    if (GRAD_HAS_OP(OP_PRIM) && op == OP_PRIM) {
+      precise vec3 gl;
+      v = primitiveGradient(in_.y, at, gl);
+      gv = pz == 0u ? gl : jacobianTransposeTimes(ja[pz], jb[pz], jc[pz], gl);
+      if (wantColour) cv = unpackColour(programPrims[in_.y].meta.z);
+    }
+    if (GRAD_HAS_OP(OP_ADD) && op == OP_ADD) {
+      if (wantColour) {
+        float wa = max(a, 0.0), wb = max(b, 0.0);
+        float w = wa + wb;
+        if (w > 0.0) cv = (ca * wa + cb * wb) / w;
+      }
+      v = a + b;
+      gv = ga + gb;
+    }
+    if ((GRAD_HAS_OP(OP_MAX) && op == OP_MAX) || (GRAD_HAS_OP(OP_MIN) && op == OP_MIN) ||
+        (GRAD_HAS_OP(OP_DIFF) && op == OP_DIFF)) {
+      float other = op == OP_DIFF ? 1.0 - b : b;
+      bool take = op == OP_MAX ? other > a : other < a;
+      if (take) {
+        cv = cb;
+        gv = op == OP_DIFF ? -gb : gb;
+      }
+      v = op == OP_MAX ? max(a, other) : min(a, other);
+    }
+    if ((GRAD_HAS_OP(OP_SDIFF) && op == OP_SDIFF) || (GRAD_HAS_OP(OP_MUL) && op == OP_MUL)) {
+      float other = op == OP_SDIFF ? 1.0 - b : b;
+      if (other < a) cv = cb;
+      gv = op == OP_SDIFF ? ga * other - gb * a : ga * other + gb * a;
+      v = a * other;
+    }
+    if (GRAD_HAS_OP(OP_ONE_MINUS) && op == OP_ONE_MINUS) {
+      v = 1.0 - a;
+      gv = -ga;
+    }
+    if (GRAD_HAS_OP(OP_POW) && op == OP_POW) {
+      float base = max(a, 0.0);
+      float e = uintBitsToFloat(in_.w);
+      // GLSL leaves pow(0, y) undefined; the C++ std::pow gives 0 for y > 0 (Ricci: y > 0).
+      v = base > 0.0 ? pow(base, e) : 0.0;
+      precise float derivative = base > 0.0 ? e * v / base : 0.0;
+      gv = ga * derivative;
+    }
+    if (warps && op == OP_WARP) {
+      uint d = min(dst, MAX_POINT_REGISTERS - 1u);
+      precise vec3 j0 = ja[pz], j1 = jb[pz], j2 = jc[pz];
+      precise vec3 q = applyWarpJacobian(in_.y, at, j0, j1, j2);
+      pts[d] = q;
+      ja[d] = j0;
+      jb[d] = j1;
+      jc[d] = j2;
+    }
+    if (GRAD_HAS_OP(OP_SKIP) && op == OP_SKIP) {
+      BoxRecord box = programBoxes[in_.y];
+      if (outsideBoxBounds(box.lo.xyz, box.hi.xyz, at)) {
+        v = 0.0;
+        gv = vec3(0.0);
+        cv = vec3(0.0);
+        pc_ = in_.w - 1u;  // per lane: vertices are few, divergence is cheap here
+      }
+    }
+    REG_WRITE(r, dst, v)
+    REG_WRITE(g, dst, gv)
+    REG_WRITE(c, dst, cv)
+  }
+  gradient = n > 0u ? g0 : vec3(0.0);
+  colour = n > 0u ? c0 : vec3(0.0);
+  return n > 0u ? r0 : 0.0;
+}
+
+#endif  // BLOBVK_EVAL_GRADIENT_GLSL
