@@ -10,9 +10,12 @@
 
 namespace blobvk::cpu::detail {
 
-// One primitive: field, and its gradient in the primitive's input space (g).
-template <class V>
-V primitiveGradientV(const blobtree::Program& program, const layout::PrimitiveRecord& prim, Vec3V<V> p, Vec3V<V>& g) {
+// One primitive of type Type (a compile-time constant, so the switch folds away; forced inline so
+// primitiveGradientK's per-type loops keep the record's broadcasts out of the block loop): field,
+// and its gradient in the primitive's input space (g).
+template <class V, std::uint32_t Type>
+[[gnu::always_inline]] inline V primitiveGradientOfType(const blobtree::Program& program, const layout::PrimitiveRecord& prim,
+                                                        Vec3V<V> p, Vec3V<V>& g) {
   const bool matrix = prim.meta.y != 0u;
   if (matrix) p = toLocal(program.matrices[prim.meta.y], p);
   const V zero(0.0f), one(1.0f), two(2.0f);
@@ -21,7 +24,7 @@ V primitiveGradientV(const blobtree::Program& program, const layout::PrimitiveRe
   V dd = zero;
   Vec3V<V> dg{zero, zero, zero};  // gradient of dd
   V field;
-  switch (prim.meta.x) {
+  switch (Type) {
     case layout::PRIM_POINT:
       dd = dot3(dx, dy, dz, dx, dy, dz);
       dg = {dx * two, dy * two, dz * two};
@@ -52,7 +55,7 @@ V primitiveGradientV(const blobtree::Program& program, const layout::PrimitiveRe
       const V y = dot3(dx, dy, dz, nx, ny, nz);
       const V r2 = vmax(dot3(dx, dy, dz, dx, dy, dz) - y * y, zero);
       const V rl = vsqrt(r2);
-      const bool disc = prim.meta.x == layout::PRIM_DISC;
+      constexpr bool disc = Type == layout::PRIM_DISC;
       const V radial = disc ? vmax(rl - V(prim.p2.x), zero) : rl - V(prim.p2.x);
       dd = radial * radial + y * y;
       const V cr = select(disc ? radial > zero : rl > zero, two * radial / rl, zero);
@@ -93,6 +96,30 @@ V primitiveGradientV(const blobtree::Program& program, const layout::PrimitiveRe
   g = {select(in, dg.x * c, zero), select(in, dg.y * c, zero), select(in, dg.z * c, zero)};
   if (matrix) g = transposeTimesV(program.matrices[prim.meta.y], g);
   return select(in, t * t * t, zero);
+}
+
+// The primitive at K blocks of points: one dispatch on its type for all of them.
+template <class V, int K>
+void primitiveGradientK(const blobtree::Program& program, const layout::PrimitiveRecord& prim, const Vec3V<V>* p,
+                        V* field, Vec3V<V>* g) {
+#define BLOBVK_GRADIENT_CASE(T)                                                                          \
+  case T:                                                                                                \
+    for (int b = 0; b < K; ++b) field[b] = primitiveGradientOfType<V, T>(program, prim, p[b], g[b]); \
+    return;
+  switch (prim.meta.x) {
+    BLOBVK_GRADIENT_CASE(layout::PRIM_POINT)
+    BLOBVK_GRADIENT_CASE(layout::PRIM_LINE)
+    BLOBVK_GRADIENT_CASE(layout::PRIM_CYLINDER)
+    BLOBVK_GRADIENT_CASE(layout::PRIM_DISC)
+    BLOBVK_GRADIENT_CASE(layout::PRIM_RING)
+    BLOBVK_GRADIENT_CASE(layout::PRIM_CUBE)
+    BLOBVK_GRADIENT_CASE(layout::PRIM_TRIANGLE)
+    BLOBVK_GRADIENT_CASE(layout::PRIM_QUADRIC)
+    default:
+      for (int b = 0; b < K; ++b) field[b] = V(0.0f), g[b] = {V(0.0f), V(0.0f), V(0.0f)};
+      return;
+  }
+#undef BLOBVK_GRADIENT_CASE
 }
 
 // A point register's Jacobian (row-major, per lane).
@@ -190,9 +217,10 @@ void runGradientBlocks(const blobtree::Program& program, const Vec3V<V>* p, V (*
     switch (op) {
       case layout::OP_PRIM: {
         const auto& prim = program.primitives[in.y];
+        Vec3V<V> gk[K];
+        primitiveGradientK<V, K>(program, prim, pts[in.z], reg[dst], gk);
         for (int b = 0; b < K; ++b) {
-          Vec3V<V> g;
-          reg[dst][b] = primitiveGradientV(program, prim, pts[in.z][b], g);
+          Vec3V<V> g = gk[b];
           if (in.z != 0u) {
             const JacobianV<V>& j = jac[in.z][b];
             g = {j.m[0][0] * g.x + j.m[1][0] * g.y + j.m[2][0] * g.z, j.m[0][1] * g.x + j.m[1][1] * g.y + j.m[2][1] * g.z,
