@@ -41,14 +41,19 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
   p[axis] = pa[axis] + t * len;
   for (;;) {
     if (!refining && n >= normalSamples) break;
-    vec3 q = p;
-    if (!refining) {
-      uint a = n >> 1u;
-      q[a] = (n & 1u) == 0u ? p[a] + h : p[a] - h;
-    }
+    // p + (±h on axis a, 0 elsewhere): the sums blobtree::normal forms (x - h == x + -h), by
+    // selects rather than a dynamically indexed component (a per-lane gather on llvmpipe).
+    uint a = n >> 1u;
+    float s = refining ? 0.0 : ((n & 1u) == 0u ? h : -h);
+    vec3 q = p + vec3(a == 0u ? s : 0.0, a == 1u ? s : 0.0, a == 2u ? s : 0.0);
     float f = evaluateField(q, pc.codeLength);
     if (!refining) {
-      if ((n & 1u) == 0u) fPlus = f; else grad[n >> 1u] = (fPlus - f) * inv;
+      if ((n & 1u) == 0u) {
+        fPlus = f;
+      } else {
+        float d = (fPlus - f) * inv;
+        grad = vec3(a == 0u ? d : grad.x, a == 1u ? d : grad.y, a == 2u ? d : grad.z);
+      }
       ++n;
       continue;
     }

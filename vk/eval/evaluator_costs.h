@@ -20,8 +20,9 @@ namespace blobvk::vk::costs {
 inline constexpr double kInterpreterKernelSeconds = 1.2;
 
 // Building one specialised kernel: a fixed part, then per instruction the generated evaluator
-// spells out times the copies of the evaluator in the kernel (field_grid 1, vertices 9:
-// refinement, six normal samples, the field and its colour), and a quadratic term: LLVM's time
+// spells out times the copies of the evaluator in the kernel (field_grid 1; vertices 2.5: one
+// field call site for the refinement and normal samples, shaders/edge_vertex.glsl, and the
+// colour evaluator, about 1.5 field copies with its colour registers), and a quadratic term: LLVM's time
 // on long straight-line code grows much faster than the code. Unrolled towers, a mesh's kernels:
 // 67 instructions 2.8 s, 201 4.9 s, 808 103 s and 734 MB. The quadratic term is fitted so that
 // the shipped tower (268 instructions, a 2,412-instruction vertex kernel) builds in the ~1.5 s
@@ -31,7 +32,7 @@ inline constexpr double kInterpreterKernelSeconds = 1.2;
 inline constexpr double kSpecialisedKernelSeconds = 0.1;
 inline constexpr double kSpecialisedSecondsPerInstruction = 1.0e-4;
 inline constexpr double kSpecialisedSecondsPerInstruction2 = 2.5e-7;
-inline constexpr double kVertexKernelCopies = 9.0;
+inline constexpr double kVertexKernelCopies = 2.5;
 // Peak memory of the build grows about linearly (808 instructions x 10 copies: +570 MB); a
 // candidate predicted above kMaxBuildMegabytes is not taken whatever its time.
 inline constexpr double kBuildMegabytesPerInstruction = 0.07;
