@@ -31,11 +31,15 @@ inline constexpr double kInterpreterKernelSeconds = 1.2;
 // rules the vertex kernel out before this term matters.
 inline constexpr double kSpecialisedKernelSeconds = 0.1;
 inline constexpr double kSpecialisedSecondsPerInstruction = 1.0e-4;
-inline constexpr double kSpecialisedSecondsPerInstruction2 = 2.5e-7;
+// Refitted with one evaluator call site in the vertex kernel: the generated 808-instruction
+// tower (L3P8G2, `blobvk generate tower --levels 3 --pillars 8 --grid 2`) meshed at 64 cells
+// with its field kernel and a 2,020-instruction vertex kernel took 21.9 s and 423 MB against
+// 1.8 s/107 MB for a small scene, so ~18 s and ~310 MB are its two kernels' build.
+inline constexpr double kSpecialisedSecondsPerInstruction2 = 3.0e-6;
 inline constexpr double kVertexKernelCopies = 2.5;
 // Peak memory of the build grows about linearly (808 instructions x 10 copies: +570 MB); a
 // candidate predicted above kMaxBuildMegabytes is not taken whatever its time.
-inline constexpr double kBuildMegabytesPerInstruction = 0.07;
+inline constexpr double kBuildMegabytesPerInstruction = 0.15;
 inline constexpr double kMaxBuildMegabytes = 300.0;
 
 // Evaluating: seconds per point and unit of prunedEvaluationCost (a primitive 8, an operator 1).
