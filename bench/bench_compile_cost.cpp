@@ -13,6 +13,7 @@
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/device/standalone.h"
@@ -79,7 +80,9 @@ Result measureInChild(const blobtree::Program& program, Evaluator e) {
     close(fds[0]);
     Result r;
     try {
-      vk::StandaloneContext context{vk::StandaloneOptions{}};
+      vk::StandaloneOptions options;
+      options.pipelineCache = "off";  // a cold build: no SPIR-V read back from an earlier run
+      vk::StandaloneContext context{options};
       const vk::CodegenOptions codegen = codegenFor(e);
       vk::GpuPolygonizeOptions o;
       o.traversal = e == Evaluator::Interpreter ? vk::Traversal::Stackless : vk::Traversal::Specialised;
@@ -117,7 +120,8 @@ void buildCost(benchmark::State& state, Size size, Evaluator e) {
       return;
     }
     emitted = vk::specialisedCodeSize(program, {}, codegen.loops);
-    const double predicted = vk::specialisedKernelSeconds(emitted, 1.0) + vk::specialisedKernelSeconds(emitted, 9.0);
+    const double predicted = vk::specialisedKernelSeconds(emitted, 1.0) +
+                             vk::specialisedKernelSeconds(emitted, vk::costs::kVertexKernelCopies);
     if (predicted > 60.0) {
       std::string why("predicted ");
       why.append(std::to_string(int(predicted))).append(" s to build");

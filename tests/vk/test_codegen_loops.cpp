@@ -11,6 +11,7 @@
 #include "blobvk/vk/eval/field.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/program_shape.h"
+#include "blobvk/vk/extract/polygonize.h"
 #include "reference_checks.h"
 #include "vk_fixture.h"
 
@@ -141,6 +142,59 @@ TEST(EvaluatorChoice, SpecialisedCodePaysBackOverManyRepeats) {
   EXPECT_EQ(b.chosen.traversal, vk::Traversal::Specialised);
   // More repeats never make the build-heavy choice less attractive.
   EXPECT_LE(b.chosen.runSeconds, a.chosen.runSeconds);
+}
+
+// Kernels already built cost nothing: with every kernel built, the model weighs run time alone,
+// and the specialised code runs faster than the interpreter.
+TEST(EvaluatorChoice, BuiltKernelsAreASunkCost) {
+  const auto program = blobtree::compile(blobtree::generateTower(5, 8, 6.0, 6.0, 3));
+  vk::EvaluatorJob job;
+  job.vertexPass = true;
+  vk::CodegenOptions unrolled;
+  unrolled.loops.enabled = false;
+  const auto grid = gridAt(program, 64);
+  const auto cold = vk::chooseEvaluator(true, program, grid, job, unrolled);
+  const auto warm = vk::chooseEvaluator(true, program, grid, job, unrolled,
+                                        [](const std::string&, const vk::CodegenOptions*) { return true; });
+  ASSERT_EQ(cold.candidates.size(), warm.candidates.size());
+  for (std::size_t i = 0; i < warm.candidates.size(); ++i) {
+    EXPECT_EQ(warm.candidates[i].buildSeconds, 0.0);
+    EXPECT_GT(cold.candidates[i].buildSeconds, 0.0);
+    EXPECT_EQ(warm.candidates[i].runSeconds, cold.candidates[i].runSeconds);
+  }
+  EXPECT_EQ(warm.chosen.traversal, vk::Traversal::Specialised);
+  // Only the interpreter's field kernel built: the interpreter's field costs nothing to build,
+  // its vertex kernel still does.
+  const auto fieldOnly = vk::chooseEvaluator(true, program, grid, job, unrolled,
+                                             [](const std::string& shader, const vk::CodegenOptions* c) {
+                                               return shader == "field_grid" && c == nullptr;
+                                             });
+  EXPECT_GT(fieldOnly.candidates[0].buildSeconds, 0.0);
+  EXPECT_LT(fieldOnly.candidates[0].buildSeconds, cold.candidates[0].buildSeconds);
+}
+
+// On a device, the kernels a job built are found: the same job again weighs no build.
+TEST_F(VulkanTest, TheDeviceReportsTheKernelsAJobBuilt) {
+  const auto program = blobtree::compile(blobtree::generateTower(1, 4, 6.0, 6.0, 1));
+  const auto grid = gridAt(program, 12);
+  vk::GpuPolygonizeOptions options;
+  options.traversal = vk::Traversal::Specialised;
+  options.maxFieldTiles = 1;
+  vk::EvaluatorJob job;
+  job.vertexPass = true;
+  job.tiling.maxTiles = 1;
+  const vk::CodegenOptions codegen = vk::defaultCodegenOptions(device());
+  const auto before = vk::chooseEvaluator(device(), program, grid, job, codegen);
+  vk::polygonize(device(), program, grid, options);
+  const auto after = vk::chooseEvaluator(device(), program, grid, job, codegen);
+  ASSERT_EQ(before.candidates.size(), after.candidates.size());
+  ASSERT_GE(after.candidates.size(), 2u);
+  EXPECT_EQ(after.candidates[1].traversal, vk::Traversal::Specialised);
+  EXPECT_GT(before.candidates[1].buildSeconds, 0.0);
+  EXPECT_EQ(after.candidates[1].buildSeconds, 0.0);
+  options.traversal = vk::Traversal::Stackless;
+  vk::polygonize(device(), program, grid, options);
+  EXPECT_EQ(vk::chooseEvaluator(device(), program, grid, job, codegen).candidates[0].buildSeconds, 0.0);
 }
 
 // Auto (the default) resolves to one of the evaluators, so its field is theirs bit for bit.

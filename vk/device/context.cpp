@@ -28,7 +28,8 @@ Buffer::~Buffer() {
 }
 
 Device::Device(const HostContext& host, const DeviceOptions& options)
-    : host_(host), kernelCapacity_(std::max<std::uint32_t>(1, options.pipelineCacheCapacity)) {
+    : host_(host), kernelCapacity_(std::max<std::uint32_t>(1, options.pipelineCacheCapacity)),
+      spirvCacheDir_(options.spirvCacheDir) {
   if (!host.device || !host.physicalDevice || !host.instance || !host.queue) {
     throw VulkanError("HostContext needs instance, physicalDevice, device and queue");
   }

@@ -89,6 +89,10 @@ struct DeviceOptions {
   // earlier process; StandaloneContext keeps it on disk). Ignored when the host hands in its own
   // cache. Must begin with a VkPipelineCacheHeaderVersionOne matching the device.
   std::span<const std::uint8_t> pipelineCacheData;
+  // Directory of the SPIR-V cache of kernels generated at run time (vk/eval/spirv_cache.h): the
+  // part of start-up a driver's pipeline cache does not keep (lavapipe keeps nothing). Empty:
+  // none. StandaloneContext uses its pipeline cache directory.
+  std::string spirvCacheDir;
 };
 
 class Device {
@@ -148,6 +152,9 @@ class Device {
   // vkGetPipelineCacheData of that cache (what to persist for a later process).
   std::vector<std::uint8_t> pipelineCacheData() const;
 
+  // DeviceOptions::spirvCacheDir.
+  const std::string& spirvCacheDir() const { return spirvCacheDir_; }
+
   // Nanoseconds per timestamp tick; 0 when the queue has no timestamps.
   double timestampPeriodNs() const { return timestampPeriod_; }
 
@@ -181,6 +188,7 @@ class Device {
   std::uint64_t evictedKernels_ = 0;
   std::vector<std::string> shadersUsed_;
   std::shared_ptr<void> tilePlanCache_;
+  std::string spirvCacheDir_;
   class UploadBatch* uploadBatch_ = nullptr;  // the open batch, if any
 };
 

@@ -256,6 +256,7 @@ StandaloneContext::StandaloneContext(const StandaloneOptions& options)
                      cacheFile_.c_str(), problem.c_str());
       }
       deviceOptions.pipelineCacheData = cacheLoaded_;
+      deviceOptions.spirvCacheDir = dir.string();
     }
     device_ = std::make_unique<Device>(host_, deviceOptions);
   } catch (...) {

@@ -21,15 +21,22 @@ double buildMegabytes(double instructions) { return costs::kBuildMegabytesPerIns
 }  // namespace
 
 EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                const EvaluatorJob& job, const CodegenOptions& codegen) {
+                                const EvaluatorJob& job, const CodegenOptions& codegen,
+                                const KernelBuiltQuery& built) {
   using namespace costs;
   EvaluatorChoice choice;
+  // Build seconds of a kernel unless the device holds it already (sunk).
+  auto isBuilt = [&](const char* shader, const CodegenOptions* c) { return built && built(shader, c); };
+  auto tileCodegen = [&](const PointRegion& region) {
+    CodegenOptions c = codegen;
+    c.region = region;
+    return c;
+  };
   const double points = double(grid.pointCount());
   const double vertexEvaluations =
       job.vertexPass ? kVerticesPerSurfacePoint * std::pow(points, 2.0 / 3.0) *
                            (kEvaluationsPerVertex + std::max(job.refineSteps, 0))
                      : 0.0;
-  const double kernels = job.vertexPass ? 2.0 : 1.0;
   const double wholeCost = prunedEvaluationCost(program, {});
   FieldTilingOptions tiling = job.tiling;
   tiling.minPointsForLargePrograms = 0;
@@ -40,25 +47,29 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
 
   EvaluatorEstimate interpreter;
   interpreter.traversal = Traversal::Stackless;
-  interpreter.buildSeconds = kInterpreterKernelSeconds * kernels;
+  interpreter.buildSeconds = (isBuilt("field_grid", nullptr) ? 0.0 : kInterpreterKernelSeconds) +
+                             (job.vertexPass && !isBuilt("vertices", nullptr) ? kInterpreterKernelSeconds : 0.0);
   interpreter.runSeconds = kInterpreterSecondsPerCost * (tileWork + meanTileCost * vertexEvaluations);
   choice.candidates.push_back(interpreter);
 
   const bool wholeFits = canSpecialise(program, {}, codegen.loops);
   const double wholeSize = wholeFits ? double(specialisedCodeSize(program, {}, codegen.loops)) : 0.0;
   // The vertex kernel: the whole program specialised, else the interpreter.
-  const double vertexBuild = !job.vertexPass ? 0.0
-                             : wholeFits     ? specialisedKernelSeconds(wholeSize, kVertexKernelCopies)
-                                             : kInterpreterKernelSeconds;
-  const double vertexMegabytes = job.vertexPass && wholeFits ? buildMegabytes(wholeSize * kVertexKernelCopies) : 0.0;
+  const bool vertexBuilt = job.vertexPass && (wholeFits ? isBuilt("vertices", &codegen) : isBuilt("vertices", nullptr));
+  const double vertexBuild = !job.vertexPass || vertexBuilt ? 0.0
+                             : wholeFits ? specialisedKernelSeconds(wholeSize, kVertexKernelCopies)
+                                         : kInterpreterKernelSeconds;
+  const double vertexMegabytes =
+      job.vertexPass && wholeFits && !vertexBuilt ? buildMegabytes(wholeSize * kVertexKernelCopies) : 0.0;
+  const bool wholeFieldBuilt = wholeFits && isBuilt("field_grid", &codegen);
   const double vertexRun = (wholeFits ? kSpecialisedSecondsPerCost * wholeCost : kInterpreterSecondsPerCost * meanTileCost) *
                            vertexEvaluations;
   if (wholeFits) {
     EvaluatorEstimate whole;
     whole.traversal = Traversal::Specialised;
     whole.fieldKernels = 1;
-    whole.buildSeconds = specialisedKernelSeconds(wholeSize, 1.0) + vertexBuild;
-    whole.buildMegabytes = std::max(buildMegabytes(wholeSize), vertexMegabytes);
+    whole.buildSeconds = (wholeFieldBuilt ? 0.0 : specialisedKernelSeconds(wholeSize, 1.0)) + vertexBuild;
+    whole.buildMegabytes = std::max(wholeFieldBuilt ? 0.0 : buildMegabytes(wholeSize), vertexMegabytes);
     whole.runSeconds = kSpecialisedSecondsPerCost * wholeCost * points + vertexRun;
     choice.candidates.push_back(whole);
   }
@@ -72,9 +83,12 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     for (const FieldTile& t : tiles) {
       if (specialiseTile(program, t.region, codegen.loops)) {
         own = true;
-        const double size = double(specialisedCodeSize(program, t.region, codegen.loops));
-        tiled.buildSeconds += specialisedKernelSeconds(size, 1.0);
-        tiled.buildMegabytes = std::max(tiled.buildMegabytes, buildMegabytes(size));
+        const CodegenOptions c = tileCodegen(t.region);
+        if (!isBuilt("field_grid", &c)) {
+          const double size = double(specialisedCodeSize(program, t.region, codegen.loops));
+          tiled.buildSeconds += specialisedKernelSeconds(size, 1.0);
+          tiled.buildMegabytes = std::max(tiled.buildMegabytes, buildMegabytes(size));
+        }
         tiled.runSeconds += kSpecialisedSecondsPerCost * double(t.points()) * t.cost;
       } else {
         shared = true;
@@ -82,7 +96,8 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
                                                             : kInterpreterSecondsPerCost * t.cost);
       }
     }
-    if (shared) tiled.buildSeconds += wholeFits ? specialisedKernelSeconds(wholeSize, 1.0) : kInterpreterKernelSeconds;
+    if (shared && !(wholeFits ? wholeFieldBuilt : isBuilt("field_grid", nullptr)))
+      tiled.buildSeconds += wholeFits ? specialisedKernelSeconds(wholeSize, 1.0) : kInterpreterKernelSeconds;
     tiled.buildSeconds += vertexBuild;
     tiled.buildMegabytes = std::max(tiled.buildMegabytes, vertexMegabytes);
     tiled.runSeconds += vertexRun;
@@ -104,9 +119,16 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
   return choice;
 }
 
-EvaluatorChoice chooseEvaluator(const Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+EvaluatorChoice chooseEvaluator(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                 const EvaluatorJob& job, const CodegenOptions& codegen) {
-  return chooseEvaluator(device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU, program, grid, job, codegen);
+  const std::uint64_t fingerprint = programFingerprint(program);
+  const KernelBuiltQuery built = [&](const std::string& shader, const CodegenOptions* c) {
+    // field_grid's constant 0 is its work group's rows (vk/eval/field.cpp).
+    const std::uint32_t wg = shader == "field_grid" ? gridGroupRows(job.workgroupSize) : job.workgroupSize;
+    return c ? specialisedKernelBuilt(device, fingerprint, *c, shader, wg)
+             : interpreterKernelBuilt(device, program, shader, wg);
+  };
+  return chooseEvaluator(device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU, program, grid, job, codegen, built);
 }
 
 }  // namespace blobvk::vk

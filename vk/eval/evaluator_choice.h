@@ -15,6 +15,8 @@
 #include "blobvk/vk/eval/gpu_program.h"
 
 #include <cstdint>
+#include <functional>
+#include <string>
 #include <vector>
 
 namespace blobvk::vk {
@@ -24,6 +26,7 @@ struct EvaluatorJob {
   int refineSteps = 0;          // per vertex (vertex pass)
   std::uint32_t repeats = 1;    // runs of the job with the same kernels
   FieldTilingOptions tiling;    // the field pass's tiles when specialised
+  std::uint32_t workgroupSize = 64;  // the kernels' (to find those already built)
 };
 
 struct EvaluatorEstimate {
@@ -39,14 +42,22 @@ struct EvaluatorChoice {
   std::vector<EvaluatorEstimate> candidates;  // what was compared, chosen among them
 };
 
+// Whether a kernel is already built: embedded `shader` ("field_grid", "vertices") with the
+// interpreter (codegen null) or with the evaluator generated for `*codegen` (its region set for a
+// field tile). A built kernel's build cost is sunk: a second job of the same program in a process
+// (a viewer re-meshing, `bench` repeats, a mesh after a compare) weighs run time only.
+using KernelBuiltQuery = std::function<bool(const std::string& shader, const CodegenOptions* codegen)>;
+
 // The evaluator for `job` on `grid`. Devices other than CPU drivers keep the specialised code
-// (their kernels build fast and the model's constants are lavapipe's).
-EvaluatorChoice chooseEvaluator(const Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+// (their kernels build fast and the model's constants are lavapipe's). Kernels the device
+// already holds count as built.
+EvaluatorChoice chooseEvaluator(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                 const EvaluatorJob& job, const CodegenOptions& codegen);
 
-// The same from the device type alone (tests and benchmarks).
+// The same from the device type alone (tests and benchmarks); `built` null: nothing is built.
 EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                const EvaluatorJob& job, const CodegenOptions& codegen);
+                                const EvaluatorJob& job, const CodegenOptions& codegen,
+                                const KernelBuiltQuery& built = {});
 
 // Build seconds of one specialised kernel spelling out `instructions` per evaluator copy.
 double specialisedKernelSeconds(double instructions, double copies);

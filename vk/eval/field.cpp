@@ -121,6 +121,7 @@ std::vector<float> evaluateFieldOnGrid(Device& device, const blobtree::Program& 
   if (o.traversal == Traversal::Auto) {
     EvaluatorJob job;
     job.tiling = o.tiling;
+    job.workgroupSize = o.workgroupSize;
     const EvaluatorEstimate e = chooseEvaluator(device, program, grid, job, codegen).chosen;
     o.traversal = e.traversal;
     o.tiling.maxTiles = e.fieldKernels;

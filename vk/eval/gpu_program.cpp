@@ -1,7 +1,7 @@
 #include "blobvk/vk/eval/gpu_program.h"
 
 #include "blobvk/vk/eval/program_codegen.h"
-#include "blobvk/vk/eval/runtime_compiler.h"
+#include "blobvk/vk/eval/spirv_cache.h"
 #include "blobvk/vk/eval/stack_program.h"
 
 #include <algorithm>
@@ -20,6 +20,31 @@ Buffer uploadArray(Device& device, const std::vector<T>& v) {
   device.upload(b, v.data(), v.size() * sizeof(T));
   return b;
 }
+// Masks describe the register code, which the stack encoding is rebuilt from: both
+// traversals meet the same primitive and warp types.
+void setEvaluatorMasks(const blobtree::Program& program, GpuProgram& g) {
+  g.fieldRegisters = std::max<std::uint32_t>(program.fieldRegisters, 1);
+  g.opMask = 0;
+  for (const auto& in : program.code) g.opMask |= 1u << (in.code.x & 0x1fu);
+  g.primitiveMask = 0;
+  for (const auto& prim : program.primitives) {
+    g.primitiveMask |= 1u << (prim.meta.x & 0x1fu);
+    if (prim.meta.y != 0) g.primitiveMask |= kMaskHasMatrix;
+  }
+  g.warpMask = 0;
+  for (const auto& warp : program.warps) {
+    g.warpMask |= 1u << (warp.meta.x & 0x1fu);
+    if (warp.meta.w != 0) g.warpMask |= kMaskHasMatrix;
+  }
+}
+
+// Pipelines of generated code are cached under the shader's name and the evaluator's fingerprint.
+std::string specialisedKernelName(std::uint64_t fingerprint, const CodegenOptions& codegen, const std::string& shader) {
+  char key[17];
+  std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(evaluatorFingerprint(fingerprint, codegen)));
+  return shader + "/specialised:" + key;
+}
+
 }  // namespace
 
 const char* traversalName(Traversal traversal) {
@@ -57,21 +82,7 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
     g.code = uploadArray(device, program.code);
     g.codeLength = std::uint32_t(program.code.size());
   }
-  // Masks describe the register code, which the stack encoding is rebuilt from: both
-  // traversals meet the same primitive and warp types.
-  g.fieldRegisters = std::max<std::uint32_t>(program.fieldRegisters, 1);
-  g.opMask = 0;
-  for (const auto& in : program.code) g.opMask |= 1u << (in.code.x & 0x1fu);
-  g.primitiveMask = 0;
-  for (const auto& prim : program.primitives) {
-    g.primitiveMask |= 1u << (prim.meta.x & 0x1fu);
-    if (prim.meta.y != 0) g.primitiveMask |= kMaskHasMatrix;
-  }
-  g.warpMask = 0;
-  for (const auto& warp : program.warps) {
-    g.warpMask |= 1u << (warp.meta.x & 0x1fu);
-    if (warp.meta.w != 0) g.warpMask |= kMaskHasMatrix;
-  }
+  setEvaluatorMasks(program, g);
   if (traversal == Traversal::Specialised) {
     g.fingerprint = programFingerprint(program);
     if (canSpecialise(program, {}, g.codegen.loops)) g.specialised = std::make_shared<const blobtree::Program>(program);
@@ -101,13 +112,24 @@ KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, st
                             const CodegenOptions& codegen, const std::string& shader, std::uint32_t workgroupSize) {
   // Only the workgroup size (constant 0) matters to the generated evaluator.
   const std::array<std::uint32_t, 1> specs{workgroupSize};
-  char key[17];
-  std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(evaluatorFingerprint(fingerprint, codegen)));
-  const std::string name = shader + "/specialised:" + key;
+  const std::string name = specialisedKernelName(fingerprint, codegen, shader);
   if (KernelPtr k = device.findKernel(name, specs)) return k;
-  const auto code =
-      compileComputeShader(shader + ".comp", {{"eval_program.glsl", generateSpecialisedEvaluator(program, codegen)}});
+  const auto code = compileComputeShaderCached(
+      device.spirvCacheDir(), shader + ".comp", {{"eval_program.glsl", generateSpecialisedEvaluator(program, codegen)}});
   return device.kernel(name, code, shader, specs);
+}
+
+bool specialisedKernelBuilt(Device& device, std::uint64_t fingerprint, const CodegenOptions& codegen,
+                            const std::string& shader, std::uint32_t workgroupSize) {
+  const std::array<std::uint32_t, 1> specs{workgroupSize};
+  return device.findKernel(specialisedKernelName(fingerprint, codegen, shader), specs) != nullptr;
+}
+
+bool interpreterKernelBuilt(Device& device, const blobtree::Program& program, const std::string& shader,
+                            std::uint32_t workgroupSize) {
+  GpuProgram g;
+  setEvaluatorMasks(program, g);
+  return device.findKernel(shader, g.specs(workgroupSize, Traversal::Stackless)) != nullptr;
 }
 
 CodegenOptions defaultCodegenOptions(const Device& device) {

@@ -70,6 +70,13 @@ KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, co
 KernelPtr specialisedKernel(Device& device, const blobtree::Program& program, std::uint64_t programFingerprint,
                             const CodegenOptions& codegen, const std::string& shader, std::uint32_t workgroupSize);
 
+// Whether `device` already holds the kernel specialisedKernel would build (nothing is generated),
+// or the interpreter kernel evaluatorKernel would use for `program` (Traversal::Stackless).
+bool specialisedKernelBuilt(Device& device, std::uint64_t programFingerprint, const CodegenOptions& codegen,
+                            const std::string& shader, std::uint32_t workgroupSize);
+bool interpreterKernelBuilt(Device& device, const blobtree::Program& program, const std::string& shader,
+                            std::uint32_t workgroupSize);
+
 // Code generation options for this device: branches on skips and loops over repeated shapes
 // except on CPU devices.
 CodegenOptions defaultCodegenOptions(const Device& device);

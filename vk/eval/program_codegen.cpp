@@ -24,6 +24,9 @@ using codegen::vec4Lit;
 // calls are precise in eval_formulas.glsl). docs/vulkan.md, "Floating point".
 std::string precise(const char* type) { return std::string("precise ") + type; }
 
+// The unrolled code's view of the instruction buffer.
+constexpr const char* kCodeArray = "C";
+
 class Generator {
  public:
   Generator(const blobtree::Program& program, const CodegenOptions& options, bool colour)
@@ -159,10 +162,13 @@ class Generator {
           break;
         case layout::OP_POW: {
           checkRegister(dst, regs, "field");
-          float e;
-          std::memcpy(&e, &in.w, 4);
           // GLSL leaves pow(0, y) undefined; std::pow gives 0 for y > 0 (as in eval_body.glsl).
-          line(depth, "{ float base = max(" + d + ", 0.0); " + d + " = base > 0.0 ? pow(base, " + lit(e) + ") : 0.0; }");
+          // The exponent is read from the instruction (a uniform load), not spelled as a literal:
+          // with a literal, NIR rewrites pow(x, 4.0) as x*x*x*x (pow is no arithmetic
+          // instruction, so `precise` does not stop it), and the mesh would differ from the
+          // interpreter's in the last bits (twisted_column's Ricci blend).
+          line(depth, "{ float base = max(" + d + ", 0.0); " + d + " = base > 0.0 ? pow(base, uintBitsToFloat(" +
+                          std::string(kCodeArray) + "[" + std::to_string(pc) + "].w)) : 0.0; }");
           break;
         }
         case layout::OP_WARP: {
@@ -320,6 +326,16 @@ struct Generated {
   std::uint32_t emitted = 0;
 };
 
+// Declares the instructions (binding 0, as eval_program.glsl's ProgramCode) for the exponents of
+// OP_POW; unrolled code only (the looped form declares the binding itself).
+std::string codeDeclaration(const blobtree::Program& program) {
+  for (const auto& in : program.code)
+    if ((in.code.x & 0xffu) == layout::OP_POW)
+      return std::string("layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 0) readonly buffer SpecialisedCode {\n  uvec4 ") +
+             kCodeArray + "[];\n};\n\n";
+  return {};
+}
+
 // The looped form when the code parses into shapes (and loops are on), else unrolled.
 Generated generate(const blobtree::Program& program, const CodegenOptions& options) {
   Generated g;
@@ -329,7 +345,8 @@ Generated generate(const blobtree::Program& program, const CodegenOptions& optio
     g.glsl = generateLoopedEvaluators(program, *shapes, options, &g.emitted);
   } else {
     g.emitted = prunedInstructionCount(program, options.region);
-    g.glsl = Generator(program, options, false).function() + Generator(program, options, true).function();
+    g.glsl = codeDeclaration(program) + Generator(program, options, false).function() +
+             Generator(program, options, true).function();
   }
   return g;
 }

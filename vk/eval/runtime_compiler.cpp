@@ -7,6 +7,7 @@
 #include <glslang/Public/ShaderLang.h>
 #include <glslang/SPIRV/GlslangToSpv.h>
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 
@@ -32,13 +33,20 @@ class EmbeddedIncluder : public glslang::TShader::Includer {
   const std::map<std::string, std::string>& overrides_;
 };
 
+std::atomic<std::uint32_t> initialisations{0};
+
 // glslang keeps process-wide tables: initialise once, never finalise (other threads may compile).
 void initialiseGlslang() {
   static std::once_flag once;
-  std::call_once(once, [] { glslang::InitializeProcess(); });
+  std::call_once(once, [] {
+    glslang::InitializeProcess();
+    ++initialisations;
+  });
 }
 
 }  // namespace
+
+std::uint32_t glslangInitialisations() { return initialisations.load(); }
 
 std::vector<std::uint32_t> compileComputeShader(const std::string& shaderFile,
                                                 const std::map<std::string, std::string>& overrides) {

@@ -16,4 +16,8 @@ namespace blobvk::vk {
 std::vector<std::uint32_t> compileComputeShader(const std::string& shaderFile,
                                                 const std::map<std::string, std::string>& overrides);
 
+// How many times this process has initialised glslang (0 before the first compile, then 1 for
+// good: initialised once, never finalised, whatever the threads).
+std::uint32_t glslangInitialisations();
+
 }  // namespace blobvk::vk

@@ -139,6 +139,7 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
     job.vertexPass = true;
     job.refineSteps = options.refineSteps;
     job.tiling = tiling;
+    job.workgroupSize = options.workgroupSize;
     const CodegenOptions codegen = options.codegen ? *options.codegen : defaultCodegenOptions(device);
     const EvaluatorEstimate e = chooseEvaluator(device, program, grid, job, codegen).chosen;
     options_.traversal = e.traversal;
