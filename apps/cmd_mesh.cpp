@@ -4,6 +4,7 @@
 #include "cli_conventions.h"
 #include "commands.h"
 #include "json_report.h"
+#include "mesh_mpi.h"
 #include "mesh_streaming.h"
 #include "model.h"
 #include "progress.h"
@@ -83,12 +84,12 @@ void addMeshCommand(CLI::App& app) {
     // --max-memory is a budget: a cpu job whose whole mesh may not fit is streamed instead.
     const std::uint64_t budget = a->limits.maxMemoryBytes ? a->limits.maxMemoryBytes : availableMemoryBytes();
     const std::uint64_t inMemory = estimatePolygonizeBytes(grid, a->settings.backend);
-    const bool stream = a->stream || (a->settings.backend == "cpu" && budget != 0 && inMemory > budget);
+    const bool stream = a->stream || launchedByMpi() || (a->settings.backend == "cpu" && budget != 0 && inMemory > budget);
     if (stream) {
       checkMemory(estimateStreamedBytes(grid, a->settings.mpuSize), a->limits, "streaming a " + gridText + " grid");
       const bool check = !toStdout && !(quiet() && !a->json);
       const StreamedMeshResult r = meshStreamed(model.program, grid, a->settings, a->out, format, a->ascii, check, a->limits);
-      if (!check) return;
+      if (r.worker || !check) return;
       if (a->json) {
         nlohmann::json out = versionJson();
         out["output"] = a->out;
@@ -97,6 +98,7 @@ void addMeshCommand(CLI::App& app) {
                        {"origin", {grid.origin.x, grid.origin.y, grid.origin.z}}};
         out["backend"] = a->settings.backend;
         out["streamed"] = true;
+        out["ranks"] = r.ranks;
         out["seconds"] = r.seconds;
         out["point_evaluations"] = r.pointEvaluations;
         out["vertices"] = r.vertices;
@@ -106,8 +108,9 @@ void addMeshCommand(CLI::App& app) {
         std::printf("%s\n", out.dump(2).c_str());
         return;
       }
-      std::printf("%s: %s cells of %.4g, backend %s (streamed), %.3f s\n", a->out.c_str(), gridText.c_str(),
-                  grid.cellSize, a->settings.backend.c_str(), r.seconds);
+      const std::string how = r.ranks > 1 ? "streamed, " + std::to_string(r.ranks) + " MPI ranks" : "streamed";
+      std::printf("%s: %s cells of %.4g, backend %s (%s), %.3f s\n", a->out.c_str(), gridText.c_str(),
+                  grid.cellSize, a->settings.backend.c_str(), how.c_str(), r.seconds);
       std::printf("%s\n", r.report->summary().c_str());
       return;
     }

@@ -1,5 +1,6 @@
 #include "mesh_streaming.h"
 
+#include "mesh_mpi.h"
 #include "progress.h"
 
 #include "blobvk/cpu_simd/streaming_polygonizer.h"
@@ -10,9 +11,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <stdexcept>
 
 namespace blobvk::app {
+
+bool launchedByMpi() {
+  return std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMIX_RANK") || std::getenv("PMI_SIZE");
+}
 
 std::uint64_t estimateStreamedBytes(const blobtree::GridSpec& grid, int mpuCells) {
   const int D = mpuCells > 0 ? mpuCells : cpu::kDefaultMpuCells;
@@ -78,27 +84,46 @@ StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree
   options.refineSteps = settings.refineSteps;
   if (settings.mpuSize > 0) options.mpuCells = settings.mpuSize;
 
-  mesh::StreamedFileOptions fileOptions;
-  fileOptions.format = format;
-  fileOptions.asciiPly = asciiPly;
-  mesh::StreamedMeshFile file(out, fileOptions);
-  mesh::StreamedMeshCheck checker;
-  std::vector<mesh::MeshSink*> sinks{&file};
-  if (check) sinks.push_back(&checker);
-  mesh::TeeSink tee(sinks);
-
+  const bool mpi = launchedByMpi();
+  const MpiWorld world = mpi ? mpiStart() : MpiWorld{};
   StreamedMeshResult result;
-  {
-    Progress progress("mesh", 0);
-    options.progress = [&progress](std::size_t done, std::size_t total) { progress.update(long(done), long(total)); };
-    const cpu::MpuStats stats = cpu::polygonizeMpuStreamed(program, grid, options, tee);
-    result.pointEvaluations = double(stats.pointEvaluations);
+  result.ranks = world.size;
+  try {
+    cpu::LayerPolygonizer layers(program, grid, options);
+    if (world.rank != 0) {
+      mpiServeLayers(world, layers);
+      mpiStop();
+      result.worker = true;
+      return result;
+    }
+    mesh::StreamedFileOptions fileOptions;
+    fileOptions.format = format;
+    fileOptions.asciiPly = asciiPly;
+    mesh::StreamedMeshFile file(out, fileOptions);
+    mesh::StreamedMeshCheck checker;
+    std::vector<mesh::MeshSink*> sinks{&file};
+    if (check) sinks.push_back(&checker);
+    mesh::TeeSink tee(sinks);
+    {
+      Progress progress("mesh", layers.layerCount());
+      cpu::LayerJoiner join(tee);
+      for (int z = 0; z < layers.layerCount(); ++z) {
+        join.push(mpi ? mpiLayer(world, layers, z) : layers.layer(z));
+        progress.update(z + 1);
+      }
+      join.finish();
+    }
+    result.pointEvaluations = double(layers.stats().pointEvaluations);  // this rank's
+    result.vertices = file.vertexCount();
+    result.triangles = file.triangleCount();
+    checkTriangles(result.triangles, limits);  // the spools go with `file`; nothing is written
+    result.bytes = file.finish();
+    if (check) result.report = checker.finish();
+  } catch (const std::exception& e) {
+    if (mpi && world.size > 1) mpiAbort(e.what());  // the other ranks would wait for ever
+    throw;
   }
-  result.vertices = file.vertexCount();
-  result.triangles = file.triangleCount();
-  checkTriangles(result.triangles, limits);  // the spools go with `file`; nothing is written
-  result.bytes = file.finish();
-  if (check) result.report = checker.finish();
+  if (mpi) mpiStop();
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -31,9 +31,11 @@ struct StreamedMeshResult {
   double seconds = 0, pointEvaluations = 0;
   std::uint64_t vertices = 0, triangles = 0, bytes = 0;
   std::optional<mesh::MeshReport> report;  // when asked for
+  int ranks = 1;        // MPI ranks that shared the layers (mesh_mpi.h)
+  bool worker = false;  // this process is an MPI rank other than 0: it wrote nothing
 };
 
-// Polygonizes with the cpu backend's settings into `out` ("-": standard output) as `format`
+// Polygonizes with the cpu backend's settings (over MPI ranks when started by mpirun) into `out` ("-": standard output) as `format`
 // (ply, obj, stl; asciiPly for ASCII PLY). Throws before writing anything past --max-triangles.
 StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree::GridSpec& grid,
                                 const PolygonizeSettings& settings, const std::string& out,
