@@ -9,7 +9,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <deque>
 #include <stdexcept>
 #include <vector>
 
@@ -93,25 +92,17 @@ cpu::MeshLayer mpiLayer(const MpiWorld& world, cpu::LayerPolygonizer& layers, in
   return decode(bytes);
 }
 
+// Blocking sends: rank 0 asks for the layers in order, so a rank's send of layer z is taken as
+// soon as rank 0 has joined layer z - 1, and the copy runs with both ranks inside MPI. (A
+// non-blocking send would only progress when this rank next entered MPI, i.e. after computing
+// its next layer, which serialises the ranks where the transport needs the sender's help.)
 void mpiServeLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers) {
-  struct Send {
-    std::vector<char> bytes;
-    MPI_Request request;
-  };
-  std::deque<Send> inFlight;  // rank 0 takes layers in order: a few in flight keep this rank busy
   for (int z = world.rank; z < layers.layerCount(); z += world.size) {
-    std::vector<char> bytes = encode(layers.layer(z));
+    const std::vector<char> bytes = encode(layers.layer(z));
     if (bytes.size() > std::size_t(INT_MAX))
       throw std::length_error("MPI: layer " + std::to_string(z) + " is over 2 GiB; use a smaller --mpu");
-    while (inFlight.size() >= 2) {
-      MPI_Wait(&inFlight.front().request, MPI_STATUS_IGNORE);
-      inFlight.pop_front();
-    }
-    inFlight.push_back({std::move(bytes), MPI_REQUEST_NULL});
-    Send& s = inFlight.back();
-    MPI_Isend(s.bytes.data(), int(s.bytes.size()), MPI_BYTE, 0, z, MPI_COMM_WORLD, &s.request);
+    MPI_Send(bytes.data(), int(bytes.size()), MPI_BYTE, 0, z, MPI_COMM_WORLD);
   }
-  for (Send& s : inFlight) MPI_Wait(&s.request, MPI_STATUS_IGNORE);
 }
 
 }  // namespace blobvk::app

@@ -1,6 +1,6 @@
 // `mpirun -n N blobvk mesh ...`: the streamed job's layers shared out over MPI ranks. Rank r
-// computes the layers z with z % N == r and sends each to rank 0 (at most two sends in flight,
-// so a rank holds a few layers); rank 0 computes its own, receives the others in layer order and
+// computes the layers z with z % N == r and sends each to rank 0 (a blocking send: a rank
+// holds one layer); rank 0 computes its own, receives the others in layer order and
 // joins them into the file exactly as one process would. No scheduler of our own: the split is
 // fixed by the layer index and MPI carries the bytes. Built when CMake finds MPI.
 #pragma once
