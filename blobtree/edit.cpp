@@ -131,6 +131,15 @@ Region EditableTree::apply(const Edit& edit) {
           if (!target->isWarp()) throw std::invalid_argument(where + " is " + kindName(*target) + ", not a warp");
           saved.kind = target->kind;
           target->kind = change.warp;
+        } else if constexpr (std::is_same_v<T, SetNode>) {
+          if (change.node.kind.index() != target->kind.index())
+            throw std::invalid_argument(where + " is " + kindName(*target) + " and cannot become " + kindName(change.node));
+          if (const auto* o = std::get_if<Operator>(&change.node.kind);
+              o && (o->type == OperatorType::Difference || o->type == OperatorType::SmoothDifference) &&
+              target->children.size() < 2)
+            throw std::invalid_argument(where + " has 1 child; a difference needs at least 2");
+          saved.kind = target->kind, saved.transform = target->transform, saved.id = target->id;
+          target->kind = change.node.kind, target->transform = change.node.transform, target->id = change.node.id;
         } else if constexpr (std::is_same_v<T, AddChild>) {
           if (!target->isOperator())
             throw std::invalid_argument("cannot add a child to " + where + ": it is " + kindName(*target) +
@@ -164,6 +173,7 @@ Region EditableTree::apply(const Edit& edit) {
           if constexpr (std::is_same_v<T, SetTransform>) target->transform = saved.transform;
           else if constexpr (std::is_same_v<T, AddChild>) target->children.erase(target->children.begin() + long(structuralAt));
           else if constexpr (std::is_same_v<T, RemoveChild>) target->children.insert(target->children.begin() + long(structuralAt), std::move(saved));
+          else if constexpr (std::is_same_v<T, SetNode>) target->kind = saved.kind, target->transform = saved.transform, target->id = saved.id;
           else target->kind = saved.kind;
         },
         edit.change);

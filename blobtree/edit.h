@@ -36,13 +36,16 @@ struct SetTransform { Transform transform; };
 struct SetPrimitive { Primitive primitive; };  // type, skeleton, support and colour
 struct SetOperator { Operator op; };
 struct SetWarp { Warp warp; };
+// Kind (with its parameters), transform and id at once; the children stay. The kind must stay a
+// primitive, an operator or a warp (to change that, remove the node and add another).
+struct SetNode { Node node; };
 struct AddChild {
   Node child;
   std::size_t at = std::size_t(-1);  // position among the children; past the end appends
 };
 struct RemoveChild { std::size_t at = 0; };
 
-using Change = std::variant<SetTransform, SetPrimitive, SetOperator, SetWarp, AddChild, RemoveChild>;
+using Change = std::variant<SetTransform, SetPrimitive, SetOperator, SetWarp, SetNode, AddChild, RemoveChild>;
 
 struct Edit {
   NodePath path;  // the node changed (Set*) or the parent (AddChild, RemoveChild)

@@ -26,6 +26,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <optional>
+#include <utility>
 #include <stdexcept>
 #include <vector>
 
@@ -65,6 +67,8 @@ void moveRuns(std::vector<T>& v, const std::vector<Run>& runs, std::size_t oldSi
 struct Plan {
   std::vector<Run> runs;                 // clean runs in order, zero deltas included
   std::vector<std::uint32_t> newStarts;  // per dirty segment (same order as the list)
+  // The delta of the clean segments before dirty segment i (and, last, after every one).
+  std::vector<std::int64_t> stretchDelta;
   std::uint32_t oldSize = 0, newSize = 0;
   std::uint64_t moved = 0;
 };
@@ -94,6 +98,8 @@ Plan plan(std::vector<std::uint32_t>& starts, const std::vector<DirtySegment>& d
     next = d.segment + 1;
   }
   cleanRun(starts.size() - 1);
+  p.stretchDelta = segmentDelta;
+  p.stretchDelta.push_back(delta);
   p.newSize = std::uint32_t(std::int64_t(p.oldSize) + delta);
   // New starts: clean segments shift by their stretch's delta, dirty ones take theirs.
   std::size_t s = 0;
@@ -285,10 +291,15 @@ const mesh::TriMesh& IncrementalPolygonizer::update(const blobtree::Program& pro
   if (vp.newSize >= detail::kDeferred) throw std::length_error("IncrementalPolygonizer: more than 2^31 vertices");
   st.verticesMoved = vp.moved, st.trianglesMoved = tp.moved;
 
+  st.msPlan = msSince(t0);
+  auto tPhase = Clock::now();
   mesh::TriMesh& out = s.mesh;
   const int threads = s.options.threads > 0 ? s.options.threads : tbb::info::default_concurrency();
   tbb::task_arena arena(threads);
-  arena.execute([&] {
+  const auto moves = [](const Plan& p) {
+    return p.newSize != p.oldSize || std::any_of(p.runs.begin(), p.runs.end(), [](const Run& r) { return r.delta != 0; });
+  };
+  if (moves(vp) || moves(tp)) arena.execute([&] {
     tbb::parallel_invoke(
         [&] { moveRuns(out.positions, vp.runs, vp.oldSize, vp.newSize); },
         [&] { moveRuns(out.edgeKeys, vp.runs, vp.oldSize, vp.newSize); },
@@ -297,32 +308,120 @@ const mesh::TriMesh& IncrementalPolygonizer::update(const blobtree::Program& pro
         [&] { moveRuns(out.triangles, tp.runs, tp.oldSize, tp.newSize); });
   });
 
+  st.msMove = msSince(tPhase);
+  tPhase = Clock::now();
   // ---- corners of moved clean triangles: the delta of the vertex run they lie in ----
-  // Clean triangle runs, at their new places, with the vertex runs sorted by old start.
-  const std::vector<Run>& vr = vp.runs;
-  bool anyVertexDelta = false;
-  for (const Run& r : vr) anyVertexDelta = anyVertexDelta || r.delta != 0;
-  if (anyVertexDelta) {
+  // The corners of triangle segment (k, j, a) lie in vertex segments (k, j, a) .. (k + 1, j + 1,
+  // a + 1) of the global order; when no dirty vertex segment lies in that window, they all
+  // share one delta (usually the case: one add over the whole tail). Otherwise, corner by
+  // corner through the vertex runs.
+  const auto window = [&](std::size_t tFirst, std::size_t tLast) {
+    const std::size_t mx = std::size_t(s.mpus.x), cy = std::size_t(s.grid.cells.y);
+    const std::size_t a0 = tFirst % mx, j0 = (tFirst / mx) % cy, k0 = tFirst / (mx * cy);
+    const std::size_t a1 = tLast % mx, j1 = (tLast / mx) % cy, k1 = tLast / (mx * cy);
+    return std::pair{s.vertexSegment(int(k0), int(j0), int(a0)),
+                     s.vertexSegment(int(k1) + 1, int(j1) + 1, int(std::min(a1 + 1, mx - 1)))};
+  };
+  // before(v): dirty vertex segments before segment v, from a table over the span of the dirty
+  // ones (O(1) per lookup; outside the span it is 0 or all of them).
+  const std::size_t spanLo = vertexDirty.empty() ? 0 : vertexDirty.front().segment;
+  const std::size_t spanHi = vertexDirty.empty() ? 0 : vertexDirty.back().segment + 1;
+  std::vector<std::uint32_t> beforeTable(spanHi - spanLo + 1);
+  for (std::size_t v = spanLo, i = 0; v <= spanHi; ++v) {
+    while (i < vertexDirty.size() && vertexDirty[i].segment < v) ++i;
+    beforeTable[v - spanLo] = std::uint32_t(i);
+  }
+  const auto before = [&](std::size_t v) -> std::size_t {
+    if (v <= spanLo) return 0;
+    if (v >= spanHi) return vertexDirty.size();
+    return beforeTable[v - spanLo];
+  };
+  // The delta shared by every vertex segment in [lo, hi], or nullopt when a dirty one lies there.
+  const auto sharedDelta = [&](std::pair<std::size_t, std::size_t> w) -> std::optional<std::int64_t> {
+    const std::size_t b = before(w.first);
+    if (before(w.second + 1) != b) return std::nullopt;
+    return vp.stretchDelta[b];
+  };
+  const auto shiftCorners = [&](std::array<std::uint32_t, 3>* tri, std::size_t count, std::int64_t delta) {
+    std::uint32_t* v = tri->data();
+    const std::uint32_t d = std::uint32_t(delta);  // modular: v + d is v + delta
+    for (std::size_t i = 0; i < count * 3; ++i) v[i] += d;
+  };
+  // Near the edit: the corners of triangle segment (k, j, a) lie in the (clean) vertex segments
+  // of rows k..k+1, j..j+1 and columns a..a+1; each corner finds its own among those eight.
+  const auto delta = [&](std::size_t vseg) { return vp.stretchDelta[before(vseg)]; };
+  const auto shiftCornersBySegment = [&](std::size_t tseg, std::array<std::uint32_t, 3>* tri, std::size_t count) {
+    const std::size_t mx = std::size_t(s.mpus.x), cy = std::size_t(s.grid.cells.y);
+    const int a = int(tseg % mx), j = int((tseg / mx) % cy), k = int(tseg / (mx * cy));
+    Run near[8];
+    int n = 0;
+    for (int dk = 0; dk < 2; ++dk)
+      for (int dj = 0; dj < 2; ++dj)
+        for (int da = 0; da < 2 && a + da < s.mpus.x; ++da) {
+          const std::size_t vseg = s.vertexSegment(k + dk, j + dj, a + da);
+          if (before(vseg + 1) != before(vseg)) continue;  // re-run: no kept triangle names it
+          const std::int64_t d = delta(vseg);
+          const std::uint32_t count = s.vertexStarts[vseg + 1] - s.vertexStarts[vseg];
+          near[n++] = {std::uint32_t(std::int64_t(s.vertexStarts[vseg]) - d), count, d};
+        }
+    if (std::all_of(near, near + n, [&](const Run& r) { return r.delta == near[0].delta; })) {
+      if (near[0].delta) shiftCorners(tri, count, near[0].delta);
+      return;
+    }
+    for (std::size_t t = 0; t < count; ++t)
+      for (auto& v : tri[t]) {
+        int c = 0;
+        while (c < n && v - near[c].from >= near[c].count) ++c;
+        if (c == n) throw std::logic_error("IncrementalPolygonizer: a kept triangle names a re-run vertex");
+        v = std::uint32_t(std::int64_t(v) + near[c].delta);
+      }
+  };
+  // Triangle runs in segment terms: the clean stretches between dirty triangle segments.
+  struct Stretch {
+    std::size_t first, last;  // triangle segments
+    std::uint32_t from, count;  // new element range
+  };
+  std::vector<Stretch> stretches;
+  {
+    std::size_t next = 0;
+    for (std::size_t i = 0; i <= triangleDirty.size(); ++i) {
+      const std::size_t end = i < triangleDirty.size() ? triangleDirty[i].segment : s.triangleStarts.size() - 1;
+      if (end > next) {
+        const std::uint32_t from = s.triangleStarts[next], to = s.triangleStarts[end];
+        if (to > from) stretches.push_back({next, end - 1, from, to - from});
+      }
+      if (i < triangleDirty.size()) next = triangleDirty[i].segment + 1;
+    }
+  }
+  if (moves(vp)) {
     arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tp.runs.size(), 1), [&](const auto& range) {
-        std::size_t cur = 0;  // cached vertex run: corners of nearby triangles are nearby
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stretches.size(), 1), [&](const auto& range) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
-          const Run& t = tp.runs[i];
-          auto* tri = out.triangles.data() + (std::int64_t(t.from) + t.delta);
-          for (std::uint32_t n = 0; n < t.count; ++n)
-            for (auto& v : tri[n]) {
-              if (v - vr[cur].from >= vr[cur].count) {
-                cur = std::size_t(std::upper_bound(vr.begin(), vr.end(), v,
-                                                   [](std::uint32_t x, const Run& r) { return x < r.from; }) -
-                                  vr.begin()) - 1;
-              }
-              v = std::uint32_t(std::int64_t(v) + vr[cur].delta);
+          const Stretch& t = stretches[i];
+          if (const auto d = sharedDelta(window(t.first, t.last))) {
+            if (*d) {
+              // Long stretches in parallel chunks (the tail after the edit is most of the mesh).
+              tbb::parallel_for(tbb::blocked_range<std::size_t>(0, t.count, 1u << 16), [&](const auto& c) {
+                shiftCorners(out.triangles.data() + t.from + c.begin(), c.size(), *d);
+              });
             }
+            continue;
+          }
+          for (std::size_t seg = t.first; seg <= t.last; ++seg) {  // near the edit: per segment
+            const std::uint32_t from = s.triangleStarts[seg], count = s.triangleStarts[seg + 1] - from;
+            if (!count) continue;
+            if (const auto d = sharedDelta(window(seg, seg))) {
+              if (*d) shiftCorners(out.triangles.data() + from, count, *d);
+            } else {
+              shiftCornersBySegment(seg, out.triangles.data() + from, count);
+            }
+          }
         }
       });
     });
   }
-
+  st.msShift = msSince(tPhase);
+  tPhase = Clock::now();
   // ---- the new segments ----
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertexDirty.size(), 16), [&](const auto& range) {
@@ -360,6 +459,7 @@ const mesh::TriMesh& IncrementalPolygonizer::update(const blobtree::Program& pro
       }
     });
   });
+  st.msWrite = msSince(tPhase);
   st.msSplice = msSince(t0);
   st.msTotal = msSince(tStart);
   return s.mesh;

@@ -26,7 +26,10 @@ struct IncrementalStats {
   std::size_t mpusRewritten = 0;  // MPUs whose triangles were written again (re-run or a neighbour was)
   bool full = false;              // the region covered so much that the whole grid was re-meshed
   std::uint64_t verticesMoved = 0, trianglesMoved = 0;  // elements shifted in place by the splice
+  // Wall-clock per phase (ms): re-running MPUs, and the splice: planning, moving clean runs,
+  // shifting corner indices, writing the new segments.
   double msPolygonize = 0, msSplice = 0, msTotal = 0;
+  double msPlan = 0, msMove = 0, msShift = 0, msWrite = 0;
 };
 
 class IncrementalPolygonizer {
