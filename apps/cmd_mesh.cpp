@@ -6,6 +6,8 @@
 #include "cli_conventions.h"
 #include "commands.h"
 #include "json_report.h"
+#include "mesh_mpi.h"
+#include "mesh_streaming.h"
 #include "model.h"
 #include "progress.h"
 #include "resolution_limit.h"
@@ -33,7 +35,7 @@ void addMeshCommand(CLI::App& app) {
     std::optional<float> cellSize;
     std::optional<int> resolution;
     PolygonizeSettings settings;
-    bool ascii = false, json = false;
+    bool ascii = false, json = false, stream = false;
     std::string simplify;  // parsed by mesh::parseSimplifyTarget
     bool optimize = false, noOptimize = false;  // neither: on for glTF, off otherwise
     std::string maxMemory;
@@ -48,7 +50,7 @@ void addMeshCommand(CLI::App& app) {
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")
                  ->check(CLI::PositiveNumber);
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model")
-      ->check(resolutionRange())
+      ->check(meshResolutionRange())
       ->excludes(cs);
   cmd->add_option("--backend", a->settings.backend, "cpu (default), reference or vk")->check(CLI::IsMember(allBackendNames()));
   cmd->add_option("--threads", a->settings.threads, "CPU threads (0 = all cores)")
@@ -66,7 +68,9 @@ void addMeshCommand(CLI::App& app) {
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--tiled-vertices", a->settings.tiledVertices,
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
-  cmd->add_option("--max-memory", a->maxMemory, "Refuse jobs needing more (e.g. 2G; default: available)");
+  cmd->add_option("--max-memory", a->maxMemory,
+                  "Memory budget (e.g. 2G; default: available): a cpu job whose mesh may not fit is streamed to the file layer by layer");
+  cmd->add_flag("--stream", a->stream, "cpu: always stream (write the mesh layer by layer of MPUs, holding a few layers)");
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
   cmd->add_option("--simplify", a->simplify,
                   "Simplify with meshoptimizer: RATIO of triangles kept (0.25) or ERROR% of the extent (0.5%); "
@@ -100,7 +104,44 @@ void addMeshCommand(CLI::App& app) {
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
     const std::string gridText =
         std::to_string(grid.cells.x) + " x " + std::to_string(grid.cells.y) + " x " + std::to_string(grid.cells.z);
-    checkMemory(estimatePolygonizeBytes(grid, a->settings.backend), a->limits, "a " + gridText + " grid");
+    // --max-memory is a budget: a cpu job whose whole mesh may not fit is streamed instead.
+    const std::uint64_t budget = a->limits.maxMemoryBytes ? a->limits.maxMemoryBytes : availableMemoryBytes();
+    const std::uint64_t inMemory = estimatePolygonizeBytes(grid, a->settings.backend);
+    const bool stream = a->stream || launchedByMpi() || (a->settings.backend == "cpu" && budget != 0 && inMemory > budget);
+    if (stream && (simplifyTarget || a->optimize)) {
+      throw UsageError("--simplify and --optimize need the whole mesh in memory; they cannot be combined with streaming"
+                       " (--stream, an MPI launch, or a mesh over the --max-memory budget)");
+    }
+    if (stream) {
+      checkMemory(estimateStreamedBytes(grid, a->settings.mpuSize), a->limits, "streaming a " + gridText + " grid");
+      const bool check = !toStdout && !(quiet() && !a->json);
+      const StreamedMeshResult r = meshStreamed(model.program, grid, a->settings, a->out, format, a->ascii, check, a->limits);
+      if (r.worker || !check) return;
+      if (a->json) {
+        nlohmann::json out = versionJson();
+        out["output"] = a->out;
+        out["scene"] = a->scene;
+        out["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cell_size", grid.cellSize},
+                       {"origin", {grid.origin.x, grid.origin.y, grid.origin.z}}};
+        out["backend"] = a->settings.backend;
+        out["streamed"] = true;
+        out["ranks"] = r.ranks;
+        out["seconds"] = r.seconds;
+        out["point_evaluations"] = r.pointEvaluations;
+        out["vertices"] = r.vertices;
+        out["triangles"] = r.triangles;
+        out["bytes"] = r.bytes;
+        out["check"] = {{"watertight", r.report->watertight()}, {"volume", r.report->volume}, {"summary", r.report->summary()}};
+        std::printf("%s\n", out.dump(2).c_str());
+        return;
+      }
+      const std::string how = r.ranks > 1 ? "streamed, " + std::to_string(r.ranks) + " MPI ranks" : "streamed";
+      std::printf("%s: %s cells of %.4g, backend %s (%s), %.3f s\n", a->out.c_str(), gridText.c_str(),
+                  grid.cellSize, a->settings.backend.c_str(), how.c_str(), r.seconds);
+      std::printf("%s\n", r.report->summary().c_str());
+      return;
+    }
+    checkMemory(inMemory, a->limits, "a " + gridText + " grid");
 
     // The cpu backend reports per group of MPUs; the others have no count: one line per phase.
     std::optional<Progress> progress;

@@ -1,4 +1,5 @@
-// One limit for every --resolution (mesh, render, bench, compare, simulate, cut) and one for
+// One limit for every --resolution that holds a mesh (render, bench, compare, simulate, cut;
+// mesh streams what does not fit and has the streamed limit of mesh_streaming.h) and one for
 // every image side, so the same number is accepted or refused by all commands.
 #pragma once
 

@@ -11,6 +11,7 @@ packages=(
   libvulkan-dev glslang-dev glslang-tools spirv-tools spirv-cross mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
   clang libclang-rt-14-dev
   gnuplot-nox  # charts of scripts/evaluation.sh
+  libopenmpi-dev openmpi-bin  # mpirun -n N blobvk mesh (built when CMake finds MPI)
 )
 
 missing=()

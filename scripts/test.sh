@@ -39,5 +39,5 @@ if [ "${BLOBVK_SKIP_ASAN:-0}" != "1" ]; then
   ulimit -Ss 65536 || true
   # The install tests build consumers against the installed libraries: a packaging check that the
   # release run makes; here the sanitized libraries would need sanitized consumers.
-  ctest --preset asan -j "$jobs" -E NOT_BUILT -LE install
+  ctest --preset asan -j "$jobs" -E NOT_BUILT -LE "install|mpi"
 fi

@@ -47,6 +47,46 @@ TEST(Cli, MeshOfTheTowerIsClosedAndManifold) {
   EXPECT_GT(report.volume, 0.0);
 }
 
+// Out of core: --stream, or a --max-memory budget the whole mesh may not fit, writes the file
+// layer by layer; every format's bytes equal the in-memory run's, and the streamed check's line
+// equals the in-memory check's.
+TEST(Cli, StreamedMeshFilesEqualInMemoryOnes) {
+  const std::string scene = source("scenes/twisted_column.json");
+  for (const std::string& ext : {std::string("ply"), std::string("obj"), std::string("stl")}) {
+    for (const std::string& extra : {std::string(), std::string(ext == "ply" ? " --ascii" : "")}) {
+      if (ext != "ply" && !extra.empty()) continue;
+      const auto a = scratch("mem." + ext), b = scratch("str." + ext);
+      const CliRun mem = run("mesh " + scene + " -o " + a.string() + " --resolution 40 --mpu 6" + extra);
+      const CliRun str = run("mesh " + scene + " -o " + b.string() + " --resolution 40 --mpu 6 --stream" + extra);
+      ASSERT_EQ(mem.status, 0) << mem.output;
+      ASSERT_EQ(str.status, 0) << str.output;
+      EXPECT_NE(str.output.find("(streamed)"), std::string::npos) << str.output;
+      EXPECT_EQ(blobvk::testing::fileBytes(a), blobvk::testing::fileBytes(b)) << ext << extra;
+      // The check line (the last line) is the same.
+      EXPECT_EQ(mem.output.substr(mem.output.rfind('\n', mem.output.size() - 2)),
+                str.output.substr(str.output.rfind('\n', str.output.size() - 2)));
+    }
+  }
+  // A budget below the in-memory estimate streams by itself; standard output streams too.
+  const auto a = scratch("budget_mem.ply"), b = scratch("budget_str.ply");
+  ASSERT_EQ(run("mesh " + scene + " -o " + a.string() + " --resolution 200 -q").status, 0);
+  const CliRun budget = run("mesh " + scene + " -o " + b.string() + " --resolution 200 --max-memory 40M");
+  ASSERT_EQ(budget.status, 0) << budget.output;
+  EXPECT_NE(budget.output.find("(streamed)"), std::string::npos) << budget.output;
+  EXPECT_NE(budget.output.find("; watertight"), std::string::npos) << budget.output;
+  EXPECT_EQ(blobvk::testing::fileBytes(a), blobvk::testing::fileBytes(b));
+  const auto c = scratch("stdout.ply");
+  ASSERT_EQ(std::system((std::string(BLOBVK_CLI) + " mesh " + scene + " -o - --resolution 200 --stream -q > " + c.string()).c_str()), 0);
+  EXPECT_EQ(blobvk::testing::fileBytes(a), blobvk::testing::fileBytes(c));
+  // Nothing else is left beside the outputs (spools unlinked, temporaries renamed).
+  for (const auto& e : std::filesystem::directory_iterator(a.parent_path()))
+    EXPECT_EQ(e.path().filename().string().find(".blobvk-"), std::string::npos) << e.path();
+  // Formats that need the whole mesh, and other backends, are refused with a clear line.
+  const CliRun vk = run("mesh " + scene + " -o " + scratch("vk.ply").string() + " --resolution 40 --backend reference --stream");
+  EXPECT_NE(vk.status, 0);
+  EXPECT_NE(vk.output.find("cpu backend"), std::string::npos) << vk.output;
+}
+
 TEST(Cli, BackendsAndThreadCountsWriteIdenticalFiles) {
   const auto a = scratch("a.ply"), b = scratch("b.ply"), c = scratch("c.ply");
   const std::string scene = source("scenes/twisted_column.json");

@@ -119,12 +119,13 @@ TEST(CliConventions, ErrorsGiveTheSystemReasonAndOnlyPrintableBytes) {
   EXPECT_NE(r.err.find("binary.blob"), std::string::npos) << r.err;
 }
 
-// One limit for every --resolution, derived from memory: the same number in every message.
+// One limit for every --resolution that holds a mesh, derived from memory: the same number in
+// every message.
 TEST(CliConventions, OneResolutionLimitForAllCommands) {
   const fs::path cwd = dir("limits");
   const std::string huge = " --resolution 100000000";
   std::set<std::string> limits;
-  for (const std::string& args : std::vector<std::string>{"mesh " + tower + " -o x.ply", "render " + tower + " -o x.png", "bench " + tower,
+  for (const std::string& args : std::vector<std::string>{"render " + tower + " -o x.png", "bench " + tower,
                                  "compare " + tower, "simulate " + tower + " -o f", "cut " + tower + " -o f"}) {
     const CliSplitRun r = runCliSplit(args + huge, cwd);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
@@ -137,6 +138,12 @@ TEST(CliConventions, OneResolutionLimitForAllCommands) {
   // A machine with any memory takes a 512 grid; no machine has the bytes for a million cubed.
   EXPECT_GE(limit, 512);
   EXPECT_LT(limit, 1000000);
+  // mesh streams what does not fit (--stream, --max-memory): its limit is the streamed one.
+  const CliSplitRun mesh = runCliSplit("mesh " + tower + " -o x.ply" + huge, cwd);
+  EXPECT_EQ(mesh.status, 2) << mesh.err;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(mesh.err, m, std::regex("is above ([0-9]+), the finest grid whose streamed"))) << mesh.err;
+  EXPECT_GE(std::stol(m[1]), limit);
   EXPECT_TRUE(fs::is_empty(cwd));
 }
 

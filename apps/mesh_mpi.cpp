@@ -1,0 +1,108 @@
+// MPI ranks for streamed meshing (see mesh_mpi.h). A layer travels as one message of bytes
+// tagged with its index: a small header of counts, then the arrays as they lie in memory (the
+// ranks run the same binary on hosts of one byte order).
+#include "mesh_mpi.h"
+
+#include <mpi.h>
+
+#include <climits>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+#include <vector>
+
+namespace blobvk::app {
+namespace {
+
+bool started = false;
+
+template <class T>
+void put(std::vector<char>& out, const std::vector<T>& v) {
+  const char* p = reinterpret_cast<const char*>(v.data());
+  out.insert(out.end(), p, p + v.size() * sizeof(T));
+}
+
+template <class T>
+void take(const char*& p, const char* end, std::vector<T>& v, std::uint64_t n) {
+  if (std::uint64_t(end - p) < n * sizeof(T)) throw std::runtime_error("MPI: a layer message is shorter than its counts");
+  v.resize(n);
+  std::memcpy(v.data(), p, n * sizeof(T));
+  p += n * sizeof(T);
+}
+
+std::vector<char> encode(const cpu::MeshLayer& l) {
+  const std::uint64_t head[6] = {std::uint64_t(l.z), l.positions.size(), l.normals.size(), l.colours.size(),
+                                 l.triangles.size(), l.above.size()};
+  std::vector<char> out(reinterpret_cast<const char*>(head), reinterpret_cast<const char*>(head) + sizeof head);
+  put(out, l.positions), put(out, l.normals), put(out, l.colours), put(out, l.keys);
+  put(out, l.triangles), put(out, l.above);
+  return out;
+}
+
+cpu::MeshLayer decode(const std::vector<char>& bytes) {
+  std::uint64_t head[6];
+  if (bytes.size() < sizeof head) throw std::runtime_error("MPI: a layer message without its header");
+  std::memcpy(head, bytes.data(), sizeof head);
+  const char* p = bytes.data() + sizeof head;
+  const char* end = bytes.data() + bytes.size();
+  cpu::MeshLayer l;
+  l.z = int(head[0]);
+  take(p, end, l.positions, head[1]), take(p, end, l.normals, head[2]), take(p, end, l.colours, head[3]);
+  take(p, end, l.keys, head[1]), take(p, end, l.triangles, head[4]), take(p, end, l.above, head[5]);
+  if (p != end) throw std::runtime_error("MPI: a layer message is longer than its counts");
+  return l;
+}
+
+}  // namespace
+
+MpiWorld mpiStart() {
+  if (!started) {
+    int provided = 0;
+    MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+    started = true;
+  }
+  MpiWorld w;
+  MPI_Comm_rank(MPI_COMM_WORLD, &w.rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &w.size);
+  return w;
+}
+
+void mpiStop() {
+  if (started) MPI_Finalize();
+  started = false;
+}
+
+void mpiAbort(const std::string& message) {
+  std::fprintf(stderr, "blobvk: error: %s\n", message.c_str());
+  std::fflush(stderr);
+  MPI_Abort(MPI_COMM_WORLD, 1);
+  std::exit(1);
+}
+
+cpu::MeshLayer mpiLayer(const MpiWorld& world, cpu::LayerPolygonizer& layers, int z) {
+  const int owner = z % world.size;
+  if (owner == 0) return layers.layer(z);
+  MPI_Status status;
+  MPI_Probe(owner, z, MPI_COMM_WORLD, &status);
+  int count = 0;
+  MPI_Get_count(&status, MPI_BYTE, &count);
+  std::vector<char> bytes(std::size_t(count > 0 ? count : 0));
+  MPI_Recv(bytes.data(), count, MPI_BYTE, owner, z, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  return decode(bytes);
+}
+
+// Blocking sends: rank 0 asks for the layers in order, so a rank's send of layer z is taken as
+// soon as rank 0 has joined layer z - 1, and the copy runs with both ranks inside MPI. (A
+// non-blocking send would only progress when this rank next entered MPI, i.e. after computing
+// its next layer, which serialises the ranks where the transport needs the sender's help.)
+void mpiServeLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers) {
+  for (int z = world.rank; z < layers.layerCount(); z += world.size) {
+    const std::vector<char> bytes = encode(layers.layer(z));
+    if (bytes.size() > std::size_t(INT_MAX))
+      throw std::length_error("MPI: layer " + std::to_string(z) + " is over 2 GiB; use a smaller --mpu");
+    MPI_Send(bytes.data(), int(bytes.size()), MPI_BYTE, 0, z, MPI_COMM_WORLD);
+  }
+}
+
+}  // namespace blobvk::app

@@ -1,0 +1,131 @@
+#include "mesh_streaming.h"
+
+#include "mesh_mpi.h"
+#include "progress.h"
+
+#include "blobvk/cpu_simd/streaming_polygonizer.h"
+#include "blobvk/mesh/streamed_check.h"
+#include "blobvk/mesh/streamed_writer.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <stdexcept>
+
+namespace blobvk::app {
+
+bool launchedByMpi() {
+  return std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMIX_RANK") || std::getenv("PMI_SIZE");
+}
+
+std::uint64_t estimateStreamedBytes(const blobtree::GridSpec& grid, int mpuCells) {
+  const int D = mpuCells > 0 ? mpuCells : cpu::kDefaultMpuCells;
+  const double cx = grid.cells.x, cy = grid.cells.y, cz = std::max(grid.cells.z, 1);
+  // As estimatePolygonizeBytes: 4 x (face area in cells) crossing cells, 2 triangles and 1.5
+  // vertices each (44 + 2 x 12 bytes), spread evenly over the layers; three layers are held.
+  const double crossing = std::min(cx * cy * cz, 4.0 * 2.0 * (cx * cy + cy * cz + cx * cz));
+  const double layers = std::ceil(cz / D);
+  const double perLayer = crossing / layers * (2.0 * 12.0 + 1.5 * 44.0);
+  const double mpusX = std::ceil(cx / D), mpusY = std::ceil(cy / D);
+  const double rowTables = 2.0 * D * (cy + 1) * mpusX * 4.0;
+  const double slots = mpusX * mpusY * layers * 8.0;
+  // Streamed check: open edges of one plane and 4 bytes + 1 bit per vertex of the whole mesh.
+  const double check = crossing * 1.5 * 4.2 + perLayer;
+  return std::uint64_t(3.0 * perLayer + rowTables + slots + check + 16.0 * (1 << 20));
+}
+
+CLI::Validator meshResolutionRange() {
+  static const int limit = [] {
+    const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
+    const double memory = pages > 0 && size > 0 ? double(pages) * double(size) : 0.0;
+    if (memory == 0) return 4096;
+    int lo = 1, hi = 1 << 16;
+    while (lo < hi) {
+      const int mid = lo + (hi - lo + 1) / 2;
+      blobtree::GridSpec g;
+      g.cells = glm::ivec3(mid);
+      if (double(estimateStreamedBytes(g, 0)) <= memory) lo = mid;
+      else hi = mid - 1;
+    }
+    return lo;
+  }();
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        long n = 0;
+        try {
+          std::size_t used = 0;
+          n = std::stol(value, &used);
+          if (used != value.size()) return "'" + value + "' is not a whole number";
+        } catch (const std::exception&) {
+          return "'" + value + "' is not a whole number";
+        }
+        if (n < 1) return "resolution " + value + " is below 1";
+        if (n > limit)
+          return "resolution " + value + " is above " + std::to_string(limit) +
+                 ", the finest grid whose streamed meshing fits in this machine's memory";
+        return {};
+      },
+      "RESOLUTION", "resolution");
+}
+
+StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                const PolygonizeSettings& settings, const std::string& out,
+                                const std::string& format, bool asciiPly, bool check, const Limits& limits) {
+  if (settings.backend != "cpu")
+    throw std::runtime_error("streamed meshing runs on the cpu backend only (use --backend cpu, or drop --stream)");
+  if (format != "ply" && format != "obj" && format != "stl")
+    throw std::runtime_error("streamed meshing writes .ply, .obj or .stl; ." + format +
+                             " needs the whole mesh in memory (drop --stream or raise --max-memory)");
+  const auto start = std::chrono::steady_clock::now();
+  cpu::MpuOptions options;
+  options.threads = settings.threads;
+  options.refineSteps = settings.refineSteps;
+  if (settings.mpuSize > 0) options.mpuCells = settings.mpuSize;
+
+  const bool mpi = launchedByMpi();
+  const MpiWorld world = mpi ? mpiStart() : MpiWorld{};
+  StreamedMeshResult result;
+  result.ranks = world.size;
+  try {
+    cpu::LayerPolygonizer layers(program, grid, options);
+    if (world.rank != 0) {
+      mpiServeLayers(world, layers);
+      mpiStop();
+      result.worker = true;
+      return result;
+    }
+    mesh::StreamedFileOptions fileOptions;
+    fileOptions.format = format;
+    fileOptions.asciiPly = asciiPly;
+    mesh::StreamedMeshFile file(out, fileOptions);
+    mesh::StreamedMeshCheck checker;
+    std::vector<mesh::MeshSink*> sinks{&file};
+    if (check) sinks.push_back(&checker);
+    mesh::TeeSink tee(sinks);
+    {
+      Progress progress("mesh", layers.layerCount());
+      cpu::LayerJoiner join(tee);
+      for (int z = 0; z < layers.layerCount(); ++z) {
+        join.push(mpi ? mpiLayer(world, layers, z) : layers.layer(z));
+        progress.update(z + 1);
+      }
+      join.finish();
+    }
+    result.pointEvaluations = double(layers.stats().pointEvaluations);  // this rank's
+    result.vertices = file.vertexCount();
+    result.triangles = file.triangleCount();
+    checkTriangles(result.triangles, limits);  // the spools go with `file`; nothing is written
+    result.bytes = file.finish();
+    if (check) result.report = checker.finish();
+  } catch (const std::exception& e) {
+    if (mpi && world.size > 1) mpiAbort(e.what());  // the other ranks would wait for ever
+    throw;
+  }
+  if (mpi) mpiStop();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace blobvk::app

@@ -1,0 +1,305 @@
+// Streamed mesh files (see streamed_writer.h). The record encodings repeat ply.cpp's, obj.cpp's
+// and stl.cpp's byte for byte; tests compare whole files against those writers.
+#include "blobvk/mesh/streamed_writer.h"
+#include "blobvk/mesh/io_detail.h"
+
+#include <fcntl.h>
+#include <sys/sendfile.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+namespace blobvk::mesh {
+namespace {
+
+std::string reason() { return std::strerror(errno); }
+
+void writeAll(int fd, const char* data, std::size_t n, const std::string& what) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, data, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) throw std::runtime_error(what + ": write error: " + reason());
+    data += w, n -= std::size_t(w);
+  }
+}
+
+// Appends `length` bytes of `in` (from offset 0) to `out`: in the kernel where it can
+// (copy_file_range between files, sendfile to a pipe or terminal), else through a buffer.
+void copyAll(int in, int out, std::uint64_t length, const std::string& what) {
+  off_t offset = 0;
+  bool kernel = true;
+  while (kernel && std::uint64_t(offset) < length) {
+    const std::size_t chunk = std::size_t(std::min<std::uint64_t>(length - std::uint64_t(offset), 1u << 30));
+    ssize_t n = ::copy_file_range(in, &offset, out, nullptr, chunk, 0);
+    if (n < 0 && (errno == EXDEV || errno == EINVAL || errno == ENOSYS || errno == EBADF || errno == EOPNOTSUPP))
+      n = ::sendfile(out, in, &offset, chunk);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) kernel = false;
+  }
+  std::vector<char> buffer(1 << 20);
+  while (std::uint64_t(offset) < length) {
+    const ssize_t n = ::pread(in, buffer.data(), std::min<std::uint64_t>(buffer.size(), length - std::uint64_t(offset)), offset);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) throw std::runtime_error(what + ": cannot copy a spooled section: " + reason());
+    writeAll(out, buffer.data(), std::size_t(n), what);
+    offset += n;
+  }
+}
+
+std::string directoryOf(const std::string& path) {
+  const std::size_t slash = path.rfind('/');
+  if (slash == std::string::npos) return ".";
+  return slash == 0 ? "/" : path.substr(0, slash);
+}
+
+// A temporary file in `dir` from mkstemp; the caller unlinks or renames it.
+int makeTemporary(const std::string& dir, const std::string& stem, std::string& name) {
+  name = dir + "/" + stem + "XXXXXX";
+  const int fd = ::mkstemp(name.data());
+  if (fd < 0) throw std::runtime_error(dir + ": cannot create a temporary file: " + reason());
+  return fd;
+}
+
+std::uint8_t colourByte(float c) {  // ply.cpp's toByte
+  const float clamped = std::isnan(c) ? 0.0f : std::clamp(c, 0.0f, 1.0f);
+  return std::uint8_t(std::lround(clamped * 255.0f));
+}
+
+void appendTriple(std::string& out, const Float3& v) {  // obj.cpp's " x y z"
+  out += ' ';
+  detail::appendFloat(out, v.x);
+  out += ' ';
+  detail::appendFloat(out, v.y);
+  out += ' ';
+  detail::appendFloat(out, v.z);
+}
+
+}  // namespace
+
+// One section of the file: an unlinked temporary file written through a buffer.
+class StreamedMeshFile::Spool {
+ public:
+  Spool(const std::string& dir, const std::string& what) : what_(what) {
+    std::string name;
+    fd_ = makeTemporary(dir, ".blobvk-spool-", name);
+    ::unlink(name.c_str());  // gone with the process, whatever happens to it
+  }
+  ~Spool() { ::close(fd_); }
+  Spool(const Spool&) = delete;
+  Spool& operator=(const Spool&) = delete;
+
+  void append(const std::string& bytes) {
+    buffer_ += bytes;
+    if (buffer_.size() >= (4u << 20)) flush();
+  }
+  void flush() {
+    writeAll(fd_, buffer_.data(), buffer_.size(), what_);
+    size_ += buffer_.size();
+    buffer_.clear();
+  }
+  int fd() const { return fd_; }
+  std::uint64_t size() const { return size_; }
+
+ private:
+  std::string what_;
+  int fd_ = -1;
+  std::string buffer_;
+  std::uint64_t size_ = 0;
+};
+
+StreamedMeshFile::StreamedMeshFile(const std::string& path, const StreamedFileOptions& options)
+    : path_(path), options_(options) {
+  std::string& f = options_.format;
+  if (!f.empty() && f.front() == '.') f.erase(0, 1);
+  std::transform(f.begin(), f.end(), f.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (f != "ply" && f != "obj" && f != "stl")
+    throw std::invalid_argument("streamed mesh file: unknown format '" + options.format + "' (ply, obj or stl)");
+  std::string dir = options_.spoolDirectory;
+  if (dir.empty()) {
+    const char* tmp = std::getenv("TMPDIR");
+    dir = path == "-" ? (tmp && *tmp ? tmp : "/tmp") : directoryOf(path);
+  }
+  const int sections = f == "stl" ? 1 : f == "ply" ? 2 : (options_.normals ? 3 : 2);
+  for (int i = 0; i < sections; ++i) sections_.push_back(std::make_unique<Spool>(dir, path));
+}
+
+StreamedMeshFile::~StreamedMeshFile() = default;
+
+void StreamedMeshFile::vertices(std::span<const Float3> positions, std::span<const Float3> normals,
+                                std::span<const Float3> colours) {
+  const bool wantNormals = options_.normals, wantColours = options_.colours;
+  if ((wantNormals && normals.size() != positions.size()) || (wantColours && colours.size() != positions.size()))
+    throw std::invalid_argument("streamed mesh file: a vertex run lacks the normals or colours the file stores");
+  vertices_ += positions.size();
+  const std::string& f = options_.format;
+  if (f == "stl") return;  // STL stores triangle corners only
+  text_.clear();
+  if (f == "ply") {
+    const bool binary = !options_.asciiPly;
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+      float values[6];
+      int n = 0;
+      values[n++] = positions[i].x, values[n++] = positions[i].y, values[n++] = positions[i].z;
+      if (wantNormals) values[n++] = normals[i].x, values[n++] = normals[i].y, values[n++] = normals[i].z;
+      for (int k = 0; k < n; ++k) {
+        if (binary) {
+          detail::appendRaw(text_, values[k]);
+        } else {
+          if (k) text_ += ' ';
+          detail::appendFloat(text_, values[k]);
+        }
+      }
+      if (wantColours) {
+        const std::uint8_t rgb[3] = {colourByte(colours[i].x), colourByte(colours[i].y), colourByte(colours[i].z)};
+        for (std::uint8_t b : rgb) {
+          if (binary) {
+            detail::appendRaw(text_, b);
+          } else {
+            text_ += ' ';
+            detail::appendUint(text_, b);
+          }
+        }
+      }
+      if (!binary) text_ += '\n';
+    }
+    sections_[0]->append(text_);
+    return;
+  }
+  // OBJ: "v x y z [r g b]" lines, then (another section) "vn" lines.
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    text_ += 'v';
+    appendTriple(text_, positions[i]);
+    if (wantColours) appendTriple(text_, colours[i]);
+    text_ += '\n';
+  }
+  sections_[0]->append(text_);
+  if (wantNormals) {
+    text_.clear();
+    for (const Float3& n : normals) {
+      text_ += "vn";
+      appendTriple(text_, n);
+      text_ += '\n';
+    }
+    sections_[1]->append(text_);
+  }
+}
+
+void StreamedMeshFile::triangles(std::span<const std::array<std::uint32_t, 3>> triangles,
+                                 const VertexWindow& window) {
+  triangles_ += triangles.size();
+  const std::string& f = options_.format;
+  text_.clear();
+  if (f == "ply") {
+    for (const auto& t : triangles) {
+      if (!options_.asciiPly) {
+        detail::appendRaw(text_, std::uint8_t(3));
+        for (std::uint32_t v : t) detail::appendRaw(text_, std::int32_t(v));
+      } else {
+        text_ += '3';
+        for (std::uint32_t v : t) {
+          text_ += ' ';
+          detail::appendUint(text_, v);
+        }
+        text_ += '\n';
+      }
+    }
+    sections_[1]->append(text_);
+  } else if (f == "obj") {
+    for (const auto& t : triangles) {
+      text_ += 'f';
+      for (std::uint32_t v : t) {
+        text_ += ' ';
+        detail::appendUint(text_, std::uint64_t(v) + 1);
+        if (options_.normals) {
+          text_ += "//";
+          detail::appendUint(text_, std::uint64_t(v) + 1);
+        }
+      }
+      text_ += '\n';
+    }
+    sections_.back()->append(text_);
+  } else {
+    for (const auto& t : triangles) {  // stl.cpp's facet: normal from the geometry
+      const Float3 &a = window[t[0]], &b = window[t[1]], &c = window[t[2]];
+      const float ux = b.x - a.x, uy = b.y - a.y, uz = b.z - a.z;
+      const float vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z;
+      float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+      const float len = std::sqrt(nx * nx + ny * ny + nz * nz);
+      if (len > 0.0f) nx /= len, ny /= len, nz /= len;
+      for (float v : {nx, ny, nz, a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z}) detail::appendRaw(text_, v);
+      detail::appendRaw(text_, std::uint16_t(0));
+    }
+    sections_[0]->append(text_);
+  }
+}
+
+std::string StreamedMeshFile::header() const {
+  const std::string& f = options_.format;
+  std::string out;
+  if (f == "ply") {  // ply.cpp's header
+    out += "ply\nformat ";
+    out += options_.asciiPly ? "ascii" : "binary_little_endian";
+    out += " 1.0\ncomment written by blobvk\nelement vertex ";
+    detail::appendUint(out, vertices_);
+    out += "\nproperty float x\nproperty float y\nproperty float z\n";
+    if (options_.normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
+    if (options_.colours) out += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    out += "element face ";
+    detail::appendUint(out, triangles_);
+    out += "\nproperty list uchar int vertex_indices\nend_header\n";
+  } else if (f == "obj") {
+    out = "# written by blobvk\n";
+  } else {
+    if (triangles_ > std::numeric_limits<std::uint32_t>::max())
+      throw std::invalid_argument("writeStl: too many triangles for STL");
+    char text[80] = {};
+    std::snprintf(text, sizeof text, "binary STL written by blobvk");
+    out.append(text, sizeof text);
+    detail::appendRaw(out, std::uint32_t(triangles_));
+  }
+  return out;
+}
+
+std::uint64_t StreamedMeshFile::finish() {
+  if (finished_) throw std::logic_error("streamed mesh file: finish() called twice");
+  finished_ = true;
+  for (auto& s : sections_) s->flush();
+  const std::string head = header();
+  std::uint64_t total = head.size();
+  for (auto& s : sections_) total += s->size();
+  if (path_ == "-") {
+    writeAll(STDOUT_FILENO, head.data(), head.size(), "standard output");
+    for (auto& s : sections_) copyAll(s->fd(), STDOUT_FILENO, s->size(), "standard output");
+    return total;
+  }
+  std::string name;
+  int fd = makeTemporary(directoryOf(path_), ".blobvk-out-", name);
+  try {
+    writeAll(fd, head.data(), head.size(), path_);
+    for (auto& s : sections_) copyAll(s->fd(), fd, s->size(), path_);
+    // mkstemp makes 0600; give the file the mode an ordinary create would (0666 less umask).
+    const mode_t mask = ::umask(0);
+    ::umask(mask);
+    ::fchmod(fd, 0666 & ~mask);
+    const int closed = ::close(fd);
+    fd = -1;
+    if (closed != 0) throw std::runtime_error(path_ + ": write error: " + reason());
+    if (::rename(name.c_str(), path_.c_str()) != 0)
+      throw std::runtime_error(path_ + ": cannot write: " + reason());
+  } catch (...) {
+    if (fd >= 0) ::close(fd);
+    ::unlink(name.c_str());
+    throw;
+  }
+  return total;
+}
+
+}  // namespace blobvk::mesh

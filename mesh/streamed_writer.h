@@ -1,0 +1,59 @@
+// Mesh files written while the mesh is produced (a MeshSink), for meshes larger than memory.
+// Every format's sections (PLY: vertices, faces; OBJ: v, vn, f; STL: facets) are spooled to
+// unlinked temporary files; finish() writes the header, whose counts are only known at the end,
+// and joins the sections after it with in-kernel copies (copy_file_range, sendfile). The bytes
+// are the in-memory writers' (io.h) for the same mesh. A file output appears by rename when
+// complete, never half-written; spooled sections take about the output's size on disk again.
+#pragma once
+
+#include "blobvk/mesh/mesh_sink.h"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace blobvk::mesh {
+
+struct StreamedFileOptions {
+  std::string format = "ply";  // ply, obj or stl (as encodeMesh)
+  bool asciiPly = false;       // PLY: ascii instead of binary_little_endian
+  bool normals = true;         // the vertex runs carry normals (and the file stores them)
+  bool colours = true;         // ... colours
+  // Where spooled sections go; empty: beside the output (or $TMPDIR, /tmp for standard output).
+  std::string spoolDirectory;
+};
+
+class StreamedMeshFile final : public MeshSink {
+ public:
+  // `path` "-" writes standard output. Throws std::runtime_error naming the path when the spool
+  // or output files cannot be created, std::invalid_argument for an unknown format.
+  StreamedMeshFile(const std::string& path, const StreamedFileOptions& options);
+  ~StreamedMeshFile() override;  // an unfinished output is removed
+  StreamedMeshFile(const StreamedMeshFile&) = delete;
+  StreamedMeshFile& operator=(const StreamedMeshFile&) = delete;
+
+  void vertices(std::span<const Float3> positions, std::span<const Float3> normals,
+                std::span<const Float3> colours) override;
+  void triangles(std::span<const std::array<std::uint32_t, 3>> triangles,
+                 const VertexWindow& window) override;
+
+  // Header, then the sections; renames the file into place. Returns the file's size in bytes.
+  std::uint64_t finish();
+
+  std::uint64_t vertexCount() const { return vertices_; }
+  std::uint64_t triangleCount() const { return triangles_; }
+
+ private:
+  class Spool;
+  std::string header() const;
+
+  std::string path_;
+  StreamedFileOptions options_;
+  std::vector<std::unique_ptr<Spool>> sections_;
+  std::string text_;  // encoding scratch
+  std::uint64_t vertices_ = 0, triangles_ = 0;
+  bool finished_ = false;
+};
+
+}  // namespace blobvk::mesh
