@@ -2,7 +2,8 @@
 // --blade path.json; keyframe times are simulation times) cuts the soft body while it moves,
 // each cut event updating the running FEM; the scripted lift (simulation.lift) carries a freed
 // part away and the tools press throughout. Writes frame_NNNNN.ply (+ .png with a Vulkan
-// device) and stats.csv: per frame the time, cut events so far, parts, the lift and every
+// device, + .vtu with --vtu: the tet mesh with regions, parts and displacements) and stats.csv:
+// per frame the time, cut events so far, parts, the lift and every
 // tool's force and contact nodes, FEM and cut milliseconds.
 #include "cli_conventions.h"
 #include "commands.h"
@@ -14,6 +15,7 @@
 #include "blobvk/cutting/quality.h"
 #include "blobvk/surgery/scripted_procedure.h"
 #include "blobvk/surgery/tet_model.h"
+#include "blobvk/surgery/vtu_writer.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -62,7 +64,7 @@ void addCutCommand(CLI::App& app) {
     int steps = 0, frameEvery = 0, threads = 0;
     std::optional<int> resolution;
     std::optional<double> voxelCell;
-    bool noPng = false, checkEachEvent = false;
+    bool noPng = false, checkEachEvent = false, vtu = false;
     std::string fragments = "remove";
     int fragmentTets = 0;
     int imageSize = 384;
@@ -82,6 +84,7 @@ void addCutCommand(CLI::App& app) {
   cmd->add_option("--fragment-tets", a->fragmentTets, "A part of at most this many tets is a fragment (default: 0.2 % of the body)")
       ->check(CLI::Range(0, 100000000));
   cmd->add_flag("--check-each-event", a->checkEachEvent, "Run the O(n) topology self-check after every cut event");
+  cmd->add_flag("--vtu", a->vtu, "Also write frame_NNNNN.vtu: the tet mesh with regions, parts and node displacements (ParaView)");
   cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)");
   cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, kMaxImageSide));
   cmd->callback([a] {
@@ -130,6 +133,11 @@ void addCutCommand(CLI::App& app) {
       stats << "\n";
       femMsSinceFrame = cutMsSinceFrame = 0;
       stepsSinceFrame = 0;
+      if (a->vtu) {
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%05d.vtu", frames.frames());
+        surgery::writeVtu((std::filesystem::path(a->out) / name).string(), soft.mesh(), soft.parts());
+      }
       frames.write(colourByRegion(soft.simulation().renderSurface(), soft.simulation().mesh(), model.program));
     };
     writeFrame(0);

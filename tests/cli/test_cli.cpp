@@ -123,7 +123,7 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
   EXPECT_GT(lowest("frame_00002.ply"), lowest("frame_00000.ply") - 0.02f);
   const auto cut = scratch("cut");
   // The blade's keyframes are simulation times (0.05 .. 0.2 s): it cuts while the body moves.
-  r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 25 --no-png");
+  r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 25 --no-png --vtu");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("self-check ok"), std::string::npos) << r.output;
   // The blade cuts the moving body in two: two parts of at least 30 % of the tets each, and no
@@ -135,6 +135,11 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
   EXPECT_NE(r.output.find("fragments: 0 removed (0 tets), 0 kept (0 tets)"), std::string::npos) << r.output;
   EXPECT_TRUE(std::filesystem::exists(cut / "frame_00001.ply")) << r.output;
   EXPECT_TRUE(std::filesystem::exists(cut / "stats.csv")) << r.output;
+  // --vtu: the tet mesh beside each PLY frame (its format is checked in surgery_tests).
+  std::ifstream vtu(cut / "frame_00001.vtu");
+  std::string head((std::istreambuf_iterator<char>(vtu)), std::istreambuf_iterator<char>());
+  EXPECT_NE(head.find("<VTKFile type=\"UnstructuredGrid\""), std::string::npos);
+  EXPECT_NE(head.find("Name=\"part\""), std::string::npos);
 }
 
 // A malformed simulation.lift is refused before any work, naming the file and the JSON pointer.
