@@ -15,12 +15,17 @@ Double3 sub(const Double3& a, const Double3& b) { return {a.x - b.x, a.y - b.y, 
 
 MaterialMap::MaterialMap(const mesh::TetMesh& mesh, const std::vector<Double3>& positions, const Box& region, double cell)
     : mesh_(mesh), positions_(positions), lo_(region.lo), cell_(std::max(cell, 1e-12)) {
-  for (int a = 0; a < 3; ++a) {
-    const double extent = a == 0 ? region.hi.x - region.lo.x : a == 1 ? region.hi.y - region.lo.y : region.hi.z - region.lo.z;
-    dims_[std::size_t(a)] = std::clamp(int(std::floor(std::max(extent, 0.0) / cell_)) + 1, 1, 1 << 20);
+  // At most ~4M cells (a blade much longer than the tets coarsens the index, not the answer).
+  for (;; cell_ *= 2) {
+    for (int a = 0; a < 3; ++a) {
+      const double extent = a == 0 ? region.hi.x - region.lo.x : a == 1 ? region.hi.y - region.lo.y : region.hi.z - region.lo.z;
+      dims_[std::size_t(a)] = std::clamp(int(std::floor(std::max(extent, 0.0) / cell_)) + 1, 1, 1 << 20);
+    }
+    if (double(dims_[0]) * dims_[1] * dims_[2] <= double(1 << 22)) break;
   }
   Double3 displacementSum;
   std::size_t displaced = 0;
+  std::vector<std::array<int, 6>> ranges;  // cells each indexed tet's box covers: x, y, z ranges
   for (std::uint32_t t = 0; t < mesh.tets.size(); ++t) {
     const auto& n = mesh.tets[t];
     Double3 lo = positions[n[0]], hi = lo;
@@ -41,21 +46,29 @@ MaterialMap::MaterialMap(const mesh::TetMesh& mesh, const std::vector<Double3>& 
             {(v.y * w.z - v.z * w.y) * s, (v.z * w.x - v.x * w.z) * s, (v.x * w.y - v.y * w.x) * s,
              (w.y * u.z - w.z * u.y) * s, (w.z * u.x - w.x * u.z) * s, (w.x * u.y - w.y * u.x) * s,
              (u.y * v.z - u.z * v.y) * s, (u.z * v.x - u.x * v.z) * s, (u.x * v.y - u.y * v.x) * s, x0.x, x0.y, x0.z}};
-    const std::uint32_t index = std::uint32_t(tets_.size());
     tets_.push_back(e);
     auto cellOf = [&](double x, double lo0, int dim) { return std::clamp(int(std::floor((x - lo0) / cell_)), 0, dim - 1); };
-    const int x1 = cellOf(lo.x, lo_.x, dims_[0]), x2 = cellOf(hi.x, lo_.x, dims_[0]);
-    const int y1 = cellOf(lo.y, lo_.y, dims_[1]), y2 = cellOf(hi.y, lo_.y, dims_[1]);
-    const int z1 = cellOf(lo.z, lo_.z, dims_[2]), z2 = cellOf(hi.z, lo_.z, dims_[2]);
-    for (int z = z1; z <= z2; ++z)
-      for (int y = y1; y <= y2; ++y)
-        for (int x = x1; x <= x2; ++x) bins_[key(x, y, z)].push_back(index);
+    ranges.push_back({cellOf(lo.x, lo_.x, dims_[0]), cellOf(hi.x, lo_.x, dims_[0]), cellOf(lo.y, lo_.y, dims_[1]),
+                      cellOf(hi.y, lo_.y, dims_[1]), cellOf(lo.z, lo_.z, dims_[2]), cellOf(hi.z, lo_.z, dims_[2])});
     for (std::uint32_t node : n) {
       const Double3 d = sub(positions[node], mesh.restPositions[node]);
       displacementSum = {displacementSum.x + d.x, displacementSum.y + d.y, displacementSum.z + d.z};
       ++displaced;
     }
   }
+  // Cell lists in one array (counting sort by cell): a few thousand tets over a few hundred
+  // cells, rebuilt every step the blade cuts.
+  cellStart_.assign(std::size_t(dims_[0]) * std::size_t(dims_[1]) * std::size_t(dims_[2]) + 1, 0);
+  auto forCells = [&](const std::array<int, 6>& r, auto&& f) {
+    for (int z = r[4]; z <= r[5]; ++z)
+      for (int y = r[2]; y <= r[3]; ++y)
+        for (int x = r[0]; x <= r[1]; ++x) f(std::size_t(key(x, y, z)));
+  };
+  for (const auto& r : ranges) forCells(r, [&](std::size_t c) { ++cellStart_[c + 1]; });
+  for (std::size_t c = 1; c < cellStart_.size(); ++c) cellStart_[c] += cellStart_[c - 1];
+  cellTets_.resize(cellStart_.back());
+  std::vector<std::uint32_t> fill(cellStart_.begin(), cellStart_.end() - 1);
+  for (std::uint32_t i = 0; i < ranges.size(); ++i) forCells(ranges[i], [&](std::size_t c) { cellTets_[fill[c]++] = i; });
   if (displaced) meanDisplacement_ = {displacementSum.x / double(displaced), displacementSum.y / double(displaced), displacementSum.z / double(displaced)};
 }
 
@@ -73,9 +86,9 @@ Double3 MaterialMap::toMaterial(const Double3& p) const {
         for (int x = cx - r; x <= cx + r; ++x) {
           if (std::max({std::abs(x - cx), std::abs(y - cy), std::abs(z - cz)}) != r) continue;
           if (x < 0 || y < 0 || z < 0 || x >= dims_[0] || y >= dims_[1] || z >= dims_[2]) continue;
-          const auto it = bins_.find(key(x, y, z));
-          if (it == bins_.end()) continue;
-          for (std::uint32_t index : it->second) {
+          const std::size_t c = std::size_t(key(x, y, z));
+          for (std::uint32_t k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
+            const std::uint32_t index = cellTets_[k];
             const Entry& e = tets_[index];
             const auto& m = e.inverse;
             const Double3 d{p.x - m[9], p.y - m[10], p.z - m[11]};

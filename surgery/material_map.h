@@ -8,7 +8,6 @@
 
 #include <array>
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 namespace blobvk::surgery {
@@ -44,7 +43,7 @@ class MaterialMap {
   double cell_;
   std::array<int, 3> dims_{};
   std::vector<Entry> tets_;
-  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> bins_;  // cell -> indices into tets_
+  std::vector<std::uint32_t> cellStart_, cellTets_;  // cell c's tets: cellTets_[cellStart_[c] .. cellStart_[c + 1])
   mesh::Double3 meanDisplacement_;
 };
 

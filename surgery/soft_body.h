@@ -57,10 +57,11 @@ struct SoftBodyOptions {
   FragmentPolicy fragments;
   bool resweepPreviousStep = true;  // each event also cuts the previous blade interval again
   int finalStrokePasses = 2;        // see StepInput::endStroke
-  // The blade is mapped into material coordinates at its two ends (1) or at this many segments'
-  // ends along it. More segments follow a body bent across the blade more closely, but leave
-  // the cutter seams where the strips' inner edges meet (the craniotomy's closed oval then
-  // stays attached), so 1 is the default.
+  // The blade is mapped into material coordinates at its two ends (1) or at the ends of this
+  // many equal segments along it. More segments follow a body bent across the blade more
+  // closely, but the finer swept surface closes the craniotomy's oval less reliably: with 2 or
+  // 4 the flap stays attached at rest (as it does with 1 when the blade is shifted by 1.5 % of
+  // a cell: closing a closed stroke is fragile in the cutter), so 1 is the default.
   int bladeSegments = 1;
   bool checkEachEvent = false;      // O(n) topology self-check after every event; throws on failure
   // Spare FEM room for cut nodes and tets (fem::SimulationSettings::cutRoom), when the settings

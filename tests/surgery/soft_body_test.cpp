@@ -48,13 +48,18 @@ double partVolume(const mesh::TetMesh& m, const std::vector<std::uint32_t>& part
 // blade is in the world against a body that has moved since the previous step (the old CLI)
 // leaves a staircase of partial cuts; in material coordinates the strokes join and the body
 // falls in two parts whose volumes the slanted plane predicts.
-TEST(SoftBody, ABodyMovingAcrossTheBladeIsCutThroughAlongTheMaterialItPassed) {
+// With the blade mapped at its ends only, or at 4 segments' ends (the motion is rigid, so both
+// map it exactly).
+class MovingBody : public ::testing::TestWithParam<int> {};
+
+TEST_P(MovingBody, IsCutThroughAlongTheMaterialTheBladePassed) {
   mesh::TetMesh box = voxelBox(0.5, 0.1);
   const Extent e = extentOf(box);
   const double v = 1.0, h = 0.01, x0 = 0.03, zStart = e.lo.z - 0.2, dz = 0.05;
   surgery::SoftBodyOptions options;
   options.fragments.action = surgery::FragmentPolicy::Action::Keep;
   options.checkEachEvent = true;
+  options.bladeSegments = GetParam();
   surgery::SoftBody body(box, weightless(), options);
   std::vector<mesh::Double3> velocity(body.mesh().nodeCount(), {v, 0, 0});
   body.simulation().setVelocities(velocity);
@@ -94,6 +99,8 @@ TEST(SoftBody, ABodyMovingAcrossTheBladeIsCutThroughAlongTheMaterialItPassed) {
   EXPECT_TRUE(body.topology().selfCheck().ok());
   EXPECT_GT(body.checksPassed(), 5u);
 }
+
+INSTANTIATE_TEST_SUITE_P(BladeSegments, MovingBody, ::testing::Values(1, 4));
 
 // Tools follow the poses a host gives each step, not their keyframed paths.
 TEST(SoftBody, ToolsFollowThePosesGivenAtRunTime) {
