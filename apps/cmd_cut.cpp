@@ -3,8 +3,8 @@
 // each cut event updating the running FEM; the scripted lift (simulation.lift) carries a freed
 // part away and the tools press throughout. Writes frame_NNNNN.ply (+ .png with a Vulkan
 // device, + .vtu with --vtu: the tet mesh with regions, parts and displacements) and stats.csv:
-// per frame the time, cut events so far, parts, the lift and every
-// tool's force and contact nodes, FEM and cut milliseconds.
+// per frame the time, cut events so far, parts, the lift and every tool's force and contact
+// nodes, FEM and cut milliseconds, the FEM solver's iterations and residual.
 #include "cli_conventions.h"
 #include "commands.h"
 #include "resolution_limit.h"
@@ -116,22 +116,23 @@ void addCutCommand(CLI::App& app) {
     const std::string statsPath = (std::filesystem::path(a->out) / "stats.csv").string();
     std::ofstream stats(statsPath);
     if (!stats) throw std::runtime_error(statsPath + ": cannot write");
-    stats << "frame,step,time,cut_events,parts,lifted,lift_distance,fem_ms,cut_ms";
+    stats << "frame,step,time,cut_events,parts,lifted,lift_distance,fem_ms,cut_ms,cg_iterations,cg_residual";
     for (std::size_t k = 0; k < toolCount; ++k) stats << ",tool" << k << "_force,tool" << k << "_nodes";
     stats << "\n";
-    double femMsSinceFrame = 0, cutMsSinceFrame = 0, femMsTotal = 0;
+    double femMsSinceFrame = 0, cutMsSinceFrame = 0, femMsTotal = 0, cgIterationsSinceFrame = 0, cgResidualSinceFrame = 0;
     int stepsSinceFrame = 0;
     std::vector<ToolSummary> tools(toolCount);
     auto writeFrame = [&](int step) {
       stats << frames.frames() << ',' << step << ',' << soft.time() << ',' << soft.events() << ',' << soft.parts().size() << ','
             << (run.lift() && run.lift()->started() ? 1 : 0) << ',' << (run.lift() ? run.lift()->distanceFromRest(soft.simulation()) : 0.0)
-            << ',' << (stepsSinceFrame ? femMsSinceFrame / stepsSinceFrame : 0.0) << ',' << cutMsSinceFrame;
+            << ',' << (stepsSinceFrame ? femMsSinceFrame / stepsSinceFrame : 0.0) << ',' << cutMsSinceFrame << ','
+            << (stepsSinceFrame ? cgIterationsSinceFrame / stepsSinceFrame : 0.0) << ',' << cgResidualSinceFrame;
       for (std::size_t k = 0; k < toolCount; ++k) {
         const auto& c = step > 0 ? soft.simulation().toolContacts()[k] : fem::ToolContactReport{};
         stats << ',' << norm(c.force) << ',' << c.nodesInContact;
       }
       stats << "\n";
-      femMsSinceFrame = cutMsSinceFrame = 0;
+      femMsSinceFrame = cutMsSinceFrame = cgIterationsSinceFrame = cgResidualSinceFrame = 0;
       stepsSinceFrame = 0;
       if (a->vtu) {
         char name[32];
@@ -147,6 +148,10 @@ void addCutCommand(CLI::App& app) {
       femMsSinceFrame += soft.lastStepFemMs();
       femMsTotal += soft.lastStepFemMs();
       cutMsSinceFrame += soft.lastStepCutMs();
+      // The FEM's linear solve: mean CG iterations per step and the largest relative residual
+      // it stopped at, since the previous frame.
+      cgIterationsSinceFrame += soft.simulation().lastStats().cgIterations;
+      cgResidualSinceFrame = std::max(cgResidualSinceFrame, soft.simulation().lastStats().cgRelativeResidual);
       ++stepsSinceFrame;
       const bool lifted = run.lift() && run.lift()->started();
       for (std::size_t k = 0; k < toolCount; ++k) {
