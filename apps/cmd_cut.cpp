@@ -66,7 +66,7 @@ void addCutCommand(CLI::App& app) {
     std::optional<double> voxelCell;
     bool noPng = false, checkEachEvent = false, vtu = false;
     std::string fragments = "remove";
-    int fragmentTets = 0;
+    std::optional<int> fragmentTets;
     int imageSize = 384;
   };
   auto a = std::make_shared<Args>();
@@ -81,7 +81,7 @@ void addCutCommand(CLI::App& app) {
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
   cmd->add_option("--fragments", a->fragments, "Parts much smaller than the body: remove (resect them) or keep; reported either way")
       ->check(CLI::IsMember({"remove", "keep"}));
-  cmd->add_option("--fragment-tets", a->fragmentTets, "A part of at most this many tets is a fragment (default: 0.2 % of the body)")
+  cmd->add_option("--fragment-tets", a->fragmentTets, "A part (not the largest) of at most this many tets is a fragment (default: 0.2 % of the body's tets)")
       ->check(CLI::Range(0, 100000000));
   cmd->add_flag("--check-each-event", a->checkEachEvent, "Run the O(n) topology self-check after every cut event");
   cmd->add_flag("--vtu", a->vtu, "Also write frame_NNNNN.vtu: the tet mesh with regions, parts and node displacements (ParaView)");
@@ -104,7 +104,10 @@ void addCutCommand(CLI::App& app) {
     surgery::SoftBodyOptions options;
     options.checkEachEvent = a->checkEachEvent;
     options.fragments.action = a->fragments == "keep" ? surgery::FragmentPolicy::Action::Keep : surgery::FragmentPolicy::Action::Remove;
-    options.fragments.maxTets = std::size_t(a->fragmentTets);
+    if (a->fragmentTets) {  // the given size alone, in place of the default fraction
+      options.fragments.maxTets = std::size_t(*a->fragmentTets);
+      options.fragments.maxFraction = 0;
+    }
     surgery::ScriptedProcedure run(std::move(body.tets), body.config, keys, options);
     surgery::SoftBody& soft = run.body();
     soft.setRenderSurface(body.surface, std::move(body.embedding));

@@ -142,6 +142,26 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
   EXPECT_NE(head.find("Name=\"part\""), std::string::npos);
 }
 
+// --fragment-tets N makes every part (but the largest) of at most N tets a fragment: the peanut's
+// smaller half is removed (and reported with its size) or kept (and reported).
+TEST(Cli, CutRemovesOrKeepsFragmentsBySize) {
+  for (const std::string policy : {"remove", "keep"}) {
+    const auto out = scratch("frag_" + policy);
+    const CliRun r = run("cut " + source("scenes/soft_peanut.json") + " -o " + out.string() +
+                         " --steps 25 --no-png --fragment-tets 15000 --fragments " + policy);
+    ASSERT_EQ(r.status, 0) << r.output;
+    std::smatch m;
+    if (policy == "remove") {
+      ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(parts \(tets\): (\d+)\nfragments: 1 removed \((\d+) tets\), 0 kept)"))) << r.output;
+      EXPECT_GE(std::stod(m[2]), 0.3 * (std::stod(m[1]) + std::stod(m[2]))) << r.output;
+      EXPECT_LE(std::stoi(m[2]), 15000) << r.output;
+    } else {
+      ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(parts \(tets\): (\d+), (\d+)\nfragments: 0 removed \(0 tets\), 1 kept \((\d+) tets\))"))) << r.output;
+      EXPECT_EQ(m[2], m[3]) << r.output;
+    }
+  }
+}
+
 // A malformed simulation.lift is refused before any work, naming the file and the JSON pointer.
 TEST(Cli, CutRejectsAMalformedLiftNamingTheKey) {
   std::ifstream in(source("scenes/soft_peanut.json"));
