@@ -2,18 +2,20 @@
 // --blade path.json; keyframe times are simulation times) cuts the soft body while it moves,
 // each cut event updating the running FEM; the scripted lift (simulation.lift) carries a freed
 // part away and the tools press throughout. Writes frame_NNNNN.ply (+ .png with a Vulkan
-// device) and stats.csv: per frame the time, cut events so far, parts, the lift and every
-// tool's force and contact nodes, FEM and cut milliseconds.
+// device, + .vtu with --vtu: the tet mesh with regions, parts and displacements) and stats.csv:
+// per frame the time, cut events so far, parts, the lift and every tool's force and contact
+// nodes, FEM and cut milliseconds, the FEM solver's iterations and residual.
 #include "cli_conventions.h"
 #include "commands.h"
 #include "resolution_limit.h"
-#include "cut_simulation.h"
 #include "frame_writer.h"
 #include "model.h"
 #include "progress.h"
-#include "soft_body.h"
 
 #include "blobvk/cutting/quality.h"
+#include "blobvk/surgery/scripted_procedure.h"
+#include "blobvk/surgery/tet_model.h"
+#include "blobvk/surgery/vtu_writer.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -30,6 +32,8 @@
 namespace blobvk::app {
 namespace {
 
+using surgery::BladeKeyframe;
+
 // --blade file: {"blade": [{"t":0, "a":[..], "b":[..]}, ...]}, validated by the same parser.
 std::vector<BladeKeyframe> readBladeFile(const std::string& path) {
   std::ifstream in(path);
@@ -41,7 +45,7 @@ std::vector<BladeKeyframe> readBladeFile(const std::string& path) {
     throw std::runtime_error(path + ": malformed JSON: " + e.what());
   }
   if (!j.is_object() || !j.contains("blade")) throw std::runtime_error(path + ": expected an object with a \"blade\" array");
-  return parseSimulationConfig(nlohmann::json{{"blade", j["blade"]}}.dump(), path).blade;
+  return surgery::parseSimulationConfig(nlohmann::json{{"blade", j["blade"]}}.dump(), path).blade;
 }
 
 double norm(const mesh::Double3& v) { return std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z); }
@@ -60,7 +64,9 @@ void addCutCommand(CLI::App& app) {
     int steps = 0, frameEvery = 0, threads = 0;
     std::optional<int> resolution;
     std::optional<double> voxelCell;
-    bool noPng = false, checkEachEvent = false;
+    bool noPng = false, checkEachEvent = false, vtu = false;
+    std::string fragments = "remove";
+    std::optional<int> fragmentTets;
     int imageSize = 384;
   };
   auto a = std::make_shared<Args>();
@@ -73,7 +79,12 @@ void addCutCommand(CLI::App& app) {
   cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(resolutionRange(4));
   cmd->add_option("--voxel-cell", a->voxelCell, "Voxel mesher cell size (default: the scene's simulation.voxel.cellSize)")->check(CLI::PositiveNumber);
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
+  cmd->add_option("--fragments", a->fragments, "Parts much smaller than the body: remove (resect them) or keep; reported either way")
+      ->check(CLI::IsMember({"remove", "keep"}));
+  cmd->add_option("--fragment-tets", a->fragmentTets, "A part (not the largest) of at most this many tets is a fragment (default: 0.2 % of the body's tets)")
+      ->check(CLI::Range(0, 100000000));
   cmd->add_flag("--check-each-event", a->checkEachEvent, "Run the O(n) topology self-check after every cut event");
+  cmd->add_flag("--vtu", a->vtu, "Also write frame_NNNNN.vtu: the tet mesh with regions, parts and node displacements (ParaView)");
   cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)");
   cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, kMaxImageSide));
   cmd->callback([a] {
@@ -81,7 +92,7 @@ void addCutCommand(CLI::App& app) {
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, std::nullopt, a->resolution.value_or(48));
     Progress::note("cut", "polygonizing and tetrahedralizing " + a->scene);
-    TetModel body = buildTetModel(model, grid, a->threads, a->voxelCell);
+    surgery::TetModel body = buildTetModel(surgery::SceneModel{model.path, model.scene, model.program}, grid, {a->threads, a->voxelCell});
     const std::vector<BladeKeyframe> keys = a->blade.empty() ? body.config.blade : readBladeFile(a->blade);
     if (keys.size() < 2) {
       throw std::runtime_error(a->scene + ": /simulation/blade: no blade path (give one in the scene or with --blade)");
@@ -90,11 +101,16 @@ void addCutCommand(CLI::App& app) {
                  body.surface.triangleCount(), body.tets.tetCount(), body.tets.nodeCount(), body.config.mesher.c_str(),
                  body.meshSeconds, body.tetSeconds);
     const cutting::QualityStats before = cutting::meshQuality(body.tets);
-    CutSimulationOptions options;
+    surgery::SoftBodyOptions options;
     options.checkEachEvent = a->checkEachEvent;
-    CutSimulation run(std::move(body.tets), body.config, keys, options);
-    run.setRenderSurface(body.surface, std::move(body.embedding));
-    const fem::Simulation& sim = run.simulation();
+    options.fragments.action = a->fragments == "keep" ? surgery::FragmentPolicy::Action::Keep : surgery::FragmentPolicy::Action::Remove;
+    if (a->fragmentTets) {  // the given size alone, in place of the default fraction
+      options.fragments.maxTets = std::size_t(*a->fragmentTets);
+      options.fragments.maxFraction = 0;
+    }
+    surgery::ScriptedProcedure run(std::move(body.tets), body.config, keys, options);
+    surgery::SoftBody& soft = run.body();
+    soft.setRenderSurface(body.surface, std::move(body.embedding));
 
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 60);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
@@ -103,63 +119,79 @@ void addCutCommand(CLI::App& app) {
     const std::string statsPath = (std::filesystem::path(a->out) / "stats.csv").string();
     std::ofstream stats(statsPath);
     if (!stats) throw std::runtime_error(statsPath + ": cannot write");
-    stats << "frame,step,time,cut_events,parts,lifted,lift_distance,fem_ms,cut_ms";
+    stats << "frame,step,time,cut_events,parts,lifted,lift_distance,fem_ms,cut_ms,cg_iterations,cg_residual";
     for (std::size_t k = 0; k < toolCount; ++k) stats << ",tool" << k << "_force,tool" << k << "_nodes";
     stats << "\n";
-    double femMsSinceFrame = 0, cutMsSinceFrame = 0, femMsTotal = 0;
+    double femMsSinceFrame = 0, cutMsSinceFrame = 0, femMsTotal = 0, cgIterationsSinceFrame = 0, cgResidualSinceFrame = 0;
     int stepsSinceFrame = 0;
     std::vector<ToolSummary> tools(toolCount);
     auto writeFrame = [&](int step) {
-      stats << frames.frames() << ',' << step << ',' << sim.time() << ',' << run.events() << ',' << run.partCount() << ','
-            << (run.lift() && run.lift()->started() ? 1 : 0) << ',' << (run.lift() ? run.lift()->distanceFromRest(sim) : 0.0)
-            << ',' << (stepsSinceFrame ? femMsSinceFrame / stepsSinceFrame : 0.0) << ',' << cutMsSinceFrame;
+      stats << frames.frames() << ',' << step << ',' << soft.time() << ',' << soft.events() << ',' << soft.parts().size() << ','
+            << (run.lift() && run.lift()->started() ? 1 : 0) << ',' << (run.lift() ? run.lift()->distanceFromRest(soft.simulation()) : 0.0)
+            << ',' << (stepsSinceFrame ? femMsSinceFrame / stepsSinceFrame : 0.0) << ',' << cutMsSinceFrame << ','
+            << (stepsSinceFrame ? cgIterationsSinceFrame / stepsSinceFrame : 0.0) << ',' << cgResidualSinceFrame;
       for (std::size_t k = 0; k < toolCount; ++k) {
-        const auto& c = step > 0 ? sim.toolContacts()[k] : fem::ToolContactReport{};
+        const auto& c = step > 0 ? soft.simulation().toolContacts()[k] : fem::ToolContactReport{};
         stats << ',' << norm(c.force) << ',' << c.nodesInContact;
       }
       stats << "\n";
-      femMsSinceFrame = cutMsSinceFrame = 0;
+      femMsSinceFrame = cutMsSinceFrame = cgIterationsSinceFrame = cgResidualSinceFrame = 0;
       stepsSinceFrame = 0;
-      frames.write(colourByRegion(sim.renderSurface(), sim.mesh(), model.program));
+      if (a->vtu) {
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%05d.vtu", frames.frames());
+        surgery::writeVtu((std::filesystem::path(a->out) / name).string(), soft.mesh(), soft.parts());
+      }
+      frames.write(colourByRegion(soft.simulation().renderSurface(), soft.simulation().mesh(), model.program));
     };
     writeFrame(0);
     Progress progress("cut+simulate", steps);
     for (int s = 1; s <= steps; ++s) {
       run.step();
-      femMsSinceFrame += run.lastStepFemMs();
-      femMsTotal += run.lastStepFemMs();
-      cutMsSinceFrame += run.lastStepCutMs();
+      femMsSinceFrame += soft.lastStepFemMs();
+      femMsTotal += soft.lastStepFemMs();
+      cutMsSinceFrame += soft.lastStepCutMs();
+      // The FEM's linear solve: mean CG iterations per step and the largest relative residual
+      // it stopped at, since the previous frame.
+      cgIterationsSinceFrame += soft.simulation().lastStats().cgIterations;
+      cgResidualSinceFrame = std::max(cgResidualSinceFrame, soft.simulation().lastStats().cgRelativeResidual);
       ++stepsSinceFrame;
       const bool lifted = run.lift() && run.lift()->started();
       for (std::size_t k = 0; k < toolCount; ++k) {
-        const fem::ToolContactReport& c = sim.toolContacts()[k];
+        const fem::ToolContactReport& c = soft.simulation().toolContacts()[k];
         tools[k].maxForce = std::max(tools[k].maxForce, norm(c.force));
         if (lifted) tools[k].maxForceAfterLift = std::max(tools[k].maxForceAfterLift, norm(c.force));
         tools[k].maxNodes = std::max(tools[k].maxNodes, c.nodesInContact);
       }
       if (s % every == 0 || s == steps) writeFrame(s);
       char note[96];
-      std::snprintf(note, sizeof note, "%.2f ms/step, %zu events, %zu parts", femMsTotal / s, run.events(), run.partCount());
+      std::snprintf(note, sizeof note, "%.2f ms/step, %zu events, %zu parts", femMsTotal / s, soft.events(), soft.parts().size());
       progress.update(s, note);
     }
 
-    const cutting::SelfCheckReport check = run.topology().selfCheck();
-    const cutting::QualityStats after = cutting::meshQuality(run.topology().toTetMesh());
+    const cutting::SelfCheckReport check = soft.topology().selfCheck();
+    const cutting::QualityStats after = cutting::meshQuality(soft.topology().toTetMesh());
     std::string checkText = check.ok() ? "ok" : check.summary();
-    if (a->checkEachEvent && check.ok()) checkText += " (and after each of " + std::to_string(run.checksPassed()) + " changing events)";
+    if (a->checkEachEvent && check.ok()) checkText += " (and after each of " + std::to_string(soft.checksPassed()) + " changing events)";
     std::printf("cut: %zu events in %.1f ms, %zu parts; self-check %s; cutter %.1f ms, FEM updates %.1f ms, %zu tets split\n",
-                run.events(), run.cutMs() + run.updateMs(), run.partCount(), checkText.c_str(), run.cutMs(), run.updateMs(),
-                run.splitTets());
+                soft.events(), soft.cutMs() + soft.updateMs(), soft.parts().size(), checkText.c_str(), soft.cutMs(), soft.updateMs(),
+                soft.splitTets());
     std::string sizes;
-    for (std::size_t p = 0; p < run.parts().size() && p < 8; ++p) sizes += (p ? ", " : "") + std::to_string(run.parts()[p].size());
-    std::printf("parts (tets): %s%s\n", sizes.c_str(), run.parts().size() > 8 ? ", ..." : "");
+    for (std::size_t p = 0; p < soft.parts().size() && p < 8; ++p) sizes += (p ? ", " : "") + std::to_string(soft.parts()[p].size());
+    std::printf("parts (tets): %s%s\n", sizes.c_str(), soft.parts().size() > 8 ? ", ..." : "");
+    std::size_t removedTets = 0, keptTets = 0, removedCount = 0, keptCount = 0;
+    for (const surgery::FragmentReport& f : soft.fragments()) {
+      (f.removed ? removedTets : keptTets) += f.tets;
+      ++(f.removed ? removedCount : keptCount);
+    }
+    std::printf("fragments: %zu removed (%zu tets), %zu kept (%zu tets)\n", removedCount, removedTets, keptCount, keptTets);
     std::printf("quality before: %s\nquality after:  %s\n", before.summary().c_str(), after.summary().c_str());
-    if (const RigidLift* lift = run.lift()) {
+    if (const surgery::RigidLift* lift = run.lift()) {
       if (lift->started()) {
         std::printf("lift: a part of %zu tets (%zu nodes) came free and was lifted from t = %.3f s; it ends %.4g from its rest place (path %.4g)\n",
-                    lift->tetCount(), lift->nodeCount(), lift->startTime(), lift->distanceFromRest(sim), lift->pathDistance());
+                    lift->tetCount(), lift->nodeCount(), lift->startTime(), lift->distanceFromRest(soft.simulation()), lift->pathDistance());
       } else {
-        std::printf("lift: not started after t = %.3f s: %s\n", lift->earliestStart(), lift->waitingReason(run.parts(), sim).c_str());
+        std::printf("lift: not started after t = %.3f s: %s\n", lift->earliestStart(), lift->waitingReason(soft.parts(), soft.simulation()).c_str());
       }
     }
     double maxForce = 0;
@@ -170,7 +202,7 @@ void addCutCommand(CLI::App& app) {
     }
     std::printf("%d steps, %d frames (%s) in %s; %.3f ms/step; max tool force %.4g N; %zu tets, %zu nodes; stats in %s\n", steps,
                 frames.frames(), frames.writesPng() ? "PLY + PNG" : "PLY", a->out.c_str(), femMsTotal / steps, maxForce,
-                sim.mesh().tetCount(), sim.mesh().nodeCount(), statsPath.c_str());
+                soft.simulation().mesh().tetCount(), soft.simulation().mesh().nodeCount(), statsPath.c_str());
     if (!check.ok()) throw std::runtime_error("the cut mesh failed its self-check: " + check.summary());
   });
 }

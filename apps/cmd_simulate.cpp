@@ -6,9 +6,9 @@
 #include "frame_writer.h"
 #include "model.h"
 #include "progress.h"
-#include "soft_body.h"
 
 #include "blobvk/mesh/io.h"
+#include "blobvk/surgery/tet_model.h"
 
 #include <CLI/CLI.hpp>
 
@@ -44,8 +44,9 @@ void addSimulateCommand(CLI::App& app) {
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution ? a->resolution : std::optional<int>(48));
     Progress::note("simulate", "polygonizing and tetrahedralizing " + a->scene);
-    SoftBody body = buildSoftBody(model, grid, a->threads);
-    fem::Simulation& sim = *body.simulation;
+    surgery::TetModel body = surgery::buildTetModel(surgery::SceneModel{model.path, model.scene, model.program}, grid, {a->threads, {}});
+    fem::Simulation sim(std::move(body.tets), body.config.settings);
+    sim.setRenderSurface(body.surface, std::move(body.embedding));
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 100);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
     FrameWriter frames(a->out, !a->noPng, a->imageSize, model.program.bounds, model.scene.camera);

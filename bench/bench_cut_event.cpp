@@ -1,6 +1,6 @@
-// One cut event end to end, as the app runs it (apps/cut_simulation.cpp, CutSimulation::cutEvent):
+// One cut event end to end, as the app runs it (surgery/soft_body.cpp, SoftBody::cutEvent):
 // the cutter splits the tets the blade swept (cutting::Cutter::cut), the event becomes a
-// fem::TopologyChange (app::toTopologyChange), and the running simulation takes it
+// fem::TopologyChange (surgery::toTopologyChange), and the running simulation takes it
 // (fem::Simulation::applyTopologyChange: element data, lumped masses, incidence rows, boundary
 // faces). Anchor T3: <= 2 ms per event at ~100k tets with ~500 tets swept.
 // Mesh and strokes are bench_cutting's BM_CutEvent: a 26^3 block of unit voxels (105,456 tets),
@@ -9,7 +9,7 @@
 // step costs ~40 ms here and does not change what an event costs).
 // Counters per event: wall ms and main-thread CPU ms of each phase (cut, convert, fem) and of the
 // sum, split tets, new nodes, tet slots written.
-#include "apps/cut_to_topology_change.h"
+#include "blobvk/surgery/cut_to_topology_change.h"
 #include "bench/cut_block.h"
 #include "bench/cut_settings.h"
 #include "blobvk/cutting/cutter.h"
@@ -73,7 +73,7 @@ void BM_CutEventEndToEnd(benchmark::State& state) {
     const std::size_t nodesBefore = sim->mesh().nodeCount(), tetsBefore = sim->mesh().tetCount();
     const cutting::CutResult event = cut.time([&] { return cutter->cut(stroke(k++)); });
     const fem::TopologyChange change =
-        convert.time([&] { return app::toTopologyChange(event, cutter->topology(), nodesBefore, tetsBefore); });
+        convert.time([&] { return surgery::toTopologyChange(event, cutter->topology(), nodesBefore, tetsBefore); });
     apply.time([&] {
       sim->applyTopologyChange(change);
       return 0;

@@ -1,8 +1,8 @@
 # Install rules and the CMake package: find_package(blobvk COMPONENTS blobtree mesh cpu vk fem
-# cutting). Each component is one library with its own exported targets file
+# cutting surgery). Each component is one library with its own exported targets file
 # (blobvk-<component>-targets.cmake); blobvkConfig.cmake loads the requested components, the
 # blobvk components they build on, and only their external dependencies (Vulkan, glslang and
-# SPIRV-Tools for vk alone; Eigen for fem; TBB for cpu and fem). Public headers install under
+# SPIRV-Tools for vk alone; Eigen for fem; TBB for cpu and fem; nlohmann-json for surgery). Public headers install under
 # include/blobvk/<room>/ next to the entry headers include/blobvk/blobvk.h and vulkan.h.
 # tests/install builds consumers against an installed tree.
 include(GNUInstallDirs)
@@ -16,6 +16,7 @@ set(blobvk_component_cpu_targets blobvk_cpu)
 set(blobvk_component_vk_targets blobvk_vk)
 set(blobvk_component_fem_targets blobvk_sim)
 set(blobvk_component_cutting_targets blobvk_cutting)
+set(blobvk_component_surgery_targets blobvk_surgery)
 # component -> source folders whose headers it installs
 set(blobvk_component_blobtree_headers blobtree shaders)
 set(blobvk_component_mesh_headers mesh)
@@ -23,9 +24,10 @@ set(blobvk_component_cpu_headers cpu_simd)
 set(blobvk_component_vk_headers vk)
 set(blobvk_component_fem_headers fem)
 set(blobvk_component_cutting_headers cutting)
+set(blobvk_component_surgery_headers surgery)
 
 set(BLOBVK_INSTALLED_COMPONENTS)
-foreach(component blobtree mesh cpu vk fem cutting)
+foreach(component blobtree mesh cpu vk fem cutting surgery)
   set(targets)
   foreach(target ${blobvk_component_${component}_targets})
     if(TARGET ${target})

@@ -40,6 +40,7 @@ struct Simulation::Impl {
   };
   std::vector<ContactBlock> contactBlocks;
   std::vector<ToolContactReport> contacts;
+  std::vector<ToolPose> toolPoses;  // setToolPoses: in place of the paths when not empty
   StepStats stats;
   double time = 0;
   mesh::TriMesh renderMesh;
@@ -125,7 +126,7 @@ void Simulation::Impl::addToolContacts(double h) {
   const std::size_t n = mesh.nodeCount();
   for (std::size_t k = 0; k < settings.tools.size(); ++k) {
     const Tool& tool = settings.tools[k];
-    const ToolPose pose = tool.poseAt(time + h);
+    const ToolPose pose = toolPoses.empty() ? tool.poseAt(time + h) : toolPoses[k];
     const double reach = tool.boundingRadius();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
       for (std::size_t i = r.begin(); i != r.end(); ++i) {
@@ -389,6 +390,13 @@ const StepStats& Simulation::lastStats() const { return impl_->stats; }
 void Simulation::setPositions(const std::vector<mesh::Double3>& p) {
   if (p.size() != impl_->mesh.nodeCount()) throw std::invalid_argument("setPositions: wrong node count");
   impl_->mesh.positions = p;
+}
+
+void Simulation::setToolPoses(std::vector<ToolPose> poses) {
+  if (!poses.empty() && poses.size() != impl_->settings.tools.size())
+    throw std::invalid_argument("setToolPoses: " + std::to_string(poses.size()) + " poses for " +
+                                std::to_string(impl_->settings.tools.size()) + " tools");
+  impl_->toolPoses = std::move(poses);
 }
 
 void Simulation::setFixed(const std::vector<std::uint32_t>& nodes, bool fixed) {

@@ -142,6 +142,10 @@ class Simulation {
   double currentVolume() const;
   double restVolume() const;
 
+  // Poses of the tools for the following steps, one per tool, in place of their keyframed paths
+  // (a host application or a haptic device drives them); an empty vector returns the tools to
+  // their paths. Throws std::invalid_argument when the count differs from the tools'.
+  void setToolPoses(std::vector<ToolPose> poses);
   const std::vector<ToolContactReport>& toolContacts() const;  // one per tool, last step
   const StepStats& lastStats() const;
 

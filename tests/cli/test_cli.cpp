@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <regex>
 #include <string>
 #include <sys/wait.h>
 
@@ -162,12 +163,43 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
   EXPECT_GT(lowest("frame_00002.ply"), lowest("frame_00000.ply") - 0.02f);
   const auto cut = scratch("cut");
   // The blade's keyframes are simulation times (0.05 .. 0.2 s): it cuts while the body moves.
-  r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 25 --no-png");
+  r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 25 --no-png --vtu");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("self-check ok"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find(", 2 parts"), std::string::npos) << r.output;  // the blade cuts it in two
+  // The blade cuts the moving body in two: two parts of at least 30 % of the tets each, and no
+  // fragment (kept or removed). ", 2 parts" alone passed on 23924 + 11 tets.
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(parts \(tets\): (\d+), (\d+)\n)"))) << r.output;
+  const double a = std::stod(m[1]), b = std::stod(m[2]);
+  EXPECT_GE(b, 0.3 * (a + b)) << r.output;
+  EXPECT_NE(r.output.find("fragments: 0 removed (0 tets), 0 kept (0 tets)"), std::string::npos) << r.output;
   EXPECT_TRUE(std::filesystem::exists(cut / "frame_00001.ply")) << r.output;
   EXPECT_TRUE(std::filesystem::exists(cut / "stats.csv")) << r.output;
+  // --vtu: the tet mesh beside each PLY frame (its format is checked in surgery_tests).
+  std::ifstream vtu(cut / "frame_00001.vtu");
+  std::string head((std::istreambuf_iterator<char>(vtu)), std::istreambuf_iterator<char>());
+  EXPECT_NE(head.find("<VTKFile type=\"UnstructuredGrid\""), std::string::npos);
+  EXPECT_NE(head.find("Name=\"part\""), std::string::npos);
+}
+
+// --fragment-tets N makes every part (but the largest) of at most N tets a fragment: the peanut's
+// smaller half is removed (and reported with its size) or kept (and reported).
+TEST(Cli, CutRemovesOrKeepsFragmentsBySize) {
+  for (const std::string policy : {"remove", "keep"}) {
+    const auto out = scratch("frag_" + policy);
+    const CliRun r = run("cut " + source("scenes/soft_peanut.json") + " -o " + out.string() +
+                         " --steps 25 --no-png --fragment-tets 15000 --fragments " + policy);
+    ASSERT_EQ(r.status, 0) << r.output;
+    std::smatch m;
+    if (policy == "remove") {
+      ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(parts \(tets\): (\d+)\nfragments: 1 removed \((\d+) tets\), 0 kept)"))) << r.output;
+      EXPECT_GE(std::stod(m[2]), 0.3 * (std::stod(m[1]) + std::stod(m[2]))) << r.output;
+      EXPECT_LE(std::stoi(m[2]), 15000) << r.output;
+    } else {
+      ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(parts \(tets\): (\d+), (\d+)\nfragments: 0 removed \(0 tets\), 1 kept \((\d+) tets\))"))) << r.output;
+      EXPECT_EQ(m[2], m[3]) << r.output;
+    }
+  }
 }
 
 // A malformed simulation.lift is refused before any work, naming the file and the JSON pointer.

@@ -31,8 +31,8 @@ if(CPU_ONLY_BUILD)
       -DCMAKE_CXX_COMPILER=${CXX_COMPILER} ${launcher} -DBLOBVK_WITH_VULKAN=OFF -DBLOBVK_BUILD_TESTS=OFF
       -DBLOBVK_BUILD_BENCH=OFF)
   # The libraries only (not the CLI), installed component by component.
-  run(${CMAKE_COMMAND} --build ${WORK_DIR}/blobvk -j 2 --target blobvk_cpu blobvk_sim blobvk_cutting)
-  foreach(component blobtree mesh cpu fem cutting)
+  run(${CMAKE_COMMAND} --build ${WORK_DIR}/blobvk -j 2 --target blobvk_cpu blobvk_sim blobvk_cutting blobvk_surgery)
+  foreach(component blobtree mesh cpu fem cutting surgery)
     run(${CMAKE_COMMAND} --install ${WORK_DIR}/blobvk --prefix ${prefix} --component ${component})
   endforeach()
   if(EXISTS ${prefix}/lib/cmake/blobvk/blobvk-vk-targets.cmake OR EXISTS ${prefix}/include/blobvk/vulkan.h)
@@ -77,6 +77,12 @@ foreach(consumer cpu_consumer fem_consumer)
   run(${WORK_DIR}/${consumer}/${consumer} ${WORK_DIR}/sphere.json)
   message("${consumer}: ${run_output}")
 endforeach()
+# The surgery host (examples/cut_host): COMPONENTS surgery, cuts the soft peanut in two.
+run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/cut_host -B ${WORK_DIR}/cut_host -G Ninja -DCMAKE_BUILD_TYPE=Release
+    -DCMAKE_CXX_COMPILER=${CXX_COMPILER} ${launcher} -DCMAKE_PREFIX_PATH=${prefix} ${no_vulkan})
+run(${CMAKE_COMMAND} --build ${WORK_DIR}/cut_host -j 2)
+run(${WORK_DIR}/cut_host/cut_host ${SOURCE_DIR}/scenes/soft_peanut.json)
+message("cut_host: ${run_output}")
 if(CPU_ONLY_BUILD)
   return()
 endif()

@@ -1,7 +1,7 @@
-// apps/cut_to_topology_change: every cut event of a blade moving through a falling, held ball is
+// surgery::toTopologyChange: every cut event of a blade moving through a falling, held ball is
 // applied to a running fem::Simulation; after each one the simulation must hold the cutter's
 // mesh (same nodes, tets slot by slot, rest positions and rest volume) and keep stepping finite.
-#include "apps/cut_to_topology_change.h"
+#include "blobvk/surgery/cut_to_topology_change.h"
 
 #include "blobvk/cutting/blade.h"
 #include "blobvk/cutting/cutter.h"
@@ -53,7 +53,7 @@ TEST(CutToTopologyChange, TheSimulationFollowsTheCutterEventByEvent) {
     }
     const std::size_t nodesBefore = sim.mesh().nodeCount(), tetsBefore = sim.mesh().tetCount();
     const cutting::CutResult event = cutter.cut(swept);
-    sim.applyTopologyChange(app::toTopologyChange(event, cutter.topology(), nodesBefore, tetsBefore));
+    sim.applyTopologyChange(surgery::toTopologyChange(event, cutter.topology(), nodesBefore, tetsBefore));
     changingEvents += !event.newNodes.empty();
 
     const mesh::TetMesh& cut = cutter.topology().mesh();
@@ -90,12 +90,12 @@ TEST(CutToTopologyChange, AnEventItCannotExpressIsRefused) {
   cutting::CutResult removedOnly;  // a slot dropped and never refilled: the FEM has no removal
   removedOnly.removedTets = {3};
   removedOnly.removedTetNodes = {rest.tets[3]};
-  EXPECT_THROW(app::toTopologyChange(removedOnly, topology, rest.nodeCount(), rest.tetCount()), std::logic_error);
+  EXPECT_THROW(surgery::toTopologyChange(removedOnly, topology, rest.nodeCount(), rest.tetCount()), std::logic_error);
   cutting::CutResult phantomNode;  // claims a new node the cutter does not have
   phantomNode.newNodes.push_back({});
-  EXPECT_THROW(app::toTopologyChange(phantomNode, topology, rest.nodeCount(), rest.tetCount()), std::logic_error);
+  EXPECT_THROW(surgery::toTopologyChange(phantomNode, topology, rest.nodeCount(), rest.tetCount()), std::logic_error);
   // An event that changed nothing converts to an empty change.
-  const fem::TopologyChange none = app::toTopologyChange(cutting::CutResult{}, topology, rest.nodeCount(), rest.tetCount());
+  const fem::TopologyChange none = surgery::toTopologyChange(cutting::CutResult{}, topology, rest.nodeCount(), rest.tetCount());
   EXPECT_TRUE(none.newNodes.empty() && none.tetSlots.empty());
 }
 

@@ -1,10 +1,10 @@
-#include "cut_to_topology_change.h"
+#include "blobvk/surgery/cut_to_topology_change.h"
 
 #include <algorithm>
 #include <stdexcept>
 #include <string>
 
-namespace blobvk::app {
+namespace blobvk::surgery {
 
 fem::TopologyChange toTopologyChange(const cutting::CutResult& event, const cutting::CutTopology& after,
                                      std::size_t nodesBefore, std::size_t tetsBefore) {
@@ -48,4 +48,4 @@ fem::TopologyChange toTopologyChange(const cutting::CutResult& event, const cutt
   return change;
 }
 
-}  // namespace blobvk::app
+}  // namespace blobvk::surgery

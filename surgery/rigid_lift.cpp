@@ -1,10 +1,10 @@
-#include "rigid_lift.h"
+#include "blobvk/surgery/rigid_lift.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-namespace blobvk::app {
+namespace blobvk::surgery {
 namespace {
 
 using mesh::Double3;
@@ -101,4 +101,4 @@ double RigidLift::pathDistance() const {
   return std::sqrt(t.x * t.x + t.y * t.y + t.z * t.z);
 }
 
-}  // namespace blobvk::app
+}  // namespace blobvk::surgery

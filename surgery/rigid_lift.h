@@ -2,7 +2,7 @@
 // pinned in the FEM and carried rigidly along the scene's path. See LiftConfig.
 #pragma once
 
-#include "simulation_config.h"
+#include "blobvk/surgery/scene_config.h"
 
 #include "blobvk/fem/simulation.h"
 #include "blobvk/fem/tool.h"
@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-namespace blobvk::app {
+namespace blobvk::surgery {
 
 class RigidLift {
  public:
@@ -51,4 +51,4 @@ class RigidLift {
   double startTime_ = -1;
 };
 
-}  // namespace blobvk::app
+}  // namespace blobvk::surgery

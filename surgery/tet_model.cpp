@@ -1,6 +1,9 @@
-#include "soft_body.h"
+#include "blobvk/surgery/tet_model.h"
 
-#include "backends.h"
+#include "blobvk/surgery/tissue_regions.h"
+
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/cpu_simd/simd_evaluator.h"
 #include "blobvk/fem/surface_embedding.h"
@@ -14,28 +17,11 @@
 #include <memory>
 #include <stdexcept>
 
-namespace blobvk::app {
+namespace blobvk::surgery {
 namespace {
 
 double since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// The primitive whose own field is largest at p: the thesis' "material from primitives".
-// Primitives under warps are looked up at the unwarped point, an approximation stated in
-// docs/fem.md.
-std::uint32_t dominantPrimitive(const blobtree::Program& program, const mesh::Double3& c) {
-  const glm::vec3 p(float(c.x), float(c.y), float(c.z));
-  std::uint32_t best = 0;
-  float bestField = -1.0f;
-  for (std::uint32_t i = 0; i < program.primitives.size(); ++i) {
-    const float f = blobtree::primitiveField(program, program.primitives[i], p);
-    if (f > bestField) {
-      bestField = f;
-      best = i;
-    }
-  }
-  return best;
 }
 
 // The BlobTree field over many points through the SIMD evaluator: the remesher's Newton
@@ -54,19 +40,31 @@ mesh::FieldBatch simdField(const blobtree::Program& program) {
 
 }  // namespace
 
-TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int threads, std::optional<double> voxelCell) {
+SceneModel loadSceneModel(const std::string& path) {
+  SceneModel model;
+  model.name = path;
+  model.scene = blobtree::loadScene(path);  // SceneError already names the file and place
+  try {
+    model.program = blobtree::compile(model.scene.root);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path + ": cannot compile the model: " + e.what());
+  }
+  return model;
+}
+
+TetModel buildTetModel(const SceneModel& model, const blobtree::GridSpec& grid, const TetModelOptions& options) {
   if (model.scene.simulationJson.empty()) {
-    throw std::runtime_error(model.path + ": the scene has no \"simulation\" section (see docs/fem.md)");
+    throw std::runtime_error(model.name + ": the scene has no \"simulation\" section (see docs/fem.md)");
   }
   TetModel body;
-  body.config = parseSimulationConfig(model.scene.simulationJson, model.path);
+  body.config = parseSimulationConfig(model.scene.simulationJson, model.name);
   SimulationConfig& config = body.config;
-  if (voxelCell) config.voxelCellSize = *voxelCell;
+  if (options.voxelCell) config.voxelCellSize = *options.voxelCell;
 
   auto start = std::chrono::steady_clock::now();
-  PolygonizeSettings poly;
-  poly.threads = threads;
-  body.surface = polygonize(model.program, grid, poly);
+  cpu::MpuOptions poly;
+  poly.threads = options.threads;
+  body.surface = cpu::polygonizeMpu(model.program, grid, poly);
   body.meshSeconds = since(start);
 
   start = std::chrono::steady_clock::now();
@@ -75,7 +73,7 @@ TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int t
   const blobtree::Program& program = model.program;
   if (config.mesher == "tetgen") {
     if (!fem::tetgenAvailable()) {
-      throw std::runtime_error(model.path + ": /simulation/mesher: this build has no TetGen (BLOBVK_WITH_TETGEN=OFF); use \"voxel\"");
+      throw std::runtime_error(model.name + ": /simulation/mesher: this build has no TetGen (BLOBVK_WITH_TETGEN=OFF); use \"voxel\"");
     }
     if (config.tetgenRemeshEdgeCells > 0) {
       // Marching-cubes slivers would pass into the tets (docs/fem.md): TetGen meshes a cleaned-up
@@ -90,7 +88,7 @@ TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int t
         // The clean-up refuses edits that make triangles cross, so TetGen should accept its
         // output; should it not (an intersection, or TetGen's "very close facets" error), the
         // raw surface still meshes.
-        std::cerr << model.path << ": warning: the surface clean-up before TetGen failed (" << e.what()
+        std::cerr << model.name << ": warning: the surface clean-up before TetGen failed (" << e.what()
                   << "); meshing the raw surface (expect slivers; lower /simulation/tetgen/remeshEdge)\n";
         tets = {};
       }
@@ -116,14 +114,14 @@ TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int t
         voxel);
     embedding = fem::embedPoints(tets, body.surface.positions);
   }
-  if (tets.tets.empty()) throw std::runtime_error(model.path + ": the tetrahedral mesh is empty (model too thin for the voxel cell size?)");
+  if (tets.tets.empty()) throw std::runtime_error(model.name + ": the tetrahedral mesh is empty (model too thin for the voxel cell size?)");
   if (config.materialFromPrimitive) {
     if (config.settings.materials.size() < program.primitives.size()) {
-      throw std::runtime_error(model.path + ": /simulation/materials: materialFromPrimitive needs one material per primitive (" +
+      throw std::runtime_error(model.name + ": /simulation/materials: materialFromPrimitive needs one material per primitive (" +
                                std::to_string(program.primitives.size()) + "), got " +
                                std::to_string(config.settings.materials.size()));
     }
-    fem::assignRegions(tets, [&program](const mesh::Double3& c) { return dominantPrimitive(program, c); });
+    assignTissueRegions(program, tets);
   }
   if (config.fixedSelector) {
     // The lambda owns its copy: the config (and its optional Program) is moved around later.
@@ -138,16 +136,4 @@ TetModel buildTetModel(const Model& model, const blobtree::GridSpec& grid, int t
   return body;
 }
 
-SoftBody buildSoftBody(const Model& model, const blobtree::GridSpec& grid, int threads) {
-  TetModel tets = buildTetModel(model, grid, threads);
-  SoftBody body;
-  body.config = std::move(tets.config);
-  body.surface = std::move(tets.surface);
-  body.meshSeconds = tets.meshSeconds;
-  body.tetSeconds = tets.tetSeconds;
-  body.simulation = std::make_unique<fem::Simulation>(std::move(tets.tets), body.config.settings);
-  body.simulation->setRenderSurface(body.surface, std::move(tets.embedding));
-  return body;
-}
-
-}  // namespace blobvk::app
+}  // namespace blobvk::surgery

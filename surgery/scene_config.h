@@ -10,7 +10,7 @@
 #include <optional>
 #include <string>
 
-namespace blobvk::app {
+namespace blobvk::surgery {
 
 struct BladeKeyframe {
   double time = 0;
@@ -59,4 +59,4 @@ struct SimulationConfig {
 // `json` is the section's text; `file` names the scene in error messages.
 SimulationConfig parseSimulationConfig(const std::string& json, const std::string& file);
 
-}  // namespace blobvk::app
+}  // namespace blobvk::surgery

@@ -7,7 +7,7 @@
 
 #include <cstddef>
 
-namespace blobvk::app {
+namespace blobvk::surgery {
 
 // `after` is the cutter's topology after the event; `nodesBefore` and `tetsBefore` are the
 // simulation's counts before it (they must equal the cutter's before the event). New nodes keep
@@ -17,4 +17,4 @@ namespace blobvk::app {
 fem::TopologyChange toTopologyChange(const cutting::CutResult& event, const cutting::CutTopology& after,
                                      std::size_t nodesBefore, std::size_t tetsBefore);
 
-}  // namespace blobvk::app
+}  // namespace blobvk::surgery

@@ -1,4 +1,4 @@
-#include "simulation_config.h"
+#include "blobvk/surgery/scene_config.h"
 
 #include "blobvk/blobtree/scene_error.h"
 #include "blobvk/blobtree/scene_json.h"
@@ -9,7 +9,7 @@
 #include <set>
 #include <stdexcept>
 
-namespace blobvk::app {
+namespace blobvk::surgery {
 namespace {
 
 using Json = nlohmann::json;
@@ -255,4 +255,4 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
   return c;
 }
 
-}  // namespace blobvk::app
+}  // namespace blobvk::surgery
