@@ -164,7 +164,7 @@ BLOBVK_FEM_KERNEL void ElementSet::tetPass(std::size_t begin, std::size_t end, c
     Eigen::Map<RowMat3>(f + 3).noalias() = H * T;  // rows T h_j (T symmetric)
     for (int c = 0; c < 3; ++c) f[c] = -(f[3 + c] + f[6 + c] + f[9 + c]);
     if (!withDiagonal) continue;
-    // Diagonal of block (i, i) = V [mu |h_i|^2 I + (mu + lambda) h_i h_i^T].
+    // Block (i, i) = V [mu |h_i|^2 I + (mu + lambda) h_i h_i^T], stored as xx, yy, zz, xy, xz, yz.
     const double vm = V * m, vml = V * (m + l);
     double* d = tetDiagonal_[e].data();
     double h[4][3];
@@ -176,21 +176,32 @@ BLOBVK_FEM_KERNEL void ElementSet::tetPass(std::size_t begin, std::size_t end, c
     }
     for (int i = 0; i < 4; ++i) {
       const double hh = vm * (h[i][0] * h[i][0] + h[i][1] * h[i][1] + h[i][2] * h[i][2]);
-      for (int c = 0; c < 3; ++c) d[3 * i + c] = hh + vml * h[i][c] * h[i][c];
+      double* block = d + 6 * i;
+      for (int c = 0; c < 3; ++c) block[c] = hh + vml * h[i][c] * h[i][c];
+      block[3] = vml * h[i][0] * h[i][1];
+      block[4] = vml * h[i][0] * h[i][2];
+      block[5] = vml * h[i][1] * h[i][2];
     }
   }
 }
 
 ElasticPassResult ElementSet::computeForces(const std::vector<mesh::Double3>& x, int maxIterations, double* force,
-                                            double* diagonal) {
+                                            double* diagonalBlocks) {
   const auto start = std::chrono::steady_clock::now();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kTetGrain), [&](const tbb::blocked_range<std::size_t>& r) {
-    tetPass(r.begin(), r.end(), x, maxIterations, diagonal != nullptr);
+    tetPass(r.begin(), r.end(), x, maxIterations, diagonalBlocks != nullptr);
   });
   lastTetPassMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   gather(force, nullptr, nullptr);
-  if (diagonal) {
-    forEach(nodeCount(), kNodeGrain, [&](std::size_t r) { sumCorners(tetDiagonal_, r, 0.0, 0.0, 0.0, diagonal + 3 * r); });
+  if (diagonalBlocks) {
+    forEach(nodeCount(), kNodeGrain, [&](std::size_t r) {
+      double sum[6] = {0, 0, 0, 0, 0, 0};
+      for (const std::uint32_t* q = incidence_.begin(r); q != incidence_.end(r); ++q) {
+        const double* v = tetDiagonal_[NodeIncidence::tetOf(*q)].data() + 6 * NodeIncidence::cornerOf(*q);
+        for (int k = 0; k < 6; ++k) sum[k] += v[k];
+      }
+      for (int k = 0; k < 6; ++k) diagonalBlocks[6 * r + std::size_t(k)] = sum[k];
+    });
   }
   ElasticPassResult result;
   for (std::size_t e = 0; e < size(); ++e) {  // serial: a fixed summation order
