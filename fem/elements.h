@@ -79,6 +79,7 @@ class ElementSet {
   std::vector<std::array<std::uint32_t, 4>> tets_;
   std::vector<std::array<double, 9>> restInverse_;  // Dm^-1, row-major; rows are grad N1..N3
   std::vector<double> volume_, lambda_, mu_, density_;
+  std::vector<double> stepLambda_;  // lambda stiffened under compression, set by the tet pass (rotation.h)
   std::vector<std::array<double, 4>> quaternion_;         // warm start of the rotation extraction
   std::vector<std::array<double, 9>> rotatedGradients_;   // h_i = R grad N_i, i = 1..3 (h_0 = -sum)
   std::vector<std::array<double, 12>> tetVectors_;       // per-tet, per-corner results to gather

@@ -30,7 +30,7 @@ void ElementSet::assembleSystem(BlockSystem& system, const double* nodeScale, do
           h[3][c] = g[6 + c];
           h[0][c] = -(h[1][c] + h[2][c] + h[3][c]);
         }
-        const double sm = scale * volume_[e] * mu_[e], sl = scale * volume_[e] * lambda_[e];
+        const double sm = scale * volume_[e] * mu_[e], sl = scale * volume_[e] * stepLambda_[e];
         const double* hi = h[a];
         for (int b = 0; b < 4; ++b) {
           const double* hj = h[b];
