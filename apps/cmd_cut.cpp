@@ -103,7 +103,7 @@ void addCutCommand(CLI::App& app) {
     const std::string statsPath = (std::filesystem::path(a->out) / "stats.csv").string();
     std::ofstream stats(statsPath);
     if (!stats) throw std::runtime_error(statsPath + ": cannot write");
-    stats << "frame,step,time,cut_events,parts,lifted,lift_distance,fem_ms,cut_ms";
+    stats << "frame,step,time,cut_events,parts,lifted,lift_distance,fem_ms,cut_ms,cg_iterations,cg_rel_residual";
     for (std::size_t k = 0; k < toolCount; ++k) stats << ",tool" << k << "_force,tool" << k << "_nodes";
     stats << "\n";
     double femMsSinceFrame = 0, cutMsSinceFrame = 0, femMsTotal = 0;
@@ -112,7 +112,8 @@ void addCutCommand(CLI::App& app) {
     auto writeFrame = [&](int step) {
       stats << frames.frames() << ',' << step << ',' << sim.time() << ',' << run.events() << ',' << run.partCount() << ','
             << (run.lift() && run.lift()->started() ? 1 : 0) << ',' << (run.lift() ? run.lift()->distanceFromRest(sim) : 0.0)
-            << ',' << (stepsSinceFrame ? femMsSinceFrame / stepsSinceFrame : 0.0) << ',' << cutMsSinceFrame;
+            << ',' << (stepsSinceFrame ? femMsSinceFrame / stepsSinceFrame : 0.0) << ',' << cutMsSinceFrame << ','
+            << sim.lastStats().cgIterations << ',' << sim.lastStats().cgRelativeResidual;  // the frame's last step
       for (std::size_t k = 0; k < toolCount; ++k) {
         const auto& c = step > 0 ? sim.toolContacts()[k] : fem::ToolContactReport{};
         stats << ',' << norm(c.force) << ',' << c.nodesInContact;

@@ -120,6 +120,8 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
     return y;
   };
   EXPECT_GT(lowest("frame_00002.ply"), lowest("frame_00000.ply") - 0.02f);
+  // The solver's summary: every step met the tolerance.
+  EXPECT_NE(r.output.find(", 0 steps at the cap"), std::string::npos) << r.output;
   const auto cut = scratch("cut");
   // The blade's keyframes are simulation times (0.05 .. 0.2 s): it cuts while the body moves.
   r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 25 --no-png");
@@ -128,6 +130,10 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
   EXPECT_NE(r.output.find(", 2 parts"), std::string::npos) << r.output;  // the blade cuts it in two
   EXPECT_TRUE(std::filesystem::exists(cut / "frame_00001.ply")) << r.output;
   EXPECT_TRUE(std::filesystem::exists(cut / "stats.csv")) << r.output;
+  std::ifstream statsFile(cut / "stats.csv");
+  std::string header;
+  std::getline(statsFile, header);
+  EXPECT_NE(header.find(",cg_iterations,cg_rel_residual"), std::string::npos) << header;
 }
 
 // A malformed simulation.lift is refused before any work, naming the file and the JSON pointer.
