@@ -53,6 +53,7 @@ void addSimulateCommand(CLI::App& app) {
     if (!quiet()) std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.4f s, tets %.2f s\n",
                  a->scene.c_str(), body.surface.triangleCount(), sim.mesh().tetCount(), sim.mesh().nodeCount(),
                  body.config.mesher.c_str(), body.meshSeconds, body.tetSeconds);
+    sim.setWarningHandler([](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); });
     Progress progress("simulate", steps);
     double totalMs = 0, maxForce = 0;
     frames.write(sim.renderSurface());
@@ -74,6 +75,10 @@ void addSimulateCommand(CLI::App& app) {
     }
     std::printf("%d steps, %d frames (%s) in %s; %.3f ms/step; max tool force %.4g N; volume %.4g (rest %.4g)\n", steps,
                 frames.frames(), frames.writesPng() ? "PLY + PNG" : "PLY", a->out.c_str(), totalMs / steps, maxForce, sim.currentVolume(), sim.restVolume());
+    const fem::SolverSummary& cg = sim.solverSummary();
+    std::printf("CG: %.1f iterations/step (max %d), max relative residual %.3g (tolerance %.3g), %lld steps at the cap\n",
+                double(cg.iterations) / double(std::max(1LL, cg.steps)), cg.maxIterations, cg.maxRelativeResidual,
+                sim.settings().cgTolerance, cg.capHits);
   });
 }
 

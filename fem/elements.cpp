@@ -42,6 +42,7 @@ void ElementSet::appendSlots(std::size_t count) {
   restInverse_.resize(n);
   volume_.resize(n);
   lambda_.resize(n);
+  stepLambda_.resize(n);
   mu_.resize(n);
   density_.resize(n);
   quaternion_.resize(n);
@@ -91,7 +92,7 @@ void ElementSet::writeTet(std::uint32_t e, const std::array<std::uint32_t, 4>& n
   const double det = c[0][0] * inverse[0] + c[0][1] * inverse[1] + c[0][2] * inverse[2];
   for (int i = 0; i < 9; ++i) inverse[i] /= det;
   volume_[e] = det / 6.0;
-  lambda_[e] = mat.lambda();
+  lambda_[e] = stepLambda_[e] = mat.lambda();
   mu_[e] = mat.mu();
   density_[e] = mat.density;
   quaternion_[e] = {1, 0, 0, 0};
@@ -104,6 +105,7 @@ void ElementSet::reserve(std::size_t tets) {
   reserveTouched(restInverse_, tets);
   reserveTouched(volume_, tets);
   reserveTouched(lambda_, tets);
+  reserveTouched(stepLambda_, tets);
   reserveTouched(mu_, tets);
   reserveTouched(density_, tets);
   reserveTouched(quaternion_, tets);
@@ -147,12 +149,16 @@ BLOBVK_FEM_KERNEL void ElementSet::tetPass(std::size_t begin, std::size_t end, c
       for (int b = 0; b < 3; ++b) F[a * 3 + b] = D[a][0] * B[b] + D[a][1] * B[3 + b] + D[a][2] * B[6 + b];
     auto& q = quaternion_[e];
     tetIterations_[e] = extractRotation(F, q.data(), maxIterations);
-    const RowMat3 R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+    RowMat3 R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+    if (nearlyInverted(F)) invertibleRotation(F, R.data(), q.data());
     const Eigen::Map<const RowMat3> Fm(F);
     const Eigen::Matrix3d S = R.transpose() * Fm;
     const Eigen::Matrix3d eps = 0.5 * (S + S.transpose()) - Eigen::Matrix3d::Identity();
-    const double tr = eps.trace(), V = volume_[e], l = lambda_[e], m = mu_[e];
-    tetEnergy_[e] = V * (m * eps.squaredNorm() + 0.5 * l * tr * tr);
+    const double tr = eps.trace(), V = volume_[e], m = mu_[e], l = lambda_[e];
+    const VolumeBarrier barrier = volumeBarrier(F);  // inversion safety (rotation.h)
+    const double k = kBarrierStiffness * (l + m);
+    stepLambda_[e] = l + k * barrier.extraLambda;
+    tetEnergy_[e] = V * (m * eps.squaredNorm() + 0.5 * l * tr * tr + k * barrier.energy);
     const Eigen::Matrix3d sigma = 2 * m * eps + l * tr * Eigen::Matrix3d::Identity();
     // f_i = -V R sigma g_i = T h_i with T = -V R sigma R^T and h_i = R g_i; g1..g3 are the rows
     // of Dm^-1 and g0 = -(g1 + g2 + g3), so h0 and f0 follow from the other three.
@@ -162,10 +168,21 @@ BLOBVK_FEM_KERNEL void ElementSet::tetPass(std::size_t begin, std::size_t end, c
     H.noalias() = Bm * R.transpose();
     double* f = tetVectors_[e].data();
     Eigen::Map<RowMat3>(f + 3).noalias() = H * T;  // rows T h_j (T symmetric)
+    if (barrier.pressure != 0) {
+      // The barrier's exact force -V k b(J) cof(F) g_j (d det F / dF = cof F), not the
+      // corotated R g_j, which points the wrong way for a flattened element.
+      const double c = -V * k * barrier.pressure;
+      const double cof[9] = {F[4] * F[8] - F[5] * F[7], F[5] * F[6] - F[3] * F[8], F[3] * F[7] - F[4] * F[6],
+                             F[2] * F[7] - F[1] * F[8], F[0] * F[8] - F[2] * F[6], F[1] * F[6] - F[0] * F[7],
+                             F[1] * F[5] - F[2] * F[4], F[2] * F[3] - F[0] * F[5], F[0] * F[4] - F[1] * F[3]};
+      for (int j = 0; j < 3; ++j)
+        for (int a = 0; a < 3; ++a)
+          f[3 + 3 * j + a] += c * (cof[3 * a] * B[3 * j] + cof[3 * a + 1] * B[3 * j + 1] + cof[3 * a + 2] * B[3 * j + 2]);
+    }
     for (int c = 0; c < 3; ++c) f[c] = -(f[3 + c] + f[6 + c] + f[9 + c]);
     if (!withDiagonal) continue;
-    // Diagonal of block (i, i) = V [mu |h_i|^2 I + (mu + lambda) h_i h_i^T].
-    const double vm = V * m, vml = V * (m + l);
+    // Block (i, i) = V [mu |h_i|^2 I + (mu + lambda) h_i h_i^T], stored as xx, yy, zz, xy, xz, yz.
+    const double vm = V * m, vml = V * (m + stepLambda_[e]);
     double* d = tetDiagonal_[e].data();
     double h[4][3];
     for (int c = 0; c < 3; ++c) {
@@ -176,21 +193,32 @@ BLOBVK_FEM_KERNEL void ElementSet::tetPass(std::size_t begin, std::size_t end, c
     }
     for (int i = 0; i < 4; ++i) {
       const double hh = vm * (h[i][0] * h[i][0] + h[i][1] * h[i][1] + h[i][2] * h[i][2]);
-      for (int c = 0; c < 3; ++c) d[3 * i + c] = hh + vml * h[i][c] * h[i][c];
+      double* block = d + 6 * i;
+      for (int c = 0; c < 3; ++c) block[c] = hh + vml * h[i][c] * h[i][c];
+      block[3] = vml * h[i][0] * h[i][1];
+      block[4] = vml * h[i][0] * h[i][2];
+      block[5] = vml * h[i][1] * h[i][2];
     }
   }
 }
 
 ElasticPassResult ElementSet::computeForces(const std::vector<mesh::Double3>& x, int maxIterations, double* force,
-                                            double* diagonal) {
+                                            double* diagonalBlocks) {
   const auto start = std::chrono::steady_clock::now();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kTetGrain), [&](const tbb::blocked_range<std::size_t>& r) {
-    tetPass(r.begin(), r.end(), x, maxIterations, diagonal != nullptr);
+    tetPass(r.begin(), r.end(), x, maxIterations, diagonalBlocks != nullptr);
   });
   lastTetPassMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   gather(force, nullptr, nullptr);
-  if (diagonal) {
-    forEach(nodeCount(), kNodeGrain, [&](std::size_t r) { sumCorners(tetDiagonal_, r, 0.0, 0.0, 0.0, diagonal + 3 * r); });
+  if (diagonalBlocks) {
+    forEach(nodeCount(), kNodeGrain, [&](std::size_t r) {
+      double sum[6] = {0, 0, 0, 0, 0, 0};
+      for (const std::uint32_t* q = incidence_.begin(r); q != incidence_.end(r); ++q) {
+        const double* v = tetDiagonal_[NodeIncidence::tetOf(*q)].data() + 6 * NodeIncidence::cornerOf(*q);
+        for (int k = 0; k < 6; ++k) sum[k] += v[k];
+      }
+      for (int k = 0; k < 6; ++k) diagonalBlocks[6 * r + std::size_t(k)] = sum[k];
+    });
   }
   ElasticPassResult result;
   for (std::size_t e = 0; e < size(); ++e) {  // serial: a fixed summation order
@@ -239,7 +267,7 @@ BLOBVK_FEM_KERNEL void ElementSet::stiffnessPass(std::size_t begin, std::size_t 
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) X[a * 3 + b] += d[a] * hj[b];
     }
-    const double sm = scale * volume_[e] * mu_[e], sl = scale * volume_[e] * lambda_[e];
+    const double sm = scale * volume_[e] * mu_[e], sl = scale * volume_[e] * stepLambda_[e];
     const double trace = sl * (X[0] + X[4] + X[8]);
     const double Sxx = 2 * sm * X[0] + trace, Syy = 2 * sm * X[4] + trace, Szz = 2 * sm * X[8] + trace;
     const double Sxy = sm * (X[1] + X[3]), Sxz = sm * (X[2] + X[6]), Syz = sm * (X[5] + X[7]);

@@ -18,6 +18,8 @@
 
 namespace blobvk::fem {
 
+struct BlockSystem;
+
 struct ElasticPassResult {
   double energy = 0;                 // sum V (mu eps:eps + lambda/2 tr(eps)^2), eps = sym(R^T F) - I
   long long rotationIterations = 0;  // over all tets
@@ -48,13 +50,17 @@ class ElementSet {
 
   // Pass 1 (per tet): rotations at positions x (warm-started), stresses, rotated gradients.
   // Pass 2 (per node): elastic forces -R sigma grad N V into force (3 per node, overwritten) and,
-  // when stiffnessDiagonal is not null, the diagonal of K (3 per node, overwritten).
+  // when diagonalBlocks is not null, K's 3x3 diagonal blocks (6 per node: xx, yy, zz, xy, xz,
+  // yz; overwritten).
   ElasticPassResult computeForces(const std::vector<mesh::Double3>& x, int maxRotationIterations, double* force,
-                                  double* stiffnessDiagonal);
+                                  double* diagonalBlocks);
   // y = nodeScale[node] * p + stiffnessScale * K p, with K at the rotations of the last
   // computeForces; p and y hold 3 values per node. nodeScale may be null (treated as 0).
   void applySystem(const double* p, double* y, const double* nodeScale, double stiffnessScale);
   double lastTetPassMs() const { return lastTetPassMs_; }  // pass 1 of the last computeForces
+  // The same system as applySystem, as 3x3 blocks into `system` (its pattern built by
+  // buildBlockPattern for the current tets): values overwritten.
+  void assembleSystem(BlockSystem& system, const double* nodeScale, double stiffnessScale) const;
 
  private:
   void reserve(std::size_t tets);
@@ -73,10 +79,11 @@ class ElementSet {
   std::vector<std::array<std::uint32_t, 4>> tets_;
   std::vector<std::array<double, 9>> restInverse_;  // Dm^-1, row-major; rows are grad N1..N3
   std::vector<double> volume_, lambda_, mu_, density_;
+  std::vector<double> stepLambda_;  // lambda stiffened under compression, set by the tet pass (rotation.h)
   std::vector<std::array<double, 4>> quaternion_;         // warm start of the rotation extraction
   std::vector<std::array<double, 9>> rotatedGradients_;   // h_i = R grad N_i, i = 1..3 (h_0 = -sum)
   std::vector<std::array<double, 12>> tetVectors_;       // per-tet, per-corner results to gather
-  std::vector<std::array<double, 12>> tetDiagonal_;      // per-corner diagonal of K
+  std::vector<std::array<double, 24>> tetDiagonal_;      // per-corner diagonal block of K (6 each)
   std::vector<double> tetEnergy_;
   std::vector<int> tetIterations_;
   NodeIncidence incidence_;

@@ -35,18 +35,22 @@ Sums reduceChunks(std::size_t n, std::vector<Sums>& partial, const Body& body) {
 
 }  // namespace
 
-PcgResult solvePcg(const LinearOperator& A, const std::vector<double>& diagonal, const std::vector<double>& b,
+PcgResult solvePcg(const LinearOperator& A, const PreconditionerOperator& P, const std::vector<double>& b,
                    const std::vector<unsigned char>& freeDof, std::vector<double>& x, int maxIterations,
                    double tolerance) {
   const std::size_t n = b.size();
-  std::vector<double> mask(n), invDiag(n), r(n), z(n), p(n), Ap(n);
+  std::vector<double> mask(n), r(n), z(n), p(n), Ap(n);
   std::vector<Sums> partial;
-  // Setup: mask, preconditioner, |b|^2 and |x|^2 over free DOFs.
+  auto parallelPass = [n](const auto& body) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kChunk), [&](const tbb::blocked_range<std::size_t>& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) body(i);
+    });
+  };
+  // Setup: mask, |b|^2 and |x|^2 over free DOFs.
   auto [bb, xx] = reduceChunks(n, partial, [&](std::size_t begin, std::size_t end) {
     Sums s{0, 0};
     for (std::size_t i = begin; i < end; ++i) {
       mask[i] = freeDof[i] ? 1.0 : 0.0;
-      invDiag[i] = diagonal[i] > 0 ? mask[i] / diagonal[i] : 0.0;
       s[0] += b[i] * mask[i] * b[i];
       s[1] += x[i] * mask[i] * x[i];
     }
@@ -54,21 +58,38 @@ PcgResult solvePcg(const LinearOperator& A, const std::vector<double>& diagonal,
   });
   PcgResult result;
   const double bNorm = std::sqrt(bb);
-  if (bNorm == 0 && xx == 0) return result;
+  if (bNorm == 0 && xx == 0) {
+    result.converged = true;
+    return result;
+  }
   A(x.data(), Ap.data());
-  auto [rz, rr] = reduceChunks(n, partial, [&](std::size_t begin, std::size_t end) {
+  double rr = reduceChunks(n, partial, [&](std::size_t begin, std::size_t end) {
     Sums s{0, 0};
     for (std::size_t i = begin; i < end; ++i) {
       r[i] = (b[i] - Ap[i]) * mask[i];
-      z[i] = invDiag[i] * r[i];
-      p[i] = z[i];
-      s[0] += r[i] * z[i];
-      s[1] += r[i] * r[i];
+      s[0] += r[i] * r[i];
     }
     return s;
-  });
+  })[0];
+  // z = P^-1 r on free DOFs; returns r.z.
+  auto precondition = [&] {
+    P(r.data(), z.data());
+    return reduceChunks(n, partial, [&](std::size_t begin, std::size_t end) {
+      Sums s{0, 0};
+      for (std::size_t i = begin; i < end; ++i) {
+        z[i] *= mask[i];
+        s[0] += r[i] * z[i];
+      }
+      return s;
+    })[0];
+  };
   const double target = tolerance * (bNorm > 0 ? bNorm : 1.0);
   double rNorm = std::sqrt(rr);
+  double rz = 0;
+  if (rNorm > target && maxIterations > 0) {
+    rz = precondition();
+    parallelPass([&](std::size_t i) { p[i] = z[i]; });
+  }
   while (result.iterations < maxIterations && rNorm > target) {
     A(p.data(), Ap.data());
     const double pAp = reduceChunks(n, partial, [&](std::size_t begin, std::size_t end) {
@@ -81,26 +102,25 @@ PcgResult solvePcg(const LinearOperator& A, const std::vector<double>& diagonal,
     })[0];
     if (!(pAp > 0)) break;  // direction of no curvature (converged to round-off, or bad matrix)
     const double alpha = rz / pAp;
-    const auto [rzNew, rrNew] = reduceChunks(n, partial, [&](std::size_t begin, std::size_t end) {
+    rr = reduceChunks(n, partial, [&](std::size_t begin, std::size_t end) {
       Sums s{0, 0};
       for (std::size_t i = begin; i < end; ++i) {
         x[i] += alpha * p[i];
         r[i] -= alpha * Ap[i];
-        z[i] = invDiag[i] * r[i];
-        s[0] += r[i] * z[i];
-        s[1] += r[i] * r[i];
+        s[0] += r[i] * r[i];
       }
       return s;
-    });
-    const double beta = rzNew / rz;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kChunk), [&](const tbb::blocked_range<std::size_t>& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i) p[i] = z[i] + beta * p[i];
-    });
-    rz = rzNew;
-    rNorm = std::sqrt(rrNew);
+    })[0];
+    rNorm = std::sqrt(rr);
     ++result.iterations;
+    if (rNorm <= target) break;
+    const double rzNew = precondition();
+    const double beta = rzNew / rz;
+    parallelPass([&](std::size_t i) { p[i] = z[i] + beta * p[i]; });
+    rz = rzNew;
   }
   result.relativeResidual = bNorm > 0 ? rNorm / bNorm : rNorm;
+  result.converged = rNorm <= target;
   return result;
 }
 

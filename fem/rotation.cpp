@@ -57,3 +57,53 @@ BLOBVK_FEM_KERNEL int extractRotation(const double Fr[9], double qa[4], int maxI
 }
 
 }  // namespace blobvk::fem
+
+namespace blobvk::fem {
+
+namespace {
+double determinant(const double F[9]) {
+  return F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6]) + F[2] * (F[3] * F[7] - F[4] * F[6]);
+}
+}  // namespace
+
+bool nearlyInverted(const double F[9]) { return !(determinant(F) > kNearlyInvertedVolumeRatio); }
+
+VolumeBarrier volumeBarrier(const double F[9]) {
+  const double Js = kBarrierVolumeRatio, Jm = kBarrierMinVolumeRatio, J = determinant(F);
+  VolumeBarrier b;
+  if (!(J < Js)) return b;  // also NaN: no barrier
+  auto value = [Js](double x) { return std::log(x / Js) - (x - Js) / Js; };
+  auto integral = [Js](double x) { return x * std::log(x / Js) - x + Js - (x - Js) * (x - Js) / (2 * Js); };
+  if (J >= Jm) {
+    b.pressure = value(J);
+    b.extraLambda = Js / J - 1;
+    b.energy = integral(J);
+  } else {  // linear continuation through J = 0 into inversion
+    const double slope = 1 / Jm - 1 / Js;
+    b.pressure = value(Jm) + slope * (J - Jm);
+    b.extraLambda = Js / Jm - 1;
+    b.energy = integral(Jm) + value(Jm) * (J - Jm) + 0.5 * slope * (J - Jm) * (J - Jm);
+  }
+  return b;
+}
+
+void invertibleRotation(const double Fr[9], double Rr[9], double qa[4]) {
+  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> F(Fr);
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(Eigen::Matrix3d(F), Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU(), V = svd.matrixV();
+  // Singular values come sorted, largest first: a reflection goes onto the last column (the
+  // smallest singular value), which makes U and V proper rotations.
+  if (U.determinant() < 0) U.col(2) = -U.col(2);
+  if (V.determinant() < 0) V.col(2) = -V.col(2);
+  const Eigen::Matrix3d R = U * V.transpose();
+  Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> out(Rr);
+  out = R;
+  Eigen::Quaterniond q(R);
+  q.normalize();
+  qa[0] = q.w();
+  qa[1] = q.x();
+  qa[2] = q.y();
+  qa[3] = q.z();
+}
+
+}  // namespace blobvk::fem

@@ -1,8 +1,10 @@
 #include "blobvk/fem/simulation.h"
 
+#include "blobvk/fem/block_system.h"
 #include "blobvk/fem/boundary_faces.h"
 #include "blobvk/fem/elements.h"
 #include "blobvk/fem/pcg.h"
+#include "blobvk/fem/preconditioner.h"
 #include "blobvk/fem/reserve_touched.h"
 #include "blobvk/fem/tet_utils.h"
 
@@ -10,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <cstdio>
 #include <string>
 
 #include <tbb/parallel_for.h>
@@ -31,9 +34,18 @@ struct Simulation::Impl {
   std::vector<mesh::Double3> velocity;
   std::vector<unsigned char> fixed, freeDof;
   std::vector<double> force, rhs, solution;
+  std::vector<double> previousVelocity;  // 3 per node: the velocity one step back (warm start)
   // The system A = (1 + h alpha) M + (h beta + h^2) K~ + contact, applied matrix-free:
-  // nodeScale = (1 + h alpha) m per node, diagonal = A's diagonal (Jacobi preconditioner).
-  std::vector<double> nodeScale, diagonal;
+  // nodeScale = (1 + h alpha) m per node, diagonalBlocks = A's 3x3 node blocks (6 per node:
+  // xx, yy, zz, xy, xz, yz) for the (block-)Jacobi preconditioners.
+  std::vector<double> nodeScale, diagonalBlocks;
+  // The incomplete Cholesky preconditioner: A assembled as blocks, its factor, and when to
+  // rebuild it (patternDirty: the mesh changed; factorDirty: the fixed set changed).
+  BlockSystem blockSystem;
+  SystemPreconditioner preconditioner;
+  bool patternDirty = true, factorDirty = true, haveFactor = false;
+  int stepsSinceFactor = 0, iterationsAfterFactor = 0, lastIterations = 0;
+  SolverSummary summary;
   struct ContactBlock {
     std::uint32_t node;
     double block[9];  // h^2 k n n^T, row-major
@@ -57,7 +69,55 @@ struct Simulation::Impl {
 
   void addToolContacts(double h);
   void applyFloor();
+  // Sets the preconditioner up for this step's system; true when the factor was rebuilt.
+  bool preparePreconditioner(double stiffnessScale);
+  void recordSolve(const StepStats& stats);
 };
+
+bool Simulation::Impl::preparePreconditioner(double stiffnessScale) {
+  const PreconditionerKind kind = settings.preconditioner;
+  if (kind != PreconditionerKind::IncompleteCholesky) {
+    preconditioner.setDiagonalBlocks(kind, diagonalBlocks, freeDof);
+    return false;
+  }
+  const int refresh = settings.preconditionerRefreshSteps;
+  const bool slow = haveFactor && lastIterations > 2 * iterationsAfterFactor + 5;
+  if (haveFactor && !patternDirty && !factorDirty && stepsSinceFactor < refresh && !slow) {
+    ++stepsSinceFactor;
+    return false;
+  }
+  if (patternDirty) buildBlockPattern(elements.incidence(), mesh.tets, blockSystem);
+  elements.assembleSystem(blockSystem, nodeScale.data(), stiffnessScale);
+  for (const ContactBlock& c : contactBlocks) {
+    double* block = blockSystem.values.data() + 9 * std::size_t(blockSystem.diagonal[c.node]);
+    for (int k = 0; k < 9; ++k) block[k] += c.block[k];
+  }
+  haveFactor = preconditioner.factorize(blockSystem, freeDof, patternDirty);
+  patternDirty = factorDirty = false;
+  stepsSinceFactor = 1;
+  iterationsAfterFactor = -1;  // set by the next solve
+  if (!haveFactor) preconditioner.setDiagonalBlocks(PreconditionerKind::BlockJacobi, diagonalBlocks, freeDof);
+  return true;
+}
+
+void Simulation::Impl::recordSolve(const StepStats& s) {
+  if (iterationsAfterFactor < 0) iterationsAfterFactor = s.cgIterations;
+  lastIterations = s.cgIterations;
+  ++summary.steps;
+  summary.iterations += s.cgIterations;
+  summary.maxIterations = std::max(summary.maxIterations, s.cgIterations);
+  summary.maxRelativeResidual = std::max(summary.maxRelativeResidual, s.cgRelativeResidual);
+  if (s.preconditionerRebuilt) ++summary.preconditionerBuilds;
+  if (s.cgConverged) return;
+  if (++summary.capHits == 1 && settings.onWarning) {
+    char line[200];
+    std::snprintf(line, sizeof line,
+                  "fem: CG stopped at its cap of %d iterations at t = %.4g s with relative residual %.3g > tolerance %.3g "
+                  "(later steps that do are counted, not reported)",
+                  settings.cgMaxIterations, time, s.cgRelativeResidual, settings.cgTolerance);
+    settings.onWarning(line);
+  }
+}
 
 Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_unique<Impl>()) {
   validateTetMesh(m);
@@ -70,6 +130,8 @@ Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_
   if (!(s.timeStep > 0) || !std::isfinite(s.timeStep)) throw std::invalid_argument("simulation: time step must be > 0");
   if (s.rayleighMass < 0 || s.rayleighStiffness < 0) throw std::invalid_argument("simulation: Rayleigh coefficients must be >= 0");
   if (s.cgMaxIterations < 1) throw std::invalid_argument("simulation: cgMaxIterations must be >= 1");
+  if (!(s.cgTolerance >= 0)) throw std::invalid_argument("simulation: cgTolerance must be >= 0");
+  if (s.preconditionerRefreshSteps < 1) throw std::invalid_argument("simulation: preconditionerRefreshSteps must be >= 1");
   for (std::size_t k = 0; k < s.tools.size(); ++k) validateTool(s.tools[k], k);
   if (s.floor) {
     const auto& n = s.floor->normal;
@@ -98,9 +160,10 @@ Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_
   for (std::size_t i = 0; i < 3 * n; ++i) d.freeDof[i] = d.fixed[i / 3] ? 0 : 1;
   d.force.assign(3 * n, 0);
   d.nodeScale.assign(n, 0);
-  d.diagonal.assign(3 * n, 0);
+  d.diagonalBlocks.assign(6 * n, 0);
   d.rhs.assign(3 * n, 0);
   d.solution.assign(3 * n, 0);
+  d.previousVelocity.assign(3 * n, 0);
   d.contacts.assign(d.settings.tools.size(), {});
   d.contactDepth.assign(n, 0);
   d.contactNormal.assign(n, {});
@@ -109,7 +172,8 @@ Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_
   const std::size_t room = withCutRoom(n, d.settings.cutRoom);
   for (auto* v : {&d.mesh.positions, &d.mesh.restPositions, &d.velocity, &d.contactNormal}) reserveTouched(*v, room);
   for (auto* v : {&d.mass, &d.contactDepth, &d.nodeScale}) reserveTouched(*v, room);
-  for (auto* v : {&d.force, &d.diagonal, &d.rhs, &d.solution}) reserveTouched(*v, 3 * room);
+  for (auto* v : {&d.force, &d.rhs, &d.solution, &d.previousVelocity}) reserveTouched(*v, 3 * room);
+  reserveTouched(d.diagonalBlocks, 6 * room);
   reserveTouched(d.nodeMark, room);
   reserveTouched(d.fixed, room);
   reserveTouched(d.freeDof, 3 * room);
@@ -156,10 +220,15 @@ void Simulation::Impl::addToolContacts(double h) {
       ContactBlock& block = contactBlocks.emplace_back();
       block.node = std::uint32_t(i);
       const double nv[3] = {nn.x, nn.y, nn.z};
-      for (int a = 0; a < 3; ++a) {
+      for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) block.block[a * 3 + b] = kh2 * nv[a] * nv[b];
-        diagonal[3 * i + std::size_t(a)] += block.block[a * 4];
-      }
+      double* diagonal = diagonalBlocks.data() + 6 * i;  // xx, yy, zz, xy, xz, yz
+      diagonal[0] += block.block[0];
+      diagonal[1] += block.block[4];
+      diagonal[2] += block.block[8];
+      diagonal[3] += block.block[1];
+      diagonal[4] += block.block[2];
+      diagonal[5] += block.block[5];
       ++report.nodesInContact;
       report.force.x += f * nn.x;
       report.force.y += f * nn.y;
@@ -201,16 +270,14 @@ void Simulation::step() {
   // per-node gather of forces and of A's diagonal, plus mass terms and gravity. No matrix.
   auto t = Clock::now();
   const ElasticPassResult pass = d.elements.computeForces(d.mesh.positions, d.settings.rotationMaxIterations, d.force.data(),
-                                                          d.diagonal.data());
+                                                          d.diagonalBlocks.data());
   stats.rotationIterationsPerTet = double(pass.rotationIterations) / double(d.elements.size());
   stats.rotationsMs = d.elements.lastTetPassMs();
   const auto& g = d.settings.gravity;
   for (std::size_t i = 0; i < n; ++i) {
     d.nodeScale[i] = massScale * d.mass[i];
-    for (std::size_t c = 0; c < 3; ++c) {
-      double& diagonal = d.diagonal[3 * i + c];  // K's diagonal on entry
-      diagonal = d.nodeScale[i] + stiffnessScale * diagonal;
-    }
+    double* block = d.diagonalBlocks.data() + 6 * i;  // K's diagonal block on entry
+    for (std::size_t c = 0; c < 6; ++c) block[c] = (c < 3 ? d.nodeScale[i] : 0.0) + stiffnessScale * block[c];
     d.force[3 * i] += d.mass[i] * g.x;
     d.force[3 * i + 1] += d.mass[i] * g.y;
     d.force[3 * i + 2] += d.mass[i] * g.z;
@@ -228,7 +295,9 @@ void Simulation::step() {
     const double vv[3] = {v.x, v.y, v.z};
     for (int c = 0; c < 3; ++c) {
       d.rhs[3 * i + c] = d.mass[i] * vv[c] + h * d.force[3 * i + c];
-      d.solution[3 * i + c] = d.fixed[i] ? 0.0 : vv[c];  // warm start: the current velocity
+      // Warm start: the velocity extrapolated from the last two steps (in smooth motion the
+      // change of v is nearly constant: ~30 % fewer iterations than starting from v).
+      d.solution[3 * i + c] = d.fixed[i] ? 0.0 : 2 * vv[c] - d.previousVelocity[3 * i + c];
     }
   }
   const LinearOperator A = [&d, stiffnessScale](const double* x, double* y) {
@@ -239,20 +308,31 @@ void Simulation::step() {
       for (int a = 0; a < 3; ++a) yi[a] += c.block[a * 3] * xi[0] + c.block[a * 3 + 1] * xi[1] + c.block[a * 3 + 2] * xi[2];
     }
   };
-  const PcgResult cg = solvePcg(A, d.diagonal, d.rhs, d.freeDof, d.solution, d.settings.cgMaxIterations, d.settings.cgTolerance);
+  stats.solveMs = msSince(t);
+  t = Clock::now();
+  stats.preconditionerRebuilt = d.preparePreconditioner(stiffnessScale);
+  stats.preconditionerMs = msSince(t);
+  t = Clock::now();
+  const PreconditionerOperator P = [&d](const double* r, double* z) { d.preconditioner.apply(r, z); };
+  const PcgResult cg = solvePcg(A, P, d.rhs, d.freeDof, d.solution, d.settings.cgMaxIterations, d.settings.cgTolerance);
   stats.cgIterations = cg.iterations;
   stats.cgRelativeResidual = cg.relativeResidual;
+  stats.cgConverged = cg.converged;
+  d.recordSolve(stats);
   for (std::size_t i = 0; i < n; ++i) {
     if (d.fixed[i]) {
       d.velocity[i] = {};
       continue;
     }
+    d.previousVelocity[3 * i] = d.velocity[i].x;
+    d.previousVelocity[3 * i + 1] = d.velocity[i].y;
+    d.previousVelocity[3 * i + 2] = d.velocity[i].z;
     d.velocity[i] = {d.solution[3 * i], d.solution[3 * i + 1], d.solution[3 * i + 2]};
     auto& p = d.mesh.positions[i];
     p = {p.x + h * d.velocity[i].x, p.y + h * d.velocity[i].y, p.z + h * d.velocity[i].z};
   }
   d.applyFloor();
-  stats.solveMs = msSince(t);
+  stats.solveMs += msSince(t);
   d.time += h;
   stats.totalMs = msSince(start);
   d.stats = stats;
@@ -363,9 +443,15 @@ void Simulation::applyTopologyChange(const TopologyChange& c) {
   for (std::size_t i = 3 * oldNodes; i < 3 * nodes; ++i) d.freeDof[i] = d.fixed[i / 3] ? 0 : 1;
   d.force.resize(3 * nodes, 0);
   d.nodeScale.resize(nodes, 0);
-  d.diagonal.resize(3 * nodes, 0);
+  d.diagonalBlocks.resize(6 * nodes, 0);
+  d.patternDirty = true;  // the preconditioner's pattern is rebuilt at the next step
   d.rhs.resize(3 * nodes, 0);
   d.solution.resize(3 * nodes, 0);
+  for (std::size_t k = 0; k < c.newNodes.size(); ++k) {  // no history: the warm start is v
+    d.previousVelocity.push_back(vel[k].x);
+    d.previousVelocity.push_back(vel[k].y);
+    d.previousVelocity.push_back(vel[k].z);
+  }
   d.contactDepth.resize(nodes, 0);
   d.contactNormal.resize(nodes, {});
   d.embedded = false;  // the caller's render mesh no longer matches the cut body
@@ -386,6 +472,10 @@ const std::vector<unsigned char>& Simulation::fixedMask() const { return impl_->
 const SimulationSettings& Simulation::settings() const { return impl_->settings; }
 const std::vector<ToolContactReport>& Simulation::toolContacts() const { return impl_->contacts; }
 const StepStats& Simulation::lastStats() const { return impl_->stats; }
+const SolverSummary& Simulation::solverSummary() const { return impl_->summary; }
+void Simulation::setWarningHandler(std::function<void(const std::string&)> handler) {
+  impl_->settings.onWarning = std::move(handler);
+}
 
 void Simulation::setPositions(const std::vector<mesh::Double3>& p) {
   if (p.size() != impl_->mesh.nodeCount()) throw std::invalid_argument("setPositions: wrong node count");
@@ -399,6 +489,22 @@ void Simulation::setToolPoses(std::vector<ToolPose> poses) {
   impl_->toolPoses = std::move(poses);
 }
 
+std::vector<mesh::Double3> Simulation::previousVelocities() const {
+  const auto& p = impl_->previousVelocity;
+  std::vector<mesh::Double3> out(p.size() / 3);
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
+  return out;
+}
+
+void Simulation::setPreviousVelocities(const std::vector<mesh::Double3>& v) {
+  if (v.size() != impl_->mesh.nodeCount()) throw std::invalid_argument("setPreviousVelocities: wrong node count");
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    impl_->previousVelocity[3 * i] = v[i].x;
+    impl_->previousVelocity[3 * i + 1] = v[i].y;
+    impl_->previousVelocity[3 * i + 2] = v[i].z;
+  }
+}
+
 void Simulation::setFixed(const std::vector<std::uint32_t>& nodes, bool fixed) {
   Impl& d = *impl_;
   for (std::uint32_t i : nodes)
@@ -408,11 +514,17 @@ void Simulation::setFixed(const std::vector<std::uint32_t>& nodes, bool fixed) {
     for (int c = 0; c < 3; ++c) d.freeDof[3 * std::size_t(i) + std::size_t(c)] = fixed ? 0 : 1;
     if (fixed) d.velocity[i] = {};
   }
+  d.factorDirty = true;
 }
 
 void Simulation::setVelocities(const std::vector<mesh::Double3>& v) {
   if (v.size() != impl_->mesh.nodeCount()) throw std::invalid_argument("setVelocities: wrong node count");
   impl_->velocity = v;
+  for (std::size_t i = 0; i < v.size(); ++i) {  // a new state has no history: warm start from v
+    impl_->previousVelocity[3 * i] = v[i].x;
+    impl_->previousVelocity[3 * i + 1] = v[i].y;
+    impl_->previousVelocity[3 * i + 2] = v[i].z;
+  }
 }
 
 std::vector<mesh::Double3> Simulation::elasticForces() {

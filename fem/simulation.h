@@ -1,6 +1,6 @@
 // Soft-body simulation of a tet mesh: corotational linear FEM, lumped mass, Rayleigh damping,
 // implicit backward Euler (one linearised Newton step per time step, Baraff-Witkin), solved
-// with warm-started Jacobi PCG on the matrix-free warped stiffness; fixed nodes, gravity, a floor
+// with warm-started PCG on the matrix-free warped stiffness (preconditioners below); fixed nodes, gravity, a floor
 // plane and penalty contact with moving implicit tools. Eigen and TBB stay in the .cpp files.
 #pragma once
 
@@ -15,6 +15,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace blobvk::fem {
@@ -32,14 +33,27 @@ struct FloorPlane {
 // true for nodes that must not move, given their rest position (e.g. an implicit selector).
 using NodeSelector = std::function<bool(const mesh::Double3& restPosition)>;
 
+// How the implicit system's CG is preconditioned. Jacobi: A's diagonal. BlockJacobi: A's 3x3
+// node blocks. IncompleteCholesky: an incomplete Cholesky factor of the assembled A (Eigen,
+// AMD ordering), rebuilt every `preconditionerRefreshSteps` steps, when the solve gets slow
+// (twice the iterations of the solve right after the last build, plus 5), or after a topology or
+// fixed-set change; between rebuilds, an older factor still preconditions (any SPD P does).
+enum class PreconditionerKind { Jacobi, BlockJacobi, IncompleteCholesky };
+
 struct SimulationSettings {
   std::vector<Material> materials = std::vector<Material>(1);  // indexed by TetMesh::regions (region 0 if empty)
   double timeStep = 1.0 / 60.0;
   mesh::Double3 gravity{0, -9.81, 0};
   double rayleighMass = 0.0;        // alpha: D = alpha M + beta K
   double rayleighStiffness = 0.01;  // beta (seconds)
-  int cgMaxIterations = 100;
-  double cgTolerance = 1e-6;        // relative residual; 0 = always cgMaxIterations
+  int cgMaxIterations = 500;
+  double cgTolerance = 1e-3;        // relative residual |r| / |b|; 0 = always cgMaxIterations
+  PreconditionerKind preconditioner = PreconditionerKind::BlockJacobi;
+  int preconditionerRefreshSteps = 10;
+  // Called with one line the first time a step's CG stops at cgMaxIterations above the
+  // tolerance (later such steps are counted in solverSummary(), not reported again). The library
+  // prints nothing itself.
+  std::function<void(const std::string& line)> onWarning;
   int rotationMaxIterations = 30;
   NodeSelector fixed;                      // optional
   std::vector<std::uint32_t> fixedNodes;   // optional, added to the selector's nodes
@@ -56,11 +70,24 @@ struct SimulationSettings {
 // Per-phase wall times of the last step. The stiffness is applied matrix-free, so "rotations" is
 // the fused per-tet pass (rotations, stresses, forces and diagonal per corner) and "assembly"
 // the per-node gather of forces and of the preconditioner diagonal (plus mass and gravity terms).
+// "preconditionerMs" is the preconditioner's set-up (assembly and factorization on the steps
+// that rebuild it); "solveMs" the CG iterations and the update, without the set-up.
 struct StepStats {
-  double rotationsMs = 0, assemblyMs = 0, contactMs = 0, solveMs = 0, totalMs = 0;
+  double rotationsMs = 0, assemblyMs = 0, contactMs = 0, preconditionerMs = 0, solveMs = 0, totalMs = 0;
   int cgIterations = 0;
-  double cgRelativeResidual = 0;
+  double cgRelativeResidual = 0;  // |b - A v| / |b| over free DOFs at the end of the solve
+  bool cgConverged = true;        // the tolerance was met (false: stopped at cgMaxIterations)
+  bool preconditionerRebuilt = false;
   double rotationIterationsPerTet = 0;
+};
+
+// The solver over all steps so far.
+struct SolverSummary {
+  long long steps = 0, iterations = 0;  // iterations: total over the steps
+  long long capHits = 0;                // steps that stopped at cgMaxIterations above the tolerance
+  int maxIterations = 0;
+  double maxRelativeResidual = 0;
+  long long preconditionerBuilds = 0;
 };
 
 // What tool k did to the body in the last step.
@@ -128,6 +155,10 @@ class Simulation {
   const std::vector<mesh::Double3>& velocities() const;
   void setPositions(const std::vector<mesh::Double3>& positions);
   void setVelocities(const std::vector<mesh::Double3>& velocities);
+  // The velocity one step back: the solver's warm start extrapolates from it and the current
+  // one (setVelocities resets it to the new velocity). Part of the state a copy must carry.
+  std::vector<mesh::Double3> previousVelocities() const;
+  void setPreviousVelocities(const std::vector<mesh::Double3>& velocities);
   const std::vector<double>& nodeMasses() const;
   const std::vector<unsigned char>& fixedMask() const;  // 1 per fixed node
   // Pins (fixed = true) or releases nodes after construction. A pinned node is not moved by the
@@ -148,6 +179,9 @@ class Simulation {
   void setToolPoses(std::vector<ToolPose> poses);
   const std::vector<ToolContactReport>& toolContacts() const;  // one per tool, last step
   const StepStats& lastStats() const;
+  const SolverSummary& solverSummary() const;
+  // Replaces SimulationSettings::onWarning (e.g. a CLI that prints the line to stderr).
+  void setWarningHandler(std::function<void(const std::string& line)> handler);
 
   // Render surface: by default the tet boundary; or a caller mesh embedded in the tets.
   void setRenderSurface(mesh::TriMesh surface, SurfaceEmbedding embedding);

@@ -212,7 +212,15 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
     if (j["damping"].contains("stiffness")) c.settings.rayleighStiffness = r.number(j["damping"]["stiffness"], p + "/damping/stiffness", 0, 1e6);
   }
   if (j.contains("solver")) {
-    r.keys(j["solver"], p + "/solver", {"maxIterations", "tolerance"});
+    r.keys(j["solver"], p + "/solver", {"maxIterations", "tolerance", "preconditioner"});
+    if (j["solver"].contains("preconditioner")) {
+      const Json& v = j["solver"]["preconditioner"];
+      const std::string name = v.is_string() ? v.get<std::string>() : "";
+      if (name == "jacobi") c.settings.preconditioner = fem::PreconditionerKind::Jacobi;
+      else if (name == "blockJacobi") c.settings.preconditioner = fem::PreconditionerKind::BlockJacobi;
+      else if (name == "incompleteCholesky") c.settings.preconditioner = fem::PreconditionerKind::IncompleteCholesky;
+      else r.fail(p + "/solver/preconditioner", "expected \"jacobi\", \"blockJacobi\" or \"incompleteCholesky\", got " + v.dump());
+    }
     if (j["solver"].contains("maxIterations")) c.settings.cgMaxIterations = r.integer(j["solver"]["maxIterations"], p + "/solver/maxIterations", 1, 100000);
     if (j["solver"].contains("tolerance")) c.settings.cgTolerance = r.number(j["solver"]["tolerance"], p + "/solver/tolerance", 0, 1);
   }

@@ -161,6 +161,8 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
     return y;
   };
   EXPECT_GT(lowest("frame_00002.ply"), lowest("frame_00000.ply") - 0.02f);
+  // The solver's summary: every step met the tolerance.
+  EXPECT_NE(r.output.find(", 0 steps at the cap"), std::string::npos) << r.output;
   const auto cut = scratch("cut");
   // The blade's keyframes are simulation times (0.05 .. 0.2 s): it cuts while the body moves.
   r = run("cut " + source("scenes/soft_peanut.json") + " -o " + cut.string() + " --steps 25 --no-png --vtu");
@@ -180,6 +182,10 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
   std::string head((std::istreambuf_iterator<char>(vtu)), std::istreambuf_iterator<char>());
   EXPECT_NE(head.find("<VTKFile type=\"UnstructuredGrid\""), std::string::npos);
   EXPECT_NE(head.find("Name=\"part\""), std::string::npos);
+  std::ifstream statsFile(cut / "stats.csv");
+  std::string header;
+  std::getline(statsFile, header);
+  EXPECT_NE(header.find(",cg_iterations,cg_residual"), std::string::npos) << header;
 }
 
 // --fragment-tets N makes every part (but the largest) of at most N tets a fragment: the peanut's

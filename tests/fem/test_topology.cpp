@@ -78,6 +78,7 @@ Simulation freshCopy(const Simulation& sim) {
     if (sim.fixedMask()[i]) s.fixedNodes.push_back(i);
   Simulation fresh(std::move(m), s);
   fresh.setVelocities(sim.velocities());
+  fresh.setPreviousVelocities(sim.previousVelocities());  // the warm start's history
   return fresh;
 }
 
