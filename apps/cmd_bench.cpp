@@ -24,6 +24,7 @@ struct Row {
   double first = 0;  // the first run of the process (vk: includes shader compilation and JIT)
   std::size_t triangles = 0, vertices = 0;
   double evaluations = 0;
+  PolygonizeStats::Phases gpu;  // vk: of the median run
 };
 
 }  // namespace
@@ -34,7 +35,8 @@ void addBenchCommand(CLI::App& app) {
     std::vector<int> resolutions{128};
     std::vector<std::string> backends{"cpu"};
     std::vector<int> threads{0};
-    int repeats = 5, warmup = 1, mpuSize = 0, fieldTiles = 8;
+    int repeats = 5, warmup = 1, mpuSize = 0, fieldTiles = 8, brickCells = 0;
+    bool dense = false;
     bool tiledVertices = false;
     std::string device;
     std::vector<std::string> traversals{"auto"};
@@ -55,6 +57,9 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--traversal", a->traversals,
                   "vk: auto (default: the cost model picks per job), specialised, stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")
       ->check(CLI::IsMember(traversalNames()));
+  cmd->add_option("--brick-cells", a->brickCells, "vk: cells per brick edge of the sparse extraction (2-32, a power of two)")
+      ->check(CLI::IsMember({2, 4, 8, 16, 32}));
+  cmd->add_flag("--dense", a->dense, "vk: the dense z-slab extraction (every grid point) instead of the sparse one");
   cmd->add_option("--field-tiles", a->fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")
       ->check(CLI::Range(1, 256));
@@ -85,23 +90,26 @@ void addBenchCommand(CLI::App& app) {
             settings.device = a->device;
             settings.traversal = traversal;
             settings.fieldTiles = a->fieldTiles;
+            settings.brickCells = a->brickCells;
+            settings.dense = a->dense;
             settings.tiledVertices = a->tiledVertices;
             Row row{path, backend == "vk" ? backend + "-" + traversal : backend, resolution, threads};
-            std::vector<double> times;
+            std::vector<std::pair<double, PolygonizeStats::Phases>> times;
             for (int i = 0; i < a->warmup + a->repeats; ++i) {
               PolygonizeStats stats;
               const mesh::TriMesh mesh = polygonize(model.program, grid, settings, &stats);
               if (i == 0) row.first = stats.seconds;
               if (i < a->warmup) continue;
-              times.push_back(stats.seconds);
+              times.push_back({stats.seconds, stats.gpu});
               row.triangles = mesh.triangleCount();
               row.vertices = mesh.vertexCount();
               row.evaluations = stats.pointEvaluations;
             }
-            std::sort(times.begin(), times.end());
-            row.median = times[times.size() / 2];
-            row.min = times.front();
-            row.max = times.back();
+            std::sort(times.begin(), times.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+            row.median = times[times.size() / 2].first;
+            row.gpu = times[times.size() / 2].second;
+            row.min = times.front().first;
+            row.max = times.back().first;
             rows.push_back(row);
             char note[160];
             std::snprintf(note, sizeof note, "%s %d %s: %.4f s", path.c_str(), resolution, row.backend.c_str(), row.median);
@@ -113,7 +121,14 @@ void addBenchCommand(CLI::App& app) {
     if (a->json) {
       nlohmann::json out = nlohmann::json::array();
       for (const Row& r : rows) {
-        out.push_back({{"scene", r.scene}, {"backend", r.backend}, {"resolution", r.resolution},
+        nlohmann::json phases = nlohmann::json::object();
+        if (r.backend.rfind("vk", 0) == 0) {
+          phases = {{"classification_s", r.gpu.classify}, {"field_s", r.gpu.field},
+                    {"extraction_s", r.gpu.extract}, {"readback_s", r.gpu.readback},
+                    {"bricks", r.gpu.bricks}, {"active_bricks", r.gpu.activeBricks},
+                    {"brick_cells", r.gpu.brickCells}, {"device_bytes", r.gpu.deviceBytes}};
+        }
+        out.push_back({{"vk_phases", phases}, {"scene", r.scene}, {"backend", r.backend}, {"resolution", r.resolution},
                        {"threads", r.threads}, {"median_s", r.median}, {"min_s", r.min},
                        {"max_s", r.max}, {"first_s", r.first}, {"triangles", r.triangles}, {"vertices", r.vertices},
                        {"point_evaluations", r.evaluations},

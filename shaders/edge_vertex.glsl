@@ -1,0 +1,95 @@
+// The vertex on one crossing grid edge, by the rules of cpu_simd/reference_polygonizer.cpp:
+// t = (iso - fa) / (fb - fa) from the edge's lower point, optional Illinois regula-falsi steps,
+// normal = -gradient by central differences (blobtree::normal), colour from the colour evaluator.
+// Included after eval_program.glsl by the vertex kernels (vertex_emit.glsl), which declare `pc`
+// (originCell, codeLength, refineSteps, attributes bit 0 normals bit 1 colours, normalStep) and
+// the float arrays positions, normals and colours.
+//
+// The field is evaluated at ONE call site, in a loop over the samples (refinement steps, then the
+// six normal samples): drivers inline every call, so a specialised kernel (vk/eval/program_codegen.h)
+// holds one copy of the generated evaluator for the field plus one for the colour, not eight.
+// The arithmetic is that of the straight-line form operation for operation (same sample points,
+// same differences), so meshes do not change.
+#ifndef BLOBVK_EDGE_VERTEX_GLSL
+#define BLOBVK_EDGE_VERTEX_GLSL
+
+precise vec3 gridPoint(uint i, uint j, uint k) {  // precise: no fma, as GridSpec::point
+  return pc.originCell.xyz + pc.originCell.w * vec3(float(i), float(j), float(k));
+}
+
+// Vertex `out_` on the edge from grid point g along `axis`, fa and fb the field at its ends.
+void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
+  vec3 pa = gridPoint(g.x, g.y, g.z);
+  uvec3 step_ = uvec3(axis == 0u ? 1u : 0u, axis == 1u ? 1u : 0u, axis == 2u ? 1u : 0u);
+  vec3 pb = gridPoint(g.x + step_.x, g.y + step_.y, g.z + step_.z);
+  // cpu/reference_polygonizer.cpp rule 2: only the edge's own coordinate moves.
+  float len = pb[axis] - pa[axis];
+  precise float t = (ISO_VALUE - fa) / (fb - fa);
+  precise float lo = 0.0, hi = 1.0, flo = fa, fhi = fb;
+  int keptSide = 0;  // Illinois regula falsi: -1 lo kept last step, +1 hi kept last step
+  float h = pc.normalStep;
+  // Samples: refinement steps first (while `refining`), then normal samples 0..5 at
+  // p + h e_a, p - h e_a for a = x, y, z (none when normals are off).
+  bool refining = pc.refineSteps > 0u;
+  uint steps = 0u;
+  uint normalSamples = (pc.attributes & 1u) != 0u ? 6u : 0u;
+  uint n = 0u;
+  float inv = 0.5 / h;
+  float fPlus = 0.0;  // the last p + h e_a sample
+  precise vec3 grad = vec3(0.0);
+  precise vec3 p = pa;
+  p[axis] = pa[axis] + t * len;
+  for (;;) {
+    if (!refining && n >= normalSamples) break;
+    vec3 q = p;
+    if (!refining) {
+      uint a = n >> 1u;
+      q[a] = (n & 1u) == 0u ? p[a] + h : p[a] - h;
+    }
+    float f = evaluateField(q, pc.codeLength);
+    if (!refining) {
+      if ((n & 1u) == 0u) fPlus = f; else grad[n >> 1u] = (fPlus - f) * inv;
+      ++n;
+      continue;
+    }
+    ++steps;
+    if (f == ISO_VALUE) {
+      refining = false;
+      continue;
+    }
+    if ((f >= ISO_VALUE) == (flo >= ISO_VALUE)) {
+      lo = t;
+      flo = f;
+      if (keptSide == 1) fhi = ISO_VALUE + (fhi - ISO_VALUE) * 0.5;
+      keptSide = 1;
+    } else {
+      hi = t;
+      fhi = f;
+      if (keptSide == -1) flo = ISO_VALUE + (flo - ISO_VALUE) * 0.5;
+      keptSide = -1;
+    }
+    t = lo + (ISO_VALUE - flo) / (fhi - flo) * (hi - lo);
+    p[axis] = pa[axis] + t * len;
+    if (steps >= pc.refineSteps) refining = false;
+  }
+  uint v = out_ * 3u;
+  positions[v] = p.x;
+  positions[v + 1u] = p.y;
+  positions[v + 2u] = p.z;
+  if ((pc.attributes & 1u) != 0u) {
+    float glen = length(grad);
+    precise vec3 nrm = glen > 0.0 ? -grad / glen : vec3(0.0, 0.0, 1.0);
+    normals[v] = nrm.x;
+    normals[v + 1u] = nrm.y;
+    normals[v + 2u] = nrm.z;
+  }
+  if ((pc.attributes & 2u) != 0u) {
+    vec3 colour;
+    evaluateFieldColour(p, pc.codeLength, colour);
+    colours[v] = colour.x;
+    colours[v + 1u] = colour.y;
+    colours[v + 2u] = colour.z;
+  }
+}
+
+#endif
