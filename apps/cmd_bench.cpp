@@ -57,8 +57,8 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--traversal", a->traversals,
                   "vk: auto (default: the cost model picks per job), specialised, stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")
       ->check(CLI::IsMember(traversalNames()));
-  cmd->add_option("--brick-cells", a->brickCells, "vk: cells per brick edge of the sparse extraction (2-32, a power of two)")
-      ->check(CLI::IsMember({2, 4, 8, 16, 32}));
+  cmd->add_option("--brick-cells", a->brickCells, "vk: cells per brick edge of the sparse extraction (2-16, a power of two)")
+      ->check(CLI::IsMember({2, 4, 8, 16}));
   cmd->add_flag("--dense", a->dense, "vk: the dense z-slab extraction (every grid point) instead of the sparse one");
   cmd->add_option("--field-tiles", a->fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")

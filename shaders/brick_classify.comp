@@ -15,6 +15,17 @@
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
+// Specialization constants 3-5 of the evaluators (vk::GpuProgram::specs): the opcodes, primitive
+// types and warp types the program has. llvmpipe runs every branch of the interpreter loop under
+// a lane mask, so what a program lacks must fold away.
+layout(constant_id = 3) const uint OP_MASK = 0xffffffffu;
+layout(constant_id = 4) const uint PRIM_MASK = 0xffffffffu;
+layout(constant_id = 5) const uint WARP_MASK = 0xffffffffu;
+#define HAS_OP(op) ((OP_MASK & (1u << (op))) != 0u)
+#define HAS_PRIM(t) ((PRIM_MASK & (1u << (t))) != 0u)
+#define HAS_WARP(t) ((WARP_MASK & (1u << (t))) != 0u)
+const uint MASK_HAS_MATRIX = 0x80000000u;
+
 layout(std430, set = 0, binding = 0) readonly buffer ProgramCode { Instruction programCode[]; };
 layout(std430, set = 0, binding = 1) readonly buffer ProgramPrims { PrimitiveRecord programPrims[]; };
 layout(std430, set = 0, binding = 2) readonly buffer ProgramMatrices { MatrixRecord programMatrices[]; };
@@ -80,22 +91,22 @@ vec2 boxDistance2(Box a, vec3 slo, vec3 shi) {
 void skeletonBox(uint index, uint type, out vec3 lo, out vec3 hi) {
   vec3 c = programPrims[index].p0.xyz, n = programPrims[index].p1.xyz;
   vec3 inPlane = sqrt(max(vec3(0.0), vec3(1.0) - n * n));
-  if (type == PRIM_LINE) {
+  if (HAS_PRIM(PRIM_LINE) && type == PRIM_LINE) {
     lo = min(c, c + n);
     hi = max(c, c + n);
-  } else if (type == PRIM_CYLINDER) {
+  } else if (HAS_PRIM(PRIM_CYLINDER) && type == PRIM_CYLINDER) {
     vec3 top = c + n * programPrims[index].p2.y;
     vec3 ext = inPlane * abs(programPrims[index].p2.x);
     lo = min(c, top) - ext;
     hi = max(c, top) + ext;
-  } else if (type == PRIM_DISC || type == PRIM_RING) {
+  } else if ((HAS_PRIM(PRIM_DISC) && type == PRIM_DISC) || (HAS_PRIM(PRIM_RING) && type == PRIM_RING)) {
     vec3 ext = inPlane * abs(programPrims[index].p2.x);
     lo = c - ext;
     hi = c + ext;
-  } else if (type == PRIM_CUBE) {
+  } else if (HAS_PRIM(PRIM_CUBE) && type == PRIM_CUBE) {
     lo = c - abs(n);
     hi = c + abs(n);
-  } else if (type == PRIM_TRIANGLE) {
+  } else if (HAS_PRIM(PRIM_TRIANGLE) && type == PRIM_TRIANGLE) {
     vec3 q = programPrims[index].p2.xyz;
     lo = min(min(c, n), q);
     hi = max(max(c, n), q);
@@ -112,7 +123,7 @@ vec2 primitiveBounds(uint index, Box world) {
   uvec4 meta = programPrims[index].meta;
   uint type = meta.x;
   if (type > PRIM_QUADRIC) return vec2(0.0);  // the reference gives 0 for unknown types
-  Box local = meta.y != 0u ? transformBox(programMatrices[meta.y], world) : world;
+  Box local = (PRIM_MASK & MASK_HAS_MATRIX) != 0u && meta.y != 0u ? transformBox(programMatrices[meta.y], world) : world;
   float scale = type == PRIM_QUADRIC ? programPrims[index].p0.w : 1.0;
   if (!finiteBox(local)) return vec2(min(0.0, scale), max(0.0, scale));
   vec3 slo, shi;
@@ -127,11 +138,11 @@ vec2 primitiveBounds(uint index, Box world) {
 }
 
 Box warpBox(WarpRecord w, Box b) {
-  if (w.meta.w != 0u) b = transformBox(programMatrices[w.meta.w], b);
+  if ((WARP_MASK & MASK_HAS_MATRIX) != 0u && w.meta.w != 0u) b = transformBox(programMatrices[w.meta.w], b);
   if (!finiteBox(b)) return b;
   uint a = min(w.meta.y, 2u), c = min(w.meta.z, 2u);
   float k = w.params.x;
-  if (w.meta.x == WARP_TWIST) {
+  if (HAS_WARP(WARP_TWIST) && w.meta.x == WARP_TWIST) {
     // A rotation about axis a keeps the coordinate along a and the distance from the axis.
     uint u = (a + 1u) % 3u, v = (a + 2u) % 3u;
     float mu = max(abs(b.lo[u]), abs(b.hi[u])), mv = max(abs(b.lo[v]), abs(b.hi[v]));
@@ -142,13 +153,13 @@ Box warpBox(WarpRecord w, Box b) {
     b.hi[v] = r;
     return padBox(b);
   }
-  if (w.meta.x == WARP_TAPER) {
+  if (HAS_WARP(WARP_TAPER) && w.meta.x == WARP_TAPER) {
     vec2 f = mulInterval(vec2(b.lo[c], b.hi[c]), vec2(1.0 + min(k * b.lo[a], k * b.hi[a]), 1.0 + max(k * b.lo[a], k * b.hi[a])));
     b.lo[c] = f.x;
     b.hi[c] = f.y;
     return padBox(b);
   }
-  if (w.meta.x == WARP_SHEAR) {
+  if (HAS_WARP(WARP_SHEAR) && w.meta.x == WARP_SHEAR) {
     vec2 s = mulInterval(vec2(b.lo[c], b.hi[c]), vec2(k));
     b.lo[a] += s.x;
     b.hi[a] += s.y;
@@ -181,29 +192,29 @@ vec2 fieldBounds(Box query, out bool gaveUp) {
     uint op = in_.x & 0xffu, dst = min(in_.x >> 8, MAX_FIELD_REGISTERS - 1u);
     uint y = min(in_.y, MAX_FIELD_REGISTERS - 1u);
     vec2 d = reg[dst];
-    if (op == OP_PRIM) {
+    if (HAS_OP(OP_PRIM) && op == OP_PRIM) {
       d = primitiveBounds(in_.y, pts[min(in_.z, MAX_POINT_REGISTERS - 1u)]);
-    } else if (op == OP_ADD) {
+    } else if (HAS_OP(OP_ADD) && op == OP_ADD) {
       d += reg[y];
-    } else if (op == OP_MAX) {
+    } else if (HAS_OP(OP_MAX) && op == OP_MAX) {
       d = max(d, reg[y]);
-    } else if (op == OP_MIN) {
+    } else if (HAS_OP(OP_MIN) && op == OP_MIN) {
       d = min(d, reg[y]);
-    } else if (op == OP_DIFF) {
+    } else if (HAS_OP(OP_DIFF) && op == OP_DIFF) {
       d = vec2(min(d.x, 1.0 - reg[y].y), min(d.y, 1.0 - reg[y].x));
-    } else if (op == OP_SDIFF) {
+    } else if (HAS_OP(OP_SDIFF) && op == OP_SDIFF) {
       d = mulInterval(d, vec2(1.0 - reg[y].y, 1.0 - reg[y].x));
-    } else if (op == OP_ONE_MINUS) {
+    } else if (HAS_OP(OP_ONE_MINUS) && op == OP_ONE_MINUS) {
       d = vec2(1.0 - d.y, 1.0 - d.x);
-    } else if (op == OP_MUL) {
+    } else if (HAS_OP(OP_MUL) && op == OP_MUL) {
       d = mulInterval(d, reg[y]);
-    } else if (op == OP_POW) {
+    } else if (HAS_OP(OP_POW) && op == OP_POW) {
       float e = uintBitsToFloat(in_.w);
       // pow's precision is the driver's: widen by a relative margin.
       d = e > 0.0 ? vec2(pow(max(d.x, 0.0), e) * (1.0 - 1e-4), pow(max(d.y, 0.0), e) * (1.0 + 1e-4)) : vec2(0.0, INF);
-    } else if (op == OP_WARP) {
+    } else if (HAS_OP(OP_WARP) && op == OP_WARP) {
       pts[min(dst, MAX_POINT_REGISTERS - 1u)] = warpBox(programWarps[in_.y], pts[min(in_.z, MAX_POINT_REGISTERS - 1u)]);
-    } else if (op == OP_SKIP) {
+    } else if (HAS_OP(OP_SKIP) && op == OP_SKIP) {
       BoxRecord s = programBoxes[in_.y];
       Box q = pts[min(in_.z, MAX_POINT_REGISTERS - 1u)];
       vec3 slo = vec3(s.lo.x, s.lo.y, s.lo.z), shi = vec3(s.hi.x, s.hi.y, s.hi.z);

@@ -1,6 +1,6 @@
 // The sparse extraction's layout (vk/extract/sparse_polygonizer.h), shared by its kernels.
-// A brick holds B^3 cells (B = 1 << log2B) and stores R^3 grid points, R = B + 1: its cells'
-// corners. Brick-local point (x, y, z) is word (z * R + y) * R + x of the brick's slice of the
+// A brick holds B^3 cells (B = 1 << log2B, at most 16) and stores R^3 grid points, R = B + 1: its
+// cells' corners. Brick-local point (x, y, z) is word (z * R + y) * R + x of the brick's slice of the
 // per-point arrays; active brick a's slice starts at a * R^3. A point belongs to (is *owned by)
 // the brick whose cells start at it, except on the grid's last point layer of an axis, which the
 // last brick of that axis owns: each grid point has one owner, and a point's three upper edges lie
@@ -20,9 +20,19 @@
 // q / d for quotients below 64 and d <= 2^12, without integer division (llvmpipe divides lane by
 // lane): (q + 0.5) / d lies at least 0.5 / d from an integer, the float quotient within a few ulps
 // of 64 of it.
-uint divideSmall(uint q, uint d) { return uint((float(q) + 0.5) / float(d)); }
+uint divideSmall(uint q, uint d) {
+  precise float quotient = (float(q) + 0.5) / float(d);  // precise: the kernels hold no contractible op
+  return uint(quotient);
+}
 
 uvec3 unpackBrick(uint packed) { return uvec3(packed & 0x3ffu, (packed >> 10) & 0x3ffu, packed >> 20); }
+
+// Vertices of a row of points before point x: e.x, e.y, e.z hold the row's crossing +x, +y, +z
+// edges (bit x: point x's edge), and a point's vertices follow in axis order.
+uint rowVerticesBefore(uvec3 e, uint x) {
+  uint below = (1u << x) - 1u;
+  return bitCount(e.x & below) + bitCount(e.y & below) + bitCount(e.z & below);
+}
 
 #ifdef BRICK_SCAN_BINDING
 layout(std430, set = 0, binding = BRICK_SCAN_BINDING) readonly buffer BrickScan { uint brickScan[]; };

@@ -1,10 +1,10 @@
 #version 450
-// Sparse extraction, pass 5: one invocation per vertex of the mesh, in global edge-key order.
+// Sparse extraction, pass 6: one invocation per vertex of the mesh, in global edge-key order.
 // Vertex v lies in the last segment (row of points of an active brick, brick_layout.glsl) whose
 // scanned vertex offset is <= v (a binary search over the scan in global segment order), at the
-// last point of that row whose prefix is <= the rest (a search over the row), on that point's
-// (rest - prefix)-th crossing upper edge. The vertex itself: edge_vertex.glsl. Its edge key
-// (global point index * 3 + axis) is written as two words, low first.
+// last point x of that row with rowVerticesBefore(x) <= the rest, on that point's
+// (rest - rowVerticesBefore(x))-th crossing upper edge (x, then y, then z). The vertex itself:
+// edge_vertex.glsl. Its edge key (global point index * 3 + axis) is written as two words, low first.
 #extension GL_GOOGLE_include_directive : require
 #define PROGRAM_SET 0
 #define PROGRAM_BINDING 0
@@ -13,10 +13,10 @@
 #include "brick_layout.glsl"
 
 layout(std430, set = 0, binding = 5) readonly buffer Field { float field[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Points { uint points[]; };  // brick_rows.comp
+layout(std430, set = 0, binding = 6) readonly buffer Edges { uvec4 edges[]; };  // brick_rows.comp
 layout(std430, set = 0, binding = 7) readonly buffer Bricks { uint bricks[]; };
 layout(std430, set = 0, binding = 8) readonly buffer VertexSegments { uint vertexSegments[]; };  // scanned
-layout(std430, set = 0, binding = 9) readonly buffer SegmentRows { uvec2 segmentRows[]; };
+layout(std430, set = 0, binding = 9) readonly buffer VertexRows { uvec2 vertexRows[]; };
 layout(std430, set = 0, binding = 10) writeonly buffer Positions { float positions[]; };
 layout(std430, set = 0, binding = 11) writeonly buffer Normals { float normals[]; };
 layout(std430, set = 0, binding = 12) writeonly buffer Colours { float colours[]; };
@@ -44,18 +44,17 @@ void main() {
     uint mid = (lo + hi) / 2u;
     if (vertexSegments[mid] <= v) lo = mid; else hi = mid;
   }
-  uvec2 row = segmentRows[lo];
-  uint R = (1u << pc.log2B) + 1u, P = R * R * R;
-  uint base = row.x * P + row.y * R;
+  uvec2 row = vertexRows[lo];
+  uint R = (1u << pc.log2B) + 1u;
+  uvec3 e = edges[row.x * R * R + row.y].xyz;
   uint rest = v - vertexSegments[lo];
-  uint x0 = 0u, x1 = R;  // the last point of the row whose prefix is <= rest
+  uint x0 = 0u, x1 = R;  // the last point of the row with rowVerticesBefore <= rest
   while (x1 - x0 > 1u) {
     uint mid = (x0 + x1) / 2u;
-    if ((points[base + mid] >> 3) <= rest) x0 = mid; else x1 = mid;
+    if (rowVerticesBefore(e, mid) <= rest) x0 = mid; else x1 = mid;
   }
-  uint word = points[base + x0];
-  uint bits = word & 7u;
-  uint rank = rest - (word >> 3);
+  uint bits = ((e.x >> x0) & 1u) | (((e.y >> x0) & 1u) << 1) | (((e.z >> x0) & 1u) << 2);
+  uint rank = rest - rowVerticesBefore(e, x0);
   uint axis = findLSB(bits);
   if (rank > 0u) {
     bits &= bits - 1u;
@@ -67,7 +66,7 @@ void main() {
   }
   uint lz = divideSmall(row.y, R), ly = row.y - lz * R;
   uvec3 g = (unpackBrick(bricks[row.x]) << pc.log2B) + uvec3(x0, ly, lz);
-  uint idx = base + x0;
+  uint idx = (row.x * R * R + row.y) * R + x0;
   emitEdgeVertex(v, g, axis, field[idx], field[idx + (axis == 0u ? 1u : (axis == 1u ? R : R * R))]);
   // Key = ((z * ny + y) * nx + x) * 3 + axis in 64 bits.
   uint khi, klo, carry;

@@ -17,7 +17,9 @@ struct GpuPolygonizeOptions {
   // Sparse extraction over bricks (vk/extract/sparse_polygonizer.h); false: the dense z-slab
   // pipeline of vk/extract/slab_polygonizer.h (also used with tiledVertexPass).
   bool sparse = true;
-  std::uint32_t brickCells = 8;  // cells per brick edge (sparse), a power of two from 2 to 32
+  // Cells per brick edge (sparse), a power of two from 2 to 16. 16 measured fastest on lavapipe
+  // (docs/vulkan.md): 8 evaluates fewer points but classifies 8x as many bricks.
+  std::uint32_t brickCells = 16;
   bool normals = true;
   bool colours = true;
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation

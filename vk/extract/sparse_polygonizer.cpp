@@ -66,7 +66,9 @@ void recordClassify(Recorder& rec, const GpuProgram& gpu, const blobtree::GridSp
          {std::uint32_t(grid.cells.x), std::uint32_t(grid.cells.y), std::uint32_t(grid.cells.z), bg.log2B},
          {bg.x, bg.y, bg.z, gpu.codeLength}};
   const BufferRange bind[6] = {pb[0], pb[1], pb[2], pb[3], pb[4], flags};
-  rec.dispatch(*rec.device().kernel("brick_classify", {}), bind, &push, sizeof(push), (bg.x + 3) / 4,
+  // Constants 3-5: the program's opcode, primitive and warp masks (the others are not used).
+  const auto specs = gpu.specs(64, Traversal::Stackless);
+  rec.dispatch(*rec.device().kernel("brick_classify", specs), bind, &push, sizeof(push), (bg.x + 3) / 4,
                (bg.y + 3) / 4, (bg.z + 3) / 4);
 }
 
@@ -87,8 +89,8 @@ std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Progra
 }
 
 BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells) {
-  if (brickCells < 2 || brickCells > 32 || !std::has_single_bit(brickCells)) {
-    throw VulkanError("GPU polygonizer: the brick size must be a power of two from 2 to 32 cells, not " +
+  if (brickCells < 2 || brickCells > 16 || !std::has_single_bit(brickCells)) {
+    throw VulkanError("GPU polygonizer: the brick size must be a power of two from 2 to 16 cells, not " +
                       std::to_string(brickCells));
   }
   BrickGrid b;
@@ -106,9 +108,9 @@ BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells)
 std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBricks, std::uint64_t vertices,
                                 std::uint64_t triangles, bool normals, bool colours) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
-  const std::uint64_t perBrick = 2 * R * R * R * 4   // field, point words
-                                 + R * R * 12        // vertex segments, their rows
-                                 + B * B * 4;        // triangle segments
+  const std::uint64_t perBrick = R * R * R * 4   // field
+                                 + R * R * 32    // inside and edge masks, vertex segments, their rows
+                                 + B * B * 12;   // triangle segments, their rows
   const std::uint64_t scan = (scanScratchWords(bricks.count() + 1) + scanScratchWords(activeBricks * R * R) +
                               scanScratchWords(activeBricks * B * B)) * 4;
   const std::uint64_t outputs = vertices * (12 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * 12;
@@ -192,32 +194,41 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   s.fieldSeconds = since(t0);
   s.fieldEvaluations = std::uint64_t(active) * P;
 
-  // 4: edges, counts and the two scans.
+  // 4-5: inside masks per row of points, crossing edges and counts per row, the two scans.
   t0 = Clock::now();
-  const std::uint64_t vertexSegmentCount = std::uint64_t(active) * R * R;
+  const std::uint64_t rowCount = std::uint64_t(active) * R * R;
   const std::uint64_t triangleSegmentCount = std::uint64_t(active) * B * B;
   const auto words = packCases();
   Buffer cases = buf.make(words.size() * 4, "case table");
   device.upload(cases, words.data(), words.size() * 4);
-  Buffer points = buf.make(std::uint64_t(active) * P * 4, "point words");
-  Buffer vertexSegments = buf.make(vertexSegmentCount * 4, "vertex segments");
-  Buffer segmentRows = buf.make(vertexSegmentCount * 8, "segment rows");
+  Buffer masks = buf.make(rowCount * 4, "inside masks");
+  Buffer edges = buf.make(rowCount * 16, "edge masks");
+  Buffer vertexSegments = buf.make(rowCount * 4, "vertex segments");
+  Buffer vertexRows = buf.make(rowCount * 8, "vertex segment rows");
   Buffer triangleSegments = buf.make(triangleSegmentCount * 4, "triangle segments");
-  const std::uint64_t vertexScratch = scanScratchWords(vertexSegmentCount);
+  Buffer triangleRows = buf.make(triangleSegmentCount * 8, "triangle segment rows");
+  const std::uint64_t vertexScratch = scanScratchWords(rowCount);
   Buffer segmentScratch =
       buf.make((vertexScratch + scanScratchWords(triangleSegmentCount) + 1) * 4, "segment scan scratch");
   Buffer counts = buf.make(16, "counts");
   const std::uint32_t brickPush[8] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, active};
+  const std::uint32_t rowGroups = (R * R + wg - 1) / wg;
   device.run([&](Recorder& rec) {
     {
-      const BufferRange bind[8] = {field, brickList, cases, points, vertexSegments, segmentRows, triangleSegments,
-                                   brickScan};
-      rec.dispatch(*device.kernel("brick_rows", wgSpec), bind, brickPush, sizeof(brickPush), (R * R + wg - 1) / wg,
-                   bgroups.y, bgroups.z);
+      const std::uint32_t push[2] = {bg.log2B, active};
+      const BufferRange bind[2] = {field, masks};
+      rec.dispatch(*device.kernel("brick_masks", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
     }
     rec.computeBarrier();
-    recordExclusiveScan(rec, vertexSegments.handle(), 0, std::uint32_t(vertexSegmentCount),
-                        segmentScratch.handle(), 0, counts.handle(), 0);
+    {
+      const BufferRange bind[9] = {masks, brickList, cases, edges, vertexSegments, vertexRows, triangleSegments,
+                                   triangleRows, brickScan};
+      rec.dispatch(*device.kernel("brick_rows", wgSpec), bind, brickPush, sizeof(brickPush), rowGroups, bgroups.y,
+                   bgroups.z);
+    }
+    rec.computeBarrier();
+    recordExclusiveScan(rec, vertexSegments.handle(), 0, std::uint32_t(rowCount), segmentScratch.handle(), 0,
+                        counts.handle(), 0);
     rec.computeBarrier();  // the scans share the scratch and totals buffers (see slab_polygonizer.cpp)
     recordExclusiveScan(rec, triangleSegments.handle(), 0, std::uint32_t(triangleSegmentCount),
                         segmentScratch.handle(), std::uint32_t(vertexScratch), counts.handle(), 1);
@@ -228,7 +239,7 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   const std::uint32_t vertices = vt[0], triangles = vt[1];
   s.extractSeconds = since(t0);
 
-  // 5: vertices and triangles, then the read-back.
+  // 6-7: vertices and triangles, one invocation each, then the read-back.
   if (vertices || triangles) {
     t0 = Clock::now();
     Buffer positions = buf.make(std::uint64_t(vertices) * 12, "vertex positions");
@@ -236,9 +247,9 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
     Buffer colours = buf.make(options.colours ? std::uint64_t(vertices) * 12 : 16, "vertex colours");
     Buffer keys = buf.make(std::uint64_t(vertices) * 8, "edge keys");
     Buffer indices = buf.make(std::uint64_t(triangles) * 12, "triangle indices");
-    const KernelPtr vk = evaluatorKernel(device, gpu, "brick_vertices", wg, traversal);
+    const KernelPtr vertexKernel = evaluatorKernel(device, gpu, "brick_vertices", wg, traversal);
     device.run([&](Recorder& rec) {
-      {
+      if (vertices) {
         struct {
           float originCell[4];
           std::uint32_t codeLength, refineSteps, attributes;
@@ -250,20 +261,25 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
                (options.normals ? 1u : 0u) | (options.colours ? 2u : 0u),
                options.normalStep,
                bg.log2B,
-               std::uint32_t(vertexSegmentCount),
+               std::uint32_t(rowCount),
                vertices,
                std::uint32_t(grid.cells.x + 1),
                std::uint32_t(grid.cells.y + 1)};
-        const BufferRange bind[14] = {pb[0], pb[1], pb[2], pb[3], pb[4], field, points, brickList, vertexSegments,
-                                      segmentRows, positions, normals, colours, keys};
+        const BufferRange bind[14] = {pb[0], pb[1], pb[2], pb[3], pb[4], field, edges, brickList, vertexSegments,
+                                      vertexRows, positions, normals, colours, keys};
         const Groups g = groupsFor(vertices, wg);
-        if (vertices) rec.dispatch(*vk, bind, &push, sizeof(push), g.x, g.y);
+        rec.dispatch(*vertexKernel, bind, &push, sizeof(push), g.x, g.y);
       }
-      {
-        const BufferRange bind[8] = {field, brickList, cases, points, vertexSegments, triangleSegments, indices,
-                                     brickScan};
-        rec.dispatch(*device.kernel("brick_triangles", wgSpec), bind, brickPush, sizeof(brickPush),
-                     (B * B + wg - 1) / wg, bgroups.y, bgroups.z);
+      if (triangles) {
+        struct {
+          std::uint32_t cells[4], bricks[4];
+          std::uint32_t segments, triangles;
+        } push{{cells[0], cells[1], cells[2], cells[3]}, {bg.x, bg.y, bg.z, active},
+               std::uint32_t(triangleSegmentCount), triangles};
+        const BufferRange bind[9] = {masks, cases, edges, vertexSegments, triangleSegments, triangleRows, brickList,
+                                     indices, brickScan};
+        const Groups g = groupsFor(triangles, wg);
+        rec.dispatch(*device.kernel("brick_triangles", wgSpec), bind, &push, sizeof(push), g.x, g.y);
       }
       rec.hostBarrier();
     });
@@ -280,7 +296,8 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
       mesh.colours.resize(vertices);
       device.download(colours, mesh.colours.data(), vertices * 12ull);
     }
-    static_assert(sizeof(mesh.edgeKeys[0]) == 8, "edge keys are 64-bit, low word first on the device");
+    // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
+    static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
     mesh.edgeKeys.resize(vertices);
     device.download(keys, mesh.edgeKeys.data(), vertices * 8ull);
     mesh.triangles.resize(triangles);

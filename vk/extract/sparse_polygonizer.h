@@ -4,11 +4,13 @@
 //     samples provably lie on one side of the iso value are dropped;
 //  2. an exclusive scan of the flags and brick_compact: the active bricks in (bz, by, bx) order;
 //  3. brick_field: the field at the (B+1)^3 points of each active brick only;
-//  4. brick_rows: crossing edges and vertex counts per row of points, triangle counts per row of
-//     cells, each at its position in the global order (shaders/brick_layout.glsl), two scans;
-//  5. brick_vertices (one lane per vertex) and brick_triangles (one lane per row of cells).
-// Device memory follows the active bricks: besides 4 bytes per brick of the grid, each active
-// brick holds 2 words per point of its (B+1)^3 and a few per row. The mesh equals
+//  4. brick_masks: the inside bits of each row of points packed in one word;
+//  5. brick_rows: crossing edges (three bit masks) and vertex counts per row of points, triangle
+//     counts per row of cells, each at its position in the global order
+//     (shaders/brick_layout.glsl), two scans;
+//  6. brick_vertices and brick_triangles, one lane per vertex and per triangle.
+// Device memory follows the active bricks: besides 8 bytes per brick of the grid, each active
+// brick holds one float per point of its (B+1)^3 and 8 words per row of points. The mesh equals
 // cpu::polygonizeReference index by index (vertices in global edge-key order, triangles in cell
 // order) wherever the two classify the grid points alike.
 #pragma once
@@ -23,7 +25,7 @@
 
 namespace blobvk::vk {
 
-// Bricks per axis for `grid` with bricks of `brickCells` cells (a power of two, 2 .. 32).
+// Bricks per axis for `grid` with bricks of `brickCells` cells (a power of two, 2 .. 16).
 struct BrickGrid {
   std::uint32_t log2B = 3;
   std::uint32_t x = 1, y = 1, z = 1;
