@@ -19,6 +19,7 @@ void addDevicesCommand(CLI::App& app);
 void addCompareCommand(CLI::App& app);
 void addSimulateCommand(CLI::App& app);
 void addCutCommand(CLI::App& app);
+void addEditCommand(CLI::App& app);
 
 // A comparison that ran but did not meet its thresholds: exit code 3 (errors give 1).
 struct ComparisonFailed {

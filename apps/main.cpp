@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   addBenchCommand(app);
   addSimulateCommand(app);
   addCutCommand(app);
+  addEditCommand(app);
   addDevicesCommand(app);
   addCompareCommand(app);
   addRenderCommand(app);

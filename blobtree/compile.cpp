@@ -11,6 +11,7 @@
 //     needs max(need(c0), 1 + max need(c_i>0)) registers: 2 for a caterpillar tree, about
 //     log2 N for a balanced one. A subtree with a finite box starts with OP_SKIP, which jumps
 //     past it and writes 0 when the point is outside (the escape link of stackless BVH walks).
+#include "blobvk/blobtree/compiled_nodes.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_limits.h"
 #include "blobvk/blobtree/tree.h"
@@ -26,6 +27,8 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace blobvk::blobtree {
 namespace {
@@ -128,7 +131,8 @@ glm::dvec3 unitOr(const glm::dvec3& v, const glm::dvec3& fallback) {
 
 class Compiler {
  public:
-  explicit Compiler(const CompileOptions& options) : options_(options) {
+  Compiler(const CompileOptions& options, std::vector<CompiledNode>* nodes)
+      : options_(options), nodes_(nodes) {
     program_.matrices.push_back({{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}});
   }
 
@@ -170,9 +174,31 @@ class Compiler {
   Lowered lower(const Node& node, const Mat4& parent, std::size_t depth) {
     if (depth > kMaxDepth) throw std::invalid_argument("tree deeper than " + std::to_string(kMaxDepth) + " levels");
     const Mat4 frame = node.transform.isIdentity() ? parent : parent * toMatrix(node.transform);
+    if (!nodes_) return lowerNode(node, frame, depth);
+    const std::size_t at = nodes_->size();
+    nodes_->emplace_back();
+    Lowered out = lowerNode(node, frame, depth);
+    record(at, out);
+    return out;
+  }
+
+  Lowered lowerNode(const Node& node, const Mat4& frame, std::size_t depth) {
     if (const auto* prim = std::get_if<Primitive>(&node.kind)) return lowerPrimitive(*prim, frame);
     if (const auto* warp = std::get_if<Warp>(&node.kind)) return lowerWarp(node, *warp, frame, depth);
     return lowerOperator(node, std::get<Operator>(node.kind), frame, depth);
+  }
+
+  // The node's box carried out to world space through the enclosing warps, innermost first,
+  // the way lowerWarp carries its child's box.
+  void record(std::size_t at, const Lowered& out) {
+    Box world = out.box;
+    for (auto it = warpStack_.rbegin(); it != warpStack_.rend(); ++it)
+      world = transformBox(it->second, unwarpBox(*it->first, world));
+    CompiledNode& n = (*nodes_)[at];
+    n.lo = world.lo, n.hi = world.hi;
+    if (!world.empty() && !world.finite()) n.lo = glm::dvec3(-kInf), n.hi = glm::dvec3(kInf);
+    n.need = out.need;
+    n.subtreeSize = std::uint32_t(nodes_->size() - at);
   }
 
   Lowered lowerPrimitive(const Primitive& prim, const Mat4& frame) {
@@ -263,7 +289,9 @@ class Compiler {
                                std::uint32_t(warp.otherAxis), matrix},
                               {float(warp.factor), float(warp.centre), float(warp.lo), float(warp.hi)}});
     // The child starts a fresh frame: its point register holds the warped local point.
+    if (nodes_) warpStack_.emplace_back(&warp, frame);
     Lowered child = lower(node.children.front(), Mat4(1.0), depth + 1);
+    if (nodes_) warpStack_.pop_back();
     Lowered out;
     out.kind = Lowered::Kind::Warp;
     out.index = index;
@@ -488,6 +516,8 @@ class Compiler {
 
   CompileOptions options_;
   Program program_;
+  std::vector<CompiledNode>* nodes_ = nullptr;  // per node in pre-order, when asked for
+  std::vector<std::pair<const Warp*, Mat4>> warpStack_;  // enclosing warps and their frames
 };
 
 }  // namespace
@@ -516,7 +546,12 @@ std::size_t Program::byteSize() const {
 }
 
 Program compile(const Node& root, const CompileOptions& options) {
-  return Compiler(options).run(root);
+  return Compiler(options, nullptr).run(root);
+}
+
+Program compile(const Node& root, const CompileOptions& options, std::vector<CompiledNode>& nodes) {
+  nodes.clear();
+  return Compiler(options, &nodes).run(root);
 }
 
 }  // namespace blobvk::blobtree

@@ -15,6 +15,7 @@
 // Placement depends only on indices, never on scheduling: the output is the same for any
 // thread count, and equal to polygonizeReference's since the fields are bit-identical.
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/mpu_results.h"
 
 #include "blobvk/cpu_simd/field_bounds.h"
 #include "blobvk/cpu_simd/row_bits.h"
@@ -46,26 +47,14 @@ double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-constexpr std::uint32_t kDeferred = 1u << 31;
-constexpr std::uint8_t kNoRank = 255;
+using detail::kDeferred;
+using detail::kNoRank;
+using detail::MpuResult;
 
 std::uint32_t encodeDeferred(int x, int y, int z, int axis) {
   return kDeferred | std::uint32_t(x) | (std::uint32_t(y) << 7) | (std::uint32_t(z) << 14) |
          (std::uint32_t(axis) << 21);
 }
-
-struct MpuResult {
-  glm::ivec3 mpu{0}, lo{0}, pts{0}, owned{0};
-  std::vector<mesh::Float3> positions, normals, colours;
-  std::vector<std::uint64_t> keys;
-  std::vector<std::uint32_t> vertexRowStart;    // per owned point row (k, j), plus the end
-  std::vector<std::array<std::uint32_t, 3>> triangles;  // local ids or deferred references
-  std::vector<std::uint32_t> triangleRowStart;  // per cell row (k, j), plus the end
-  // Rank of each crossing edge inside its point row, for owned points on the low faces
-  // (i == 0: faceX[k * owned.y + j]; j == 0: faceY[k * owned.x + i]; k == 0: faceZ[j * owned.x
-  // + i]), which is what neighbours below need to number their references to these edges.
-  std::vector<std::array<std::uint8_t, 3>> faceX, faceY, faceZ;
-};
 
 struct ThreadStats {
   std::uint64_t grid = 0, edge = 0, attribute = 0, blocks = 0;
@@ -364,8 +353,8 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
           s.edgeAxis.push_back(std::uint8_t(axis));
         }
       });
-      ctx.vertexRows[ctx.vertexRow(lo.z + k, lo.y + j, mi.x)] =
-          std::uint32_t(s.edgePoint.size()) - rowBegin;
+      if (!ctx.vertexRows.empty())
+        ctx.vertexRows[ctx.vertexRow(lo.z + k, lo.y + j, mi.x)] = std::uint32_t(s.edgePoint.size()) - rowBegin;
     }
   }
   const std::size_t nv = s.edgePoint.size();
@@ -491,8 +480,8 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
           r->triangles.push_back(tri);
         }
       });
-      ctx.triangleRows[ctx.triangleRow(lo.z + k, lo.y + j, mi.x)] =
-          std::uint32_t(r->triangles.size()) - rowBegin;
+      if (!ctx.triangleRows.empty())
+        ctx.triangleRows[ctx.triangleRow(lo.z + k, lo.y + j, mi.x)] = std::uint32_t(r->triangles.size()) - rowBegin;
     }
   }
   r->triangleRowStart.back() = std::uint32_t(r->triangles.size());
@@ -546,32 +535,8 @@ void processGroup(Context& ctx, int g, Scratch& s, ThreadStats& st) {
       }
 }
 
-// Global index of an edge owned by a neighbour above (x, y or z past the owned range).
 std::uint32_t resolveDeferred(const Context& ctx, const MpuResult& r, std::uint32_t code) {
-  int q[3] = {int(code & 127u), int((code >> 7) & 127u), int((code >> 14) & 127u)};
-  const int axis = int((code >> 21) & 3u);
-  const glm::ivec3 g = r.lo + glm::ivec3(q[0], q[1], q[2]);
-  glm::ivec3 owner = r.mpu;
-  for (int a = 0; a < 3; ++a) {
-    if (q[a] >= r.owned[a]) {
-      owner[a] += 1;
-      q[a] -= r.owned[a];
-    }
-  }
-  const int m = (owner.z * ctx.mpus.y + owner.y) * ctx.mpus.x + owner.x;
-  const MpuResult* o = ctx.results[std::size_t(m)].get();
-  std::uint8_t rank = kNoRank;
-  if (o) {
-    if (q[0] == 0)
-      rank = o->faceX[std::size_t(q[2] * o->owned.y + q[1])][std::size_t(axis)];
-    else if (q[1] == 0)
-      rank = o->faceY[std::size_t(q[2] * o->owned.x + q[0])][std::size_t(axis)];
-    else
-      rank = o->faceZ[std::size_t(q[1] * o->owned.x + q[0])][std::size_t(axis)];
-  }
-  if (rank == kNoRank)
-    throw std::logic_error("polygonizeMpu: a triangle refers to an edge its owner has no vertex for");
-  return ctx.vertexRows[ctx.vertexRow(g.z, g.y, owner.x)] + rank;
+  return detail::resolveDeferred(ctx.mpus, ctx.points.y, ctx.results, ctx.vertexRows.data(), r, code);
 }
 
 void scatterMpu(const Context& ctx, const MpuResult& r, mesh::TriMesh& out, Scratch& s) {
@@ -619,8 +584,79 @@ std::uint64_t exclusiveScan(std::vector<std::uint32_t>& counts) {
 
 }  // namespace
 
+namespace detail {
+
+// Global index of an edge owned by a neighbour above (x, y or z past the owned range).
+std::uint32_t resolveDeferred(const glm::ivec3& mpus, int pointsY, const MpuResults& results,
+                              const std::uint32_t* vertexRows, const MpuResult& r, std::uint32_t code) {
+  int q[3] = {int(code & 127u), int((code >> 7) & 127u), int((code >> 14) & 127u)};
+  const int axis = int((code >> 21) & 3u);
+  const glm::ivec3 g = r.lo + glm::ivec3(q[0], q[1], q[2]);
+  glm::ivec3 owner = r.mpu;
+  for (int a = 0; a < 3; ++a) {
+    if (q[a] >= r.owned[a]) {
+      owner[a] += 1;
+      q[a] -= r.owned[a];
+    }
+  }
+  const int m = (owner.z * mpus.y + owner.y) * mpus.x + owner.x;
+  const MpuResult* o = results[std::size_t(m)].get();
+  std::uint8_t rank = kNoRank;
+  if (o) {
+    if (q[0] == 0)
+      rank = o->faceX[std::size_t(q[2] * o->owned.y + q[1])][std::size_t(axis)];
+    else if (q[1] == 0)
+      rank = o->faceY[std::size_t(q[2] * o->owned.x + q[0])][std::size_t(axis)];
+    else
+      rank = o->faceZ[std::size_t(q[1] * o->owned.x + q[0])][std::size_t(axis)];
+  }
+  if (rank == kNoRank)
+    throw std::logic_error("polygonizeMpu: a triangle refers to an edge its owner has no vertex for");
+  return vertexRows[(std::size_t(g.z) * std::size_t(pointsY) + std::size_t(g.y)) * std::size_t(mpus.x) +
+                    std::size_t(owner.x)] + rank;
+}
+
+void repolygonizeMpus(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                      const MpuOptions& options, const std::vector<std::uint32_t>& which,
+                      MpuResults& results, MpuStats* stats) {
+  const SimdLevel level = options.simd.value_or(bestSimdLevel());
+  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  const int D = options.mpuCells;
+  Context ctx{program, grid, options, level, simdWidth(level), D,
+              (grid.cells + D - 1) / D, grid.points(), {}, {}, std::move(results)};
+  tbb::task_arena arena(threads);
+  tbb::combinable<ThreadStats> perThread;
+  tbb::combinable<Scratch> scratch;
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, which.size(), 1), [&](const auto& range) {
+      ThreadStats& ts = perThread.local();
+      Scratch& s = scratch.local();
+      for (std::size_t i = range.begin(); i != range.end(); ++i)
+        ctx.results[which[i]] = processMpu(ctx, int(which[i]), program, {}, s, ts);
+    });
+  });
+  results = std::move(ctx.results);
+  if (stats) {
+    perThread.combine_each([&](const ThreadStats& t) {
+      stats->gridEvaluations += t.grid, stats->edgeEvaluations += t.edge;
+      stats->attributeEvaluations += t.attribute;
+      stats->discardedEmpty += t.discardedEmpty, stats->discardedFull += t.discardedFull;
+      stats->empty += t.empty, stats->full += t.full, stats->crossed += t.crossed;
+    });
+    stats->mpus += which.size();
+  }
+}
+
+}  // namespace detail
+
 mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::GridSpec& grid,
                             const MpuOptions& options, MpuStats* stats) {
+  detail::MpuResults discard;
+  return detail::polygonizeMpuKeeping(program, grid, options, stats, discard);
+}
+
+mesh::TriMesh detail::polygonizeMpuKeeping(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                           const MpuOptions& options, MpuStats* stats, MpuResults& results) {
   const auto tStart = Clock::now();
   if (!(grid.cellSize > 0.0f))
     throw std::invalid_argument("polygonizeMpu: cell size must be positive, got " +
@@ -712,6 +748,7 @@ mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::Gr
   st.fvept = nt ? double(st.pointEvaluations) / double(nt) : 0.0;
   st.fveptSimd = nt ? double(st.simdBlocks) / double(nt) : 0.0;
   st.msTotal = msSince(tStart);
+  results = std::move(ctx.results);
   return mesh;
 }
 

@@ -55,6 +55,7 @@ gb bench_compile_cost '.'
 gb bench_fem '.'
 gb bench_cutting '.'
 gb bench_cut_event '.'
+gb bench_edit '.'
 gb bench_tetgen '^sceneTetgen/(craniotomy/0/200/1|eggshell_sim/0/200/1|soft_peanut/100000/200/1)$'
 
 # The commands as the page shows them: paths relative to the repository root.

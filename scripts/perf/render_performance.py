@@ -309,6 +309,20 @@ def main():
     w(cmd("gb_bench_cut_event"))
     w(gb_table(gb.get("bench_cut_event", {})))
 
+    w("\n## Editing (`bench_edit`)\n")
+    w("One edit of a tower and the incremental re-mesh at 256 cells (docs/editing.md): moving a capital\n"
+      "point, a pillar's cylinder, a whole pillar or a storey by about one cell, or changing the\n"
+      "cylinder's colour, on towers of 2, 4 and 6 storeys (`L6` is `scenes/tower_L6P8I4.json`), 2\n"
+      "threads. Per edit: *ms_apply* (recompile and region), *ms_polygonize* (the MPUs re-run),\n"
+      "*ms_splice*; *full_ms* is a full re-mesh of the same scene and grid in the same process, and\n"
+      "*fraction_of_full* the whole edit (apply + re-mesh) over it. Every edited mesh equals the\n"
+      "full re-mesh byte for byte (`tests/cpu_simd/test_incremental_polygonizer.cpp`).\n")
+    w(cmd("gb_bench_edit"))
+    w(gb_table(gb.get("bench_edit", {}),
+               counters=["ms_apply", "ms_polygonize", "ms_splice", "mpus_rerun", "mpus", "triangles",
+                         "full_ms", "fraction_of_full"],
+               rename=lambda n: n.replace("/threads:2/min_time:1.000", ""), time_label="time per edit"))
+
     w("\n## Tetrahedral meshing (`bench_tetgen`)\n")
     w("TetGen on the shipped simulated scenes after the surface clean-up, to about 100k tets, with the\n"
       "minimum dihedral angle reached.\n")

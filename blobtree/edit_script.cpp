@@ -1,0 +1,225 @@
+// The edit-script reader. Node contents ("set" and "add") go through the scene reader itself
+// (parseSceneJson on a one-node scene), so they are checked exactly as scene files are; its
+// error locations ("/root/...") are renamed to the script's ("/edits/3/set/...").
+#include "blobvk/blobtree/edit_script.h"
+
+#include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_text.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace blobvk::blobtree {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+std::string typeOf(const Json& j) {
+  if (j.is_number()) return "a number";
+  if (j.is_string()) return "a string";
+  if (j.is_boolean()) return "a boolean";
+  if (j.is_null()) return "null";
+  if (j.is_array()) return "an array";
+  return "an object";
+}
+
+bool isIndex(const Json& j) {
+  return j.is_number_unsigned() || (j.is_number_integer() && j.get<std::int64_t>() >= 0);
+}
+
+// A node as the scene reader sees it: writes a one-node scene whose children (kept by the edit,
+// not part of it) are placeholders, so the reader's rules for operators and warps hold.
+Json nodeJson(const Node& n) {
+  Scene scene;
+  scene.root.kind = n.kind, scene.root.transform = n.transform, scene.root.id = n.id;
+  if (!n.isPrimitive()) scene.root.children.assign(n.isWarp() ? 1 : 2, Node{});
+  Json j = Json::parse(writeSceneJson(scene))["root"];
+  j.erase("children");
+  return j;
+}
+
+// Parses a node object through the scene reader; errors are renamed from /root to `pointer`.
+Node parseNode(Json j, std::size_t placeholders, const std::string& source, const std::string& pointer) {
+  if (placeholders) {
+    Json kids = Json::array();
+    for (std::size_t i = 0; i < placeholders; ++i) kids.push_back({{"type", "point"}});
+    j["children"] = std::move(kids);
+  }
+  Json doc = Json::object();
+  doc["blobvk"] = 1;
+  doc["root"] = std::move(j);
+  try {
+    Node n = parseSceneJson(doc.dump(), source).root;
+    if (placeholders) n.children.clear();
+    return n;
+  } catch (const SceneError& e) {
+    std::string where = e.location();
+    if (where.rfind("/root", 0) == 0) where = pointer + where.substr(5);
+    throw SceneError(source, where, e.problem());
+  }
+}
+
+class Resolver {
+ public:
+  Resolver(const EditScript& script, std::size_t i)
+      : source_(script.source), at_("/edits/" + std::to_string(i)), j_(Json::parse(script.edits.at(i))) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& problem) const {
+    throw SceneError(source_, at_ + key, problem);
+  }
+
+  NodePath path(const EditableTree& tree) const {
+    if (j_.contains("node")) {
+      const std::string id = j_["node"].get<std::string>();
+      const auto found = tree.find(id);
+      if (!found) fail("/node", "no node with id " + detail::quotedText(id));
+      return *found;
+    }
+    NodePath p;
+    const Node* n = &tree.root();
+    for (std::size_t k = 0; k < j_["path"].size(); ++k) {
+      const std::size_t c = j_["path"][k].get<std::size_t>();
+      if (c >= n->children.size())
+        fail("/path/" + std::to_string(k), "the node at " + toString(p) + " has " +
+                                               std::to_string(n->children.size()) + " children, no child " +
+                                               std::to_string(c));
+      p.push_back(c);
+      n = &n->children[c];
+    }
+    return p;
+  }
+
+  Edit resolve(const EditableTree& tree) const {
+    const NodePath p = path(tree);
+    const Node& target = tree.node(p);
+    if (j_.contains("remove")) {
+      const std::size_t c = j_["remove"].get<std::size_t>();
+      if (c >= target.children.size())
+        fail("/remove", "the node at " + toString(p) + " has " + std::to_string(target.children.size()) +
+                            " children, no child " + std::to_string(c));
+      return {p, RemoveChild{c}};
+    }
+    if (j_.contains("add")) {
+      if (!target.isOperator()) fail("/add", "children can be added to operators only; the node at " + toString(p) + " is not one");
+      AddChild add;
+      add.child = parseNode(j_["add"], 0, source_, at_ + "/add");
+      if (j_.contains("at")) add.at = j_["at"].get<std::size_t>();
+      if (add.at != std::size_t(-1) && add.at > target.children.size())
+        fail("/at", "the node at " + toString(p) + " has " + std::to_string(target.children.size()) +
+                        " children: a new one goes at 0.." + std::to_string(target.children.size()));
+      return {p, std::move(add)};
+    }
+    // set: each key replaces the node's own (null: back to its default); a new "type" starts
+    // from that type's defaults, keeping id and transform.
+    const Json& set = j_["set"];
+    Json j = nodeJson(target);
+    if (set.contains("type") && set["type"] != j["type"]) {
+      Json fresh = Json::object();
+      for (const char* keep : {"id", "transform"})
+        if (j.contains(keep)) fresh[keep] = j[keep];
+      j = std::move(fresh);
+    }
+    for (const auto& [key, value] : set.items()) {
+      if (key == "children") fail("/set/children", "set changes a node, not its children: use add and remove");
+      if (value.is_null()) j.erase(key);
+      else j[key] = value;
+    }
+    SetNode change{parseNode(std::move(j), target.isPrimitive() ? 0 : target.isWarp() ? 1 : 2, source_, at_ + "/set")};
+    if (change.node.kind.index() != target.kind.index())
+      fail("/set/type", "the node at " + toString(p) + " cannot change between primitive, operator and warp: remove it and add another");
+    return {p, std::move(change)};
+  }
+
+ private:
+  std::string source_, at_;
+  Json j_;
+};
+
+}  // namespace
+
+EditScript parseEditScript(std::string_view text, const std::string& sourceName) {
+  Json doc;
+  try {
+    doc = Json::parse(text.begin(), text.end());
+  } catch (const Json::exception& e) {
+    const std::string what = e.what();
+    const auto at = what.find("at line ");
+    if (at != std::string::npos) {
+      const auto colon = what.find(": ", at);
+      if (colon != std::string::npos)
+        throw SceneError(sourceName, what.substr(at + 3, colon - at - 3), "malformed JSON: " + what.substr(colon + 2));
+    }
+    throw SceneError(sourceName, "/", "malformed JSON: " + what);
+  }
+  const auto fail = [&](const std::string& where, const std::string& problem) {
+    throw SceneError(sourceName, where, problem);
+  };
+  if (!doc.is_object()) fail("/", "expected the edit script object at the top level, got " + typeOf(doc));
+  for (const auto& [key, value] : doc.items())
+    if (key != "blobvk_edits" && key != "edits") fail("/" + key, "unknown key (expected \"blobvk_edits\", \"edits\")");
+  if (!doc.contains("blobvk_edits")) fail("/", "missing key \"blobvk_edits\" (the format version, 1)");
+  if (doc["blobvk_edits"] != 1) fail("/blobvk_edits", "unsupported format version " + doc["blobvk_edits"].dump() + " (this reader understands 1)");
+  if (!doc.contains("edits")) fail("/", "missing key \"edits\"");
+  const Json& edits = doc["edits"];
+  if (!edits.is_array()) fail("/edits", "expected an array of edits, got " + typeOf(edits));
+  if (edits.empty()) fail("/edits", "no edits");
+  EditScript script{sourceName, {}};
+  for (std::size_t i = 0; i < edits.size(); ++i) {
+    const Json& e = edits[i];
+    const std::string at = "/edits/" + std::to_string(i);
+    if (!e.is_object()) fail(at, "expected an edit object, got " + typeOf(e));
+    for (const auto& [key, value] : e.items())
+      if (key != "node" && key != "path" && key != "set" && key != "add" && key != "at" && key != "remove")
+        fail(at + "/" + key, "unknown key (expected \"node\" or \"path\", and \"set\", \"add\" [+ \"at\"] or \"remove\")");
+    if (e.contains("node") == e.contains("path")) fail(at, "name the node by exactly one of \"node\" (an id) and \"path\" (child indices)");
+    if (e.contains("node") && (!e["node"].is_string() || e["node"].get<std::string>().empty()))
+      fail(at + "/node", "expected a non-empty id string, got " + typeOf(e["node"]));
+    if (e.contains("path")) {
+      if (!e["path"].is_array()) fail(at + "/path", "expected an array of child indices, got " + typeOf(e["path"]));
+      for (std::size_t k = 0; k < e["path"].size(); ++k)
+        if (!isIndex(e["path"][k])) fail(at + "/path/" + std::to_string(k), "expected a child index (an integer >= 0)");
+    }
+    const int changes = int(e.contains("set")) + int(e.contains("add")) + int(e.contains("remove"));
+    if (changes != 1) fail(at, "give exactly one of \"set\", \"add\" and \"remove\"");
+    if (e.contains("set") && (!e["set"].is_object() || e["set"].empty()))
+      fail(at + "/set", "expected an object of node keys to change");
+    if (e.contains("add") && !e["add"].is_object()) fail(at + "/add", "expected a node object, got " + typeOf(e["add"]));
+    if (e.contains("remove") && !isIndex(e["remove"])) fail(at + "/remove", "expected a child index (an integer >= 0)");
+    if (e.contains("at") && !e.contains("add")) fail(at + "/at", "\"at\" goes with \"add\"");
+    if (e.contains("at") && !isIndex(e["at"])) fail(at + "/at", "expected a child index (an integer >= 0)");
+    script.edits.push_back(e.dump());
+  }
+  return script;
+}
+
+EditScript readEditScript(const std::string& path) {
+  return parseEditScript(detail::readWholeFile(path), path);
+}
+
+Edit resolveEdit(const EditScript& script, std::size_t i, const EditableTree& tree) {
+  return Resolver(script, i).resolve(tree);
+}
+
+Region applyScriptEdit(const EditScript& script, std::size_t i, EditableTree& tree) {
+  const Edit edit = resolveEdit(script, i, tree);
+  try {
+    return tree.apply(edit);
+  } catch (const std::invalid_argument& e) {
+    throw SceneError(script.source, "/edits/" + std::to_string(i), e.what());
+  }
+}
+
+std::string describeEdit(const EditScript& script, std::size_t i) {
+  const Json j = Json::parse(script.edits.at(i));
+  const std::string node = j.contains("node") ? "'" + j["node"].get<std::string>() + "'" : j["path"].dump();
+  if (j.contains("add")) return "add to " + node;
+  if (j.contains("remove")) return "remove child " + j["remove"].dump() + " of " + node;
+  std::string keys;
+  for (const auto& [key, value] : j["set"].items()) keys += (keys.empty() ? "" : ",") + key;
+  return "set " + keys + " of " + node;
+}
+
+}  // namespace blobvk::blobtree

@@ -1,0 +1,139 @@
+// `blobvk edit`: frames after each edit of a script, checked against an independent path (the
+// edited scene written by the test itself and meshed by `blobvk mesh` from scratch: the PLY
+// bytes must be equal), PNG frames decoded by libpng, and bad scripts (one line naming the file,
+// the JSON pointer and the problem).
+#include "cli_files.h"
+#include "run_cli.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <string>
+
+namespace {
+
+using namespace blobvk::testing;
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+fs::path dir(const std::string& name) {
+  const fs::path d = scratchDir() / name;
+  fs::create_directories(d);
+  return d;
+}
+
+void writeJson(const fs::path& path, const Json& j) { std::ofstream(path) << j.dump(2); }
+
+// random128.json with a fixed grid (bounds and cell size), so `blobvk mesh` of an edited copy
+// samples the same points as the edit session.
+Json fixedGridScene() {
+  Json scene = Json::parse(fileBytes(sourcePath("scenes/random128.json")));
+  scene["grid"] = {{"cellSize", 0.25}, {"bounds", {{"lo", {-6, -6, -6}}, {"hi", {6, 6, 6}}}}};
+  return scene;
+}
+
+class CliEdit : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { setenv("LP_NUM_THREADS", "2", 0); }
+};
+
+TEST_F(CliEdit, EveryFrameEqualsAFullMeshOfTheEditedScene) {
+  const fs::path cwd = dir("edit_frames");
+  Json scene = fixedGridScene();
+  ASSERT_GE(scene["root"]["children"].size(), 10u);
+  writeJson(cwd / "s.json", scene);
+  const Json point = {{"type", "point"}, {"centre", {0.5, 0.5, 0.5}}, {"support", 2.0}, {"colour", {1, 0, 0}}};
+  const Json edits = {{"blobvk_edits", 1},
+                      {"edits",
+                       {{{"path", {5}}, {"set", {{"centre", {1.0, -0.5, 0.25}}, {"colour", {0.1, 0.9, 0.2}}}}},
+                        {{"path", Json::array()}, {"add", point}, {"at", 0}},
+                        {{"path", Json::array()}, {"remove", 3}}}}};
+  writeJson(cwd / "e.json", edits);
+  const CliSplitRun r = runCliSplit("edit s.json e.json -o f_%02d.ply --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Json report = Json::parse(r.out);
+  ASSERT_EQ(report["edits"].size(), 3u);
+  EXPECT_FALSE(report["edits"][0]["full_remesh"].get<bool>());
+  EXPECT_LT(report["edits"][0]["mpus_rerun"].get<int>(), report["edits"][0]["mpus"].get<int>());
+
+  // The same edits on the scene file, by this test, then meshed from scratch.
+  std::vector<Json> steps{scene};
+  Json s = scene;
+  s["root"]["children"][5]["centre"] = {1.0, -0.5, 0.25};
+  s["root"]["children"][5]["colour"] = {0.1, 0.9, 0.2};
+  steps.push_back(s);
+  s["root"]["children"].insert(s["root"]["children"].begin(), point);
+  steps.push_back(s);
+  s["root"]["children"].erase(s["root"]["children"].begin() + 3);
+  steps.push_back(s);
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    writeJson(cwd / "step.json", steps[k]);
+    ASSERT_EQ(runCliSplit("mesh step.json -o full.ply", cwd).status, 0);
+    char frame[32];
+    std::snprintf(frame, sizeof frame, "f_%02zu.ply", k);
+    EXPECT_EQ(fileBytes(cwd / frame), fileBytes(cwd / "full.ply")) << frame;
+    // The report counts what the frame holds (the PLY header's face count).
+    const std::string ply = fileBytes(cwd / frame);
+    const auto face = ply.find("element face ");
+    ASSERT_NE(face, std::string::npos);
+    const Json& row = k == 0 ? report["initial"] : report["edits"][k - 1];
+    EXPECT_EQ(std::stoull(ply.substr(face + 13)), row["triangles"].get<std::uint64_t>()) << frame;
+  }
+  EXPECT_NE(fileBytes(cwd / "f_00.ply"), fileBytes(cwd / "f_01.ply"));
+}
+
+TEST_F(CliEdit, ShippedScriptRunsWithCheckAndWritesPngFrames) {
+  const fs::path cwd = dir("edit_png");
+  const CliSplitRun r = runCliSplit("edit " + sourcePath("scenes/tower.json") + " " +
+                                        sourcePath("scenes/edits/tower_edits.json") +
+                                        " -o t_%d.png --resolution 48 --size 96x64 --check",
+                                    cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("edit 6/6"), std::string::npos) << r.out;
+  for (int k = 0; k <= 6; ++k) {
+    const Rgba image = decodePng(fileBytes(cwd / ("t_" + std::to_string(k) + ".png")));
+    EXPECT_EQ(image.width, 96u) << k;
+    EXPECT_EQ(image.height, 64u) << k;
+  }
+  // Storey 2 turned by edit 3 shows.
+  EXPECT_GT(decodePng(fileBytes(cwd / "t_3.png")).pixelsDifferingFrom(decodePng(fileBytes(cwd / "t_2.png")), 8), 20u);
+}
+
+TEST_F(CliEdit, BadScriptsNameFilePointerAndProblem) {
+  const fs::path cwd = dir("edit_bad");
+  writeJson(cwd / "s.json", fixedGridScene());
+  const auto run = [&](const std::string& script) {
+    std::ofstream(cwd / "bad.json") << script;
+    return runCliSplit("edit s.json bad.json -o out_%d.ply", cwd);
+  };
+  const std::pair<std::string, std::string> cases[] = {
+      {"{\"blobvk_edits\": 1, \"edits\": [", "bad.json: line 1, column 31: malformed JSON"},
+      {"{\"edits\": []}", "bad.json: /: missing key \"blobvk_edits\""},
+      {"{\"blobvk_edits\": 2, \"edits\": [{}]}", "bad.json: /blobvk_edits: unsupported format version 2"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"node\": \"nope\", \"remove\": 0}]}", "bad.json: /edits/0/node: no node with id"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [200], \"set\": {\"support\": 2}}]}",
+       "bad.json: /edits/0/path/0: the node at [] has 128 children, no child 200"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"set\": {\"support\": -1}}]}", "bad.json: /edits/0/set/support:"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"set\": {\"radius\": 1}}]}", "bad.json: /edits/0/set/radius:"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"add\": {\"type\": \"blob\"}}]}", "bad.json: /edits/0/add/type: unknown node type"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"remove\": 0}]}", "bad.json: /edits/0/remove: the node at [0] has 0 children"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"set\": {\"type\": \"point\"}}]}",
+       "bad.json: /edits/0/set/"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"move\": 1}]}", "bad.json: /edits/0/move: unknown key"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"node\": \"x\", \"remove\": 0}]}", "bad.json: /edits/0: name the node by exactly one"},
+  };
+  for (const auto& [script, expected] : cases) {
+    const CliSplitRun r = run(script);
+    EXPECT_EQ(r.status, 1) << script;
+    EXPECT_NE(r.err.find(expected), std::string::npos) << script << "\n" << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(cwd / "out_1.ply")) << script;
+  }
+  // The frame pattern is a usage error, found before any work.
+  const CliSplitRun pattern = runCliSplit("edit s.json bad.json -o out.ply", cwd);
+  EXPECT_EQ(pattern.status, 2);
+  EXPECT_NE(pattern.err.find("needs one %d"), std::string::npos) << pattern.err;
+}
+
+}  // namespace
