@@ -100,10 +100,16 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     options.refineSteps = settings.refineSteps;
     options.traversal = traversalFromName(settings.traversal);
     options.maxFieldTiles = std::uint32_t(std::max(settings.fieldTiles, 1));
+    if (settings.brickCells > 0) options.brickCells = std::uint32_t(settings.brickCells);
+    options.sparse = !settings.dense;
     options.tiledVertexPass = settings.tiledVertices;
     vk::GpuStats gpu;
     mesh = vk::polygonize(context.device(), program, grid, options, &gpu);
     evaluations = double(gpu.fieldEvaluations);
+    if (stats) {
+      stats->gpu = {gpu.classifySeconds, gpu.fieldSeconds, gpu.extractSeconds, gpu.readbackSeconds,
+                    gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes};
+    }
     if (context.validationMessages() != messagesBefore) {
       throw std::runtime_error("the Vulkan validation layer reported " +
                                std::to_string(context.validationMessages() - messagesBefore) + " message(s)");

@@ -7,6 +7,7 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/mesh/trimesh.h"
 
+#include <cstdint>
 #include <functional>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
@@ -31,6 +32,8 @@ struct PolygonizeSettings {
   // stack-based tree walk: the thesis' Table 4.2 comparison).
   std::string traversal = "auto";
   int fieldTiles = 8;           // vk specialised: most tiles with pruned field kernels (1 = off)
+  int brickCells = 0;           // vk: cells per brick edge of the sparse extraction (0: default)
+  bool dense = false;           // vk: the dense z-slab extraction instead of the sparse one
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
   // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads.
   std::function<void(std::size_t done, std::size_t total)> progress;
@@ -43,6 +46,11 @@ struct PolygonizeStats {
   // CPU time its workers spent in each part (classification, field, vertices, attributes,
   // triangles), then the serial welding (prefix sums, scatter into the welded arrays).
   std::vector<std::pair<std::string, double>> phaseSeconds;
+  // vk (sparse extraction): seconds per phase, bricks, device memory of the extraction.
+  struct Phases {
+    double classify = 0.0, field = 0.0, extract = 0.0, readback = 0.0;
+    std::uint64_t bricks = 0, activeBricks = 0, brickCells = 0, deviceBytes = 0;
+  } gpu;
 };
 
 std::vector<std::string> backendNames();     // the backends this build has

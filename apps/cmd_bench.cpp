@@ -32,6 +32,7 @@ struct Row {
   double evaluations = 0;
   std::vector<std::pair<std::string, double>> phases;  // of the fastest run (cpu backend)
   double outputSeconds = 0;  // encoding the mesh as binary PLY, once, after the timed runs
+  PolygonizeStats::Phases gpu;  // vk: of the median run
 };
 
 }  // namespace
@@ -42,7 +43,8 @@ void addBenchCommand(CLI::App& app) {
     std::vector<int> resolutions{128};
     std::vector<std::string> backends{"cpu"};
     std::vector<int> threads{0};
-    int repeats = 5, warmup = 1, mpuSize = 0, fieldTiles = 8;
+    int repeats = 5, warmup = 1, mpuSize = 0, fieldTiles = 8, brickCells = 0;
+    bool dense = false;
     bool tiledVertices = false;
     std::string device;
     std::vector<std::string> traversals{"auto"};
@@ -63,6 +65,9 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--traversal", a->traversals,
                   "vk: auto (default: the cost model picks per job), specialised, stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")
       ->check(CLI::IsMember(traversalNames()));
+  cmd->add_option("--brick-cells", a->brickCells, "vk: cells per brick edge of the sparse extraction (2-16, a power of two)")
+      ->check(CLI::IsMember({2, 4, 8, 16}));
+  cmd->add_flag("--dense", a->dense, "vk: the dense z-slab extraction (every grid point) instead of the sparse one");
   cmd->add_option("--field-tiles", a->fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")
       ->check(CLI::Range(1, 256));
@@ -93,9 +98,11 @@ void addBenchCommand(CLI::App& app) {
             settings.device = a->device;
             settings.traversal = traversal;
             settings.fieldTiles = a->fieldTiles;
+            settings.brickCells = a->brickCells;
+            settings.dense = a->dense;
             settings.tiledVertices = a->tiledVertices;
             Row row{path, backend == "vk" ? backend + "-" + traversal : backend, resolution, threads};
-            std::vector<double> times;
+            std::vector<std::pair<double, PolygonizeStats::Phases>> times;
             mesh::TriMesh last;
             for (int i = 0; i < a->warmup + a->repeats; ++i) {
               PolygonizeStats stats;
@@ -103,8 +110,9 @@ void addBenchCommand(CLI::App& app) {
               if (i == 0) row.first = stats.seconds;
               else row.steady = row.steady < 0 ? stats.seconds : std::min(row.steady, stats.seconds);
               if (i < a->warmup) continue;
-              if (times.empty() || stats.seconds < *std::min_element(times.begin(), times.end())) row.phases = stats.phaseSeconds;
-              times.push_back(stats.seconds);
+              if (times.empty() || stats.seconds < std::min_element(times.begin(), times.end(), [](const auto& x, const auto& y) { return x.first < y.first; })->first)
+                row.phases = stats.phaseSeconds;
+              times.push_back({stats.seconds, stats.gpu});
               row.triangles = mesh.triangleCount();
               row.vertices = mesh.vertexCount();
               row.evaluations = stats.pointEvaluations;
@@ -114,10 +122,11 @@ void addBenchCommand(CLI::App& app) {
             const auto encodeStart = std::chrono::steady_clock::now();
             const std::string bytes = mesh::encodePly(last, true);
             row.outputSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - encodeStart).count();
-            std::sort(times.begin(), times.end());
-            row.median = times[times.size() / 2];
-            row.min = times.front();
-            row.max = times.back();
+            std::sort(times.begin(), times.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+            row.median = times[times.size() / 2].first;
+            row.gpu = times[times.size() / 2].second;
+            row.min = times.front().first;
+            row.max = times.back().first;
             rows.push_back(row);
             char note[160];
             std::snprintf(note, sizeof note, "%s %d %s: %.4f s", path.c_str(), resolution, row.backend.c_str(), row.median);
@@ -129,7 +138,14 @@ void addBenchCommand(CLI::App& app) {
     if (a->json) {
       nlohmann::json out = nlohmann::json::array();
       for (const Row& r : rows) {
-        out.push_back({{"scene", r.scene}, {"backend", r.backend}, {"resolution", r.resolution},
+        nlohmann::json phases = nlohmann::json::object();
+        if (r.backend.rfind("vk", 0) == 0) {
+          phases = {{"classification_s", r.gpu.classify}, {"field_s", r.gpu.field},
+                    {"extraction_s", r.gpu.extract}, {"readback_s", r.gpu.readback},
+                    {"bricks", r.gpu.bricks}, {"active_bricks", r.gpu.activeBricks},
+                    {"brick_cells", r.gpu.brickCells}, {"device_bytes", r.gpu.deviceBytes}};
+        }
+        out.push_back({{"vk_phases", phases}, {"scene", r.scene}, {"backend", r.backend}, {"resolution", r.resolution},
                        {"threads", r.threads}, {"median_s", r.median}, {"min_s", r.min},
                        {"max_s", r.max}, {"first_s", r.first},
                        // vk start-up (kernel generation, glslang, pipelines, JIT) = first - steady.

@@ -15,6 +15,16 @@
 #ifndef BLOBVK_EDGE_VERTEX_GLSL
 #define BLOBVK_EDGE_VERTEX_GLSL
 
+#include "eval_gradient.glsl"
+
+#ifndef STACK_TRAVERSAL
+#ifdef BLOBVK_EVAL_INTERPRETER
+#define STACK_TRAVERSAL (TRAVERSAL == 1u)
+#else
+#define STACK_TRAVERSAL false  // the specialised evaluator
+#endif
+#endif
+
 precise vec3 gridPoint(uint i, uint j, uint k) {  // precise: no fma, as GridSpec::point
   return pc.originCell.xyz + pc.originCell.w * vec3(float(i), float(j), float(k));
 }

@@ -74,6 +74,14 @@ TEST_P(PolygonizeTest, MatchesReferenceIndexByIndex) {
   EXPECT_LT(nrm, 2e-2f);  // central differences with h = 1e-4 amplify float rounding
   EXPECT_LT(col, 1e-4f);
   EXPECT_TRUE(mesh::checkMesh(gpu).watertight());
+  EXPECT_GT(stats.activeBricks, 0u);
+  EXPECT_LE(stats.activeBricks, stats.bricks);
+
+  // The dense z-slab pipeline too, in one slab.
+  go.sparse = false;
+  const auto dense = vk::polygonize(device(), program, grid, go, &stats);
+  EXPECT_EQ(dense.edgeKeys, ref.edgeKeys);
+  EXPECT_EQ(dense.triangles, ref.triangles);
   EXPECT_EQ(stats.bricks, 1u);
 }
 
@@ -88,6 +96,7 @@ TEST_F(VulkanTest, MultiSlabMeshEqualsSingleSlab) {
   const auto grid = blobtree::chooseGrid(program, testBounds(), request);
   const auto whole = vk::polygonize(device(), program, grid);
   vk::GpuPolygonizeOptions small;
+  small.sparse = false;
   const auto pts = grid.points();
   small.maxBrickBytes = std::uint64_t(pts.x) * pts.y * 4 * 5;  // 3 cell layers per slab
   vk::GpuStats stats;

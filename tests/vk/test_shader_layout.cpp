@@ -109,6 +109,8 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
   vk::GpuPolygonizeOptions stackBased;
   stackBased.traversal = vk::Traversal::StackBased;
   EXPECT_GT(vk::polygonize(dev, program, grid, stackBased).triangleCount(), 0u);
+  stackBased.sparse = false;  // the dense pipeline's kernels
+  EXPECT_GT(vk::polygonize(dev, program, grid, stackBased).triangleCount(), 0u);
   EXPECT_EQ(vk::evaluateFieldOnGrid(dev, program, grid).size(), std::size_t(grid.pointCount()));
   vk::Raycaster raycaster(dev, program);
   const vk::Camera camera = vk::resolveCamera(program.bounds, std::nullopt, {}, 1.0f);

@@ -2,6 +2,7 @@
 
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/extract/slab_polygonizer.h"
+#include "blobvk/vk/extract/sparse_polygonizer.h"
 
 #include <array>
 #include <chrono>
@@ -22,6 +23,7 @@ mesh::TriMesh polygonize(Device& device, const blobtree::Program& program,
     if (stats) *stats = s;
     return mesh;
   }
+  if (options.sparse && !options.tiledVertexPass) return polygonizeSparse(device, program, grid, options, stats);
   SlabPolygonizer poly(device, program, grid, options);
   s.fieldTiles = poly.fieldTileCount();
   const auto pts = grid.points();

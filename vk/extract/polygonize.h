@@ -14,6 +14,12 @@
 namespace blobvk::vk {
 
 struct GpuPolygonizeOptions {
+  // Sparse extraction over bricks (vk/extract/sparse_polygonizer.h); false: the dense z-slab
+  // pipeline of vk/extract/slab_polygonizer.h (also used with tiledVertexPass).
+  bool sparse = true;
+  // Cells per brick edge (sparse), a power of two from 2 to 16. 16 measured fastest on lavapipe
+  // (docs/vulkan.md): 8 evaluates fewer points but classifies 8x as many bricks.
+  std::uint32_t brickCells = 16;
   bool normals = true;
   bool colours = true;
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation
@@ -25,7 +31,7 @@ struct GpuPolygonizeOptions {
   std::uint64_t maxBrickBytes = 32ull << 20;  // per-slab field bytes; smaller means more slabs
   // Traversal::Specialised: the field pass's tiles with pruned kernels (vk/eval/field_tiles.h); 1 = off.
   std::uint32_t maxFieldTiles = 8;
-  // With field tiles, run the vertex pass per tile too, with the evaluator pruned to each tile.
+  // Dense path only. With field tiles, run the vertex pass per tile too, with the evaluator pruned to each tile.
   // Off by default: a vertex kernel inlines the evaluator 8 times and takes 0.1-0.16 s to build
   // on lavapipe (a field tile kernel ~0.035 s), while it saves ~30 % of the emit pass (tower at
   // 128 cells: 57 -> 40 ms) — worth it only when a polygonizer is used many times (an engine
@@ -35,9 +41,16 @@ struct GpuPolygonizeOptions {
 
 struct GpuStats {
   double seconds = 0.0;          // wall time of all submits and readbacks
-  double classifySeconds = 0.0;  // field, flags, cell counts, scans
-  double emitSeconds = 0.0;      // vertices (with normals/colours) and triangles
-  std::uint32_t bricks = 0;
+  // Dense: field, flags, cell counts, scans. Sparse: the bricks' classification and compaction.
+  double classifySeconds = 0.0;
+  double emitSeconds = 0.0;      // dense: vertices (with normals/colours), triangles, read-back
+  double fieldSeconds = 0.0;     // sparse: the field at the active bricks' points
+  double extractSeconds = 0.0;   // sparse: edges, counts, scans, vertices, triangles
+  double readbackSeconds = 0.0;  // sparse: the mesh copied to the host
+  std::uint32_t bricks = 0;      // dense: z-slabs; sparse: bricks of the grid
+  std::uint32_t activeBricks = 0;  // sparse: bricks that may hold surface
+  std::uint32_t brickCells = 0;    // sparse: cells per brick edge
+  std::uint64_t deviceBytes = 0;   // sparse: device memory of the extraction's buffers
   std::uint32_t fieldTiles = 0;        // field and vertex passes run per tile (vk/eval/field_tiles.h)
   std::uint64_t fieldEvaluations = 0;  // grid samples (normals/colours/refinement excluded)
 };

@@ -1,0 +1,22 @@
+#version 450
+// Sparse extraction, pass 2 (after the exclusive scan of brick_classify's flags): the list of
+// active bricks, each at its number brickScan[brick], as packed coordinates (x | y << 10 | z << 20).
+// Written in place of an append, so the list is in (bz, by, bx) order whatever the scheduling.
+#extension GL_GOOGLE_include_directive : require
+
+layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer BrickScan { uint brickScan[]; };
+layout(std430, set = 0, binding = 1) writeonly buffer Bricks { uint bricks[]; };
+
+layout(push_constant) uniform Push {
+  uvec4 bricks;  // bricks per axis
+} pc;
+
+void main() {
+  uvec3 b = gl_GlobalInvocationID;
+  if (any(greaterThanEqual(b, pc.bricks.xyz))) return;
+  uint brick = (b.z * pc.bricks.y + b.y) * pc.bricks.x + b.x;
+  uint number = brickScan[brick];
+  if (brickScan[brick + 1u] != number) bricks[number] = b.x | (b.y << 10) | (b.z << 20);
+}

@@ -1,0 +1,52 @@
+// The sparse extraction's layout (vk/extract/sparse_polygonizer.h), shared by its kernels.
+// A brick holds B^3 cells (B = 1 << log2B, at most 16) and stores R^3 grid points, R = B + 1: its
+// cells' corners. Brick-local point (x, y, z) is word (z * R + y) * R + x of the brick's slice of the
+// per-point arrays; active brick a's slice starts at a * R^3. A point belongs to (is *owned by)
+// the brick whose cells start at it, except on the grid's last point layer of an axis, which the
+// last brick of that axis owns: each grid point has one owner, and a point's three upper edges lie
+// inside its owner's points.
+//
+// Active bricks are numbered in (bz, by, bx) order: `brickScan` holds the exclusive scan of the
+// active flags over all bricks (one more word: the active count), so an active brick's number is
+// brickScan[its linear index] and each row of bricks (bz, by) is a contiguous run of numbers.
+// Rows of points (fixed y, z) of an active brick are *segments*; the global order of vertices
+// (by edge key: point z, then y, then x) is the order of segments
+//   [bz][local z][by][local y][k-th active brick of brick row (bz, by)],
+// so a segment's position in that order (segmentPosition) and one scan of the segments' vertex
+// counts give every vertex its global index. Triangles (cell order) likewise with rows of cells.
+#ifndef BLOBVK_BRICK_LAYOUT_GLSL
+#define BLOBVK_BRICK_LAYOUT_GLSL
+
+// q / d for quotients below 64 and d <= 2^12, without integer division (llvmpipe divides lane by
+// lane): (q + 0.5) / d lies at least 0.5 / d from an integer, the float quotient within a few ulps
+// of 64 of it.
+uint divideSmall(uint q, uint d) {
+  precise float quotient = (float(q) + 0.5) / float(d);  // precise: the kernels hold no contractible op
+  return uint(quotient);
+}
+
+uvec3 unpackBrick(uint packed) { return uvec3(packed & 0x3ffu, (packed >> 10) & 0x3ffu, packed >> 20); }
+
+// Vertices of a row of points before point x: e.x, e.y, e.z hold the row's crossing +x, +y, +z
+// edges (bit x: point x's edge), and a point's vertices follow in axis order.
+uint rowVerticesBefore(uvec3 e, uint x) {
+  uint below = (1u << x) - 1u;
+  return bitCount(e.x & below) + bitCount(e.y & below) + bitCount(e.z & below);
+}
+
+#ifdef BRICK_SCAN_BINDING
+layout(std430, set = 0, binding = BRICK_SCAN_BINDING) readonly buffer BrickScan { uint brickScan[]; };
+
+// Position of brick-local row (rowY, rowZ) of active brick `a` at brick coordinates b in the
+// global segment order, for `rows` local rows per axis (R for point rows, B for cell rows).
+uint segmentPosition(uint a, uvec3 b, uvec3 bricks, uint rowY, uint rowZ, uint rows) {
+  uint slice = b.z * bricks.y * bricks.x;
+  uint row = (b.z * bricks.y + b.y) * bricks.x;
+  uint sliceStart = brickScan[slice], sliceCount = brickScan[slice + bricks.y * bricks.x] - sliceStart;
+  uint rowStart = brickScan[row], rowCount = brickScan[row + bricks.x] - rowStart;
+  return rows * rows * sliceStart + rowZ * rows * sliceCount + rows * (rowStart - sliceStart) + rowY * rowCount +
+         (a - rowStart);
+}
+#endif
+
+#endif

@@ -1,0 +1,126 @@
+// The sparse brick extraction (vk/extract/sparse_polygonizer.h) against the CPU oracles: the
+// classification never drops a brick whose grid samples straddle the iso value (checked sample by
+// sample with the scalar reference), and every brick size gives the reference mesh index by index,
+// on grids whose cell counts are not multiples of the brick size.
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/sparse_polygonizer.h"
+#include "models.h"
+#include "reference_checks.h"
+#include "shipped_scenes.h"
+#include "vk_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+
+namespace blobvk::testing {
+namespace {
+
+struct Scene {
+  blobtree::Program program;
+  blobtree::GridSpec grid;
+};
+
+Scene shipped(const std::string& name, int resolution) {
+  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + name + ".json");
+  Scene s{blobtree::compile(scene.root), {}};
+  blobtree::GridRequest request;
+  request.resolution = resolution;
+  s.grid = blobtree::chooseGrid(s.program, scene.grid, request);
+  return s;
+}
+
+template <class T>
+bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
+}
+
+class SparseClassification : public VulkanTest, public ::testing::WithParamInterface<std::string> {};
+
+// An inactive brick must have all (B+1)^3 samples of the reference field on one side of the iso
+// value; and on the benchmark scenes some bricks are dropped (the extraction is sparse).
+TEST_P(SparseClassification, NeverDropsABrickThatHoldsSurface) {
+  const Scene s = shipped(GetParam(), 40);
+  for (std::uint32_t brickCells : {4u, 8u}) {
+    const vk::BrickGrid bg = vk::brickGridFor(s.grid, brickCells);
+    const std::vector<std::uint32_t> active = vk::classifyBricks(device(), s.program, s.grid, brickCells);
+    ASSERT_EQ(active.size(), bg.count());
+    std::size_t dropped = 0, wrong = 0;
+    for (std::uint32_t bz = 0; bz < bg.z; ++bz)
+      for (std::uint32_t by = 0; by < bg.y; ++by)
+        for (std::uint32_t bx = 0; bx < bg.x; ++bx) {
+          if (active[(std::size_t(bz) * bg.y + by) * bg.x + bx]) continue;
+          ++dropped;
+          int inside = 0, samples = 0;
+          for (std::uint32_t k = bz * brickCells; k <= std::min<std::uint32_t>((bz + 1) * brickCells, s.grid.cells.z); ++k)
+            for (std::uint32_t j = by * brickCells; j <= std::min<std::uint32_t>((by + 1) * brickCells, s.grid.cells.y); ++j)
+              for (std::uint32_t i = bx * brickCells; i <= std::min<std::uint32_t>((bx + 1) * brickCells, s.grid.cells.x); ++i) {
+                inside += blobtree::evaluate(s.program, s.grid.point(int(i), int(j), int(k))) >= layout::ISO_VALUE;
+                ++samples;
+              }
+          if (inside != 0 && inside != samples) ++wrong;
+        }
+    EXPECT_EQ(wrong, 0u) << GetParam() << " B=" << brickCells;
+    if (GetParam() == "tower" || GetParam() == "random128" || GetParam() == "eggshell") {
+      EXPECT_GT(dropped, active.size() / 4) << GetParam() << " B=" << brickCells << ": too few dropped";
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shipped, SparseClassification, ::testing::ValuesIn(shippedSceneNames()),
+                         [](const auto& info) { return info.param; });
+
+// Every brick size, on a grid of 27 x 35 x 31 cells (not multiples of any brick size),
+// gives the reference mesh index by index and the dense pipeline's vertices bit for bit.
+TEST_F(VulkanTest, EveryBrickSizeGivesTheReferenceMesh) {
+  const auto program = blobtree::compile(testModels()[2].root);
+  blobtree::GridSpec grid = blobtree::chooseGrid(program, testBounds(), {});
+  grid.cells = {27, 35, 31};
+  grid.cellSize = 2.2f / 31.0f;
+  grid.origin = {-1.0f, -1.2f, -1.1f};
+  const auto ref = cpu::polygonizeReference(program, grid);
+  vk::GpuPolygonizeOptions dense;
+  dense.sparse = false;
+  dense.traversal = vk::Traversal::Stackless;
+  const auto d = vk::polygonize(device(), program, grid, dense);
+  for (std::uint32_t brickCells : {2u, 4u, 8u, 16u}) {
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Stackless;
+    o.brickCells = brickCells;
+    vk::GpuStats stats;
+    const auto m = vk::polygonize(device(), program, grid, o, &stats);
+    const std::string what = "B=" + std::to_string(brickCells);
+    expectSameMeshAsReference(m, ref, 1e-4f * grid.cellSize, what);
+    EXPECT_TRUE(sameBytes(m.positions, d.positions)) << what;
+    EXPECT_TRUE(sameBytes(m.normals, d.normals)) << what;
+    EXPECT_TRUE(sameBytes(m.colours, d.colours)) << what;
+    EXPECT_EQ(stats.brickCells, brickCells);
+    EXPECT_GT(stats.deviceBytes, 0u);
+  }
+}
+
+// A grid that misses the model: every brick is dropped, the mesh is empty.
+TEST_F(VulkanTest, AGridAwayFromTheModelHasNoActiveBricks) {
+  const auto program = blobtree::compile(testModels()[0].root);
+  blobtree::GridSpec grid;
+  grid.origin = {50.0f, 50.0f, 50.0f};
+  grid.cellSize = 0.1f;
+  grid.cells = {20, 20, 20};
+  vk::GpuPolygonizeOptions o;
+  o.brickCells = 8;
+  vk::GpuStats stats;
+  const auto m = vk::polygonize(device(), program, grid, o, &stats);
+  EXPECT_EQ(m.triangleCount(), 0u);
+  EXPECT_EQ(m.vertexCount(), 0u);
+  EXPECT_EQ(stats.activeBricks, 0u);
+  EXPECT_EQ(stats.bricks, 27u);
+}
+
+}  // namespace
+}  // namespace blobvk::testing

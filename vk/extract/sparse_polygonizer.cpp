@@ -1,0 +1,313 @@
+#include "blobvk/vk/extract/sparse_polygonizer.h"
+
+#include "blobvk/mesh/marching_cubes.h"
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/extract/scan.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
+#include <string>
+#include <vector>
+
+namespace blobvk::vk {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+std::vector<std::uint32_t> packCases() {
+  std::vector<std::uint32_t> words(256 * 20, 0);
+  const auto& cases = mesh::marchingCubesCases();
+  for (std::size_t c = 0; c < 256; ++c) {
+    words[c * 20] = cases[c].triangleCount;
+    for (std::size_t e = 0; e < 18; ++e) words[c * 20 + 1 + e] = cases[c].edges[e];
+  }
+  return words;
+}
+
+// Work groups in y and z for one index per active brick (y <= 65535).
+struct BrickGroups {
+  std::uint32_t y = 1, z = 1;
+};
+BrickGroups brickGroups(std::uint32_t bricks) {
+  BrickGroups g;
+  g.y = std::max<std::uint32_t>(1, std::min<std::uint32_t>(bricks, 65535));
+  g.z = (bricks + g.y - 1) / g.y;
+  return g;
+}
+
+// The per-pass buffers, allocated once the counts they depend on are known.
+struct Buffers {
+  Device& device;
+  std::uint64_t bytes = 0;
+  Buffer make(std::uint64_t size, const char* what) {
+    const std::uint64_t range = device.info().limits.maxStorageBufferRange;
+    if (size > range) {
+      throw VulkanError(std::string("GPU polygonizer: the sparse extraction's ") + what + " need " +
+                        std::to_string(size >> 20) + " MiB, over the device's maxStorageBufferRange (" +
+                        std::to_string(range >> 20) + " MiB): use a smaller grid");
+    }
+    bytes += std::max<std::uint64_t>(size, 16);
+    return device.createBuffer(std::max<std::uint64_t>(size, 16));
+  }
+};
+
+// brick_classify over every brick of the grid, into flags[0 .. bricks] (the last word 0).
+void recordClassify(Recorder& rec, const GpuProgram& gpu, const blobtree::GridSpec& grid, const BrickGrid& bg,
+                    const Buffer& flags) {
+  const auto pb = gpu.bindings();
+  struct {
+    float originCell[4];
+    std::uint32_t cells[4], bricks[4];
+  } push{{grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize},
+         {std::uint32_t(grid.cells.x), std::uint32_t(grid.cells.y), std::uint32_t(grid.cells.z), bg.log2B},
+         {bg.x, bg.y, bg.z, gpu.codeLength}};
+  const BufferRange bind[6] = {pb[0], pb[1], pb[2], pb[3], pb[4], flags};
+  // Constants 3-5: the program's opcode, primitive and warp masks (the others are not used).
+  const auto specs = gpu.specs(64, Traversal::Stackless);
+  rec.dispatch(*rec.device().kernel("brick_classify", specs), bind, &push, sizeof(push), (bg.x + 3) / 4,
+               (bg.y + 3) / 4, (bg.z + 3) / 4);
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
+                                          const blobtree::GridSpec& grid, std::uint32_t brickCells) {
+  const BrickGrid bg = brickGridFor(grid, brickCells);
+  const GpuProgram gpu = uploadProgram(device, program, Traversal::Stackless);
+  Buffer flags = device.createBuffer((bg.count() + 1) * 4);
+  device.run([&](Recorder& rec) {
+    recordClassify(rec, gpu, grid, bg, flags);
+    rec.hostBarrier();
+  });
+  std::vector<std::uint32_t> out(bg.count());
+  device.download(flags, out.data(), out.size() * 4);
+  return out;
+}
+
+BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells) {
+  if (brickCells < 2 || brickCells > 16 || !std::has_single_bit(brickCells)) {
+    throw VulkanError("GPU polygonizer: the brick size must be a power of two from 2 to 16 cells, not " +
+                      std::to_string(brickCells));
+  }
+  BrickGrid b;
+  b.log2B = std::uint32_t(std::countr_zero(brickCells));
+  b.x = (std::uint32_t(grid.cells.x) + brickCells - 1) / brickCells;
+  b.y = (std::uint32_t(grid.cells.y) + brickCells - 1) / brickCells;
+  b.z = (std::uint32_t(grid.cells.z) + brickCells - 1) / brickCells;
+  if (std::max({b.x, b.y, b.z}) > 1024) {
+    throw VulkanError("GPU polygonizer: " + std::to_string(std::max({b.x, b.y, b.z})) +
+                      " bricks along an axis (at most 1024): use larger bricks");
+  }
+  return b;
+}
+
+std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBricks, std::uint64_t vertices,
+                                std::uint64_t triangles, bool normals, bool colours) {
+  const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
+  const std::uint64_t perBrick = R * R * R * 4   // field
+                                 + R * R * 32    // inside and edge masks, vertex segments, their rows
+                                 + B * B * 12;   // triangle segments, their rows
+  const std::uint64_t scan = (scanScratchWords(bricks.count() + 1) + scanScratchWords(activeBricks * R * R) +
+                              scanScratchWords(activeBricks * B * B)) * 4;
+  const std::uint64_t outputs = vertices * (12 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * 12;
+  return (bricks.count() + 1) * 8 + activeBricks * perBrick + scan + outputs + 256 * 20 * 4;
+}
+
+mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                               const GpuPolygonizeOptions& options, GpuStats* stats) {
+  mesh::TriMesh mesh;
+  GpuStats s;
+  const BrickGrid bg = brickGridFor(grid, options.brickCells);
+  const std::uint32_t B = 1u << bg.log2B, R = B + 1, P = R * R * R, wg = options.workgroupSize;
+  s.brickCells = B;
+  s.bricks = std::uint32_t(bg.count());
+
+  Traversal traversal = options.traversal;
+  if (traversal == Traversal::Auto) {
+    EvaluatorJob job;
+    job.vertexPass = true;
+    job.refineSteps = options.refineSteps;
+    job.tiling.maxTiles = 1;
+    const CodegenOptions codegen = options.codegen ? *options.codegen : defaultCodegenOptions(device);
+    traversal = chooseEvaluator(device, program, grid, job, codegen).chosen.traversal;
+  }
+  const GpuProgram gpu = uploadProgram(device, program, traversal, options.codegen);
+  const auto pb = gpu.bindings();
+  Buffers buf{device};
+  const std::array<std::uint32_t, 1> wgSpec{wg};
+  const float originCell[4] = {grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize};
+  const std::uint32_t cells[4] = {std::uint32_t(grid.cells.x), std::uint32_t(grid.cells.y),
+                                  std::uint32_t(grid.cells.z), bg.log2B};
+
+  // 1-2: classify every brick, scan the flags, list the active ones.
+  auto t0 = Clock::now();
+  const std::uint64_t brickCount = bg.count();
+  Buffer brickScan = buf.make((brickCount + 1) * 4, "brick flags");
+  Buffer brickList = buf.make(brickCount * 4, "brick list");
+  Buffer scratch = buf.make((scanScratchWords(brickCount + 1) + 1) * 4, "scan scratch");
+  Buffer totals = buf.make(16, "totals");
+  device.run([&](Recorder& rec) {
+    recordClassify(rec, gpu, grid, bg, brickScan);
+    rec.computeBarrier();
+    recordExclusiveScan(rec, brickScan.handle(), 0, std::uint32_t(brickCount + 1), scratch.handle(), 0,
+                        totals.handle(), 0);
+    rec.computeBarrier();
+    {
+      const std::uint32_t push[4] = {bg.x, bg.y, bg.z, 0};
+      const BufferRange bind[2] = {brickScan, brickList};
+      rec.dispatch(*device.kernel("brick_compact", {}), bind, push, sizeof(push), (bg.x + 3) / 4, (bg.y + 3) / 4,
+                   (bg.z + 3) / 4);
+    }
+    rec.hostBarrier();
+  });
+  std::uint32_t active = 0;
+  device.download(totals, &active, 4);
+  s.activeBricks = active;
+  s.classifySeconds = since(t0);
+  if (active == 0) {
+    s.deviceBytes = buf.bytes;
+    s.seconds = s.classifySeconds;
+    if (stats) *stats = s;
+    return mesh;
+  }
+
+  // 3: the field at the active bricks' points.
+  t0 = Clock::now();
+  const BrickGroups bgroups = brickGroups(active);
+  Buffer field = buf.make(std::uint64_t(active) * P * 4, "field samples");
+  {
+    const KernelPtr k = evaluatorKernel(device, gpu, "brick_field", wg, traversal);
+    device.run([&](Recorder& rec) {
+      struct {
+        float originCell[4];
+        std::uint32_t log2B, activeBricks, codeLength;
+      } push{{originCell[0], originCell[1], originCell[2], originCell[3]}, bg.log2B, active, gpu.codeLength};
+      const BufferRange bind[7] = {pb[0], pb[1], pb[2], pb[3], pb[4], brickList, field};
+      rec.dispatch(*k, bind, &push, sizeof(push), (P + wg - 1) / wg, bgroups.y, bgroups.z);
+      rec.computeBarrier();
+    });
+  }
+  s.fieldSeconds = since(t0);
+  s.fieldEvaluations = std::uint64_t(active) * P;
+
+  // 4-5: inside masks per row of points, crossing edges and counts per row, the two scans.
+  t0 = Clock::now();
+  const std::uint64_t rowCount = std::uint64_t(active) * R * R;
+  const std::uint64_t triangleSegmentCount = std::uint64_t(active) * B * B;
+  const auto words = packCases();
+  Buffer cases = buf.make(words.size() * 4, "case table");
+  device.upload(cases, words.data(), words.size() * 4);
+  Buffer masks = buf.make(rowCount * 4, "inside masks");
+  Buffer edges = buf.make(rowCount * 16, "edge masks");
+  Buffer vertexSegments = buf.make(rowCount * 4, "vertex segments");
+  Buffer vertexRows = buf.make(rowCount * 8, "vertex segment rows");
+  Buffer triangleSegments = buf.make(triangleSegmentCount * 4, "triangle segments");
+  Buffer triangleRows = buf.make(triangleSegmentCount * 8, "triangle segment rows");
+  const std::uint64_t vertexScratch = scanScratchWords(rowCount);
+  Buffer segmentScratch =
+      buf.make((vertexScratch + scanScratchWords(triangleSegmentCount) + 1) * 4, "segment scan scratch");
+  Buffer counts = buf.make(16, "counts");
+  const std::uint32_t brickPush[8] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, active};
+  const std::uint32_t rowGroups = (R * R + wg - 1) / wg;
+  device.run([&](Recorder& rec) {
+    {
+      const std::uint32_t push[2] = {bg.log2B, active};
+      const BufferRange bind[2] = {field, masks};
+      rec.dispatch(*device.kernel("brick_masks", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
+    }
+    rec.computeBarrier();
+    {
+      const BufferRange bind[9] = {masks, brickList, cases, edges, vertexSegments, vertexRows, triangleSegments,
+                                   triangleRows, brickScan};
+      rec.dispatch(*device.kernel("brick_rows", wgSpec), bind, brickPush, sizeof(brickPush), rowGroups, bgroups.y,
+                   bgroups.z);
+    }
+    rec.computeBarrier();
+    recordExclusiveScan(rec, vertexSegments.handle(), 0, std::uint32_t(rowCount), segmentScratch.handle(), 0,
+                        counts.handle(), 0);
+    rec.computeBarrier();  // the scans share the scratch and totals buffers (see slab_polygonizer.cpp)
+    recordExclusiveScan(rec, triangleSegments.handle(), 0, std::uint32_t(triangleSegmentCount),
+                        segmentScratch.handle(), std::uint32_t(vertexScratch), counts.handle(), 1);
+    rec.hostBarrier();
+  });
+  std::uint32_t vt[2] = {0, 0};
+  device.download(counts, vt, 8);
+  const std::uint32_t vertices = vt[0], triangles = vt[1];
+  s.extractSeconds = since(t0);
+
+  // 6-7: vertices and triangles, one invocation each, then the read-back.
+  if (vertices || triangles) {
+    t0 = Clock::now();
+    Buffer positions = buf.make(std::uint64_t(vertices) * 12, "vertex positions");
+    Buffer normals = buf.make(options.normals ? std::uint64_t(vertices) * 12 : 16, "vertex normals");
+    Buffer colours = buf.make(options.colours ? std::uint64_t(vertices) * 12 : 16, "vertex colours");
+    Buffer keys = buf.make(std::uint64_t(vertices) * 8, "edge keys");
+    Buffer indices = buf.make(std::uint64_t(triangles) * 12, "triangle indices");
+    const KernelPtr vertexKernel = evaluatorKernel(device, gpu, "brick_vertices", wg, traversal);
+    device.run([&](Recorder& rec) {
+      if (vertices) {
+        struct {
+          float originCell[4];
+          std::uint32_t codeLength, refineSteps, attributes;
+          float normalStep;
+          std::uint32_t log2B, segments, vertices, nx, ny;
+        } push{{originCell[0], originCell[1], originCell[2], originCell[3]},
+               gpu.codeLength,
+               std::uint32_t(std::max(options.refineSteps, 0)),
+               (options.normals ? 1u : 0u) | (options.colours ? 2u : 0u),
+               options.normalStep,
+               bg.log2B,
+               std::uint32_t(rowCount),
+               vertices,
+               std::uint32_t(grid.cells.x + 1),
+               std::uint32_t(grid.cells.y + 1)};
+        const BufferRange bind[14] = {pb[0], pb[1], pb[2], pb[3], pb[4], field, edges, brickList, vertexSegments,
+                                      vertexRows, positions, normals, colours, keys};
+        const Groups g = groupsFor(vertices, wg);
+        rec.dispatch(*vertexKernel, bind, &push, sizeof(push), g.x, g.y);
+      }
+      if (triangles) {
+        struct {
+          std::uint32_t cells[4], bricks[4];
+          std::uint32_t segments, triangles;
+        } push{{cells[0], cells[1], cells[2], cells[3]}, {bg.x, bg.y, bg.z, active},
+               std::uint32_t(triangleSegmentCount), triangles};
+        const BufferRange bind[9] = {masks, cases, edges, vertexSegments, triangleSegments, triangleRows, brickList,
+                                     indices, brickScan};
+        const Groups g = groupsFor(triangles, wg);
+        rec.dispatch(*device.kernel("brick_triangles", wgSpec), bind, &push, sizeof(push), g.x, g.y);
+      }
+      rec.hostBarrier();
+    });
+    s.extractSeconds += since(t0);
+
+    t0 = Clock::now();
+    mesh.positions.resize(vertices);
+    device.download(positions, mesh.positions.data(), vertices * 12ull);
+    if (options.normals) {
+      mesh.normals.resize(vertices);
+      device.download(normals, mesh.normals.data(), vertices * 12ull);
+    }
+    if (options.colours) {
+      mesh.colours.resize(vertices);
+      device.download(colours, mesh.colours.data(), vertices * 12ull);
+    }
+    // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
+    static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
+    mesh.edgeKeys.resize(vertices);
+    device.download(keys, mesh.edgeKeys.data(), vertices * 8ull);
+    mesh.triangles.resize(triangles);
+    device.download(indices, mesh.triangles.data(), triangles * 12ull);
+    s.readbackSeconds = since(t0);
+  }
+  s.deviceBytes = buf.bytes;
+  s.seconds = s.classifySeconds + s.fieldSeconds + s.extractSeconds + s.readbackSeconds;
+  if (stats) *stats = s;
+  return mesh;
+}
+
+}  // namespace blobvk::vk

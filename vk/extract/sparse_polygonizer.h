@@ -1,0 +1,49 @@
+// Sparse GPU marching cubes over bricks of B^3 cells (docs/vulkan.md, "Sparse extraction"):
+//  1. brick_classify: a conservative interval of the field over each brick's grid points (the
+//     CPU's early-discard bound, cpu_simd/field_bounds.cpp, run on the device); bricks whose
+//     samples provably lie on one side of the iso value are dropped;
+//  2. an exclusive scan of the flags and brick_compact: the active bricks in (bz, by, bx) order;
+//  3. brick_field: the field at the (B+1)^3 points of each active brick only;
+//  4. brick_masks: the inside bits of each row of points packed in one word;
+//  5. brick_rows: crossing edges (three bit masks) and vertex counts per row of points, triangle
+//     counts per row of cells, each at its position in the global order
+//     (shaders/brick_layout.glsl), two scans;
+//  6. brick_vertices and brick_triangles, one lane per vertex and per triangle.
+// Device memory follows the active bricks: besides 8 bytes per brick of the grid, each active
+// brick holds one float per point of its (B+1)^3 and 8 words per row of points. The mesh equals
+// cpu::polygonizeReference index by index (vertices in global edge-key order, triangles in cell
+// order) wherever the two classify the grid points alike.
+#pragma once
+
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/mesh/trimesh.h"
+#include "blobvk/vk/extract/polygonize.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace blobvk::vk {
+
+// Bricks per axis for `grid` with bricks of `brickCells` cells (a power of two, 2 .. 16).
+struct BrickGrid {
+  std::uint32_t log2B = 3;
+  std::uint32_t x = 1, y = 1, z = 1;
+  std::uint64_t count() const { return std::uint64_t(x) * y * z; }
+};
+BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells);
+
+// Device bytes the sparse path allocates for `activeBricks` active bricks producing `vertices`
+// and `triangles` (the output buffers included), for --max-memory style estimates.
+std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBricks, std::uint64_t vertices,
+                                std::uint64_t triangles, bool normals, bool colours);
+
+// The classification alone: 1 for each brick (x fastest) that may hold part of the surface, 0
+// for one whose (B+1)^3 grid samples provably lie on one side of the iso value.
+std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
+                                          const blobtree::GridSpec& grid, std::uint32_t brickCells);
+
+mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                               const GpuPolygonizeOptions& options, GpuStats* stats);
+
+}  // namespace blobvk::vk
