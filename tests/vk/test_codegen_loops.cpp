@@ -89,7 +89,12 @@ TEST_F(LoopedFieldTest, RepeatedTowerFieldEqualsReferenceBitForBit) {
   vk::FieldOptions interpreter;
   interpreter.traversal = vk::Traversal::Stackless;
   const auto interpreted = vk::evaluateFieldOnGrid(device(), program, grid, interpreter);
-  EXPECT_TRUE(sameBits(interpreted, reference)) << "the interpreter differs from the reference";
+  // Bit-identity with the CPU reference is lavapipe's (docs/vulkan.md: other drivers' sin/cos/pow
+  // differ in the last bits); against the interpreter it holds on every device.
+  const bool lavapipe = device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  if (lavapipe) {
+    EXPECT_TRUE(sameBits(interpreted, reference)) << "the interpreter differs from the reference";
+  }
   for (bool branches : {false, true}) {
     for (std::uint32_t tiles : {1u, 8u}) {
       vk::CodegenOptions codegen;
@@ -104,7 +109,9 @@ TEST_F(LoopedFieldTest, RepeatedTowerFieldEqualsReferenceBitForBit) {
       vk::FieldStats stats;
       const auto field = vk::evaluateFieldOnGrid(device(), program, grid, o, &stats);
       const std::string what = std::string(branches ? "branches" : "masked") + ", " + std::to_string(stats.tiles) + " tiles";
-      EXPECT_TRUE(sameBits(field, reference)) << what;
+      if (lavapipe) {
+        EXPECT_TRUE(sameBits(field, reference)) << what;
+      }
       EXPECT_TRUE(sameBits(field, interpreted)) << what;
       if (tiles > 1) {
         EXPECT_GT(stats.tiles, 1u);

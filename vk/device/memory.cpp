@@ -67,6 +67,20 @@ MemoryAllocator::MemoryAllocator(const Dispatch& d, VkPhysicalDevice physical, V
   if (simulation) {
     simulation_ = std::make_unique<MemorySimulation>(*simulation);
     props_ = simulation->properties;
+    // Simulated host-visible types are mapped, so they must land on a real type that can be: on a
+    // discrete GPU the real type 0 is usually DEVICE_LOCAL only (vkMapMemory would fail there).
+    if (simulation_->realType == kAnyMappableRealType) {
+      VkPhysicalDeviceMemoryProperties real{};
+      d_.vkGetPhysicalDeviceMemoryProperties(physical, &real);
+      simulation_->realType = 0;
+      for (std::uint32_t i = 0; i < real.memoryTypeCount; ++i) {
+        if (hasFlags(real.memoryTypes[i].propertyFlags,
+                     VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT)) {
+          simulation_->realType = i;
+          break;
+        }
+      }
+    }
   } else {
     d_.vkGetPhysicalDeviceMemoryProperties(physical, &props_);
     // Physical-device queries of a device extension need only the device to support it (1.1).

@@ -38,9 +38,12 @@ std::vector<std::uint32_t> rankMemoryTypes(const VkPhysicalDeviceMemoryPropertie
 // A memory layout presented to the allocator instead of the device's, for tests of discrete-GPU
 // behaviour on lavapipe: every simulated type allocates from the device's type `realType`;
 // simulated types without HOST_VISIBLE are never mapped (so uploads and read-backs stage).
+inline constexpr std::uint32_t kAnyMappableRealType = ~0u;
 struct MemorySimulation {
   VkPhysicalDeviceMemoryProperties properties{};
-  std::uint32_t realType = 0;
+  // The device's type every simulated type allocates from; by default its first HOST_VISIBLE |
+  // HOST_COHERENT type, so simulated host-visible types can be mapped on any device.
+  std::uint32_t realType = kAnyMappableRealType;
   // Per simulated heap, the bytes this process may use as VK_EXT_memory_budget would report
   // (heapBudget); empty: the heap sizes.
   std::vector<VkDeviceSize> heapBudget;
