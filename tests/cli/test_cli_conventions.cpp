@@ -68,9 +68,9 @@ TEST(CliConventions, OutputExtensionIsChecked) {
   r = runCliSplit("convert " + sourcePath("scenes/legacy/peanut.blob") + " a.blob", cwd);
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find(".json"), std::string::npos) << r.err;
-  r = runCliSplit("mesh " + tower + " -o m.gltf", cwd);
+  r = runCliSplit("mesh " + tower + " -o m.fbx", cwd);
   EXPECT_EQ(r.status, 2);
-  for (const char* ext : {".ply", ".obj", ".stl"}) EXPECT_NE(r.err.find(ext), std::string::npos) << r.err;
+  for (const char* ext : {".ply", ".obj", ".stl", ".gltf", ".glb"}) EXPECT_NE(r.err.find(ext), std::string::npos) << r.err;
   EXPECT_TRUE(fs::is_empty(cwd));
   // Any case of a supported extension is that format.
   r = runCliSplit("mesh " + tower + " -o upper.STL --resolution 16 -q", cwd);
