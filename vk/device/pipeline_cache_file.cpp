@@ -1,5 +1,7 @@
 #include "blobvk/vk/device/pipeline_cache_file.h"
 
+#include "blobvk/vk/device/cache_file_bytes.h"
+
 #include <unistd.h>
 
 #include <cctype>
@@ -24,36 +26,22 @@ constexpr std::uint32_t kFormat = 1;
 constexpr std::size_t kHeaderBytes = 32;  // magic, format, key bytes, payload bytes, checksum
 constexpr std::uint64_t kMaxPayload = 1ull << 30;  // larger is not a cache we wrote
 
-// FNV-1a 64: detects a flipped or truncated payload; not a defence against tampering (the
-// driver validates the blob it is given anyway).
-std::uint64_t fnv1a(std::uint64_t h, const std::uint8_t* p, std::size_t n) {
-  for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
-  return h;
-}
+using detail::fnv1a;
+using detail::kFnvOffset;
 
 std::uint64_t checksum(const std::string& key, std::span<const std::uint8_t> data) {
-  std::uint64_t h = fnv1a(0xcbf29ce484222325ull, reinterpret_cast<const std::uint8_t*>(key.data()), key.size());
-  return fnv1a(h, data.data(), data.size());
+  return fnv1a(fnv1a(kFnvOffset, key.data(), key.size()), data.data(), data.size());
 }
 
 template <class T>
 T load(const std::uint8_t* p) {
-  T v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
+  return detail::loadField<T>(p);
 }
-
 template <class T>
 void store(std::vector<std::uint8_t>& out, T v) {
-  const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
-  out.insert(out.end(), p, p + sizeof v);
+  detail::storeField(out, v);
 }
-
-std::string hex(std::uint64_t v, int digits) {
-  char buf[24];
-  std::snprintf(buf, sizeof buf, "%0*llx", digits, static_cast<unsigned long long>(v));
-  return buf;
-}
+std::string hex(std::uint64_t v, int digits) { return detail::hexDigits(v, digits); }
 
 }  // namespace
 
@@ -180,28 +168,7 @@ void writePipelineCacheFile(const std::filesystem::path& file, const PipelineCac
   out.insert(out.end(), keyText.begin(), keyText.end());
   out.insert(out.end(), data.begin(), data.end());
 
-  std::error_code ec;
-  std::filesystem::create_directories(file.parent_path(), ec);
-  if (ec) throw std::runtime_error(file.parent_path().string() + ": cannot create directory: " + ec.message());
-  // A name no other process or thread uses: pid plus a random suffix.
-  std::random_device random;
-  const auto temp = file.parent_path() /
-                    (file.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" + hex(random(), 8));
-  {
-    std::ofstream o(temp, std::ios::binary | std::ios::trunc);
-    o.write(reinterpret_cast<const char*>(out.data()), std::streamsize(out.size()));
-    o.close();
-    if (!o) {
-      std::filesystem::remove(temp, ec);
-      throw std::runtime_error(temp.string() + ": cannot write");
-    }
-  }
-  std::filesystem::rename(temp, file, ec);
-  if (ec) {
-    std::error_code ignored;
-    std::filesystem::remove(temp, ignored);
-    throw std::runtime_error(file.string() + ": cannot replace: " + ec.message());
-  }
+  detail::writeFileAtomically(file, out);
 }
 
 }  // namespace blobvk::vk

@@ -1,5 +1,7 @@
 #include "blobvk/vk/eval/spirv_cache.h"
 
+#include "blobvk/vk/device/cache_file_bytes.h"
+
 #include "blobvk/vk/eval/runtime_compiler.h"
 #include "blobvk/vk/eval/shader_sources.h"
 
@@ -31,11 +33,7 @@ std::atomic<bool> writeWarned{false};
 
 // FNV-1a 64 names the file; a multiplicative hash with another constant checks the key (a
 // collision of both on different text of the same length is not a practical concern).
-std::uint64_t fnv1a(std::uint64_t h, const void* data, std::size_t n) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
-  return h;
-}
+using detail::fnv1a;
 std::uint64_t secondHash(const std::string& s) {
   std::uint64_t h = 0x9e3779b97f4a7c15ull;
   for (unsigned char c : s) h = (h + c + 1) * 0xff51afd7ed558ccdull ^ (h >> 29);
@@ -61,21 +59,13 @@ std::string keyText(const std::string& shaderFile, const std::map<std::string, s
 
 template <class T>
 T load(const std::uint8_t* p) {
-  T v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
+  return detail::loadField<T>(p);
 }
 template <class T>
 void store(std::vector<std::uint8_t>& out, T v) {
-  const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
-  out.insert(out.end(), p, p + sizeof v);
+  detail::storeField(out, v);
 }
-
-std::string hex(std::uint64_t v) {
-  char buf[24];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
-  return buf;
-}
+std::string hex(std::uint64_t v) { return detail::hexDigits(v, 16); }
 
 // The words stored in `file` for `key`; empty with `problem` empty when there is no file, empty
 // with `problem` set when the file is unusable.
@@ -137,28 +127,10 @@ void writeCacheFile(const std::filesystem::path& file, const std::string& key, c
   const auto* p = reinterpret_cast<const std::uint8_t*>(code.data());
   out.insert(out.end(), p, p + 4 * code.size());
 
-  std::error_code ec;
-  std::filesystem::create_directories(file.parent_path(), ec);
-  std::random_device random;
-  const auto temp = file.parent_path() / (file.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
-                                          std::to_string(random()));
-  bool ok = !ec;
-  if (ok) {
-    std::ofstream o(temp, std::ios::binary | std::ios::trunc);
-    o.write(reinterpret_cast<const char*>(out.data()), std::streamsize(out.size()));
-    o.close();
-    ok = bool(o);
-  }
-  if (ok) {
-    std::filesystem::rename(temp, file, ec);
-    ok = !ec;
-  }
-  if (!ok) {
-    std::error_code ignoredError;
-    std::filesystem::remove(temp, ignoredError);
-    if (!writeWarned.exchange(true))
-      std::fprintf(stderr, "blobvk: warning: SPIR-V cache %s not written%s%s\n", file.c_str(), ec ? ": " : "",
-                   ec ? ec.message().c_str() : "");
+  try {
+    detail::writeFileAtomically(file, out);
+  } catch (const std::exception& e) {
+    if (!writeWarned.exchange(true)) std::fprintf(stderr, "blobvk: warning: SPIR-V cache not written: %s\n", e.what());
   }
 }
 
