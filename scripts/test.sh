@@ -32,7 +32,8 @@ if [ "${BLOBVK_SKIP_ASAN:-0}" != "1" ]; then
   # allocations are not ours to check); see docs/reliability.md.
   asan_targets=(blobtree_tests mesh_tests cpu_reference_tests cpu_simd_tests cutting_tests
                 fem_tests surgery_tests cli_tests blobvk reliability_tests fuzz_scene_json_replay
-                fuzz_scene_blob_replay fuzz_compile_eval_replay fuzz_mesh_readers_replay)
+                fuzz_scene_blob_replay fuzz_compile_eval_replay fuzz_mesh_readers_replay
+                drag_edit cut_host)
   cmake --preset asan -DBLOBVK_WITH_VULKAN=OFF
   cmake --build --preset asan -j "$jobs" --target "${asan_targets[@]}"
   # ASan triples stack frames; the 4096-level nesting tests need more than the default 8 MB.
