@@ -40,9 +40,16 @@ vk::Traversal traversalFromName(const std::string& name) {
 }
 
 namespace {
-vk::StandaloneContext& sharedContext(const std::string& device, bool validation) {
+// Released by releaseSharedDevices() before main returns, not by a static destructor: a driver
+// loaded after this map was constructed (NVIDIA's) runs its exit handlers before such a
+// destructor would, and destroying a device after them crashes the process at exit.
+std::map<std::pair<std::string, bool>, std::unique_ptr<vk::StandaloneContext>>& sharedContexts() {
   static std::map<std::pair<std::string, bool>, std::unique_ptr<vk::StandaloneContext>> contexts;
-  auto& slot = contexts[{device, validation}];
+  return contexts;
+}
+
+vk::StandaloneContext& sharedContext(const std::string& device, bool validation) {
+  auto& slot = sharedContexts()[{device, validation}];
   if (!slot) {
     vk::StandaloneOptions options;
     options.device = device;
@@ -53,6 +60,12 @@ vk::StandaloneContext& sharedContext(const std::string& device, bool validation)
 }
 }  // namespace
 #endif
+
+void releaseSharedDevices() {
+#ifdef BLOBVK_HAVE_VULKAN
+  sharedContexts().clear();
+#endif
+}
 
 nlohmann::json backendDeviceJson([[maybe_unused]] const PolygonizeSettings& settings) {
 #ifdef BLOBVK_HAVE_VULKAN
@@ -108,7 +121,8 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     evaluations = double(gpu.fieldEvaluations);
     if (stats) {
       stats->gpu = {gpu.classifySeconds, gpu.fieldSeconds, gpu.extractSeconds, gpu.readbackSeconds,
-                    gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes};
+                    gpu.hostSeconds, gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes,
+                    gpu.submits, gpu.deviceTimed};
     }
     if (context.validationMessages() != messagesBefore) {
       throw std::runtime_error("the Vulkan validation layer reported " +

@@ -46,10 +46,12 @@ struct PolygonizeStats {
   // CPU time its workers spent in each part (classification, field, vertices, attributes,
   // triangles), then the serial welding (prefix sums, scatter into the welded arrays).
   std::vector<std::pair<std::string, double>> phaseSeconds;
-  // vk (sparse extraction): seconds per phase, bricks, device memory of the extraction.
+  // vk (sparse extraction): seconds per phase (device time where the queue has timestamps, and
+  // `host` the rest: submits, waits, allocations, copies), bricks, device memory, submits.
   struct Phases {
-    double classify = 0.0, field = 0.0, extract = 0.0, readback = 0.0;
-    std::uint64_t bricks = 0, activeBricks = 0, brickCells = 0, deviceBytes = 0;
+    double classify = 0.0, field = 0.0, extract = 0.0, readback = 0.0, host = 0.0;
+    std::uint64_t bricks = 0, activeBricks = 0, brickCells = 0, deviceBytes = 0, submits = 0;
+    bool deviceTimed = false;
   } gpu;
 };
 
@@ -62,6 +64,10 @@ vk::Traversal traversalFromName(const std::string& name);
 
 // The device the vk backend runs `settings` on (name, type, driver; json_report.h), opening it
 // if needed; an empty object in builds without Vulkan.
+// Destroys the Vulkan devices the backends opened (kept for the whole process otherwise); main
+// calls it before returning.
+void releaseSharedDevices();
+
 nlohmann::json backendDeviceJson(const PolygonizeSettings& settings);
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,

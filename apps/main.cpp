@@ -1,5 +1,6 @@
 // blobvk: implicit models to meshes and images. See README.md and `blobvk --help`.
 // Exit status: 0 success, 1 error, 2 usage error, 3 a failed `compare` (cli_conventions.h).
+#include "backends.h"
 #include "cli_conventions.h"
 #include "commands.h"
 #include "render_command.h"
@@ -50,6 +51,10 @@ int main(int argc, char** argv) {
   addDevicesCommand(app);
   addCompareCommand(app);
   addRenderCommand(app);
+  // The shared Vulkan devices go before main returns, on every path (apps/backends.cpp says why).
+  struct ReleaseDevices {
+    ~ReleaseDevices() { releaseSharedDevices(); }
+  } releaseDevices;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -4,26 +4,29 @@
 # test under the validation layer with synchronisation validation), `blobvk compare
 # --validation` on every shipped scene, and `blobvk bench` of the tower; prints one summary
 # table and exits non-zero when anything failed.
-#   scripts/gpu_check.sh [--resolution N] [--bench-resolution N] [--no-build]
-# Defaults: compare at 64 cells, bench at 128. BLOBVK_BUILD_JOBS sets the build's -j.
+#   scripts/gpu_check.sh [--resolution N] [--bench-resolution N] [--no-build] [--log-dir DIR]
+# Defaults: compare at 64 cells, bench at 128, logs in a new temporary directory (--log-dir: a
+# CI job's artifact folder). BLOBVK_BUILD_JOBS sets the build's -j.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
 resolution=64
 bench_resolution=128
 build=1
+log_dir=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --resolution) resolution="$2"; shift 2 ;;
     --bench-resolution) bench_resolution="$2"; shift 2 ;;
     --no-build) build=0; shift ;;
-    *) echo "usage: scripts/gpu_check.sh [--resolution N] [--bench-resolution N] [--no-build]" >&2; exit 2 ;;
+    --log-dir) log_dir="$2"; shift 2 ;;
+    *) echo "usage: scripts/gpu_check.sh [--resolution N] [--bench-resolution N] [--no-build] [--log-dir DIR]" >&2; exit 2 ;;
   esac
 done
 
 bin=build/release
 blobvk="$bin/apps/blobvk"
-log_dir="$(mktemp -d -t blobvk-gpu-check.XXXXXX)"
+if [ -n "$log_dir" ]; then mkdir -p "$log_dir"; else log_dir="$(mktemp -d -t blobvk-gpu-check.XXXXXX)"; fi
 rows=()
 failed=0
 # row STEP RESULT DETAIL

@@ -48,4 +48,31 @@ inline void expectSameMeshAsReference(const mesh::TriMesh& gpu, const mesh::TriM
   EXPECT_LE(worst, tolerance) << what;
 }
 
+// Two GPU meshes of one grid made by different code (interpreter and specialised, tiled and
+// untiled): the same vertices and triangles, attributes within the given bounds (0: bit for bit).
+inline void expectSameMeshWithin(const mesh::TriMesh& a, const mesh::TriMesh& b, float positionTolerance,
+                                 float normalTolerance, float colourTolerance, const std::string& what) {
+  EXPECT_EQ(a.edgeKeys, b.edgeKeys) << what;
+  EXPECT_EQ(a.triangles, b.triangles) << what;
+  auto worst = [&](const auto& x, const auto& y, const char* name) {
+    if (x.size() != y.size()) {
+      ADD_FAILURE() << what << ": " << name << " counts differ";
+      return 0.0f;
+    }
+    float w = 0.0f;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      w = std::max({w, std::abs(x[i].x - y[i].x), std::abs(x[i].y - y[i].y), std::abs(x[i].z - y[i].z)});
+      if (std::isnan(x[i].x) != std::isnan(y[i].x)) w = INFINITY;
+    }
+    return w;
+  };
+  EXPECT_LE(worst(a.positions, b.positions, "positions"), positionTolerance) << what << ": positions";
+  EXPECT_LE(worst(a.normals, b.normals, "normals"), normalTolerance) << what << ": normals";
+  EXPECT_LE(worst(a.colours, b.colours, "colours"), colourTolerance) << what << ": colours";
+}
+
+// Vertex tolerance of a GPU mesh against the CPU reference, in cells: lavapipe's division and
+// sqrt are IEEE; other drivers' sqrt, division, sin/cos and pow are not (docs/vulkan.md).
+inline float referenceToleranceCells(bool cpuDevice) { return cpuDevice ? 1e-4f : 1e-2f; }
+
 }  // namespace blobvk::testing

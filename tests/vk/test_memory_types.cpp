@@ -124,6 +124,45 @@ TEST_F(SimulatedDiscrete, AFailedAllocationFallsBackToTheNextSuitableType) {
   EXPECT_EQ(attempts_, (U{0, 3, 1, 2}));
 }
 
+// Freed memory is kept and handed to the next allocation of its type and size class: no call
+// reaches the driver (here: the simulation's refuse hook, called before every vkAllocateMemory).
+TEST_F(SimulatedDiscrete, FreedMemoryIsRetainedAndReusedWithoutANewAllocation) {
+  auto dev = makeDevice();
+  EXPECT_EQ(dev->memory().retainLimit(), 0u) << "simulated layouts retain nothing unless asked";
+  dev->memory().setRetainLimit(256 * kMiB);
+  { vk::Buffer b = dev->createBuffer(100 * kMiB); }  // dedicated: 112 MiB, an eighth of 128 MiB
+  EXPECT_EQ(attempts_, U{0});
+  EXPECT_EQ(dev->memory().retainedBytes(), 112 * kMiB);
+  EXPECT_EQ(dev->memory().heapBytes(0), 112 * kMiB);
+  attempts_.clear();
+  {
+    vk::Buffer b = dev->createBuffer(105 * kMiB);  // the same class
+    EXPECT_EQ(b.memoryType(), 0u);
+    EXPECT_EQ(attempts_, U{}) << "the retained memory was not reused";
+    EXPECT_EQ(dev->memory().retainedBytes(), 0u);
+  }
+  dev->memory().releaseRetained();
+  EXPECT_EQ(dev->memory().heapBytes(0), 0u);
+  // Over the limit nothing is kept.
+  dev->memory().setRetainLimit(100 * kMiB);
+  { vk::Buffer b = dev->createBuffer(100 * kMiB); }
+  EXPECT_EQ(dev->memory().retainedBytes(), 0u);
+  EXPECT_EQ(dev->memory().heapBytes(0), 0u);
+}
+
+// Retained memory never makes an allocation fail: it is given back first.
+TEST_F(SimulatedDiscrete, RetainedMemoryIsGivenBackBeforeAnAllocationFails) {
+  simulation_.heapBudget = {120 * kMiB, 16 * kGiB, 256 * kMiB};
+  auto dev = makeDevice();
+  dev->memory().setRetainLimit(kGiB);
+  { vk::Buffer b = dev->createBuffer(80 * kMiB); }  // 80 MiB kept
+  EXPECT_EQ(dev->memory().heapBytes(0), 80 * kMiB);
+  vk::Buffer b = dev->createBuffer(60 * kMiB);  // class 64 MiB: 80 + 64 would pass 120 MiB
+  EXPECT_EQ(b.memoryType(), 0u) << "VRAM, after giving the retained memory back";
+  EXPECT_EQ(dev->memory().retainedBytes(), 0u);
+  EXPECT_EQ(dev->memory().heapBytes(0), 64 * kMiB);
+}
+
 TEST_F(SimulatedDiscrete, AHeapAtItsBudgetIsSkipped) {
   // As VK_EXT_memory_budget would report: the BAR window has 1 MiB left to this process.
   simulation_.heapBudget = {8 * kGiB, 16 * kGiB, 1 * kMiB};

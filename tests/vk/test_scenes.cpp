@@ -8,6 +8,7 @@
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/vk/eval/field.h"
 #include "blobvk/vk/extract/polygonize.h"
+#include "reference_checks.h"
 #include "shipped_scenes.h"
 #include "vk_fixture.h"
 
@@ -102,11 +103,12 @@ TEST_P(SceneFieldTest, InterpreterAndSpecialisedMeshesAreByteIdentical) {
     ASSERT_GT(interpreted.triangleCount(), 0u) << GetParam();
     ASSERT_FALSE(interpreted.normals.empty());
     const std::string what = GetParam() + ", " + std::to_string(refineSteps) + " refinement steps";
-    EXPECT_EQ(interpreted.edgeKeys, specialised.edgeKeys) << what;
-    EXPECT_EQ(interpreted.triangles, specialised.triangles) << what;
-    EXPECT_TRUE(interpreted.positions == specialised.positions) << what << ": positions";
-    EXPECT_TRUE(interpreted.normals == specialised.normals) << what << ": normals";
-    EXPECT_TRUE(interpreted.colours == specialised.colours) << what << ": colours";
+    // Bit for bit on lavapipe; on other drivers sin/cos/pow may round differently in the two
+    // code shapes (docs/vulkan.md), so the vertices agree to a hundredth of a cell.
+    const bool lavapipe = device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    const float cell = grid.cellSize;
+    expectSameMeshWithin(interpreted, specialised, lavapipe ? 0.0f : 1e-2f * cell, lavapipe ? 0.0f : 1e-2f,
+                         lavapipe ? 0.0f : 1e-3f, what);
   }
 }
 

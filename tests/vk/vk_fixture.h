@@ -28,6 +28,7 @@ class VulkanTest : public ::testing::Test {
     options.pipelineCache = "off";  // never the user's cache; tests/vk/test_pipeline_cache.cpp tests it
     if (const char* d = std::getenv("BLOBVK_TEST_DEVICE")) options.device = d;
     context_ = std::make_unique<vk::StandaloneContext>(options);
+    ::testing::AddGlobalTestEnvironment(new ContextRelease);
   }
 
   void SetUp() override {
@@ -46,6 +47,13 @@ class VulkanTest : public ::testing::Test {
   static vk::StandaloneContext& context() { return *context_; }
 
  private:
+  // The shared context goes when the test run ends, not in a static destructor: a driver loaded
+  // after the context's holder was constructed (NVIDIA's) has its exit handlers run first, and
+  // destroying the device after them crashes the process at exit.
+  class ContextRelease : public ::testing::Environment {
+   public:
+    void TearDown() override { context_.reset(); }
+  };
   static inline std::unique_ptr<vk::StandaloneContext> context_;
   static inline std::string reason_;
   std::uint32_t messagesBefore_ = 0;

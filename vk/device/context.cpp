@@ -61,6 +61,18 @@ Device::Device(const HostContext& host, const DeviceOptions& options)
 
   memory_ = std::make_unique<MemoryAllocator>(d_, host.physicalDevice, host.device, 64ull << 20,
                                               options.memorySimulation);
+  std::uint64_t retain = options.retainedMemoryBytes;
+  if (retain == DeviceOptions::kAutoRetain) {
+    VkDeviceSize largestLocalHeap = 0;
+    const auto& mp = memory_->properties();
+    for (std::uint32_t h = 0; h < mp.memoryHeapCount; ++h) {
+      if (mp.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) {
+        largestLocalHeap = std::max(largestLocalHeap, mp.memoryHeaps[h].size);
+      }
+    }
+    retain = options.memorySimulation ? 0 : std::min<std::uint64_t>(largestLocalHeap / 4, 1ull << 30);
+  }
+  memory_->setRetainLimit(retain);
 
   if (host.pipelineCache) {
     pipelineCache_ = host.pipelineCache;
@@ -487,6 +499,13 @@ void Recorder::hostBarrier() {
 
 void Recorder::fill(const Buffer& b, std::uint32_t value) {
   device_.d().vkCmdFillBuffer(cmd_, b.handle(), 0, VK_WHOLE_SIZE, value);
+}
+
+void Recorder::copy(const Buffer& src, VkDeviceSize srcOffset, const Buffer& dst, VkDeviceSize dstOffset,
+                    VkDeviceSize bytes) {
+  if (bytes == 0) return;
+  const VkBufferCopy region{srcOffset, dstOffset, bytes};
+  device_.d().vkCmdCopyBuffer(cmd_, src.handle(), dst.handle(), 1, &region);
 }
 
 std::uint32_t gridGroupRows(std::uint32_t workgroupSize) {

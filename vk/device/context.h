@@ -43,6 +43,8 @@ class Buffer {
   VkBuffer handle() const { return buffer_; }
   VkDeviceSize size() const { return size_; }
   void* mapped() const { return allocation_.mapped; }  // null when not host visible
+  // Mapped host-cached memory: the host reads it fast (else read it back through staging).
+  bool hostReadable() const { return allocation_.mapped && allocation_.hostCached; }
   std::uint32_t memoryType() const { return allocation_.type; }  // index chosen by the allocator
   explicit operator bool() const { return buffer_ != VK_NULL_HANDLE; }
 
@@ -93,6 +95,12 @@ struct DeviceOptions {
   // part of start-up a driver's pipeline cache does not keep (lavapipe keeps nothing). Empty:
   // none. StandaloneContext uses its pipeline cache directory.
   std::string spirvCacheDir;
+  // Freed device memory kept for the next buffers of its size (vk/device/memory.h), so a steady
+  // stream of jobs allocates nothing; given back before any allocation would fail, and by
+  // MemoryAllocator::releaseRetained(). kAutoRetain: a quarter of the largest device-local heap,
+  // at most 1 GiB (none under a memorySimulation, whose tests count allocations); 0: none.
+  static constexpr std::uint64_t kAutoRetain = ~0ull;
+  std::uint64_t retainedMemoryBytes = kAutoRetain;
 };
 
 class Device {
@@ -260,6 +268,8 @@ class Recorder {
   // Compute/transfer writes -> host reads, before the fence the host waits on.
   void hostBarrier();
   void fill(const Buffer& b, std::uint32_t value);
+  void copy(const Buffer& src, VkDeviceSize srcOffset, const Buffer& dst, VkDeviceSize dstOffset,
+            VkDeviceSize bytes);
 
  private:
   VkDescriptorSet allocateSet(const Kernel& kernel);

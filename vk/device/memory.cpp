@@ -3,12 +3,20 @@
 #include "blobvk/vk/device/error.h"
 
 #include <algorithm>
+#include <bit>
 #include <cstring>
 #include <tuple>
 
 namespace blobvk::vk {
 namespace {
 VkDeviceSize alignUp(VkDeviceSize v, VkDeviceSize a) { return (v + a - 1) / a * a; }
+
+// Dedicated allocations are rounded up to an eighth of their power of two (at most 12.5 % more),
+// so that jobs of nearly the same size reuse each other's retained memory.
+VkDeviceSize sizeClass(VkDeviceSize size) {
+  const VkDeviceSize pow2 = std::bit_ceil(size);
+  return alignUp(size, std::max<VkDeviceSize>(pow2 / 8, 64 << 10));
+}
 constexpr VkMemoryPropertyFlags kHostFlags =
     VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
 
@@ -92,6 +100,36 @@ MemoryAllocator::~MemoryAllocator() {
   for (auto& b : blocks_) {
     if (b.memory) d_.vkFreeMemory(device_, b.memory, nullptr);
   }
+  for (const Retained& r : retained_) d_.vkFreeMemory(device_, r.memory, nullptr);
+}
+
+void MemoryAllocator::setRetainLimit(VkDeviceSize bytes) {
+  retainLimit_ = bytes;
+  while (retainedBytes_ > retainLimit_) {
+    const Retained r = retained_.front();
+    retained_.erase(retained_.begin());
+    retainedBytes_ -= r.size;
+    freeMemory(r.type, r.size, r.memory);
+  }
+}
+
+void MemoryAllocator::releaseRetained() {
+  const VkDeviceSize limit = retainLimit_;
+  setRetainLimit(0);
+  retainLimit_ = limit;
+}
+
+VkDeviceMemory MemoryAllocator::reuseRetained(std::uint32_t type, VkDeviceSize size, void** mapped) {
+  // Newest first: the memory the last job freed is the likeliest to be asked for again.
+  for (auto it = retained_.rbegin(); it != retained_.rend(); ++it) {
+    if (it->type != type || it->size != size) continue;
+    const Retained r = *it;
+    retained_.erase(std::next(it).base());
+    retainedBytes_ -= r.size;
+    *mapped = r.mapped;
+    return r.memory;
+  }
+  return VK_NULL_HANDLE;
 }
 
 std::size_t MemoryAllocator::blockCount() const {
@@ -122,15 +160,25 @@ VkDeviceSize MemoryAllocator::blockSizeFor(std::uint32_t type) const {
 
 VkDeviceMemory MemoryAllocator::allocateMemory(std::uint32_t type, VkDeviceSize size, void** mapped) {
   *mapped = nullptr;
-  if (!withinBudget(type, size)) return VK_NULL_HANDLE;
-  if (simulation_ && simulation_->refuse && simulation_->refuse(type, size)) return VK_NULL_HANDLE;
-  VkMemoryAllocateInfo info{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  info.allocationSize = size;
-  info.memoryTypeIndex = simulation_ ? simulation_->realType : type;
-  VkDeviceMemory memory = VK_NULL_HANDLE;
-  const VkResult r = d_.vkAllocateMemory(device_, &info, nullptr, &memory);
-  if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY) return VK_NULL_HANDLE;  // the next type may have room
-  check(r, "vkAllocateMemory");
+  if (VkDeviceMemory reused = reuseRetained(type, size, mapped)) return reused;
+  auto attempt = [&]() -> VkDeviceMemory {
+    if (!withinBudget(type, size)) return VK_NULL_HANDLE;
+    if (simulation_ && simulation_->refuse && simulation_->refuse(type, size)) return VK_NULL_HANDLE;
+    VkMemoryAllocateInfo info{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    info.allocationSize = size;
+    info.memoryTypeIndex = simulation_ ? simulation_->realType : type;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    const VkResult r = d_.vkAllocateMemory(device_, &info, nullptr, &memory);
+    if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY) return VK_NULL_HANDLE;  // the next type may have room
+    check(r, "vkAllocateMemory");
+    return memory;
+  };
+  VkDeviceMemory memory = attempt();
+  if (!memory && !retained_.empty()) {  // memory kept for reuse must never make an allocation fail
+    releaseRetained();
+    memory = attempt();
+  }
+  if (!memory) return VK_NULL_HANDLE;
   if (hasFlags(props_.memoryTypes[type].propertyFlags, kHostFlags)) {
     const VkResult m = d_.vkMapMemory(device_, memory, 0, VK_WHOLE_SIZE, 0, mapped);
     if (m < 0) {
@@ -142,7 +190,17 @@ VkDeviceMemory MemoryAllocator::allocateMemory(std::uint32_t type, VkDeviceSize 
   return memory;
 }
 
-void MemoryAllocator::releaseMemory(std::uint32_t type, VkDeviceSize size, VkDeviceMemory memory) {
+void MemoryAllocator::releaseMemory(std::uint32_t type, VkDeviceSize size, VkDeviceMemory memory, void* mapped) {
+  if (size > retainLimit_) {
+    freeMemory(type, size, memory);
+    return;
+  }
+  retained_.push_back({memory, type, size, mapped});
+  retainedBytes_ += size;
+  setRetainLimit(retainLimit_);  // oldest out past the limit
+}
+
+void MemoryAllocator::freeMemory(std::uint32_t type, VkDeviceSize size, VkDeviceMemory memory) {
   d_.vkFreeMemory(device_, memory, nullptr);
   heapBytes_[props_.memoryTypes[type].heapIndex] -= size;
 }
@@ -203,7 +261,8 @@ Allocation MemoryAllocator::allocate(const VkMemoryRequirements& req, MemoryUse 
     a.hostCached = hasFlags(flags, kHostFlags | VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
     bool ok = false;
     if (req.size > blockSizeFor(type) / 2) {  // dedicated: big grids get their own memory
-      a.memory = allocateMemory(type, req.size, &a.mapped);
+      a.memorySize = sizeClass(req.size);
+      a.memory = allocateMemory(type, a.memorySize, &a.mapped);
       ok = a.memory != VK_NULL_HANDLE;
     } else {
       ok = allocateInBlocks(req, type, a);
@@ -221,7 +280,7 @@ void MemoryAllocator::free(const Allocation& a) {
   if (!a.memory) return;
   inUse_ -= a.size;
   if (a.block == ~0u) {
-    releaseMemory(a.type, a.size, a.memory);
+    releaseMemory(a.type, a.memorySize, a.memory, a.mapped);
     return;
   }
   Block& b = blocks_[a.block];
@@ -237,9 +296,10 @@ void MemoryAllocator::free(const Allocation& a) {
     (it - 1)->size += it->size;
     it = b.freeRanges.erase(it) - 1;
   }
-  // An empty block goes back to the driver so a big grid does not pin memory forever.
+  // An empty block goes back to the driver (or to the retained memory) so a big grid does not
+  // pin memory forever.
   if (b.freeRanges.size() == 1 && b.freeRanges[0].size == b.size) {
-    releaseMemory(b.type, b.size, b.memory);
+    releaseMemory(b.type, b.size, b.memory, b.mapped);
     b = Block{};
   }
 }

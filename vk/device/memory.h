@@ -2,6 +2,13 @@
 // type, first-fit free lists inside them, dedicated allocations for big buffers. Host-visible
 // blocks stay mapped for their lifetime.
 //
+// Freed VkDeviceMemory (dedicated allocations, emptied blocks) is retained up to a limit and
+// reused by the next allocation of its type and size class: a steady stream of meshes of one
+// size then allocates nothing. On a discrete GPU vkAllocateMemory of hundreds of MiB, and above
+// all of pinned host memory for read-backs, costs milliseconds each; on lavapipe fresh memory
+// costs a page fault per page. Retained memory is given back before any allocation would fail
+// or pass a heap's budget, and on request (releaseRetained).
+//
 // Memory types are chosen per use (rankMemoryTypes): device-local work buffers, write-combined
 // staging for uploads, host-cached memory for read-backs. When an allocation fails with out of
 // memory, or would take a heap past its budget (VK_EXT_memory_budget when the device has it, the
@@ -58,6 +65,7 @@ struct Allocation {
   VkDeviceSize size = 0;
   void* mapped = nullptr;  // non-null when host visible
   std::uint32_t block = ~0u;  // owner block (~0u: dedicated)
+  VkDeviceSize memorySize = 0;  // dedicated: the VkDeviceMemory's size (`size` rounded to its class)
   std::uint32_t type = 0;     // memory type (the simulated one under a MemorySimulation)
   bool hostCached = false;    // mapped memory the host reads fast (else: go through Readback)
 };
@@ -82,8 +90,21 @@ class MemoryAllocator {
   VkDeviceSize bytesInUse() const { return inUse_; }
   std::size_t blockCount() const;
 
+  // Freed memory kept for reuse (counted in heapBytes): at most `bytes`; 0 retains nothing.
+  void setRetainLimit(VkDeviceSize bytes);
+  VkDeviceSize retainLimit() const { return retainLimit_; }
+  VkDeviceSize retainedBytes() const { return retainedBytes_; }
+  // Gives every retained VkDeviceMemory back to the driver.
+  void releaseRetained();
+
  private:
   struct Range { VkDeviceSize offset, size; };
+  struct Retained {
+    VkDeviceMemory memory;
+    std::uint32_t type;
+    VkDeviceSize size;
+    void* mapped;
+  };
   struct Block {
     VkDeviceMemory memory = VK_NULL_HANDLE;
     std::uint32_t type = 0;
@@ -95,7 +116,11 @@ class MemoryAllocator {
   // A VkDeviceMemory of `type`, mapped when host visible; VK_NULL_HANDLE when the driver (or the
   // simulation) reports out of memory, so the caller can try the next type.
   VkDeviceMemory allocateMemory(std::uint32_t type, VkDeviceSize size, void** mapped);
-  void releaseMemory(std::uint32_t type, VkDeviceSize size, VkDeviceMemory memory);
+  // Memory of `type` and exactly `size` from the retained list, or VK_NULL_HANDLE.
+  VkDeviceMemory reuseRetained(std::uint32_t type, VkDeviceSize size, void** mapped);
+  // Retains the memory (oldest retained memory freed past the limit) or frees it.
+  void releaseMemory(std::uint32_t type, VkDeviceSize size, VkDeviceMemory memory, void* mapped);
+  void freeMemory(std::uint32_t type, VkDeviceSize size, VkDeviceMemory memory);
   bool allocateInBlocks(const VkMemoryRequirements& req, std::uint32_t type, Allocation& a);
   VkDeviceSize blockSizeFor(std::uint32_t type) const;
 
@@ -109,6 +134,9 @@ class MemoryAllocator {
   VkDeviceSize inUse_ = 0;
   std::array<VkDeviceSize, VK_MAX_MEMORY_HEAPS> heapBytes_{};
   std::vector<Block> blocks_;
+  std::vector<Retained> retained_;  // oldest first
+  VkDeviceSize retainedBytes_ = 0;
+  VkDeviceSize retainLimit_ = 0;
 };
 
 }  // namespace blobvk::vk

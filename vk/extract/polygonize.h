@@ -46,7 +46,13 @@ struct GpuStats {
   double emitSeconds = 0.0;      // dense: vertices (with normals/colours), triangles, read-back
   double fieldSeconds = 0.0;     // sparse: the field at the active bricks' points
   double extractSeconds = 0.0;   // sparse: edges, counts, scans, vertices, triangles
-  double readbackSeconds = 0.0;  // sparse: the mesh copied to the host
+  double readbackSeconds = 0.0;  // sparse: the mesh copied to the host (device copy + host copy)
+  // Sparse: with timestamps on the queue (deviceTimed), classify/field/extract are device time
+  // and hostSeconds is the rest of `seconds` (submits, waits, allocations, host copies); without,
+  // they are wall time per submit (the field counted in extract).
+  bool deviceTimed = false;
+  double hostSeconds = 0.0;
+  std::uint32_t submits = 0;     // sparse: queue submissions (each one a host round trip)
   std::uint32_t bricks = 0;      // dense: z-slabs; sparse: bricks of the grid
   std::uint32_t activeBricks = 0;  // sparse: bricks that may hold surface
   std::uint32_t brickCells = 0;    // sparse: cells per brick edge

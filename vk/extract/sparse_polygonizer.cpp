@@ -1,6 +1,7 @@
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
 #include "blobvk/mesh/marching_cubes.h"
+#include "blobvk/vk/device/device_timer.h"
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/extract/scan.h"
@@ -9,6 +10,8 @@
 #include <array>
 #include <bit>
 #include <chrono>
+#include <cstring>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -135,6 +138,8 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
     const CodegenOptions codegen = options.codegen ? *options.codegen : defaultCodegenOptions(device);
     traversal = chooseEvaluator(device, program, grid, job, codegen).chosen.traversal;
   }
+  // Uploads (the program, the case table) ride in the next submit instead of their own.
+  UploadBatch uploads(device);
   const GpuProgram gpu = uploadProgram(device, program, traversal, options.codegen);
   const auto pb = gpu.bindings();
   Buffers buf{device};
@@ -143,14 +148,28 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   const std::uint32_t cells[4] = {std::uint32_t(grid.cells.x), std::uint32_t(grid.cells.y),
                                   std::uint32_t(grid.cells.z), bg.log2B};
 
+  // Three submits, each ending where the host must learn a count before it can size the next
+  // buffers: (1) classify and compact the bricks -> active bricks; (2) field, masks, rows, scans
+  // -> vertices and triangles; (3) vertices, triangles and the copies into one read-back buffer.
+  // Counts land in host-readable memory, so no submit is spent on reading them.
+  enum Mark : std::uint32_t { kStart, kClassified, kFieldStart, kField, kCounted, kEmitStart, kEmitted, kCopied, kMarks };
+  DeviceTimer timer(device, kMarks);
+  const auto wallStart = Clock::now();
+  auto submit = [&](const std::function<void(Recorder&)>& record) {
+    device.run(record);
+    ++s.submits;
+  };
+
   // 1-2: classify every brick, scan the flags, list the active ones.
   auto t0 = Clock::now();
   const std::uint64_t brickCount = bg.count();
   Buffer brickScan = buf.make((brickCount + 1) * 4, "brick flags");
   Buffer brickList = buf.make(brickCount * 4, "brick list");
   Buffer scratch = buf.make((scanScratchWords(brickCount + 1) + 1) * 4, "scan scratch");
-  Buffer totals = buf.make(16, "totals");
-  device.run([&](Recorder& rec) {
+  Buffer totals = device.createBuffer(16, MemoryUse::Readback);
+  submit([&](Recorder& rec) {
+    timer.reset(rec);
+    timer.mark(rec, kStart);
     recordClassify(rec, gpu, grid, bg, brickScan);
     rec.computeBarrier();
     recordExclusiveScan(rec, brickScan.handle(), 0, std::uint32_t(brickCount + 1), scratch.handle(), 0,
@@ -162,43 +181,47 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
       rec.dispatch(*device.kernel("brick_compact", {}), bind, push, sizeof(push), (bg.x + 3) / 4, (bg.y + 3) / 4,
                    (bg.z + 3) / 4);
     }
+    timer.mark(rec, kClassified);
     rec.hostBarrier();
   });
   std::uint32_t active = 0;
   device.download(totals, &active, 4);
   s.activeBricks = active;
   s.classifySeconds = since(t0);
-  if (active == 0) {
+  auto finish = [&] {
     s.deviceBytes = buf.bytes;
-    s.seconds = s.classifySeconds;
+    s.seconds = since(wallStart);
+    if (timer.enabled()) {
+      s.deviceTimed = true;
+      s.classifySeconds = timer.seconds(kStart, kClassified);
+      if (active) {
+        s.fieldSeconds = timer.seconds(kFieldStart, kField);
+        s.extractSeconds = timer.seconds(kField, kCounted);
+      }
+      if (s.submits == 3) {
+        s.extractSeconds += timer.seconds(kEmitStart, kEmitted);
+        s.readbackSeconds += timer.seconds(kEmitted, kCopied);
+      }
+    }
+    s.hostSeconds = std::max(0.0, s.seconds - s.classifySeconds - s.fieldSeconds - s.extractSeconds -
+                                      s.readbackSeconds);
     if (stats) *stats = s;
+  };
+  if (active == 0) {
+    finish();
     return mesh;
   }
 
-  // 3: the field at the active bricks' points.
+  // 3-5: the field at the active bricks' points; inside masks per row of points, crossing edges
+  // and counts per row; the two scans.
   t0 = Clock::now();
   const BrickGroups bgroups = brickGroups(active);
   Buffer field = buf.make(std::uint64_t(active) * P * 4, "field samples");
-  {
-    const KernelPtr k = evaluatorKernel(device, gpu, "brick_field", wg, traversal);
-    device.run([&](Recorder& rec) {
-      struct {
-        float originCell[4];
-        std::uint32_t log2B, activeBricks, codeLength;
-      } push{{originCell[0], originCell[1], originCell[2], originCell[3]}, bg.log2B, active, gpu.codeLength};
-      const BufferRange bind[7] = {pb[0], pb[1], pb[2], pb[3], pb[4], brickList, field};
-      rec.dispatch(*k, bind, &push, sizeof(push), (P + wg - 1) / wg, bgroups.y, bgroups.z);
-      rec.computeBarrier();
-    });
-  }
-  s.fieldSeconds = since(t0);
   s.fieldEvaluations = std::uint64_t(active) * P;
-
-  // 4-5: inside masks per row of points, crossing edges and counts per row, the two scans.
-  t0 = Clock::now();
+  const KernelPtr fieldKernel = evaluatorKernel(device, gpu, "brick_field", wg, traversal);
   const std::uint64_t rowCount = std::uint64_t(active) * R * R;
   const std::uint64_t triangleSegmentCount = std::uint64_t(active) * B * B;
-  const auto words = packCases();
+  static const std::vector<std::uint32_t> words = packCases();
   Buffer cases = buf.make(words.size() * 4, "case table");
   device.upload(cases, words.data(), words.size() * 4);
   Buffer masks = buf.make(rowCount * 4, "inside masks");
@@ -210,10 +233,21 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   const std::uint64_t vertexScratch = scanScratchWords(rowCount);
   Buffer segmentScratch =
       buf.make((vertexScratch + scanScratchWords(triangleSegmentCount) + 1) * 4, "segment scan scratch");
-  Buffer counts = buf.make(16, "counts");
+  Buffer counts = device.createBuffer(16, MemoryUse::Readback);
   const std::uint32_t brickPush[8] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, active};
   const std::uint32_t rowGroups = (R * R + wg - 1) / wg;
-  device.run([&](Recorder& rec) {
+  submit([&](Recorder& rec) {
+    timer.mark(rec, kFieldStart);
+    {
+      struct {
+        float originCell[4];
+        std::uint32_t log2B, activeBricks, codeLength;
+      } push{{originCell[0], originCell[1], originCell[2], originCell[3]}, bg.log2B, active, gpu.codeLength};
+      const BufferRange bind[7] = {pb[0], pb[1], pb[2], pb[3], pb[4], brickList, field};
+      rec.dispatch(*fieldKernel, bind, &push, sizeof(push), (P + wg - 1) / wg, bgroups.y, bgroups.z);
+    }
+    rec.computeBarrier();
+    timer.mark(rec, kField);
     {
       const std::uint32_t push[2] = {bg.log2B, active};
       const BufferRange bind[2] = {field, masks};
@@ -232,6 +266,7 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
     rec.computeBarrier();  // the scans share the scratch and totals buffers (see slab_polygonizer.cpp)
     recordExclusiveScan(rec, triangleSegments.handle(), 0, std::uint32_t(triangleSegmentCount),
                         segmentScratch.handle(), std::uint32_t(vertexScratch), counts.handle(), 1);
+    timer.mark(rec, kCounted);
     rec.hostBarrier();
   });
   std::uint32_t vt[2] = {0, 0};
@@ -239,7 +274,8 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   const std::uint32_t vertices = vt[0], triangles = vt[1];
   s.extractSeconds = since(t0);
 
-  // 6-7: vertices and triangles, one invocation each, then the read-back.
+  // 6-7: vertices and triangles, one invocation each, copied in the same submit into one
+  // read-back buffer (skipped where the device buffers are host-readable, as on lavapipe).
   if (vertices || triangles) {
     t0 = Clock::now();
     Buffer positions = buf.make(std::uint64_t(vertices) * 12, "vertex positions");
@@ -247,8 +283,34 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
     Buffer colours = buf.make(options.colours ? std::uint64_t(vertices) * 12 : 16, "vertex colours");
     Buffer keys = buf.make(std::uint64_t(vertices) * 8, "edge keys");
     Buffer indices = buf.make(std::uint64_t(triangles) * 12, "triangle indices");
+    struct Output {
+      const Buffer* buffer;
+      void* host;
+      std::uint64_t bytes;
+      std::uint64_t offset = 0;  // in the read-back buffer
+    };
+    mesh.positions.resize(vertices);
+    if (options.normals) mesh.normals.resize(vertices);
+    if (options.colours) mesh.colours.resize(vertices);
+    // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
+    static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
+    mesh.edgeKeys.resize(vertices);
+    mesh.triangles.resize(triangles);
+    std::vector<Output> outputs{{&positions, mesh.positions.data(), vertices * 12ull},
+                                {&keys, mesh.edgeKeys.data(), vertices * 8ull},
+                                {&indices, mesh.triangles.data(), triangles * 12ull}};
+    if (options.normals) outputs.push_back({&normals, mesh.normals.data(), vertices * 12ull});
+    if (options.colours) outputs.push_back({&colours, mesh.colours.data(), vertices * 12ull});
+    std::uint64_t stagingBytes = 0;
+    for (Output& o : outputs) {
+      if (o.buffer->hostReadable() || o.bytes == 0) continue;
+      o.offset = stagingBytes;
+      stagingBytes += (o.bytes + 15) / 16 * 16;
+    }
+    Buffer staging = stagingBytes ? device.createBuffer(stagingBytes, MemoryUse::Readback) : Buffer{};
     const KernelPtr vertexKernel = evaluatorKernel(device, gpu, "brick_vertices", wg, traversal);
-    device.run([&](Recorder& rec) {
+    submit([&](Recorder& rec) {
+      timer.mark(rec, kEmitStart);
       if (vertices) {
         struct {
           float originCell[4];
@@ -281,32 +343,26 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
         const Groups g = groupsFor(triangles, wg);
         rec.dispatch(*device.kernel("brick_triangles", wgSpec), bind, &push, sizeof(push), g.x, g.y);
       }
+      rec.computeBarrier();
+      timer.mark(rec, kEmitted);
+      for (const Output& o : outputs) {
+        if (!o.buffer->hostReadable()) rec.copy(*o.buffer, 0, staging, o.offset, o.bytes);
+      }
+      timer.mark(rec, kCopied);
       rec.hostBarrier();
     });
     s.extractSeconds += since(t0);
 
     t0 = Clock::now();
-    mesh.positions.resize(vertices);
-    device.download(positions, mesh.positions.data(), vertices * 12ull);
-    if (options.normals) {
-      mesh.normals.resize(vertices);
-      device.download(normals, mesh.normals.data(), vertices * 12ull);
+    for (const Output& o : outputs) {
+      if (o.bytes == 0) continue;
+      const void* from = o.buffer->hostReadable() ? o.buffer->mapped()
+                                                  : static_cast<const char*>(staging.mapped()) + o.offset;
+      std::memcpy(o.host, from, o.bytes);
     }
-    if (options.colours) {
-      mesh.colours.resize(vertices);
-      device.download(colours, mesh.colours.data(), vertices * 12ull);
-    }
-    // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
-    static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
-    mesh.edgeKeys.resize(vertices);
-    device.download(keys, mesh.edgeKeys.data(), vertices * 8ull);
-    mesh.triangles.resize(triangles);
-    device.download(indices, mesh.triangles.data(), triangles * 12ull);
     s.readbackSeconds = since(t0);
   }
-  s.deviceBytes = buf.bytes;
-  s.seconds = s.classifySeconds + s.fieldSeconds + s.extractSeconds + s.readbackSeconds;
-  if (stats) *stats = s;
+  finish();
   return mesh;
 }
 
