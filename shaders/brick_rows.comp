@@ -4,7 +4,10 @@
 // points the row owns (bit x of edges.x, .y, .z: the +x, +y, +z edge of point x) and stores the
 // row's vertex count at its segment position (and the segment's brick and row, for the vertex
 // pass's search); for local y, z < B, the triangle count of the row of cells likewise.
-// Invocation x is the row (y + z * R), y + z * (groups in y) the active brick.
+// Invocation x is the row (y + z * R), y + z * (groups in y) the active brick of the batch
+// (vk/extract/sparse_polygonizer.cpp: bricks run in batches of whole brick layers; `bricks` and
+// every per-brick array hold the batch's, segment positions are the batch's share of the global
+// order).
 #extension GL_GOOGLE_include_directive : require
 #include "program_layout.h"
 #include "common.glsl"
@@ -22,7 +25,8 @@ layout(std430, set = 0, binding = 7) writeonly buffer TriangleRows { uvec2 trian
 
 layout(push_constant) uniform Push {
   uvec4 cells;   // cells per axis, w = log2(B)
-  uvec4 bricks;  // bricks per axis, w = active bricks
+  uvec4 bricks;  // bricks per axis, w = active bricks of this batch
+  uint activeBase;  // the batch's first active brick: brick a here is brick activeBase + a globally
 } pc;
 
 void main() {
@@ -50,7 +54,7 @@ void main() {
     e.z = gz < pc.cells.z ? (m ^ mz) & owned : 0u;
   }
   edges[row] = uvec4(e, 0u);
-  uint s = segmentPosition(a, b, pc.bricks.xyz, ly, lz, R);
+  uint s = segmentPosition(pc.activeBase + a, b, pc.bricks.xyz, ly, lz, R) - pc.activeBase * R * R;
   vertexSegments[s] = bitCount(e.x) + bitCount(e.y) + bitCount(e.z);
   vertexRows[s] = uvec2(a, r);
   if (ly < B && lz < B) {
@@ -62,7 +66,7 @@ void main() {
         triangles += cases[config * 20u];
       }
     }
-    uint t = segmentPosition(a, b, pc.bricks.xyz, ly, lz, B);
+    uint t = segmentPosition(pc.activeBase + a, b, pc.bricks.xyz, ly, lz, B) - pc.activeBase * B * B;
     triangleSegments[t] = triangles;
     triangleRows[t] = uvec2(a, r);
   }

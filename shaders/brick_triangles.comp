@@ -23,9 +23,11 @@ layout(std430, set = 0, binding = 7) writeonly buffer Indices { uint indices[]; 
 
 layout(push_constant) uniform Push {
   uvec4 cells;   // cells per axis, w = log2(B)
-  uvec4 bricks;  // bricks per axis, w = active bricks
-  uint segments;   // cell rows in the scan
-  uint triangles;  // the mesh's triangle count
+  uvec4 bricks;  // bricks per axis, w = active bricks of this batch
+  uint segments;    // cell rows in the scan
+  uint triangles;   // the batch's triangle count
+  uint activeBase;  // the batch's first active brick (brick_rows.comp)
+  uint vertexBase;  // vertices of the batches before this one
 } pc;
 
 void main() {
@@ -60,11 +62,14 @@ void main() {
     uvec3 g = g0 + uvec3(x, ly, lz) + start;
     uvec3 owner = min(g >> pc.cells.w, lastBrick);
     uvec3 local = g - (owner << pc.cells.w);
-    uint ownerNumber = brickScan[(owner.z * pc.bricks.y + owner.y) * pc.bricks.x + owner.x];
+    // The owner lies in the batch: its brick layer is this one or the next, which the batch
+    // holds too (its vertices go to the next batch, but its segments are scanned here).
+    uint ownerNumber = brickScan[(owner.z * pc.bricks.y + owner.y) * pc.bricks.x + owner.x] - pc.activeBase;
     uvec3 oe = edges[ownerNumber * R * R + local.z * R + local.y].xyz;
     uint bits = ((oe.x >> local.x) & 1u) | (((oe.y >> local.x) & 1u) << 1) | (((oe.z >> local.x) & 1u) << 2);
     uint rank = bitCount(bits & ((1u << axis) - 1u));
-    uint segment = segmentPosition(ownerNumber, owner, pc.bricks.xyz, local.y, local.z, R);
-    indices[t * 3u + i] = vertexSegments[segment] + rowVerticesBefore(oe, local.x) + rank;
+    uint segment = segmentPosition(pc.activeBase + ownerNumber, owner, pc.bricks.xyz, local.y, local.z, R) -
+                   pc.activeBase * R * R;
+    indices[t * 3u + i] = pc.vertexBase + vertexSegments[segment] + rowVerticesBefore(oe, local.x) + rank;
   }
 }

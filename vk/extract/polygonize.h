@@ -20,6 +20,10 @@ struct GpuPolygonizeOptions {
   // Cells per brick edge (sparse), a power of two from 2 to 16. 16 measured fastest on lavapipe
   // (docs/vulkan.md): 8 evaluates fewer points but classifies 8x as many bricks.
   std::uint32_t brickCells = 16;
+  // Sparse: active bricks per batch (whole brick layers run together, one layer more than they
+  // emit); 0: as many as fit one storage buffer and a quarter of the largest device-local heap.
+  // The mesh is the same bytes whatever the batches.
+  std::uint32_t maxBatchBricks = 0;
   bool normals = true;
   bool colours = true;
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation
@@ -53,6 +57,7 @@ struct GpuStats {
   bool deviceTimed = false;
   double hostSeconds = 0.0;
   std::uint32_t submits = 0;     // sparse: queue submissions (each one a host round trip)
+  std::uint32_t batches = 0;     // sparse: batches of brick layers (1 + 2 x batches submits)
   std::uint32_t bricks = 0;      // dense: z-slabs; sparse: bricks of the grid
   std::uint32_t activeBricks = 0;  // sparse: bricks that may hold surface
   std::uint32_t brickCells = 0;    // sparse: cells per brick edge
