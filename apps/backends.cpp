@@ -122,7 +122,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     if (stats) {
       stats->gpu = {gpu.classifySeconds, gpu.fieldSeconds, gpu.extractSeconds, gpu.readbackSeconds,
                     gpu.hostSeconds, gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes,
-                    gpu.submits, gpu.deviceTimed};
+                    gpu.submits, gpu.batches, gpu.deviceTimed};
     }
     if (context.validationMessages() != messagesBefore) {
       throw std::runtime_error("the Vulkan validation layer reported " +

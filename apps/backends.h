@@ -50,7 +50,7 @@ struct PolygonizeStats {
   // `host` the rest: submits, waits, allocations, copies), bricks, device memory, submits.
   struct Phases {
     double classify = 0.0, field = 0.0, extract = 0.0, readback = 0.0, host = 0.0;
-    std::uint64_t bricks = 0, activeBricks = 0, brickCells = 0, deviceBytes = 0, submits = 0;
+    std::uint64_t bricks = 0, activeBricks = 0, brickCells = 0, deviceBytes = 0, submits = 0, batches = 0;
     bool deviceTimed = false;
   } gpu;
 };

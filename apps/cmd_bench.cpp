@@ -143,6 +143,7 @@ void addBenchCommand(CLI::App& app) {
           phases = {{"classification_s", r.gpu.classify}, {"field_s", r.gpu.field},
                     {"extraction_s", r.gpu.extract}, {"readback_s", r.gpu.readback},
                     {"host_s", r.gpu.host}, {"device_timed", r.gpu.deviceTimed}, {"submits", r.gpu.submits},
+                    {"batches", r.gpu.batches},
                     {"bricks", r.gpu.bricks}, {"active_bricks", r.gpu.activeBricks},
                     {"brick_cells", r.gpu.brickCells}, {"device_bytes", r.gpu.deviceBytes}};
         }
