@@ -6,14 +6,16 @@
 // (blobtree::generateTower) of 100 to 60,000 instructions. Counters: build_s (wall seconds of
 // the mesh), peak_MB (the child's peak resident memory), instructions, emitted (instructions the
 // generated code spells out), default (1 on the row the cost model picks for a mesh of this
-// program at 64 cells). A specialised build the model predicts above 60 s is not run (skipped,
-// with the prediction).
+// program at 64 cells with lavapipe's default options: unrolled up to
+// costs::kLoopedAboveInstructionsOnCpu instructions, looped beyond). A specialised build the model
+// predicts above 60 s is not run (skipped, with the prediction).
 //   LP_NUM_THREADS=2 MESA_SHADER_CACHE_DISABLE=true bench_compile_cost --benchmark_counters_tabular=true
 #include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/eval/evaluator_costs.h"
+#include "blobvk/vk/eval/gpu_program.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/device/standalone.h"
@@ -58,10 +60,12 @@ blobtree::GridSpec gridAt(const blobtree::Program& p, int resolution) {
   return blobtree::chooseGrid(p, {}, r);
 }
 
+// Lavapipe's options (defaultCodegenOptions on a CPU device: masked skips in unrolled code, loops
+// that branch), with the form forced: every size unrolled, or every size looped.
 vk::CodegenOptions codegenFor(Evaluator e) {
-  vk::CodegenOptions c;
-  c.branchOnSkips = false;  // lavapipe's choice (defaultCodegenOptions on a CPU device)
+  vk::CodegenOptions c = vk::defaultCodegenOptions(true);
   c.loops.enabled = e == Evaluator::Looped;
+  c.loops.minProgramInstructions = 0;
   return c;
 }
 
@@ -131,9 +135,13 @@ void buildCost(benchmark::State& state, Size size, Evaluator e) {
   }
   vk::EvaluatorJob job;
   job.vertexPass = true;
-  const auto choice = vk::chooseEvaluator(true, program, gridAt(program, 64), job, codegenFor(Evaluator::Unrolled));
-  const bool chosen = choice.chosen.traversal == vk::Traversal::Stackless ? e == Evaluator::Interpreter
-                                                                           : e == Evaluator::Unrolled;
+  job.tiling.maxTiles = 1;  // as the sparse extraction (the default) asks
+  const vk::CodegenOptions lavapipe = vk::defaultCodegenOptions(true);
+  const auto choice = vk::chooseEvaluator(true, program, gridAt(program, 64), job, lavapipe);
+  const Evaluator picked = choice.chosen.traversal == vk::Traversal::Stackless ? Evaluator::Interpreter
+                           : vk::specialisedCodeLoops(program, {}, lavapipe.loops) ? Evaluator::Looped
+                                                                                  : Evaluator::Unrolled;
+  const bool chosen = picked == e;
   Result r;
   for (auto _ : state) {
     r = measureInChild(program, e);

@@ -7,6 +7,8 @@
 #include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/eval/gpu_program.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/eval/field.h"
 #include "blobvk/vk/eval/program_codegen.h"
@@ -151,6 +153,67 @@ TEST(EvaluatorChoice, SpecialisedCodePaysBackOverManyRepeats) {
   EXPECT_LE(b.chosen.runSeconds, a.chosen.runSeconds);
 }
 
+// On lavapipe (defaultCodegenOptions for a CPU driver) short programs stay unrolled and long ones
+// take the looped form, whose skips branch even though the CPU default masks them: masked, every
+// lane would run every instance of every loop.
+TEST(EvaluatorChoice, CpuDriversLoopOnlyLongPrograms) {
+  const vk::CodegenOptions cpu = vk::defaultCodegenOptions(true);
+  EXPECT_FALSE(cpu.branchOnSkips);
+  const auto small = blobtree::compile(blobtree::generateTower(3, 8, 6.0, 6.0, 1));  // 201 instructions
+  ASSERT_LE(small.code.size(), cpu.loops.minProgramInstructions);
+  EXPECT_FALSE(vk::specialisedCodeLoops(small, {}, cpu.loops));
+  EXPECT_EQ(vk::specialisedCodeSize(small, {}, cpu.loops), small.code.size());
+  EXPECT_TRUE(vk::specialisedData(small, cpu.loops).empty());
+  EXPECT_EQ(count(vk::generateSpecialisedEvaluator(small, cpu), "subgroupAll"), 0u);
+
+  const auto issue = blobtree::compile(blobtree::generateTower(5, 8, 6.0, 6.0, 3));  // 3,024
+  ASSERT_GT(issue.code.size(), cpu.loops.minProgramInstructions);
+  EXPECT_TRUE(vk::specialisedCodeLoops(issue, {}, cpu.loops));
+  EXPECT_LT(vk::specialisedCodeSize(issue, {}, cpu.loops) * 100, issue.code.size());
+  EXPECT_FALSE(vk::specialisedData(issue, cpu.loops).empty());
+  const std::string glsl = vk::generateSpecialisedEvaluator(issue, cpu);
+  EXPECT_GT(count(glsl, "for (uint i"), 0u);
+  EXPECT_GT(count(glsl, "subgroupAll"), 0u) << "looped code must branch on its skips";
+  // A region that prunes the program short unrolls it there.
+  vk::PointRegion corner;
+  corner.valid = true;
+  for (int a = 0; a < 3; ++a) corner.lo[a] = -1e6f, corner.hi[a] = -1e6f + 1.0f;
+  EXPECT_FALSE(vk::specialisedCodeLoops(issue, corner, cpu.loops));
+  // GPUs loop whatever the length.
+  EXPECT_TRUE(vk::specialisedCodeLoops(small, {}, vk::defaultCodegenOptions(false).loops));
+}
+
+// The decision for the issue's tower meshed at 64 cells on lavapipe: its unrolled code cannot pay
+// back within the job (the interpreter wins, EvaluatorChoice.IssueTowerMeshTakesTheInterpreterOnLavapipe);
+// the default looped code builds about as fast as the interpreter and runs faster, so it is taken.
+// The same up to 56,784 instructions, with a build of a few megabytes, never over the memory bound.
+TEST(EvaluatorChoice, LavapipeTakesLoopedCodeForLongInstancedPrograms) {
+  const vk::CodegenOptions cpu = vk::defaultCodegenOptions(true);
+  vk::EvaluatorJob job;
+  job.vertexPass = true;
+  job.tiling.maxTiles = 1;  // as the sparse extraction asks
+  for (int grid : {3, 13}) {
+    const auto program = blobtree::compile(blobtree::generateTower(5, 8, 6.0, 6.0, grid));
+    const auto choice = vk::chooseEvaluator(true, program, gridAt(program, 64), job, cpu);
+    const std::string what = std::to_string(program.code.size()) + " instructions";
+    ASSERT_EQ(choice.candidates.size(), 2u) << what;
+    const auto& interpreter = choice.candidates[0];
+    const auto& looped = choice.candidates[1];
+    EXPECT_EQ(interpreter.traversal, vk::Traversal::Stackless) << what;
+    EXPECT_EQ(looped.traversal, vk::Traversal::Specialised) << what;
+    EXPECT_EQ(choice.chosen.traversal, vk::Traversal::Specialised) << what;
+    // Its build is the interpreter's order, not the unrolled code's minutes.
+    EXPECT_LT(looped.buildSeconds, 2.0 * interpreter.buildSeconds) << what;
+    EXPECT_LT(looped.runSeconds, interpreter.runSeconds) << what;
+    EXPECT_LT(looped.buildMegabytes, 20.0) << what;
+  }
+  // A short program keeps its unrolled code where the build pays back: a small tower at 64 cells.
+  const auto small = blobtree::compile(blobtree::generateTower(1, 8, 6.0, 6.0, 1));
+  const auto choice = vk::chooseEvaluator(true, small, gridAt(small, 64), job, cpu);
+  EXPECT_EQ(choice.chosen.traversal, vk::Traversal::Specialised);
+  EXPECT_FALSE(vk::specialisedCodeLoops(small, {}, cpu.loops));
+}
+
 // Kernels already built cost nothing: with every kernel built, the model weighs run time alone,
 // and the specialised code runs faster than the interpreter.
 TEST(EvaluatorChoice, BuiltKernelsAreASunkCost) {
@@ -205,6 +268,44 @@ TEST_F(VulkanTest, TheDeviceReportsTheKernelsAJobBuilt) {
   options.traversal = vk::Traversal::Stackless;
   vk::polygonize(device(), program, grid, options);
   EXPECT_EQ(vk::chooseEvaluator(device(), program, grid, job, codegen).candidates[0].buildSeconds, 0.0);
+}
+
+// A generated instanced scene (the issue's tower, 3,024 instructions): on its default path the
+// device runs the looped code, and the mesh is the interpreter's byte for byte (positions,
+// normals, colours, triangles, keys), with and without refinement, sparse and dense; its edges
+// and triangles are the CPU reference mesh's.
+TEST_F(VulkanTest, InstancedTowerDefaultMeshEqualsTheInterpreterByteForByte) {
+  const auto program = blobtree::compile(blobtree::generateTower(5, 8, 6.0, 6.0, 3));
+  const auto grid = gridAt(program, 20);
+  const vk::CodegenOptions codegen = vk::defaultCodegenOptions(device());
+  ASSERT_TRUE(vk::specialisedCodeLoops(program, {}, codegen.loops));
+  const mesh::TriMesh cpu = cpu::polygonizeReference(program, grid);
+  ASSERT_GT(cpu.triangleCount(), 0u);
+  for (bool sparse : {true, false}) {
+    for (int refineSteps : {0, 2}) {
+      vk::GpuPolygonizeOptions options;
+      options.sparse = sparse;
+      options.refineSteps = refineSteps;
+      options.traversal = vk::Traversal::Stackless;
+      const mesh::TriMesh interpreted = vk::polygonize(device(), program, grid, options);
+      options.traversal = vk::Traversal::Auto;
+      const mesh::TriMesh byDefault = vk::polygonize(device(), program, grid, options);
+      options.traversal = vk::Traversal::Specialised;
+      const mesh::TriMesh looped = vk::polygonize(device(), program, grid, options);
+      const std::string what = std::string(sparse ? "sparse" : "dense") + ", " + std::to_string(refineSteps) + " steps";
+      for (const mesh::TriMesh* m : {&byDefault, &looped}) {
+        EXPECT_EQ(m->edgeKeys, interpreted.edgeKeys) << what;
+        EXPECT_EQ(m->triangles, interpreted.triangles) << what;
+        EXPECT_TRUE(m->positions == interpreted.positions) << what << ": positions";
+        EXPECT_TRUE(m->normals == interpreted.normals) << what << ": normals";
+        EXPECT_TRUE(m->colours == interpreted.colours) << what << ": colours";
+      }
+      if (refineSteps == 0) {
+        EXPECT_EQ(interpreted.edgeKeys, cpu.edgeKeys) << what;
+        EXPECT_EQ(interpreted.triangles, cpu.triangles) << what;
+      }
+    }
+  }
 }
 
 // Auto (the default) resolves to one of the evaluators, so its field is theirs bit for bit.

@@ -4,6 +4,7 @@
 #include "blobvk/vk/eval/program_codegen.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace blobvk::vk {
@@ -15,6 +16,32 @@ double specialisedKernelSeconds(double instructions, double copies) {
 }
 
 namespace {
+// Work (points x instructions run) of an evaluator that branches on its skips, as the interpreter
+// and looped code do: the grid in blocks of 16^3 points or more (the sparse extraction's bricks),
+// each point running the program pruned to its block. A subgroup skips more finely than a block,
+// but blocks already drop what lies away from the points, which the whole program does not. Counted
+// in instructions, not prunedEvaluationCost: on llvmpipe the interpreter pays every opcode's and
+// primitive type's code under a mask at each instruction, so an operator costs about a primitive.
+double branchingWork(const blobtree::Program& program, const blobtree::GridSpec& grid) {
+  constexpr std::uint32_t kBlockPoints = 16, kMaxBlocksPerAxis = 8;
+  const auto pts = grid.points();
+  if (pts.x < 1 || pts.y < 1 || pts.z < 1) return 0.0;
+  const std::uint32_t n[3] = {std::uint32_t(pts.x), std::uint32_t(pts.y), std::uint32_t(pts.z)};
+  std::uint32_t step[3];
+  for (int a = 0; a < 3; ++a) step[a] = std::max(kBlockPoints, (n[a] + kMaxBlocksPerAxis - 1) / kMaxBlocksPerAxis);
+  double work = 0.0;
+  for (std::uint32_t z = 0; z < n[2]; z += step[2])
+    for (std::uint32_t y = 0; y < n[1]; y += step[1])
+      for (std::uint32_t x = 0; x < n[0]; x += step[0]) {
+        const std::array<std::uint32_t, 3> first{x, y, z};
+        const std::array<std::uint32_t, 3> last{std::min(x + step[0], n[0]) - 1, std::min(y + step[1], n[1]) - 1,
+                                                std::min(z + step[2], n[2]) - 1};
+        const double points = double(last[0] - first[0] + 1) * (last[1] - first[1] + 1) * (last[2] - first[2] + 1);
+        work += points * double(prunedInstructionCount(program, regionOfPoints(grid, first, last)));
+      }
+  return work;
+}
+
 // Memory a specialised kernel's build takes beyond the process's own (kernels are built one at a
 // time, so the largest counts).
 double buildMegabytes(double instructions) { return costs::kBuildMegabytesPerInstruction * instructions; }
@@ -43,35 +70,65 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
   const std::vector<FieldTile> tiles = planFieldTiles(program, grid, tiling);
   double tileWork = 0.0;
   for (const FieldTile& t : tiles) tileWork += double(t.points()) * t.cost;
-  const double meanTileCost = points > 0.0 ? tileWork / points : wholeCost;
+  // What evaluators that branch on skips run (the interpreter, looped code), in instructions;
+  // branchScale turns a tile's pruned cost into those.
+  const double branchWork = branchingWork(program, grid);
+  const double meanBranchCost = points > 0.0 ? branchWork / points : double(program.code.size());
+  const double branchScale = tileWork > 0.0 ? branchWork / tileWork : 1.0;
 
   EvaluatorEstimate interpreter;
   interpreter.traversal = Traversal::Stackless;
   interpreter.buildSeconds = (isBuilt("field_grid", nullptr) ? 0.0 : kInterpreterKernelSeconds) +
                              (job.vertexPass && !isBuilt("vertices", nullptr) ? kInterpreterKernelSeconds : 0.0);
-  interpreter.runSeconds = kInterpreterSecondsPerCost * (tileWork + meanTileCost * vertexEvaluations);
+  interpreter.runSeconds = kInterpreterSecondsPerInstruction * (branchWork + meanBranchCost * vertexEvaluations);
   choice.candidates.push_back(interpreter);
 
+  // A specialised kernel for `region`: its build, and its seconds per point and unit of the
+  // region's pruned cost. Unrolled code on a CPU driver runs every line under a mask, so it pays
+  // for all the code it holds (`cost`); looped code branches on its skips like the interpreter,
+  // so it pays for what the points need, approximated by the region's pruned cost as for the
+  // interpreter.
+  struct Kernel {
+    double size = 0.0;
+    bool looped = false;
+  };
+  auto kernelFor = [&](const PointRegion& region) {
+    Kernel k;
+    k.looped = specialisedCodeLoops(program, region, codegen.loops);
+    k.size = double(specialisedCodeSize(program, region, codegen.loops));
+    return k;
+  };
+  auto kernelSeconds = [&](const Kernel& k, double copies) {
+    return specialisedKernelSeconds(k.size, copies) + (k.looped ? kLoopedKernelSeconds : 0.0);
+  };
+  // Seconds per evaluation by kernel `k` holding code of cost `held` (prunedEvaluationCost), at
+  // points that run `pruned` instructions when branching.
+  auto evaluationSeconds = [&](const Kernel& k, double pruned, double held) {
+    return k.looped ? kLoopedSecondsPerInstruction * pruned : kSpecialisedSecondsPerCost * held;
+  };
+
   const bool wholeFits = canSpecialise(program, {}, codegen.loops);
-  const double wholeSize = wholeFits ? double(specialisedCodeSize(program, {}, codegen.loops)) : 0.0;
+  const Kernel whole = wholeFits ? kernelFor({}) : Kernel{};
   // The vertex kernel: the whole program specialised, else the interpreter.
   const bool vertexBuilt = job.vertexPass && (wholeFits ? isBuilt("vertices", &codegen) : isBuilt("vertices", nullptr));
   const double vertexBuild = !job.vertexPass || vertexBuilt ? 0.0
-                             : wholeFits ? specialisedKernelSeconds(wholeSize, kVertexKernelCopies)
+                             : wholeFits ? kernelSeconds(whole, kVertexKernelCopies)
                                          : kInterpreterKernelSeconds;
   const double vertexMegabytes =
-      job.vertexPass && wholeFits && !vertexBuilt ? buildMegabytes(wholeSize * kVertexKernelCopies) : 0.0;
+      job.vertexPass && wholeFits && !vertexBuilt ? buildMegabytes(whole.size * kVertexKernelCopies) : 0.0;
   const bool wholeFieldBuilt = wholeFits && isBuilt("field_grid", &codegen);
-  const double vertexRun = (wholeFits ? kSpecialisedSecondsPerCost * wholeCost : kInterpreterSecondsPerCost * meanTileCost) *
+  const double vertexRun = (wholeFits ? evaluationSeconds(whole, meanBranchCost, wholeCost)
+                                      : kInterpreterSecondsPerInstruction * meanBranchCost) *
                            vertexEvaluations;
   if (wholeFits) {
-    EvaluatorEstimate whole;
-    whole.traversal = Traversal::Specialised;
-    whole.fieldKernels = 1;
-    whole.buildSeconds = (wholeFieldBuilt ? 0.0 : specialisedKernelSeconds(wholeSize, 1.0)) + vertexBuild;
-    whole.buildMegabytes = std::max(wholeFieldBuilt ? 0.0 : buildMegabytes(wholeSize), vertexMegabytes);
-    whole.runSeconds = kSpecialisedSecondsPerCost * wholeCost * points + vertexRun;
-    choice.candidates.push_back(whole);
+    EvaluatorEstimate e;
+    e.traversal = Traversal::Specialised;
+    e.fieldKernels = 1;
+    e.buildSeconds = (wholeFieldBuilt ? 0.0 : kernelSeconds(whole, 1.0)) + vertexBuild;
+    e.buildMegabytes = std::max(wholeFieldBuilt ? 0.0 : buildMegabytes(whole.size), vertexMegabytes);
+    e.runSeconds = (whole.looped ? kLoopedSecondsPerInstruction * branchWork : kSpecialisedSecondsPerCost * wholeCost * points) +
+                   vertexRun;
+    choice.candidates.push_back(e);
   }
   if (tiles.size() > 1) {
     // As FieldPass builds it: a kernel per tile the generator accepts pruned; the others share
@@ -84,20 +141,20 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
       if (specialiseTile(program, t.region, codegen.loops)) {
         own = true;
         const CodegenOptions c = tileCodegen(t.region);
+        const Kernel k = kernelFor(t.region);
         if (!isBuilt("field_grid", &c)) {
-          const double size = double(specialisedCodeSize(program, t.region, codegen.loops));
-          tiled.buildSeconds += specialisedKernelSeconds(size, 1.0);
-          tiled.buildMegabytes = std::max(tiled.buildMegabytes, buildMegabytes(size));
+          tiled.buildSeconds += kernelSeconds(k, 1.0);
+          tiled.buildMegabytes = std::max(tiled.buildMegabytes, buildMegabytes(k.size));
         }
-        tiled.runSeconds += kSpecialisedSecondsPerCost * double(t.points()) * t.cost;
+        tiled.runSeconds += double(t.points()) * evaluationSeconds(k, t.cost * branchScale, t.cost);
       } else {
         shared = true;
-        tiled.runSeconds += double(t.points()) * (wholeFits ? kSpecialisedSecondsPerCost * wholeCost
-                                                            : kInterpreterSecondsPerCost * t.cost);
+        tiled.runSeconds += double(t.points()) * (wholeFits ? evaluationSeconds(whole, t.cost * branchScale, wholeCost)
+                                                            : kInterpreterSecondsPerInstruction * t.cost * branchScale);
       }
     }
     if (shared && !(wholeFits ? wholeFieldBuilt : isBuilt("field_grid", nullptr)))
-      tiled.buildSeconds += wholeFits ? specialisedKernelSeconds(wholeSize, 1.0) : kInterpreterKernelSeconds;
+      tiled.buildSeconds += wholeFits ? kernelSeconds(whole, 1.0) : kInterpreterKernelSeconds;
     tiled.buildSeconds += vertexBuild;
     tiled.buildMegabytes = std::max(tiled.buildMegabytes, vertexMegabytes);
     tiled.runSeconds += vertexRun;

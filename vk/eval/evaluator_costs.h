@@ -9,6 +9,8 @@
 // machine code): lavapipe builds the LLVM variant there, not in vkCreateComputePipelines.
 #pragma once
 
+#include <cstdint>
+
 namespace blobvk::vk::costs {
 
 // Figures are wall seconds with other builds running on the machine (load average 6-9), so
@@ -45,14 +47,30 @@ inline constexpr double kVertexKernelCopies = 2.5;
 inline constexpr double kBuildMegabytesPerInstruction = 0.15;
 inline constexpr double kMaxBuildMegabytes = 300.0;
 
-// Evaluating: seconds per point and unit of prunedEvaluationCost (a primitive 8, an operator 1).
-// The interpreter's subgroups jump over skipped subtrees, so its cost is the tiles' pruned cost;
-// llvmpipe runs every line of the specialised code (no real branches), so its cost is the cost of
-// the code in the kernel. From field evaluations on 129^3 grids (bench_vk
-// --benchmark_filter='field/.*/128'): tower 10.9 M/s specialised (8 tiles) against 0.62 M/s
-// interpreted, random128 7.9 against 0.10 M/s.
-inline constexpr double kInterpreterSecondsPerCost = 6.0e-9;
+// Evaluating. The unrolled code on llvmpipe runs every line (no real branches, skips masked), so
+// it pays for the code in the kernel: seconds per point and unit of prunedEvaluationCost (a
+// primitive 8, an operator 1), from field evaluations on 129^3 grids (bench_vk
+// --benchmark_filter='field/.*/128'): tower 10.9 M/s specialised (8 tiles).
 inline constexpr double kSpecialisedSecondsPerCost = 1.5e-10;
+// The interpreter's subgroups jump over skipped subtrees, so it pays per instruction run
+// (evaluator_choice.cpp's branchingWork, vertex evaluations at the mean). Fitted to whole meshes
+// at 64 cells, `blobvk bench S --backend vk --traversal stackless --resolution 64 --repeats 2`
+// steady seconds against the model's instructions: tower 5.5e-8, tower L5P8G3 3.3e-8, L3P8G2
+// 7.2e-8, dice and random128 1.5e-7 (their primitives overlap, so subgroups skip less).
+inline constexpr double kInterpreterSecondsPerInstruction = 6.0e-8;
+
+// Looped code (vk/eval/program_shape.h) on llvmpipe: every load of an instance's record values
+// is a loop over the lanes, so a kernel builds like the interpreter's (a fixed part beyond its
+// few spelled-out instructions), and it branches on skips as the interpreter does, in 0.47-0.72
+// of its time (tower L5P8G3 and tower_L6P8I4 meshed at 64 cells, the same command with
+// --traversal specialised and looped code).
+inline constexpr double kLoopedKernelSeconds = 0.3;
+inline constexpr double kLoopedSecondsPerInstruction = 0.6 * kInterpreterSecondsPerInstruction;
+// On CPU drivers code longer than this is generated looped (LoopOptions::minProgramInstructions,
+// defaultCodegenOptions). Below it the unrolled mesh kernels build in under ~4 s and then run
+// 10-50x faster than the interpreter; above it their build grows quadratically (808
+// instructions: ~18 s) while looped code builds in under a second at any size.
+inline constexpr std::uint32_t kLoopedAboveInstructionsOnCpu = 400;
 
 // Vertex pass: vertices ~ this many per grid point^(2/3) (a surface's cells), each evaluated
 // 8 times plus the refinement steps.

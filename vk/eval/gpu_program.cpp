@@ -1,5 +1,6 @@
 #include "blobvk/vk/eval/gpu_program.h"
 
+#include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/spirv_cache.h"
 #include "blobvk/vk/eval/stack_program.h"
@@ -132,15 +133,20 @@ bool interpreterKernelBuilt(Device& device, const blobtree::Program& program, co
   return device.findKernel(shader, g.specs(workgroupSize, Traversal::Stackless)) != nullptr;
 }
 
-CodegenOptions defaultCodegenOptions(const Device& device) {
+CodegenOptions defaultCodegenOptions(bool cpuDevice) {
   CodegenOptions c;
-  const bool cpu = device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-  c.branchOnSkips = !cpu;
-  // llvmpipe turns each buffer load inside a loop into a loop over the lanes: the looped code
-  // built slower than the unrolled one there (tower at 32 cells: 5.6 s against 4.8 s for its
-  // first mesh) and ran 4x slower, so CPU drivers get unrolled code.
-  c.loops.enabled = !cpu;
+  // llvmpipe runs both sides of a branch and pays for subgroup votes: short unrolled code runs
+  // faster masked (its skips always run, outside lanes get 0).
+  c.branchOnSkips = !cpuDevice;
+  // llvmpipe turns each buffer load inside a loop into a loop over the lanes: looped code runs
+  // tens of times slower there than unrolled code, so CPU drivers unroll all but long programs,
+  // whose unrolled build would outweigh the job (vk/eval/evaluator_costs.h).
+  if (cpuDevice) c.loops.minProgramInstructions = costs::kLoopedAboveInstructionsOnCpu;
   return c;
+}
+
+CodegenOptions defaultCodegenOptions(const Device& device) {
+  return defaultCodegenOptions(device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU);
 }
 
 }  // namespace blobvk::vk

@@ -77,9 +77,11 @@ bool specialisedKernelBuilt(Device& device, std::uint64_t programFingerprint, co
 bool interpreterKernelBuilt(Device& device, const blobtree::Program& program, const std::string& shader,
                             std::uint32_t workgroupSize);
 
-// Code generation options for this device: branches on skips and loops over repeated shapes
-// except on CPU devices.
+// Code generation options for this device: on GPUs branches on skips and loops over repeated
+// shapes; on CPU drivers masked skips, and loops only in long programs (whose looped code
+// branches).
 CodegenOptions defaultCodegenOptions(const Device& device);
+CodegenOptions defaultCodegenOptions(bool cpuDevice);
 
 // Uploads the records; Traversal::StackBased uploads the tree encoding (stack_program.h) in
 // place of the register code. Throws std::invalid_argument for a Program over the register

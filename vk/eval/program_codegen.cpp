@@ -293,6 +293,7 @@ std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const Codeg
   f.value(options.loops.enabled);
   f.value(options.loops.minCount);
   f.value(options.loops.minInstructions);
+  f.value(options.loops.minProgramInstructions);
   if (options.region.valid) {
     f.value(options.region.lo);
     f.value(options.region.hi);
@@ -336,13 +337,22 @@ std::string codeDeclaration(const blobtree::Program& program) {
   return {};
 }
 
-// The looped form when the code parses into shapes (and loops are on), else unrolled.
+// Whether the program pruned to `region` is long enough for loops (LoopOptions::minProgramInstructions).
+bool wantsLoops(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
+  return loops.enabled &&
+         (loops.minProgramInstructions == 0 || prunedInstructionCount(program, region) > loops.minProgramInstructions);
+}
+
+// The looped form when the code parses into shapes (and loops are on for it), else unrolled.
 Generated generate(const blobtree::Program& program, const CodegenOptions& options) {
   Generated g;
   std::unique_ptr<CodeShapes> shapes;
-  if (options.loops.enabled) shapes = CodeShapes::analyse(program, options.loops);
+  if (wantsLoops(program, options.region, options.loops)) shapes = CodeShapes::analyse(program, options.loops);
   if (shapes) {
-    g.glsl = generateLoopedEvaluators(program, *shapes, options, &g.emitted);
+    // Looped code branches on skips (CodegenOptions::loops).
+    CodegenOptions looped = options;
+    looped.branchOnSkips = true;
+    g.glsl = generateLoopedEvaluators(program, *shapes, looped, &g.emitted);
   } else {
     g.emitted = prunedInstructionCount(program, options.region);
     g.glsl = codeDeclaration(program) + Generator(program, options, false).function() +
@@ -352,8 +362,12 @@ Generated generate(const blobtree::Program& program, const CodegenOptions& optio
 }
 }  // namespace
 
+bool specialisedCodeLoops(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
+  return wantsLoops(program, region, loops) && CodeShapes::analyse(program, loops) != nullptr;
+}
+
 std::uint32_t specialisedCodeSize(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
-  if (!loops.enabled) return prunedInstructionCount(program, region);
+  if (!wantsLoops(program, region, loops)) return prunedInstructionCount(program, region);
   CodegenOptions o;
   o.region = region;
   o.loops = loops;
@@ -367,7 +381,8 @@ bool canSpecialise(const blobtree::Program& program, const PointRegion& region, 
 }
 
 std::vector<layout::uvec4> specialisedData(const blobtree::Program& program, const LoopOptions& loops) {
-  if (!loops.enabled) return {};
+  // The whole program's code is the longest of its regions': when it is unrolled, so is every tile's.
+  if (!wantsLoops(program, {}, loops)) return {};
   const auto shapes = CodeShapes::analyse(program, loops);
   return shapes ? shapes->data() : std::vector<layout::uvec4>{};
 }

@@ -47,7 +47,10 @@ struct CodegenOptions {
   PointRegion region;
   // Runs of equal siblings (instances) become loops over one shared function
   // (vk/eval/program_shape.h); the instances' record values are read from the code buffer after the
-  // instructions (specialisedData), so uploadProgram must be given the same options.
+  // instructions (specialisedData), so uploadProgram must be given the same options. Code in the
+  // looped form branches on its skips (of at least minBranchInstructions) whatever branchOnSkips
+  // says: masked, every lane would run every instance of every loop (the 3,024-instruction tower
+  // at 64 cells: 88 s of field against 1 s branching).
   LoopOptions loops;
 };
 
@@ -76,6 +79,12 @@ std::uint32_t prunedInstructionCount(const blobtree::Program& program, const Poi
 // in `loops` (a shared function counts once): what compile time grows with.
 std::uint32_t specialisedCodeSize(const blobtree::Program& program, const PointRegion& region = {},
                                   const LoopOptions& loops = {});
+
+// True when the code generated for the program pruned to `region` takes the looped form (loops
+// on, the code longer than loops.minProgramInstructions, and in the form compile() emits): it
+// then branches on skips, reads record values from the code buffer, and its size is
+// specialisedCodeSize, not the program's.
+bool specialisedCodeLoops(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops);
 
 // True when generateSpecialisedEvaluator accepts the program pruned to `region` (anywhere by
 // default): a program too large as a whole can still be specialised for a small region.

@@ -53,6 +53,12 @@ struct LoopOptions {
   // fold and nothing is loaded).
   std::uint32_t minCount = 3;
   std::uint32_t minInstructions = 16;
+  // Loops only for code of more than this many instructions (the program pruned to the kernel's
+  // region); shorter code is unrolled. On llvmpipe every load in a loop is a loop over the lanes:
+  // unrolled code runs many times faster there and builds in time while it is short, so CPU
+  // drivers keep loops for programs whose unrolled build would outweigh a mesh
+  // (defaultCodegenOptions). 0: loops wherever the shapes repeat.
+  std::uint32_t minProgramInstructions = 0;
 };
 
 class CodeShapes {
