@@ -86,6 +86,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     options.refineSteps = settings.refineSteps;
     options.progress = settings.progress;
     if (settings.mpuSize > 0) options.mpuCells = settings.mpuSize;
+    if (settings.subBlockCells >= 0) options.subBlockCells = settings.subBlockCells;
     cpu::MpuStats mpu;
     mesh = cpu::polygonizeMpu(program, grid, options, &mpu);
     evaluations = double(mpu.pointEvaluations);

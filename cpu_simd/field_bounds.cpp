@@ -2,7 +2,11 @@
 // float computation of the reference could land outside the exact-arithmetic value.
 #include "blobvk/cpu_simd/field_bounds.h"
 
+#include "blobvk/blobtree/triangle_closest.h"
+
 #include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <glm/vector_relational.hpp>
 
 #include <algorithm>
 #include <array>
@@ -110,21 +114,103 @@ void skeletonBox(const layout::PrimitiveRecord& prim, glm::dvec3& lo, glm::dvec3
   lo -= glm::dvec3(1e-4), hi += glm::dvec3(1e-4);
 }
 
+// Distance in the unit frame from p to the primitive's skeleton (a point, segment, solid
+// cylinder, filled disc, circle, box or triangle), in double: the exact function the reference's
+// float formulas round. Every one is a Euclidean distance to a set, hence 1-Lipschitz.
+double skeletonDistance(const layout::PrimitiveRecord& prim, const glm::dvec3& p) {
+  const glm::dvec3 c = xyz(prim.p0), n = xyz(prim.p1);
+  const glm::dvec3 d = p - c;
+  switch (prim.meta.x) {
+    case layout::PRIM_LINE: {
+      const double len2 = glm::dot(n, n);
+      const double t = len2 > 0.0 ? std::clamp(glm::dot(d, n) / len2, 0.0, 1.0) : 0.0;
+      return glm::length(d - n * t);
+    }
+    case layout::PRIM_CYLINDER: {
+      const double y = glm::dot(d, n);
+      const double x = std::max(std::sqrt(std::max(glm::dot(d, d) - y * y, 0.0)) - double(prim.p2.x), 0.0);
+      const double h = std::max({-y, y - double(prim.p2.y), 0.0});
+      return std::sqrt(x * x + h * h);
+    }
+    case layout::PRIM_DISC:
+    case layout::PRIM_RING: {
+      const double y = glm::dot(d, n);
+      double radial = std::sqrt(std::max(glm::dot(d, d) - y * y, 0.0)) - double(prim.p2.x);
+      if (prim.meta.x == layout::PRIM_DISC) radial = std::max(radial, 0.0);
+      return std::sqrt(radial * radial + y * y);
+    }
+    case layout::PRIM_CUBE:
+      return glm::length(glm::max(glm::abs(d) - n, glm::dvec3(0.0)));
+    case layout::PRIM_TRIANGLE:
+      return glm::length(p - blobtree::detail::triangleClosest<double>(p, c, n, xyz(prim.p2)));
+    default:  // point, quadric
+      return glm::length(d);
+  }
+}
+
+// Centre and radius (farthest point from the centre) of a box's image in the primitive's unit
+// frame, grown by more than the reference's float rounding of the transform.
+void localBall(const blobtree::Program& program, const layout::PrimitiveRecord& prim, const Box& world,
+               glm::dvec3& centre, double& radius) {
+  const glm::dvec3 c = (world.lo + world.hi) * 0.5, e = (world.hi - world.lo) * 0.5;
+  if (prim.meta.y == 0u) {
+    centre = c;
+    radius = glm::length(e) + 1e-5 * (1.0 + std::max({std::abs(c.x), std::abs(c.y), std::abs(c.z)}) +
+                                      glm::length(e));
+    return;
+  }
+  const layout::MatrixRecord& m = program.matrices[prim.meta.y];
+  const glm::dvec3 rows[3] = {xyz(m.r0), xyz(m.r1), xyz(m.r2)};
+  const double w[3] = {m.r0.w, m.r1.w, m.r2.w};
+  double magnitude = 0.0;
+  for (int r = 0; r < 3; ++r) {
+    centre[r] = glm::dot(rows[r], c) + w[r];
+    magnitude = std::max(magnitude, std::abs(w[r]) + glm::dot(glm::abs(rows[r]), glm::abs(c) + e));
+  }
+  // The image of the box is a parallelepiped centred on the image of c; its farthest points
+  // are corners, and opposite corners are equally far: four sign patterns cover them.
+  radius = 0.0;
+  for (const glm::dvec3 s : {glm::dvec3(1, 1, 1), glm::dvec3(1, 1, -1), glm::dvec3(1, -1, 1),
+                             glm::dvec3(1, -1, -1)}) {
+    const glm::dvec3 v = s * e;
+    radius = std::max(radius, glm::length(glm::dvec3(glm::dot(rows[0], v), glm::dot(rows[1], v),
+                                                     glm::dot(rows[2], v))));
+  }
+  radius += 1e-5 * (1.0 + magnitude);
+}
+
+// The kernel is decreasing in the distance d to the skeleton. Over the box, d lies within
+// [D(c) - r, D(c) + r] around the ball's centre c (1-Lipschitz), and is at least the distance
+// between the box and the skeleton's bounding box; both bounds hold, so the tighter is kept.
 FieldInterval primitiveBounds(const blobtree::Program& program,
                               const layout::PrimitiveRecord& prim, const Box& world) {
-  const Box local = prim.meta.y != 0u ? transform(program.matrices[prim.meta.y], world) : world;
   const double scale = prim.meta.x == layout::PRIM_QUADRIC ? double(prim.p0.w) : 1.0;
   const FieldInterval any{std::min(0.0, scale), std::max(0.0, scale)};
   if (prim.meta.x > layout::PRIM_QUADRIC) return {0.0, 0.0};
-  if (!local.finite()) return any;
-  glm::dvec3 lo, hi;
-  skeletonBox(prim, lo, hi);
-  const double dd = boxDistance2(local, lo, hi);
-  if (dd >= 1.0) return {0.0, 0.0};
-  const double t = 1.0 - dd;
-  if (prim.meta.x == layout::PRIM_QUADRIC)
-    return {std::min(0.0, scale), std::max(0.0, scale * t * t)};
-  return {0.0, t * t * t};
+  if (!world.finite()) return any;
+  glm::dvec3 centre;
+  double radius = 0.0;
+  localBall(program, prim, world, centre, radius);
+  // Float distance arithmetic in the unit frame: the same absolute pad as the skeleton box's.
+  const double distance = skeletonDistance(prim, centre);
+  const double near = std::max(distance - radius - 1e-4, 0.0), far = distance + radius + 1e-4;
+  double ddMin = near * near;
+  if (ddMin >= 1.0) return {0.0, 0.0};
+  {
+    // The box-to-box distance is the tighter bound beside a skeleton's flat sides and corners.
+    const Box local = prim.meta.y != 0u ? transform(program.matrices[prim.meta.y], world) : world;
+    if (!local.finite()) return any;
+    glm::dvec3 lo, hi;
+    skeletonBox(prim, lo, hi);
+    ddMin = std::max(ddMin, boxDistance2(local, lo, hi));
+    if (ddMin >= 1.0) return {0.0, 0.0};
+  }
+  const double tHi = 1.0 - ddMin, tLo = std::max(1.0 - far * far, 0.0);
+  if (prim.meta.x == layout::PRIM_QUADRIC) {
+    const double a = scale * tLo * tLo, b = scale * tHi * tHi;
+    return {std::min(a, b), std::max(a, b)};
+  }
+  return {tLo * tLo * tLo, tHi * tHi * tHi};
 }
 
 Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Box b) {
@@ -189,11 +275,15 @@ bool primitiveIsZeroOver(const blobtree::Program& program, const layout::Primiti
   return boxDistance2(local, lo, hi) >= 1.001;
 }
 
-FieldInterval fieldBounds(const blobtree::Program& program, const glm::dvec3& lo,
-                          const glm::dvec3& hi) {
+namespace {
+
+// The code run once over a box: `primitive(pc, record, pointBox)` bounds one primitive.
+template <typename PrimitiveBound>
+FieldInterval runBounds(const blobtree::Program& program, const Box& box,
+                        PrimitiveBound&& primitive) {
   std::array<FieldInterval, layout::MAX_FIELD_REGISTERS> reg{};
   std::array<Box, layout::MAX_POINT_REGISTERS> pts{};
-  pts[0] = pad(Box{lo, hi});
+  pts[0] = box;
   struct Pending {
     std::uint32_t target, dst;
   };
@@ -212,7 +302,7 @@ FieldInterval fieldBounds(const blobtree::Program& program, const glm::dvec3& lo
     FieldInterval& d = reg[dst];
     switch (op) {
       case layout::OP_PRIM:
-        d = primitiveBounds(program, program.primitives[in.y], pts[in.z]);
+        d = primitive(pc, program.primitives[in.y], pts[in.z]);
         break;
       case layout::OP_ADD:
         d = {d.lo + reg[in.y].lo, d.hi + reg[in.y].hi};
@@ -271,6 +361,103 @@ FieldInterval fieldBounds(const blobtree::Program& program, const glm::dvec3& lo
   FieldInterval r = n ? reg[0] : FieldInterval{};
   const double m = 1e-4 * std::max({1.0, std::abs(r.lo), std::abs(r.hi)});
   return {r.lo - m, r.hi + m};
+}
+
+}  // namespace
+
+FieldInterval fieldBounds(const blobtree::Program& program, const glm::dvec3& lo,
+                          const glm::dvec3& hi) {
+  return runBounds(program, pad(Box{lo, hi}),
+                   [&](std::size_t, const layout::PrimitiveRecord& prim, const Box& box) {
+                     return primitiveBounds(program, prim, box);
+                   });
+}
+
+void BlockBounds::reset(const blobtree::Program& program) {
+  program_ = &program;
+  general_ = false;
+  for (const layout::Instruction& in : program.code)
+    if ((in.code.x & 0xffu) == layout::OP_WARP) general_ = true;
+  // Indexed by instruction (pruned tapes are short; their primitive tables are not).
+  prims_.resize(program.code.size());
+  for (std::size_t pc = 0; pc < program.code.size(); ++pc) {
+    const layout::uvec4 in = program.code[pc].code;
+    if ((in.x & 0xffu) != layout::OP_PRIM) continue;
+    const layout::PrimitiveRecord& prim = program.primitives[in.y];
+    Prim& q = prims_[pc];
+    skeletonBox(prim, q.skeletonLo, q.skeletonHi);
+    q.matrix = prim.meta.y != 0u;
+    q.offsetMax = 0.0, q.rowAbsMax = 1.0;
+    if (q.matrix) {
+      const layout::MatrixRecord& m = program.matrices[prim.meta.y];
+      q.rows[0] = xyz(m.r0), q.rows[1] = xyz(m.r1), q.rows[2] = xyz(m.r2);
+      q.offset = glm::dvec3(m.r0.w, m.r1.w, m.r2.w);
+      q.offsetMax = std::max({std::abs(q.offset.x), std::abs(q.offset.y), std::abs(q.offset.z)});
+      q.rowAbsMax = 0.0;
+      for (const glm::dvec3& r : q.rows)
+        q.rowAbsMax = std::max(q.rowAbsMax, std::abs(r.x) + std::abs(r.y) + std::abs(r.z));
+    }
+  }
+  halfExtent_ = glm::dvec3(-1.0);  // no size cached yet
+}
+
+void BlockBounds::cacheSize(const glm::dvec3& e) {
+  halfExtent_ = e;
+  for (Prim& q : prims_) {
+    if (!q.matrix) {
+      q.radius = glm::length(e), q.localHalf = e;
+      continue;
+    }
+    // The image of the box is a parallelepiped centred on the image of the centre; its
+    // farthest points are corners, and opposite corners are equally far: four sign patterns.
+    q.radius = 0.0;
+    for (const glm::dvec3 sgn : {glm::dvec3(1, 1, 1), glm::dvec3(1, 1, -1), glm::dvec3(1, -1, 1),
+                                 glm::dvec3(1, -1, -1)}) {
+      const glm::dvec3 v = sgn * e;
+      q.radius = std::max(q.radius, glm::length(glm::dvec3(glm::dot(q.rows[0], v), glm::dot(q.rows[1], v),
+                                                           glm::dot(q.rows[2], v))));
+    }
+    for (int r = 0; r < 3; ++r) q.localHalf[r] = glm::dot(glm::abs(q.rows[r]), e);
+  }
+}
+
+FieldInterval BlockBounds::operator()(const glm::dvec3& lo, const glm::dvec3& hi) {
+  const blobtree::Program& program = *program_;
+  const Box box = pad(Box{lo, hi});
+  if (general_ || !box.finite()) return fieldBounds(program, lo, hi);
+  // Centre and half extent of the unpadded box (the padding is in the slack below). Boxes of
+  // one grid block size differ in their last bits: a cached size at most 0.1% larger serves.
+  const glm::dvec3 c = (lo + hi) * 0.5, e = glm::abs(hi - lo) * 0.5;
+  if (glm::any(glm::greaterThan(e, halfExtent_)) || glm::any(glm::lessThan(e * 1.001, halfExtent_)))
+    cacheSize(e * (1.0 + 1e-4));
+  const double cMax = std::max({std::abs(c.x), std::abs(c.y), std::abs(c.z)});
+  const double eMax = std::max({halfExtent_.x, halfExtent_.y, halfExtent_.z});
+  return runBounds(program, box, [&](std::size_t pc, const layout::PrimitiveRecord& prim, const Box&) -> FieldInterval {
+    const double scale = prim.meta.x == layout::PRIM_QUADRIC ? double(prim.p0.w) : 1.0;
+    if (prim.meta.x > layout::PRIM_QUADRIC) return {0.0, 0.0};
+    const Prim& q = prims_[pc];
+    glm::dvec3 centre = c;
+    if (q.matrix)
+      centre = glm::dvec3(glm::dot(q.rows[0], c), glm::dot(q.rows[1], c), glm::dot(q.rows[2], c)) + q.offset;
+    // More than the reference's float rounding of the transform (transform() and pad()'s
+    // margins) and of the distance arithmetic in the unit frame (skeletonBox's 1e-4).
+    const double localMax = std::max({std::abs(centre.x), std::abs(centre.y), std::abs(centre.z)});
+    const double slack = 2e-5 * (1.0 + q.offsetMax + q.rowAbsMax * (cMax + eMax) + localMax + q.radius) +
+                         1e-5 * q.rowAbsMax * std::max(1.0, cMax + eMax) + 1e-4;
+    const double distance = skeletonDistance(prim, centre);
+    const double near = std::max(distance - q.radius - slack, 0.0), far = distance + q.radius + slack;
+    double ddMin = near * near;
+    if (ddMin >= 1.0) return {0.0, 0.0};
+    const glm::dvec3 half = q.localHalf + glm::dvec3(slack);
+    ddMin = std::max(ddMin, boxDistance2(Box{centre - half, centre + half}, q.skeletonLo, q.skeletonHi));
+    if (ddMin >= 1.0) return {0.0, 0.0};
+    const double tHi = 1.0 - ddMin, tLo = std::max(1.0 - far * far, 0.0);
+    if (prim.meta.x == layout::PRIM_QUADRIC) {
+      const double u = scale * tLo * tLo, v = scale * tHi * tHi;
+      return {std::min(u, v), std::max(u, v)};
+    }
+    return {tLo * tLo * tLo, tHi * tHi * tHi};
+  });
 }
 
 }  // namespace blobvk::cpu

@@ -11,6 +11,8 @@
 
 #include <glm/vec3.hpp>
 
+#include <vector>
+
 namespace blobvk::cpu {
 
 struct FieldInterval {
@@ -41,5 +43,31 @@ bool primitiveIsZeroOver(const blobtree::Program& program, const layout::Primiti
 // included by a small outward margin).
 FieldInterval fieldBounds(const blobtree::Program& program, const glm::dvec3& lo,
                           const glm::dvec3& hi);
+
+// fieldBounds for many boxes of one Program, cheaper per box: per primitive, the distance at
+// the box's centre (1-Lipschitz, so within the radius of the box's image in the unit frame) and
+// the distance between the box's image and the skeleton's box, with the per-size parts (radius,
+// image half extents) cached while consecutive boxes keep one size. Programs with warps take
+// fieldBounds itself. The interval is as conservative as fieldBounds's.
+class BlockBounds {
+ public:
+  void reset(const blobtree::Program& program);  // before the first box of a Program
+  FieldInterval operator()(const glm::dvec3& lo, const glm::dvec3& hi);
+
+ private:
+  struct Prim {
+    glm::dvec3 skeletonLo{0.0}, skeletonHi{0.0};
+    bool matrix = false;
+    glm::dvec3 rows[3]{}, offset{0.0};
+    double offsetMax = 0.0, rowAbsMax = 1.0;
+    double radius = 0.0;         // of the cached size's image
+    glm::dvec3 localHalf{0.0};   // half extents of the image's bounding box
+  };
+  void cacheSize(const glm::dvec3& halfExtent);
+  const blobtree::Program* program_ = nullptr;
+  bool general_ = false;
+  std::vector<Prim> prims_;
+  glm::dvec3 halfExtent_{-1.0};
+};
 
 }  // namespace blobvk::cpu

@@ -77,6 +77,11 @@ struct Scratch {
   std::vector<std::uint32_t> localToGlobal;
   std::vector<std::uint8_t> need;      // sparse field cache: points of unclassified sub-blocks
   std::vector<std::uint32_t> gather;   // evaluated point -> local point index
+  struct Block {
+    glm::ivec3 c0, c1;  // local cell range
+  };
+  std::vector<Block> blocks;           // sparse field cache: the octree's blocks still to visit
+  BlockBounds blockBounds;             // their interval bounds, over the MPU's field tape
   std::unique_ptr<blobtree::Program> fieldTape, colourTape;  // this thread's pruned tapes
   // Tapes of the current group of MPUs (from the Program), and the MPUs' tapes when they are
   // pruned from the group's (a tape of a tape: makeTapeProgram of the group's records).
@@ -234,36 +239,63 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
   const int B = ctx.options.subBlockCells;
   const glm::ivec3 cellsHere = pts - 1;
   if (B > 0 && B < std::max({cellsHere.x, cellsHere.y, cellsHere.z})) {
-    // Sparse: sub-blocks of B^3 cells whose interval bound is entirely outside or inside get
-    // their points' side from the bound; the points of the other sub-blocks are evaluated.
-    // Every grid edge lies in some sub-block and a classified one has no crossing edge, so
-    // every field value a vertex needs is evaluated.
+    // Sparse: the MPU is cut in halves recursively (an octree down to blocks of B cells); a
+    // block whose interval bound is entirely outside or inside gives its points their side
+    // without evaluating them, the others are cut again, and the points of the leaves left
+    // unclassified are evaluated. Every grid edge lies in some leaf or classified block and a
+    // classified one has no crossing edge, so every field value a vertex needs is evaluated.
     s.need.assign(N, 0);
-    const glm::ivec3 nb = (cellsHere + B - 1) / B;
-    for (int bz = 0; bz < nb.z; ++bz)
-      for (int by = 0; by < nb.y; ++by)
-        for (int bx = 0; bx < nb.x; ++bx) {
-          const glm::ivec3 c0 = glm::ivec3(bx, by, bz) * B;
-          const glm::ivec3 c1 = glm::min(c0 + B, cellsHere);
-          const FieldInterval f =
-              fieldBounds(*fieldProgram, glm::dvec3(cx[c0.x], cy[c0.y], cz[c0.z]),
-                          glm::dvec3(cx[c1.x], cy[c1.y], cz[c1.z]));
-          ++st.subBlocks;
-          const int side = f.hi < iso ? 0 : f.lo >= iso ? 1 : -1;
-          if (side >= 0) ++st.subBlocksClassified;
-          for (int k = c0.z; k <= c1.z; ++k)
-            for (int j = c0.y; j <= c1.y; ++j) {
-              const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
-              for (int i = c0.x; i <= c1.x; ++i) {
-                if (side < 0) {
-                  s.need[row + std::size_t(i)] = 1;
-                } else {
-                  s.inside[row + std::size_t(i)] = std::uint8_t(side);
-                  s.field[row + std::size_t(i)] = float(side);
-                }
-              }
-            }
+    using Block = Scratch::Block;
+    s.blockBounds.reset(*fieldProgram);
+    s.blocks.clear();
+    s.blocks.push_back({glm::ivec3(0), cellsHere});
+    bool root = true;
+    while (!s.blocks.empty()) {
+      const Block blk = s.blocks.back();
+      s.blocks.pop_back();
+      const glm::ivec3 c0 = blk.c0, c1 = blk.c1;
+      int side = -1;
+      if (!root) {  // the MPU itself was bounded by the early discard
+        const FieldInterval f = s.blockBounds(glm::dvec3(cx[c0.x], cy[c0.y], cz[c0.z]),
+                                              glm::dvec3(cx[c1.x], cy[c1.y], cz[c1.z]));
+        ++st.subBlocks;
+        side = f.hi < iso ? 0 : f.lo >= iso ? 1 : -1;
+      }
+      root = false;
+      const glm::ivec3 extent = c1 - c0;
+      if (side < 0 && std::max({extent.x, extent.y, extent.z}) > B) {
+        // Halve every axis longer than a leaf; children pushed in reverse so they pop in order.
+        int cuts[3][3], parts[3];
+        for (int a = 0; a < 3; ++a) {
+          cuts[a][0] = c0[a];
+          if (extent[a] > B) {
+            cuts[a][1] = c0[a] + (extent[a] + 1) / 2, cuts[a][2] = c1[a], parts[a] = 2;
+          } else {
+            cuts[a][1] = c1[a], parts[a] = 1;
+          }
         }
+        for (int z = parts[2] - 1; z >= 0; --z)
+          for (int y = parts[1] - 1; y >= 0; --y)
+            for (int x = parts[0] - 1; x >= 0; --x)
+              s.blocks.push_back({glm::ivec3(cuts[0][x], cuts[1][y], cuts[2][z]),
+                                  glm::ivec3(cuts[0][x + 1], cuts[1][y + 1], cuts[2][z + 1])});
+        continue;
+      }
+      if (side >= 0) ++st.subBlocksClassified;
+      for (int k = c0.z; k <= c1.z; ++k)
+        for (int j = c0.y; j <= c1.y; ++j) {
+          const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
+          if (side < 0) {
+            std::fill(s.need.begin() + std::ptrdiff_t(row) + c0.x,
+                      s.need.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(1));
+          } else {
+            std::fill(s.inside.begin() + std::ptrdiff_t(row) + c0.x,
+                      s.inside.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(side));
+            std::fill(s.field.begin() + std::ptrdiff_t(row) + c0.x,
+                      s.field.begin() + std::ptrdiff_t(row) + c1.x + 1, float(side));
+          }
+        }
+    }
     std::size_t n = 0;
     s.gather.resize(N);
     for (int k = 0; k < pts.z; ++k)
