@@ -373,11 +373,18 @@ FieldInterval fieldBounds(const blobtree::Program& program, const glm::dvec3& lo
                    });
 }
 
-void BlockBounds::reset(const blobtree::Program& program) {
+void BlockBounds::reset(const blobtree::Program& program, const glm::dvec3& regionLo,
+                        const glm::dvec3& regionHi) {
   program_ = &program;
+  regionLo_ = regionLo, regionHi_ = regionHi;
+  regionMax_ = std::max({std::abs(regionLo.x), std::abs(regionLo.y), std::abs(regionLo.z),
+                         std::abs(regionHi.x), std::abs(regionHi.y), std::abs(regionHi.z)});
   general_ = false;
-  for (const layout::Instruction& in : program.code)
+  skips_ = false;
+  for (const layout::Instruction& in : program.code) {
     if ((in.code.x & 0xffu) == layout::OP_WARP) general_ = true;
+    if ((in.code.x & 0xffu) == layout::OP_SKIP) skips_ = true;
+  }
   // Indexed by instruction (pruned tapes are short; their primitive tables are not).
   prims_.resize(program.code.size());
   for (std::size_t pc = 0; pc < program.code.size(); ++pc) {
@@ -403,56 +410,65 @@ void BlockBounds::reset(const blobtree::Program& program) {
 
 void BlockBounds::cacheSize(const glm::dvec3& e) {
   halfExtent_ = e;
-  for (Prim& q : prims_) {
-    if (!q.matrix) {
-      q.radius = glm::length(e), q.localHalf = e;
-      continue;
+  const double eMax = std::max({e.x, e.y, e.z});
+  for (std::size_t pc = 0; pc < prims_.size(); ++pc) {
+    Prim& q = prims_[pc];
+    if ((program_->code[pc].code.x & 0xffu) != layout::OP_PRIM) continue;
+    double radius = glm::length(e);
+    glm::dvec3 localHalf = e;
+    if (q.matrix) {
+      // The image of the box is a parallelepiped centred on the image of the centre; its
+      // farthest points are corners, and opposite corners are equally far: four sign patterns.
+      radius = 0.0;
+      for (const glm::dvec3 sgn : {glm::dvec3(1, 1, 1), glm::dvec3(1, 1, -1), glm::dvec3(1, -1, 1),
+                                   glm::dvec3(1, -1, -1)}) {
+        const glm::dvec3 v = sgn * e;
+        radius = std::max(radius, glm::length(glm::dvec3(glm::dot(q.rows[0], v), glm::dot(q.rows[1], v),
+                                                         glm::dot(q.rows[2], v))));
+      }
+      for (int r = 0; r < 3; ++r) localHalf[r] = glm::dot(glm::abs(q.rows[r]), e);
     }
-    // The image of the box is a parallelepiped centred on the image of the centre; its
-    // farthest points are corners, and opposite corners are equally far: four sign patterns.
-    q.radius = 0.0;
-    for (const glm::dvec3 sgn : {glm::dvec3(1, 1, 1), glm::dvec3(1, 1, -1), glm::dvec3(1, -1, 1),
-                                 glm::dvec3(1, -1, -1)}) {
-      const glm::dvec3 v = sgn * e;
-      q.radius = std::max(q.radius, glm::length(glm::dvec3(glm::dot(q.rows[0], v), glm::dot(q.rows[1], v),
-                                                           glm::dot(q.rows[2], v))));
-    }
-    for (int r = 0; r < 3; ++r) q.localHalf[r] = glm::dot(glm::abs(q.rows[r]), e);
+    // More than the reference's float rounding of the transform (transform() and pad()'s
+    // margins, for coordinates of the region's magnitude) and of the distance arithmetic in
+    // the unit frame (skeletonBox's 1e-4).
+    const double world = regionMax_ + eMax;
+    const double local = q.offsetMax + q.rowAbsMax * world;
+    const double slack = 2e-5 * (1.0 + q.offsetMax + q.rowAbsMax * world + local + radius) +
+                         1e-5 * q.rowAbsMax * std::max(1.0, world) + 1e-4;
+    q.reach = radius + slack;
+    q.localHalf = localHalf + glm::dvec3(slack);
   }
 }
 
 FieldInterval BlockBounds::operator()(const glm::dvec3& lo, const glm::dvec3& hi) {
   const blobtree::Program& program = *program_;
-  const Box box = pad(Box{lo, hi});
-  if (general_ || !box.finite()) return fieldBounds(program, lo, hi);
-  // Centre and half extent of the unpadded box (the padding is in the slack below). Boxes of
-  // one grid block size differ in their last bits: a cached size at most 0.1% larger serves.
+  const Box raw{lo, hi};
+  const bool inRegion = glm::all(glm::greaterThanEqual(glm::min(lo, hi), regionLo_)) &&
+                        glm::all(glm::lessThanEqual(glm::max(lo, hi), regionHi_));
+  if (general_ || !inRegion || !raw.finite()) return fieldBounds(program, lo, hi);
+  // The box itself only meets skip instructions (primitives use the ball below).
+  const Box box = skips_ ? pad(raw) : raw;
+  // Centre and half extent of the unpadded box (the padding is in the slack). Boxes of one
+  // grid block size differ in their last bits: a cached size at most 0.1% larger serves.
   const glm::dvec3 c = (lo + hi) * 0.5, e = glm::abs(hi - lo) * 0.5;
   if (glm::any(glm::greaterThan(e, halfExtent_)) || glm::any(glm::lessThan(e * 1.001, halfExtent_)))
     cacheSize(e * (1.0 + 1e-4));
-  const double cMax = std::max({std::abs(c.x), std::abs(c.y), std::abs(c.z)});
-  const double eMax = std::max({halfExtent_.x, halfExtent_.y, halfExtent_.z});
   return runBounds(program, box, [&](std::size_t pc, const layout::PrimitiveRecord& prim, const Box&) -> FieldInterval {
-    const double scale = prim.meta.x == layout::PRIM_QUADRIC ? double(prim.p0.w) : 1.0;
     if (prim.meta.x > layout::PRIM_QUADRIC) return {0.0, 0.0};
     const Prim& q = prims_[pc];
     glm::dvec3 centre = c;
     if (q.matrix)
       centre = glm::dvec3(glm::dot(q.rows[0], c), glm::dot(q.rows[1], c), glm::dot(q.rows[2], c)) + q.offset;
-    // More than the reference's float rounding of the transform (transform() and pad()'s
-    // margins) and of the distance arithmetic in the unit frame (skeletonBox's 1e-4).
-    const double localMax = std::max({std::abs(centre.x), std::abs(centre.y), std::abs(centre.z)});
-    const double slack = 2e-5 * (1.0 + q.offsetMax + q.rowAbsMax * (cMax + eMax) + localMax + q.radius) +
-                         1e-5 * q.rowAbsMax * std::max(1.0, cMax + eMax) + 1e-4;
     const double distance = skeletonDistance(prim, centre);
-    const double near = std::max(distance - q.radius - slack, 0.0), far = distance + q.radius + slack;
+    const double near = std::max(distance - q.reach, 0.0), far = distance + q.reach;
     double ddMin = near * near;
     if (ddMin >= 1.0) return {0.0, 0.0};
-    const glm::dvec3 half = q.localHalf + glm::dvec3(slack);
-    ddMin = std::max(ddMin, boxDistance2(Box{centre - half, centre + half}, q.skeletonLo, q.skeletonHi));
+    ddMin = std::max(ddMin, boxDistance2(Box{centre - q.localHalf, centre + q.localHalf}, q.skeletonLo,
+                                         q.skeletonHi));
     if (ddMin >= 1.0) return {0.0, 0.0};
     const double tHi = 1.0 - ddMin, tLo = std::max(1.0 - far * far, 0.0);
     if (prim.meta.x == layout::PRIM_QUADRIC) {
+      const double scale = double(prim.p0.w);
       const double u = scale * tLo * tLo, v = scale * tHi * tHi;
       return {std::min(u, v), std::max(u, v)};
     }

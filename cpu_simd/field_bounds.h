@@ -51,7 +51,9 @@ FieldInterval fieldBounds(const blobtree::Program& program, const glm::dvec3& lo
 // fieldBounds itself. The interval is as conservative as fieldBounds's.
 class BlockBounds {
  public:
-  void reset(const blobtree::Program& program);  // before the first box of a Program
+  // Before the first box of a Program; every box asked for afterwards lies in the region (the
+  // rounding margins are sized for its coordinates; a box outside takes fieldBounds).
+  void reset(const blobtree::Program& program, const glm::dvec3& regionLo, const glm::dvec3& regionHi);
   FieldInterval operator()(const glm::dvec3& lo, const glm::dvec3& hi);
 
  private:
@@ -60,13 +62,16 @@ class BlockBounds {
     bool matrix = false;
     glm::dvec3 rows[3]{}, offset{0.0};
     double offsetMax = 0.0, rowAbsMax = 1.0;
-    double radius = 0.0;         // of the cached size's image
-    glm::dvec3 localHalf{0.0};   // half extents of the image's bounding box
+    double reach = 0.0;          // the cached size's image radius, plus rounding margins
+    glm::dvec3 localHalf{0.0};   // half extents of the image's bounding box, plus margins
   };
   void cacheSize(const glm::dvec3& halfExtent);
   const blobtree::Program* program_ = nullptr;
-  bool general_ = false;
-  std::vector<Prim> prims_;
+  bool general_ = false;  // warps: fieldBounds itself
+  bool skips_ = false;
+  glm::dvec3 regionLo_{0.0}, regionHi_{0.0};
+  double regionMax_ = 0.0;
+  std::vector<Prim> prims_;  // per instruction (OP_PRIM ones)
   glm::dvec3 halfExtent_{-1.0};
 };
 

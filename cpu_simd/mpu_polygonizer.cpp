@@ -80,7 +80,7 @@ struct Scratch {
   struct Block {
     glm::ivec3 c0, c1;  // local cell range
   };
-  std::vector<Block> blocks;           // sparse field cache: the octree's blocks still to visit
+  std::vector<Block> blocks, nextBlocks;  // sparse field cache: one octree level, the next
   BlockBounds blockBounds;             // their interval bounds, over the MPU's field tape
   std::unique_ptr<blobtree::Program> fieldTape, colourTape;  // this thread's pruned tapes
   // Tapes of the current group of MPUs (from the Program), and the MPUs' tapes when they are
@@ -246,72 +246,90 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
     // classified one has no crossing edge, so every field value a vertex needs is evaluated.
     s.need.assign(N, 0);
     using Block = Scratch::Block;
-    s.blockBounds.reset(*fieldProgram);
+    s.blockBounds.reset(*fieldProgram, glm::dvec3(cx[0], cy[0], cz[0]),
+                        glm::dvec3(cx[cellsHere.x], cy[cellsHere.y], cz[cellsHere.z]));
+    // Level by level (all blocks of one size, then their children): BlockBounds caches the
+    // per-size parts of the bound, and one level's blocks share a size.
     s.blocks.clear();
     s.blocks.push_back({glm::ivec3(0), cellsHere});
     bool root = true;
     while (!s.blocks.empty()) {
-      const Block blk = s.blocks.back();
-      s.blocks.pop_back();
-      const glm::ivec3 c0 = blk.c0, c1 = blk.c1;
-      int side = -1;
-      if (!root) {  // the MPU itself was bounded by the early discard
-        const FieldInterval f = s.blockBounds(glm::dvec3(cx[c0.x], cy[c0.y], cz[c0.z]),
-                                              glm::dvec3(cx[c1.x], cy[c1.y], cz[c1.z]));
-        ++st.subBlocks;
-        side = f.hi < iso ? 0 : f.lo >= iso ? 1 : -1;
+      s.nextBlocks.clear();
+      for (const Block& blk : s.blocks) {
+        const glm::ivec3 c0 = blk.c0, c1 = blk.c1;
+        int side = -1;
+        if (!root) {  // the MPU itself was bounded by the early discard
+          const FieldInterval f = s.blockBounds(glm::dvec3(cx[c0.x], cy[c0.y], cz[c0.z]),
+                                                glm::dvec3(cx[c1.x], cy[c1.y], cz[c1.z]));
+          ++st.subBlocks;
+          side = f.hi < iso ? 0 : f.lo >= iso ? 1 : -1;
+        }
+        const glm::ivec3 extent = c1 - c0;
+        if (side < 0 && std::max({extent.x, extent.y, extent.z}) > B) {
+          // Halve every axis longer than a leaf.
+          int cuts[3][3], parts[3];
+          for (int a = 0; a < 3; ++a) {
+            cuts[a][0] = c0[a];
+            if (extent[a] > B) {
+              cuts[a][1] = c0[a] + (extent[a] + 1) / 2, cuts[a][2] = c1[a], parts[a] = 2;
+            } else {
+              cuts[a][1] = c1[a], parts[a] = 1;
+            }
+          }
+          for (int z = 0; z < parts[2]; ++z)
+            for (int y = 0; y < parts[1]; ++y)
+              for (int x = 0; x < parts[0]; ++x)
+                s.nextBlocks.push_back({glm::ivec3(cuts[0][x], cuts[1][y], cuts[2][z]),
+                                        glm::ivec3(cuts[0][x + 1], cuts[1][y + 1], cuts[2][z + 1])});
+          continue;
+        }
+        if (side >= 0) ++st.subBlocksClassified;
+        for (int k = c0.z; k <= c1.z; ++k)
+          for (int j = c0.y; j <= c1.y; ++j) {
+            const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
+            if (side < 0) {
+              std::fill(s.need.begin() + std::ptrdiff_t(row) + c0.x,
+                        s.need.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(1));
+            } else {  // field values are read on crossing edges only: the side is enough here
+              std::fill(s.inside.begin() + std::ptrdiff_t(row) + c0.x,
+                        s.inside.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(side));
+            }
+          }
       }
       root = false;
-      const glm::ivec3 extent = c1 - c0;
-      if (side < 0 && std::max({extent.x, extent.y, extent.z}) > B) {
-        // Halve every axis longer than a leaf; children pushed in reverse so they pop in order.
-        int cuts[3][3], parts[3];
-        for (int a = 0; a < 3; ++a) {
-          cuts[a][0] = c0[a];
-          if (extent[a] > B) {
-            cuts[a][1] = c0[a] + (extent[a] + 1) / 2, cuts[a][2] = c1[a], parts[a] = 2;
-          } else {
-            cuts[a][1] = c1[a], parts[a] = 1;
-          }
-        }
-        for (int z = parts[2] - 1; z >= 0; --z)
-          for (int y = parts[1] - 1; y >= 0; --y)
-            for (int x = parts[0] - 1; x >= 0; --x)
-              s.blocks.push_back({glm::ivec3(cuts[0][x], cuts[1][y], cuts[2][z]),
-                                  glm::ivec3(cuts[0][x + 1], cuts[1][y + 1], cuts[2][z + 1])});
-        continue;
-      }
-      if (side >= 0) ++st.subBlocksClassified;
-      for (int k = c0.z; k <= c1.z; ++k)
-        for (int j = c0.y; j <= c1.y; ++j) {
+      std::swap(s.blocks, s.nextBlocks);
+    }
+    // Compaction without branches (need is about half ones): every point is written, the
+    // count advances by its flag. Restrict: the byte arrays may alias anything otherwise.
+    std::size_t n = 0;
+    s.gather.resize(N);
+    {
+      float* __restrict px = s.x.data();
+      float* __restrict py = s.y.data();
+      float* __restrict pz = s.z.data();
+      std::uint32_t* __restrict gather = s.gather.data();
+      const std::uint8_t* __restrict need = s.need.data();
+      for (int k = 0; k < pts.z; ++k)
+        for (int j = 0; j < pts.y; ++j) {
           const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
-          if (side < 0) {
-            std::fill(s.need.begin() + std::ptrdiff_t(row) + c0.x,
-                      s.need.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(1));
-          } else {
-            std::fill(s.inside.begin() + std::ptrdiff_t(row) + c0.x,
-                      s.inside.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(side));
-            std::fill(s.field.begin() + std::ptrdiff_t(row) + c0.x,
-                      s.field.begin() + std::ptrdiff_t(row) + c1.x + 1, float(side));
+          for (int i = 0; i < pts.x; ++i) {
+            px[n] = cx[i], py[n] = cy[j], pz[n] = cz[k];
+            gather[n] = std::uint32_t(row + std::size_t(i));
+            n += need[row + std::size_t(i)];
           }
         }
     }
-    std::size_t n = 0;
-    s.gather.resize(N);
-    for (int k = 0; k < pts.z; ++k)
-      for (int j = 0; j < pts.y; ++j) {
-        const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
-        for (int i = 0; i < pts.x; ++i)
-          if (s.need[row + std::size_t(i)]) {
-            s.x[n] = cx[i], s.y[n] = cy[j], s.z[n] = cz[k];
-            s.gather[n++] = std::uint32_t(row + std::size_t(i));
-          }
-      }
     evaluateFieldBatch(*fieldProgram, s.x.data(), s.y.data(), s.z.data(), s.f.data(), n,
                        ctx.level);
-    for (std::size_t e = 0; e < n; ++e) {
-      s.field[s.gather[e]] = s.f[e];
-      s.inside[s.gather[e]] = s.f[e] >= iso ? 1 : 0;
+    {
+      const float* __restrict f = s.f.data();
+      const std::uint32_t* __restrict gather = s.gather.data();
+      float* __restrict field = s.field.data();
+      std::uint8_t* __restrict inside = s.inside.data();
+      for (std::size_t e = 0; e < n; ++e) {
+        field[gather[e]] = f[e];
+        inside[gather[e]] = f[e] >= iso ? 1 : 0;
+      }
     }
     st.grid += n;
     st.blocks += ctx.blocks(n);

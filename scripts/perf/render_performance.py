@@ -8,6 +8,7 @@ RESULTS_DIR holds what scripts/performance.sh measured:
   commands.json                  {section: command line} as run
   bench_cpu.json, bench_vk.json  `blobvk bench --json` (whole-scene polygonization)
   bench_phases.json              `blobvk bench --json` at 384 (the per-phase breakdown)
+  bench_sparse{0,4,2}.json       `blobvk bench --json --sub-block N` (the sparse field cache)
   gb_<binary>.json               Google Benchmark JSON (--benchmark_format=json)
 Every figure in the page comes from those files; nothing is typed by hand.
 """
@@ -170,6 +171,36 @@ def phase_section(rows, command):
             + (f"\n```sh\n{command}\n```\n" if command else "") + "\n" + phase_table(rows, res) + "\n")
 
 
+def sparse_section(results, commands):
+    """The sparse field cache against its leaf size: evaluations and time, one run per leaf."""
+    runs = [(leaf, bench_rows(os.path.join(results, f"bench_sparse{leaf}.json"))) for leaf in (0, 4, 2)]
+    runs = [(leaf, rows) for leaf, rows in runs if rows]
+    if not runs:
+        return ""
+    header = ["scene", "res", "leaf cells", "FVEPT", "grid points / tri", "ns/tri (min)", "field ns/tri"]
+    out = []
+    for leaf, rows in runs:
+        for r in rows:
+            if not r["triangles"]:
+                continue
+            tri = r["triangles"]
+            grid = (r["point_evaluations"] - r["vertices"]) / tri
+            out.append([f"`{scene_name(r['scene'])}`", r["resolution"], leaf or "off (every point)",
+                        f"{r['fvept']:.2f}", f"{grid:.2f}", f"{r['min_s'] * 1e9 / tri:.0f}",
+                        f"{r['phases_s'].get('field', 0.0) * 1e9 / tri:.0f}"])
+    out.sort(key=lambda row: (row[0], row[1]))
+    cmds = "\n".join(commands[f"bench_sparse{leaf}"] for leaf, _ in runs if f"bench_sparse{leaf}" in commands)
+    return ("\n## Sparse field cache: evaluations against leaf size (`blobvk bench --sub-block`)\n\n"
+            "Each MPU that the early discard keeps is halved recursively (an octree) down to leaves of\n"
+            "`--sub-block` cells; a block whose interval bound is all outside or all inside is not\n"
+            "evaluated, so only the points of leaves near the surface are. The mesh is the same bytes\n"
+            "for every leaf size. *FVEPT* counts every point evaluation (grid points, then one\n"
+            "analytic-gradient pass per vertex); *field* is the field phase, bounds included. The\n"
+            "default is 4: leaves of 2 cells halve the evaluations again but the bounds cost more\n"
+            "than the points they save.\n"
+            + (f"\n```sh\n{cmds}\n```\n" if cmds else "") + "\n" + table(header, out) + "\n")
+
+
 def vk_table(cpu_rows, vk_rows):
     cpu = {(scene_name(r["scene"]), r["resolution"]): r for r in cpu_rows if r["threads"] in (0, 2)}
     header = ["scene", "res", "cpu min", "vk min", "vk median", "vk / cpu", "vk first run",
@@ -301,6 +332,7 @@ def main():
         w("\n![ns per triangle against resolution](performance/ns_per_triangle.png)\n")
     phase_rows = bench_rows(os.path.join(results, "bench_phases.json"))
     w(phase_section(phase_rows, commands.get("bench_phases")))
+    w(sparse_section(results, commands))
 
     w("\n## Vulkan polygonization on lavapipe against the CPU (`blobvk bench`)\n")
     w("Same scenes, `--backend vk` (its default evaluator choice, see [vulkan.md](vulkan.md)) against\n"

@@ -67,7 +67,7 @@ TEST(FieldBounds, ContainEveryDenseSampleAndClassifyMostSmallBoxesWithoutSurface
     std::mt19937 rng(17);
     std::uniform_real_distribution<float> u(0.0f, 1.0f);
     BlockBounds blocks;
-    blocks.reset(program);
+    blocks.reset(program, glm::dvec3(lo), glm::dvec3(hi));
     int noSurface = 0, classified = 0;
     // Boxes of a few sizes, each size in a run (BlockBounds caches per size).
     for (float side : {0.25f, 0.05f, 0.02f, 0.008f}) {
@@ -106,7 +106,7 @@ TEST(FieldBounds, SmallBoxesDeepInsideAreClassifiedInside) {
   const glm::vec3 lo = program.bounds.lo, hi = program.bounds.hi;
   const glm::vec3 size(0.01f * (hi.x - lo.x));
   BlockBounds blocks;
-  blocks.reset(program);
+  blocks.reset(program, glm::dvec3(lo), glm::dvec3(hi));
   int deep = 0, inside = 0;
   for (int b = 0; b < 4000 && deep < 200; ++b) {
     const glm::vec3 blo = lo + (hi - lo - size) * glm::vec3(u(rng), u(rng), u(rng));
