@@ -11,6 +11,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <cstdint>
 #include <vector>
 
 namespace blobvk::cpu {
@@ -55,6 +56,10 @@ class BlockBounds {
   // rounding margins are sized for its coordinates; a box outside takes fieldBounds).
   void reset(const blobtree::Program& program, const glm::dvec3& regionLo, const glm::dvec3& regionHi);
   FieldInterval operator()(const glm::dvec3& lo, const glm::dvec3& hi);
+  // Many boxes of one size at once, centred at (cx, cy, cz)[i] with `halfExtent` (at least each
+  // box's): the same bound per box, one instruction at a time over the batch.
+  void operator()(std::size_t n, const double* cx, const double* cy, const double* cz,
+                  const glm::dvec3& halfExtent, double* lo, double* hi);
 
  private:
   struct Prim {
@@ -72,6 +77,9 @@ class BlockBounds {
   glm::dvec3 regionLo_{0.0}, regionHi_{0.0};
   double regionMax_ = 0.0;
   std::vector<Prim> prims_;  // per instruction (OP_PRIM ones)
+  std::size_t registers_ = 1;
+  std::vector<double> regLo_, regHi_;  // the batch's interval registers, [register][box]
+  std::vector<std::uint8_t> skipModes_;  // per open skip, per box: inside, straddling, disjoint
   glm::dvec3 halfExtent_{-1.0};
 };
 

@@ -82,6 +82,7 @@ struct Scratch {
   };
   std::vector<Block> blocks, nextBlocks;  // sparse field cache: one octree level, the next
   BlockBounds blockBounds;             // their interval bounds, over the MPU's field tape
+  std::vector<double> boundX, boundY, boundZ, boundLo, boundHi;  // one level's centres, bounds
   std::unique_ptr<blobtree::Program> fieldTape, colourTape;  // this thread's pruned tapes
   // Tapes of the current group of MPUs (from the Program), and the MPUs' tapes when they are
   // pruned from the group's (a tape of a tape: makeTapeProgram of the group's records).
@@ -255,15 +256,27 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
     bool root = true;
     while (!s.blocks.empty()) {
       s.nextBlocks.clear();
-      for (const Block& blk : s.blocks) {
-        const glm::ivec3 c0 = blk.c0, c1 = blk.c1;
-        int side = -1;
-        if (!root) {  // the MPU itself was bounded by the early discard
-          const FieldInterval f = s.blockBounds(glm::dvec3(cx[c0.x], cy[c0.y], cz[c0.z]),
-                                                glm::dvec3(cx[c1.x], cy[c1.y], cz[c1.z]));
-          ++st.subBlocks;
-          side = f.hi < iso ? 0 : f.lo >= iso ? 1 : -1;
+      const std::size_t count = s.blocks.size();
+      if (!root) {  // the MPU itself was bounded by the early discard
+        // One batch per level: centres, and the largest half extent (a level's blocks differ
+        // by a cell at most, at odd extents; a larger box is still a conservative one).
+        for (auto* v : {&s.boundX, &s.boundY, &s.boundZ, &s.boundLo, &s.boundHi}) v->resize(count);
+        glm::dvec3 half(0.0);
+        for (std::size_t b = 0; b < count; ++b) {
+          const glm::ivec3 c0 = s.blocks[b].c0, c1 = s.blocks[b].c1;
+          const glm::dvec3 blo(cx[c0.x], cy[c0.y], cz[c0.z]), bhi(cx[c1.x], cy[c1.y], cz[c1.z]);
+          s.boundX[b] = (blo.x + bhi.x) * 0.5, s.boundY[b] = (blo.y + bhi.y) * 0.5;
+          s.boundZ[b] = (blo.z + bhi.z) * 0.5;
+          half = glm::max(half, (bhi - blo) * 0.5);
         }
+        s.blockBounds(count, s.boundX.data(), s.boundY.data(), s.boundZ.data(), half,
+                      s.boundLo.data(), s.boundHi.data());
+        st.subBlocks += count;
+      }
+      for (std::size_t b = 0; b < count; ++b) {
+        const Block blk = s.blocks[b];
+        const glm::ivec3 c0 = blk.c0, c1 = blk.c1;
+        const int side = root ? -1 : s.boundHi[b] < iso ? 0 : s.boundLo[b] >= iso ? 1 : -1;
         const glm::ivec3 extent = c1 - c0;
         if (side < 0 && std::max({extent.x, extent.y, extent.z}) > B) {
           // Halve every axis longer than a leaf.

@@ -17,7 +17,12 @@
 namespace blobvk::cpu {
 
 inline constexpr int kDefaultMpuCells = 16;  // chosen by bench_polygonizer's MPU-size sweep
-inline constexpr int kDefaultSubBlockCells = 4;  // bench_polygonizer's subblock_sweep
+inline constexpr int kDefaultSubBlockCells = 4;  // 16 -> 8 -> 4: bench_polygonizer's subblock_sweep
+// A whole mesh in one job (blobvk mesh, bench, compare): larger MPUs halved down to leaves of 3
+// cells (24 -> 12 -> 6 -> 3) evaluate about a third fewer points than the default at the same
+// time (docs/performance.md). Re-running MPUs after an edit favours the smaller default.
+inline constexpr int kWholeMeshMpuCells = 24;
+inline constexpr int kWholeMeshSubBlockCells = 3;
 
 struct MpuOptions {
   int mpuCells = kDefaultMpuCells;  // D: cells per MPU side, 2..64
