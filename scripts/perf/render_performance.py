@@ -164,9 +164,9 @@ def phase_section(rows, command):
             f"Per phase, in ns per output triangle, of the fastest of the repeats at {res}. The MPU phase\n"
             "runs on the worker threads: its wall time is split by the CPU time the workers spent in\n"
             "each part — *classification* (interval bound of each MPU group, tape pruning), *field*\n"
-            "(the octree of sub-block bounds and the SIMD evaluation of the points it keeps), *vertices*\n"
-            "(crossing edges, positions), *normals + colours* (one\n"
-            "analytic-gradient pass per vertex), *triangles* (case index and the case table per cell).\n"
+            "(the octree of sub-block bounds and the SIMD evaluation of the points it keeps),\n"
+            "*vertices* (crossing edges, positions), *normals + colours* (one analytic-gradient pass\n"
+            "per vertex), *triangles* (case index and the case table per cell).\n"
             "*welding* is the prefix sums and the scatter of every MPU's vertices and triangles into the\n"
             "welded arrays; *output* encodes the mesh as binary PLY, once, after the timed runs.\n"
             + (f"\n```sh\n{command}\n```\n" if command else "") + "\n" + phase_table(rows, res) + "\n")
