@@ -85,7 +85,11 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     options.threads = settings.threads;
     options.refineSteps = settings.refineSteps;
     options.progress = settings.progress;
-    if (settings.mpuSize > 0) options.mpuCells = settings.mpuSize;
+    // A whole mesh: the library's whole-mesh MPU size and leaves unless both are given.
+    options.mpuCells = settings.mpuSize > 0 ? settings.mpuSize : cpu::kWholeMeshMpuCells;
+    options.subBlockCells = settings.subBlockCells >= 0 ? settings.subBlockCells
+                            : settings.mpuSize > 0  ? cpu::kDefaultSubBlockCells
+                                                    : cpu::kWholeMeshSubBlockCells;
     cpu::MpuStats mpu;
     mesh = cpu::polygonizeMpu(program, grid, options, &mpu);
     evaluations = double(mpu.pointEvaluations);

@@ -25,6 +25,7 @@ struct PolygonizeSettings {
   int threads = 0;              // cpu: 0 = all cores
   int refineSteps = 0;
   int mpuSize = 0;              // cpu: cells per MPU side, 0 = default
+  int subBlockCells = -1;       // cpu: leaf size of the sparse field cache (0 = off, -1 = default)
   std::string device;           // vk: name substring or index
   bool validation = false;      // vk: Khronos validation layer
   // vk: auto (the cost model picks specialised or stackless per job; default), specialised (the

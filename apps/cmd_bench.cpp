@@ -43,7 +43,7 @@ void addBenchCommand(CLI::App& app) {
     std::vector<int> resolutions{128};
     std::vector<std::string> backends{"cpu"};
     std::vector<int> threads{0};
-    int repeats = 5, warmup = 1, mpuSize = 0, fieldTiles = 8, brickCells = 0;
+    int repeats = 5, warmup = 1, mpuSize = 0, subBlock = -1, fieldTiles = 8, brickCells = 0;
     bool dense = false;
     bool tiledVertices = false;
     std::string device;
@@ -60,7 +60,10 @@ void addBenchCommand(CLI::App& app) {
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--repeats", a->repeats, "Timed runs per configuration")->check(CLI::Range(1, 1000));
   cmd->add_option("--warmup", a->warmup, "Untimed runs first")->check(CLI::Range(0, 100));
-  cmd->add_option("--mpu", a->mpuSize, "Cells per MPU side (cpu; 0 = default)")->check(CLI::Range(0, 64));
+  cmd->add_option("--mpu", a->mpuSize, "Cells per MPU side (cpu; 0 = default, 24)")->check(CLI::Range(0, 64));
+  cmd->add_option("--sub-block", a->subBlock,
+                  "cpu: cells per leaf block of the sparse field cache (0 = every grid point; default 3, or 4 with --mpu)")
+      ->check(CLI::Range(0, 64));
   cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
   cmd->add_option("--traversal", a->traversals,
                   "vk: auto (default: the cost model picks per job), specialised, stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")
@@ -95,6 +98,7 @@ void addBenchCommand(CLI::App& app) {
             settings.backend = backend;
             settings.threads = threads;
             settings.mpuSize = a->mpuSize;
+            if (a->subBlock >= 0) settings.subBlockCells = a->subBlock;
             settings.device = a->device;
             settings.traversal = traversal;
             settings.fieldTiles = a->fieldTiles;

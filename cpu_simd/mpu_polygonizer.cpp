@@ -77,6 +77,12 @@ struct Scratch {
   std::vector<std::uint32_t> localToGlobal;
   std::vector<std::uint8_t> need;      // sparse field cache: points of unclassified sub-blocks
   std::vector<std::uint32_t> gather;   // evaluated point -> local point index
+  struct Block {
+    glm::ivec3 c0, c1;  // local cell range
+  };
+  std::vector<Block> blocks, nextBlocks;  // sparse field cache: one octree level, the next
+  BlockBounds blockBounds;             // their interval bounds, over the MPU's field tape
+  std::vector<double> boundX, boundY, boundZ, boundLo, boundHi;  // one level's centres, bounds
   std::unique_ptr<blobtree::Program> fieldTape, colourTape;  // this thread's pruned tapes
   // Tapes of the current group of MPUs (from the Program), and the MPUs' tapes when they are
   // pruned from the group's (a tape of a tape: makeTapeProgram of the group's records).
@@ -234,52 +240,109 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
   const int B = ctx.options.subBlockCells;
   const glm::ivec3 cellsHere = pts - 1;
   if (B > 0 && B < std::max({cellsHere.x, cellsHere.y, cellsHere.z})) {
-    // Sparse: sub-blocks of B^3 cells whose interval bound is entirely outside or inside get
-    // their points' side from the bound; the points of the other sub-blocks are evaluated.
-    // Every grid edge lies in some sub-block and a classified one has no crossing edge, so
-    // every field value a vertex needs is evaluated.
+    // Sparse: the MPU is cut in halves recursively (an octree down to blocks of B cells); a
+    // block whose interval bound is entirely outside or inside gives its points their side
+    // without evaluating them, the others are cut again, and the points of the leaves left
+    // unclassified are evaluated. Every grid edge lies in some leaf or classified block and a
+    // classified one has no crossing edge, so every field value a vertex needs is evaluated.
     s.need.assign(N, 0);
-    const glm::ivec3 nb = (cellsHere + B - 1) / B;
-    for (int bz = 0; bz < nb.z; ++bz)
-      for (int by = 0; by < nb.y; ++by)
-        for (int bx = 0; bx < nb.x; ++bx) {
-          const glm::ivec3 c0 = glm::ivec3(bx, by, bz) * B;
-          const glm::ivec3 c1 = glm::min(c0 + B, cellsHere);
-          const FieldInterval f =
-              fieldBounds(*fieldProgram, glm::dvec3(cx[c0.x], cy[c0.y], cz[c0.z]),
-                          glm::dvec3(cx[c1.x], cy[c1.y], cz[c1.z]));
-          ++st.subBlocks;
-          const int side = f.hi < iso ? 0 : f.lo >= iso ? 1 : -1;
-          if (side >= 0) ++st.subBlocksClassified;
-          for (int k = c0.z; k <= c1.z; ++k)
-            for (int j = c0.y; j <= c1.y; ++j) {
-              const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
-              for (int i = c0.x; i <= c1.x; ++i) {
-                if (side < 0) {
-                  s.need[row + std::size_t(i)] = 1;
-                } else {
-                  s.inside[row + std::size_t(i)] = std::uint8_t(side);
-                  s.field[row + std::size_t(i)] = float(side);
-                }
-              }
-            }
+    using Block = Scratch::Block;
+    s.blockBounds.reset(*fieldProgram, glm::dvec3(cx[0], cy[0], cz[0]),
+                        glm::dvec3(cx[cellsHere.x], cy[cellsHere.y], cz[cellsHere.z]));
+    // Level by level (all blocks of one size, then their children): BlockBounds caches the
+    // per-size parts of the bound, and one level's blocks share a size.
+    s.blocks.clear();
+    s.blocks.push_back({glm::ivec3(0), cellsHere});
+    bool root = true;
+    while (!s.blocks.empty()) {
+      s.nextBlocks.clear();
+      const std::size_t count = s.blocks.size();
+      if (!root) {  // the MPU itself was bounded by the early discard
+        // One batch per level: centres, and the largest half extent (a level's blocks differ
+        // by a cell at most, at odd extents; a larger box is still a conservative one).
+        for (auto* v : {&s.boundX, &s.boundY, &s.boundZ, &s.boundLo, &s.boundHi}) v->resize(count);
+        glm::dvec3 half(0.0);
+        for (std::size_t b = 0; b < count; ++b) {
+          const glm::ivec3 c0 = s.blocks[b].c0, c1 = s.blocks[b].c1;
+          const glm::dvec3 blo(cx[c0.x], cy[c0.y], cz[c0.z]), bhi(cx[c1.x], cy[c1.y], cz[c1.z]);
+          s.boundX[b] = (blo.x + bhi.x) * 0.5, s.boundY[b] = (blo.y + bhi.y) * 0.5;
+          s.boundZ[b] = (blo.z + bhi.z) * 0.5;
+          half = glm::max(half, (bhi - blo) * 0.5);
         }
-    std::size_t n = 0;
-    s.gather.resize(N);
-    for (int k = 0; k < pts.z; ++k)
-      for (int j = 0; j < pts.y; ++j) {
-        const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
-        for (int i = 0; i < pts.x; ++i)
-          if (s.need[row + std::size_t(i)]) {
-            s.x[n] = cx[i], s.y[n] = cy[j], s.z[n] = cz[k];
-            s.gather[n++] = std::uint32_t(row + std::size_t(i));
+        s.blockBounds(count, s.boundX.data(), s.boundY.data(), s.boundZ.data(), half,
+                      s.boundLo.data(), s.boundHi.data());
+        st.subBlocks += count;
+      }
+      for (std::size_t b = 0; b < count; ++b) {
+        const Block blk = s.blocks[b];
+        const glm::ivec3 c0 = blk.c0, c1 = blk.c1;
+        const int side = root ? -1 : s.boundHi[b] < iso ? 0 : s.boundLo[b] >= iso ? 1 : -1;
+        const glm::ivec3 extent = c1 - c0;
+        if (side < 0 && std::max({extent.x, extent.y, extent.z}) > B) {
+          // Halve every axis longer than a leaf.
+          int cuts[3][3], parts[3];
+          for (int a = 0; a < 3; ++a) {
+            cuts[a][0] = c0[a];
+            if (extent[a] > B) {
+              cuts[a][1] = c0[a] + (extent[a] + 1) / 2, cuts[a][2] = c1[a], parts[a] = 2;
+            } else {
+              cuts[a][1] = c1[a], parts[a] = 1;
+            }
+          }
+          for (int z = 0; z < parts[2]; ++z)
+            for (int y = 0; y < parts[1]; ++y)
+              for (int x = 0; x < parts[0]; ++x)
+                s.nextBlocks.push_back({glm::ivec3(cuts[0][x], cuts[1][y], cuts[2][z]),
+                                        glm::ivec3(cuts[0][x + 1], cuts[1][y + 1], cuts[2][z + 1])});
+          continue;
+        }
+        if (side >= 0) ++st.subBlocksClassified;
+        for (int k = c0.z; k <= c1.z; ++k)
+          for (int j = c0.y; j <= c1.y; ++j) {
+            const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
+            if (side < 0) {
+              std::fill(s.need.begin() + std::ptrdiff_t(row) + c0.x,
+                        s.need.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(1));
+            } else {  // field values are read on crossing edges only: the side is enough here
+              std::fill(s.inside.begin() + std::ptrdiff_t(row) + c0.x,
+                        s.inside.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(side));
+            }
           }
       }
+      root = false;
+      std::swap(s.blocks, s.nextBlocks);
+    }
+    // Compaction without branches (need is about half ones): every point is written, the
+    // count advances by its flag. Restrict: the byte arrays may alias anything otherwise.
+    std::size_t n = 0;
+    s.gather.resize(N);
+    {
+      float* __restrict px = s.x.data();
+      float* __restrict py = s.y.data();
+      float* __restrict pz = s.z.data();
+      std::uint32_t* __restrict gather = s.gather.data();
+      const std::uint8_t* __restrict need = s.need.data();
+      for (int k = 0; k < pts.z; ++k)
+        for (int j = 0; j < pts.y; ++j) {
+          const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
+          for (int i = 0; i < pts.x; ++i) {
+            px[n] = cx[i], py[n] = cy[j], pz[n] = cz[k];
+            gather[n] = std::uint32_t(row + std::size_t(i));
+            n += need[row + std::size_t(i)];
+          }
+        }
+    }
     evaluateFieldBatch(*fieldProgram, s.x.data(), s.y.data(), s.z.data(), s.f.data(), n,
                        ctx.level);
-    for (std::size_t e = 0; e < n; ++e) {
-      s.field[s.gather[e]] = s.f[e];
-      s.inside[s.gather[e]] = s.f[e] >= iso ? 1 : 0;
+    {
+      const float* __restrict f = s.f.data();
+      const std::uint32_t* __restrict gather = s.gather.data();
+      float* __restrict field = s.field.data();
+      std::uint8_t* __restrict inside = s.inside.data();
+      for (std::size_t e = 0; e < n; ++e) {
+        field[gather[e]] = f[e];
+        inside[gather[e]] = f[e] >= iso ? 1 : 0;
+      }
     }
     st.grid += n;
     st.blocks += ctx.blocks(n);

@@ -17,6 +17,12 @@
 namespace blobvk::cpu {
 
 inline constexpr int kDefaultMpuCells = 16;  // chosen by bench_polygonizer's MPU-size sweep
+inline constexpr int kDefaultSubBlockCells = 4;  // 16 -> 8 -> 4: bench_polygonizer's subblock_sweep
+// A whole mesh in one job (blobvk mesh, bench, compare): larger MPUs halved down to leaves of 3
+// cells (24 -> 12 -> 6 -> 3) evaluate about a third fewer points than the default at the same
+// time (docs/performance.md). Re-running MPUs after an edit favours the smaller default.
+inline constexpr int kWholeMeshMpuCells = 24;
+inline constexpr int kWholeMeshSubBlockCells = 3;
 
 struct MpuOptions {
   int mpuCells = kDefaultMpuCells;  // D: cells per MPU side, 2..64
@@ -26,10 +32,10 @@ struct MpuOptions {
   int refineSteps = 0;        // as ReferenceOptions::refineSteps (Illinois steps per edge)
   bool earlyDiscard = true;   // the conservative interval test per MPU
   bool pruneTapes = true;     // evaluate each MPU with the code specialised to its box
-  // Sparse field cache: sub-blocks of this many cells whose interval bound classifies them are
-  // not evaluated (0: off, the default: with pruned tapes the bounds cost more than the points
-  // they save; see docs/performance.md).
-  int subBlockCells = 0;
+  // Sparse field cache: each MPU is halved recursively down to blocks of this many cells; a
+  // block whose interval bound classifies it (all outside or all inside) is not evaluated, so
+  // only the points of blocks near the surface are (0: every grid point of the MPU is).
+  int subBlockCells = kDefaultSubBlockCells;
   std::optional<SimdLevel> simd;  // default: bestSimdLevel()
   float normalStep = 1e-4f;   // margin around each MPU within which its pruned tapes stay exact
   // Called as groups of MPUs finish (done of total), from TBB worker threads, possibly at once

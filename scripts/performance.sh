@@ -44,6 +44,11 @@ run bench_cpu "$blobvk" bench $scenes --resolution $res_cpu --backend cpu --thre
 # Where the time goes: the issue-17 targets' scenes at 384, per phase (phases_s).
 run bench_phases "$blobvk" bench scenes/tower.json scenes/random128.json scenes/eggshell.json --resolution 384 \
   --backend cpu --threads 1 2 --repeats $rep_cpu --warmup 1 --json
+# The sparse field cache against MPU and leaf size (leaf 0: every grid point of the kept MPUs).
+for cfg in 16_0 16_4 16_2 24_3; do
+  run bench_sparse_$cfg "$blobvk" bench scenes/tower.json scenes/random128.json --resolution 256 \
+    --backend cpu --threads 2 --mpu "${cfg%_*}" --sub-block "${cfg#*_}" --repeats $rep_cpu --warmup 1 --json
+done
 run bench_vk "$blobvk" bench $scenes --resolution $res_vk --backend vk --repeats $rep_vk --json
 
 gb() {  # binary, filter

@@ -8,6 +8,7 @@ RESULTS_DIR holds what scripts/performance.sh measured:
   commands.json                  {section: command line} as run
   bench_cpu.json, bench_vk.json  `blobvk bench --json` (whole-scene polygonization)
   bench_phases.json              `blobvk bench --json` at 384 (the per-phase breakdown)
+  bench_sparse_M_L.json          `blobvk bench --json --mpu M --sub-block L` (the sparse field cache)
   gb_<binary>.json               Google Benchmark JSON (--benchmark_format=json)
 Every figure in the page comes from those files; nothing is typed by hand.
 """
@@ -163,11 +164,48 @@ def phase_section(rows, command):
             f"Per phase, in ns per output triangle, of the fastest of the repeats at {res}. The MPU phase\n"
             "runs on the worker threads: its wall time is split by the CPU time the workers spent in\n"
             "each part — *classification* (interval bound of each MPU group, tape pruning), *field*\n"
-            "(the SIMD field cache), *vertices* (crossing edges, positions), *normals + colours* (one\n"
-            "analytic-gradient pass per vertex), *triangles* (case index and the case table per cell).\n"
+            "(the octree of sub-block bounds and the SIMD evaluation of the points it keeps),\n"
+            "*vertices* (crossing edges, positions), *normals + colours* (one analytic-gradient pass\n"
+            "per vertex), *triangles* (case index and the case table per cell).\n"
             "*welding* is the prefix sums and the scatter of every MPU's vertices and triangles into the\n"
             "welded arrays; *output* encodes the mesh as binary PLY, once, after the timed runs.\n"
             + (f"\n```sh\n{command}\n```\n" if command else "") + "\n" + phase_table(rows, res) + "\n")
+
+
+def sparse_section(results, commands):
+    """The sparse field cache against MPU and leaf size: evaluations and time, a run for each."""
+    configs = [(16, 0), (16, 4), (16, 2), (24, 3)]
+    runs = [(mpu, leaf, bench_rows(os.path.join(results, f"bench_sparse_{mpu}_{leaf}.json")))
+            for mpu, leaf in configs]
+    runs = [run for run in runs if run[2]]
+    if not runs:
+        return ""
+    header = ["scene", "res", "MPU cells", "leaf cells", "FVEPT", "grid points / tri", "ns/tri (min, 2 threads)",
+              "field ns/tri"]
+    out = []
+    for mpu, leaf, rows in runs:
+        for r in rows:
+            if not r["triangles"]:
+                continue
+            tri = r["triangles"]
+            grid = (r["point_evaluations"] - r["vertices"]) / tri
+            out.append([f"`{scene_name(r['scene'])}`", r["resolution"], mpu, leaf or "off (every point)",
+                        f"{r['fvept']:.2f}", f"{grid:.2f}", f"{r['min_s'] * 1e9 / tri:.0f}",
+                        f"{r['phases_s'].get('field', 0.0) * 1e9 / tri:.0f}"])
+    out.sort(key=lambda row: (row[0], row[1]))
+    keys = [f"bench_sparse_{mpu}_{leaf}" for mpu, leaf, _ in runs]
+    cmds = "\n".join(commands[k] for k in keys if k in commands)
+    return ("\n## Sparse field cache: evaluations against MPU and leaf size (`blobvk bench --mpu --sub-block`)\n\n"
+            "Each MPU that the early discard keeps is halved recursively (an octree) down to leaves of\n"
+            "`--sub-block` cells, one level at a time with the interval bounds of a level's blocks in one\n"
+            "batch; a block whose bound is all outside or all inside is not evaluated, so only the points\n"
+            "of leaves near the surface are. The mesh is the same bytes for every setting. *FVEPT* counts\n"
+            "every point evaluation (grid points, then one analytic-gradient pass per vertex); *field*\n"
+            "is the field phase, bounds included. `blobvk mesh`, `bench` and `compare` use MPUs of 24\n"
+            "cells with leaves of 3 (24, 12, 6, 3); the library default for edits and streaming is 16\n"
+            "with leaves of 4. Leaves of 2 cells evaluate fewer points still, but their bounds cost more\n"
+            "than the points they save.\n"
+            + (f"\n```sh\n{cmds}\n```\n" if cmds else "") + "\n" + table(header, out) + "\n")
 
 
 def vk_table(cpu_rows, vk_rows):
@@ -301,6 +339,7 @@ def main():
         w("\n![ns per triangle against resolution](performance/ns_per_triangle.png)\n")
     phase_rows = bench_rows(os.path.join(results, "bench_phases.json"))
     w(phase_section(phase_rows, commands.get("bench_phases")))
+    w(sparse_section(results, commands))
 
     w("\n## Vulkan polygonization on lavapipe against the CPU (`blobvk bench`)\n")
     w("Same scenes, `--backend vk` (its default evaluator choice, see [vulkan.md](vulkan.md)) against\n"

@@ -77,9 +77,11 @@ TEST(MpuPolygonizer, EqualsReferenceOnEveryModel) {
     const blobtree::GridSpec grid = gridAround(program, c.cellSize);
     const mesh::TriMesh ref = polygonizeReference(program, grid);
     ASSERT_GT(ref.triangleCount(), 0u);
-    // Tape pruning and the sparse field cache, each alone and together.
+    // Tape pruning and the sparse field cache (octree leaves of 2, 3 and the default 4 cells),
+    // each alone and together.
     for (const auto& [prune, subBlock] :
-         {std::pair{false, 0}, std::pair{true, 0}, std::pair{true, 3}}) {
+         {std::pair{false, 0}, std::pair{true, 0}, std::pair{true, 3}, std::pair{false, 2},
+          std::pair{true, kDefaultSubBlockCells}}) {
       for (int D : {4, 7, 16}) {
         SCOPED_TRACE("D=" + std::to_string(D) + " prune=" + std::to_string(prune) +
                      " subBlock=" + std::to_string(subBlock));
