@@ -1,6 +1,7 @@
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/mesh/checks.h"
 #include "models.h"
@@ -13,6 +14,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 namespace blobvk::testing {
 namespace {
@@ -119,6 +121,26 @@ TEST_F(VulkanTest, StackBasedMeshEqualsStackless) {
   const auto ref = cpu::polygonizeReference(program, grid);
   expectSameMeshAsReference(b, ref, 1e-4f * grid.cellSize, "stack-based");
   expectSameMeshAsReference(a, ref, 1e-4f * grid.cellSize, "stackless");
+}
+
+// The sparse path's classification needs the register code, which the stack-based traversal
+// does not upload: on a scene with many bricks, some dropped, the mesh is still the reference.
+TEST_F(VulkanTest, StackBasedSparseMeshOfAShippedSceneIsTheReference) {
+  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/craniotomy.json");
+  const auto program = blobtree::compile(scene.root);
+  blobtree::GridRequest request;
+  request.resolution = 40;
+  const auto grid = blobtree::chooseGrid(program, scene.grid, request);
+  const auto ref = cpu::polygonizeReference(program, grid);
+  for (std::uint32_t brickCells : {4u, 16u}) {
+    vk::GpuPolygonizeOptions stack;
+    stack.traversal = vk::Traversal::StackBased;
+    stack.brickCells = brickCells;
+    vk::GpuStats stats;
+    const auto m = vk::polygonize(device(), program, grid, stack, &stats);
+    EXPECT_LT(stats.activeBricks, stats.bricks) << "some bricks must be dropped for the test to mean much";
+    expectSameMeshAsReference(m, ref, 1e-4f * grid.cellSize, "stack-based, B=" + std::to_string(brickCells));
+  }
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstring>
 #include <functional>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -153,6 +154,11 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   UploadBatch uploads(device);
   const GpuProgram gpu = uploadProgram(device, program, traversal, options.codegen);
   const auto pb = gpu.bindings();
+  // The classification interprets the register code; the stack-based traversal uploads a tree
+  // encoding instead, so the classification gets the register code of its own.
+  std::optional<GpuProgram> registerCode;
+  if (traversal == Traversal::StackBased) registerCode.emplace(uploadProgram(device, program, Traversal::Stackless));
+  const GpuProgram& classifyProgram = registerCode ? *registerCode : gpu;
   Buffers buf{device};
   const std::array<std::uint32_t, 1> wgSpec{wg};
   const float originCell[4] = {grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize};
@@ -183,7 +189,7 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   submit([&](Recorder& rec) {
     classifyTimer.reset(rec);
     classifyTimer.mark(rec, 0);
-    recordClassify(rec, gpu, grid, bg, brickScan);
+    recordClassify(rec, classifyProgram, grid, bg, brickScan);
     rec.computeBarrier();
     recordExclusiveScan(rec, brickScan.handle(), 0, std::uint32_t(brickCount + 1), scratch.handle(), 0,
                         totals.handle(), 0);
