@@ -95,8 +95,10 @@ TetModel buildTetModel(const SceneModel& model, const blobtree::GridSpec& grid, 
       remesh.projectBatch = mesh::isoSurfaceProjectionBatch(simdField(program), 0.5, 1e-3 * grid.cellSize);
       try {
         const mesh::TriMesh cleaned = mesh::remeshSurface(body.surface, remesh);
+        // No embedding of the marching-cubes surface: the tet boundary (the cleaned surface) is
+        // what gets rendered (renderTetBoundary), and embedding ~20k points, many of them just
+        // outside the cleaned surface, took half of the craniotomy's meshing time.
         tets = fem::tetrahedralize(cleaned, withCavities(config.tetgen, cleaned, program, grid.cellSize));
-        embedding = fem::embedPoints(tets, body.surface.positions);
       } catch (const std::exception& e) {
         // The clean-up refuses edits that make triangles cross, so TetGen should accept its
         // output; should it not (an intersection, or TetGen's "very close facets" error), the
