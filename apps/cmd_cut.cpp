@@ -67,7 +67,7 @@ void addCutCommand(CLI::App& app) {
     bool noPng = false, checkEachEvent = false, vtu = false;
     std::string fragments = "remove";
     std::optional<int> fragmentTets;
-    int imageSize = 384;
+    int imageSize = 768;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("cut", "Simulate the scene's soft body while its blade cuts it (and its lift, tools act)");
@@ -76,7 +76,7 @@ void addCutCommand(CLI::App& app) {
   cmd->add_option("--blade", a->blade, "Blade path JSON (default: the scene's simulation.blade)");
   cmd->add_option("--steps", a->steps, "Time steps of the whole run (default: the scene's, else 60)")->check(CLI::Range(1, 10000000));
   cmd->add_option("--frame-every", a->frameEvery, "Write a frame every K steps")->check(CLI::Range(1, 1000000));
-  cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(resolutionRange(4));
+  cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side (default: the scene's grid, else 48)")->check(resolutionRange(4));
   cmd->add_option("--voxel-cell", a->voxelCell, "Voxel mesher cell size (default: the scene's simulation.voxel.cellSize)")->check(CLI::PositiveNumber);
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
   cmd->add_option("--fragments", a->fragments, "Parts much smaller than the body: remove (resect them) or keep; reported either way")
@@ -90,7 +90,10 @@ void addCutCommand(CLI::App& app) {
   cmd->callback([a] {
     prepareOutputFolder(a->out);  // before the (long) tetrahedralization
     const Model model = loadModel(a->scene);
-    const blobtree::GridSpec grid = gridFor(model, std::nullopt, a->resolution.value_or(48));
+    // The scene's grid (its surface is what TetGen meshes: a thin shell needs the resolution the
+    // scene asks for), else 48 cells along the longest side.
+    const bool sceneGrid = model.scene.grid.resolution || model.scene.grid.cellSize;
+    const blobtree::GridSpec grid = gridFor(model, std::nullopt, a->resolution ? a->resolution : sceneGrid ? std::nullopt : std::optional<int>(48));
     Progress::note("cut", "polygonizing and tetrahedralizing " + a->scene);
     surgery::TetModel body = buildTetModel(surgery::SceneModel{model.path, model.scene, model.program}, grid, {a->threads, a->voxelCell});
     const std::vector<BladeKeyframe> keys = a->blade.empty() ? body.config.blade : readBladeFile(a->blade);
@@ -110,7 +113,7 @@ void addCutCommand(CLI::App& app) {
     }
     surgery::ScriptedProcedure run(std::move(body.tets), body.config, keys, options);
     surgery::SoftBody& soft = run.body();
-    soft.setRenderSurface(body.surface, std::move(body.embedding));
+    if (!body.renderTetBoundary) soft.setRenderSurface(body.surface, std::move(body.embedding));
 
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 60);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;

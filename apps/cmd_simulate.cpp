@@ -26,7 +26,7 @@ void addSimulateCommand(CLI::App& app) {
     std::optional<float> cellSize;
     std::optional<int> resolution;
     bool noPng = false;
-    int imageSize = 384;
+    int imageSize = 768;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("simulate", "Run the scene's soft-body simulation, writing frames");
@@ -34,7 +34,7 @@ void addSimulateCommand(CLI::App& app) {
   cmd->add_option("-o,--output", a->out, "Folder for frame_NNNNN.ply")->required();
   cmd->add_option("--steps", a->steps, "Time steps (default: the scene's, else 100)")->check(CLI::Range(1, 10000000));
   cmd->add_option("--frame-every", a->frameEvery, "Write a frame every K steps")->check(CLI::Range(1, 1000000));
-  cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side")->check(resolutionRange(4));
+  cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side (default: the scene's grid, else 48)")->check(resolutionRange(4));
   cmd->add_option("--cell-size", a->cellSize, "Polygonization cell size")->check(CLI::PositiveNumber);
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
   cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)");
@@ -42,11 +42,13 @@ void addSimulateCommand(CLI::App& app) {
   cmd->callback([a] {
     prepareOutputFolder(a->out);  // before the (long) tetrahedralization
     const Model model = loadModel(a->scene);
-    const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution ? a->resolution : std::optional<int>(48));
+    // The scene's grid when it gives one (TetGen meshes that surface), else 48 cells.
+    const bool sceneGrid = model.scene.grid.resolution || model.scene.grid.cellSize;
+    const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution ? a->resolution : sceneGrid ? std::nullopt : std::optional<int>(48));
     Progress::note("simulate", "polygonizing and tetrahedralizing " + a->scene);
     surgery::TetModel body = surgery::buildTetModel(surgery::SceneModel{model.path, model.scene, model.program}, grid, {a->threads, {}});
     fem::Simulation sim(std::move(body.tets), body.config.settings);
-    sim.setRenderSurface(body.surface, std::move(body.embedding));
+    if (!body.renderTetBoundary) sim.setRenderSurface(body.surface, std::move(body.embedding));
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 100);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
     FrameWriter frames(a->out, !a->noPng, a->imageSize, model.program.bounds, model.scene.camera);

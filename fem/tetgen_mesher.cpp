@@ -61,6 +61,16 @@ mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& 
     for (int k = 0; k < 3; ++k) facet.polygonlist[0].vertexlist[k] = int(surface.triangles[f][k]);
   }
 
+  if (!options.holes.empty()) {
+    in.numberofholes = int(options.holes.size());
+    in.holelist = new REAL[options.holes.size() * 3];
+    for (std::size_t i = 0; i < options.holes.size(); ++i) {
+      in.holelist[3 * i + 0] = options.holes[i].x;
+      in.holelist[3 * i + 1] = options.holes[i].y;
+      in.holelist[3 * i + 2] = options.holes[i].z;
+    }
+  }
+
   // TetGen 1.5 segfaults on self-intersecting input instead of reporting it (measured), so a
   // detection-only pass (-d) runs first: it lists the intersecting facets and builds no tets.
   {

@@ -8,6 +8,7 @@
 #include "blobvk/mesh/trimesh.h"
 
 #include <string>
+#include <vector>
 
 namespace blobvk::fem {
 
@@ -25,6 +26,10 @@ struct TetgenOptions {
   // After TetGen, move Steiner points around the tets still below minDihedralDegrees
   // (fem/tetgen_slivers.h): TetGen leaves a few (7.5-9.9 degrees in 85k-215k tets, measured).
   bool smoothSlivers = true;
+  // Points inside cavities of the domain (TetGen's hole list): TetGen fills every region the
+  // surface encloses, so a shell's hollow (the eggshell's inside, the gap between skull and
+  // brain) needs one point in it to come out empty. Not part of the switch string.
+  std::vector<mesh::Double3> holes;
 };
 
 bool tetgenAvailable();

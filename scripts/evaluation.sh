@@ -24,7 +24,7 @@ mkdir -p "$out"
 # `cut` runs each scene's whole procedure (its own step count: cut, lift, tools); `simulate` times
 # the FEM on the uncut body.
 if [ -n "${QUICK:-}" ]; then
-  resolutions="32 64"; sim_steps=10; egg_cut_extra="--voxel-cell 0.12"
+  resolutions="32 64"; sim_steps=10; egg_cut_extra=""
 else
   resolutions="32 64 96 128"; sim_steps=40; egg_cut_extra=""
 fi

@@ -59,9 +59,7 @@ struct SoftBodyOptions {
   int finalStrokePasses = 2;        // see StepInput::endStroke
   // The blade is mapped into material coordinates at its two ends (1) or at the ends of this
   // many equal segments along it. More segments follow a body bent across the blade more
-  // closely, but the finer swept surface closes the craniotomy's oval less reliably: with 2 or
-  // 4 the flap stays attached at rest (as it does with 1 when the blade is shifted by 1.5 % of
-  // a cell: closing a closed stroke is fragile in the cutter), so 1 is the default.
+  // closely; on the TetGen craniotomy at rest 1, 2 and 4 free the same flap (docs/surgery.md).
   int bladeSegments = 1;
   bool checkEachEvent = false;      // O(n) topology self-check after every event; throws on failure
   // Spare FEM room for cut nodes and tets (fem::SimulationSettings::cutRoom), when the settings

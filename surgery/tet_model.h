@@ -33,7 +33,14 @@ struct TetModel {
   SimulationConfig config;
   mesh::TriMesh surface;          // the polygonized model (rest state)
   mesh::TetMesh tets;
-  fem::SurfaceEmbedding embedding;  // surface vertices in the tets
+  fem::SurfaceEmbedding embedding;  // surface vertices in the tets (empty when renderTetBoundary)
+  // True for TetGen bodies: TetGen meshes the (cleaned) polygonized surface and keeps its
+  // vertices as nodes, so the tet boundary is that surface; rendering the boundary keeps it
+  // through cuts (split along the crack, crack faces added) with no switch at the first cut.
+  // False for voxel bodies: their boundary is a staircase, `surface` is rendered through
+  // `embedding` until the first cut. (TetGen on the raw surface, when the clean-up fails, sets
+  // the identity embedding too.)
+  bool renderTetBoundary = false;
   double meshSeconds = 0, tetSeconds = 0;
 };
 

@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
     const double cx = 0.5 * (b.lo.x + b.hi.x), top = b.hi.y, depth = b.hi.z - b.lo.z;
 
     surgery::SoftBody body(std::move(model.tets), model.config.settings);
-    body.setRenderSurface(std::move(model.surface), std::move(model.embedding));
+    if (!model.renderTetBoundary) body.setRenderSurface(std::move(model.surface), std::move(model.embedding));
     const std::size_t tools = model.config.settings.tools.size();
     for (int frame = 0; frame < 40; ++frame) {
       surgery::StepInput input;

@@ -83,8 +83,10 @@ scene = {
     "grid": {"resolution": 64, "bounds": {"lo": [-0.95, -1.0, -1.15], "hi": [0.95, 1.0, 1.15]}},
     "root": root,
     "simulation": {
-        "mesher": "voxel",
-        "voxel": {"cellSize": 0.07},
+        # TetGen on the polygonized head, cleaned up to 2.7 cells per edge (~37k tets); the gap
+        # between skull and brain gets a hole point from the field, so the flap can leave.
+        "mesher": "tetgen",
+        "tetgen": {"remeshEdge": 2.7},
         "materials": materials,
         "materialFromPrimitive": True,
         "timeStep": 0.01,
