@@ -1,9 +1,9 @@
 #include "blobvk/vk/extract/slab_polygonizer.h"
 
-#include "blobvk/mesh/marching_cubes.h"
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/scan.h"
 
 #include <algorithm>
@@ -12,17 +12,6 @@
 
 namespace blobvk::vk {
 namespace {
-
-// The case table as 20 uint32 per configuration: triangle count, then 18 edge ids.
-std::vector<std::uint32_t> packCases() {
-  std::vector<std::uint32_t> words(256 * 20, 0);
-  const auto& cases = mesh::marchingCubesCases();
-  for (std::size_t c = 0; c < 256; ++c) {
-    words[c * 20] = cases[c].triangleCount;
-    for (std::size_t e = 0; e < 18; ++e) words[c * 20 + 1 + e] = cases[c].edges[e];
-  }
-  return words;
-}
 
 }  // namespace
 
@@ -177,7 +166,7 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
     tileArgs_ = device.createBuffer(fieldPass_->tileCount() * 16, MemoryUse::DeviceLocal,
                                     VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   }
-  const auto words = packCases();
+  const auto& words = packedCaseTable();
   cases_ = device.createBuffer(words.size() * 4);
   device.upload(cases_, words.data(), words.size() * 4);
 

@@ -1,9 +1,9 @@
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
-#include "blobvk/mesh/marching_cubes.h"
 #include "blobvk/vk/device/device_timer.h"
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/scan.h"
 
 #include <algorithm>
@@ -22,16 +22,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-std::vector<std::uint32_t> packCases() {
-  std::vector<std::uint32_t> words(256 * 20, 0);
-  const auto& cases = mesh::marchingCubesCases();
-  for (std::size_t c = 0; c < 256; ++c) {
-    words[c * 20] = cases[c].triangleCount;
-    for (std::size_t e = 0; e < 18; ++e) words[c * 20 + 1 + e] = cases[c].edges[e];
-  }
-  return words;
-}
 
 // Work groups in y and z for one index per active brick (y <= 65535).
 struct BrickGroups {
@@ -273,7 +263,7 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   const std::uint64_t maxRows = std::uint64_t(maxLoaded) * R * R, maxCellRows = std::uint64_t(maxLoaded) * B * B;
   Buffer batchBricks = buf.make(std::uint64_t(maxLoaded) * 4, "batch brick list");
   Buffer field = buf.make(std::uint64_t(maxLoaded) * P * 4, "field samples");
-  static const std::vector<std::uint32_t> words = packCases();
+  const std::vector<std::uint32_t>& words = packedCaseTable();
   Buffer cases = buf.make(words.size() * 4, "case table");
   device.upload(cases, words.data(), words.size() * 4);
   Buffer masks = buf.make(maxRows * 4, "inside masks");
