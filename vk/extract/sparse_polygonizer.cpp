@@ -4,6 +4,7 @@
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/extract/case_table.h"
+#include "blobvk/vk/extract/host_copy.h"
 #include "blobvk/vk/extract/scan.h"
 
 #include <algorithm>
@@ -286,8 +287,7 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
     return [&vec, count](const void* from) {
       using T = typename std::remove_reference_t<decltype(vec)>::value_type;
       static_assert(std::is_trivially_copyable_v<T>);
-      const T* first = static_cast<const T*>(from);
-      vec.insert(vec.end(), first, first + count);  // one pass, no zero-filling resize first
+      appendParallel(vec, static_cast<const T*>(from), count);
     };
   };
 

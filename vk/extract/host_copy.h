@@ -1,0 +1,47 @@
+// Copying a batch's outputs from read-back memory into the mesh's vectors with every core. A
+// mesh at 2048^3 is a gigabyte, and one thread filling fresh pages (a page fault per 4 KiB, then
+// the copy) took longer than the device's whole job on a discrete GPU.
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <type_traits>
+#include <vector>
+
+namespace blobvk::vk {
+
+// Below this many bytes a copy stays on the calling thread (threads cost more than they save).
+inline constexpr std::size_t kParallelCopyBytes = std::size_t(8) << 20;
+
+// Writes one byte per page of [p, p + bytes) from several threads, so the kernel maps fresh
+// memory in parallel instead of in the single-threaded copy or fill that follows.
+void prefaultParallel(void* p, std::size_t bytes);
+// memcpy in chunks over the worker threads.
+void copyParallel(void* dst, const void* src, std::size_t bytes);
+
+// v.insert(v.end(), src, src + n), with the page faults and the copy spread over the cores.
+template <class T>
+void appendParallel(std::vector<T>& v, const T* src, std::size_t n) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  const std::size_t old = v.size(), bytes = n * sizeof(T);
+  if (bytes < kParallelCopyBytes) {
+    v.insert(v.end(), src, src + n);
+    return;
+  }
+  if (v.capacity() < old + n) {
+    // Grow geometrically as insert would, into memory mapped in parallel.
+    std::vector<T> grown;
+    grown.reserve(std::max(old + n, 2 * old));
+    prefaultParallel(grown.data(), grown.capacity() * sizeof(T));
+    grown.resize(old);
+    if (old) copyParallel(grown.data(), v.data(), old * sizeof(T));
+    v.swap(grown);
+  } else {
+    prefaultParallel(v.data() + old, bytes);
+  }
+  // resize value-initialises (a fill over pages already mapped); the copy then overwrites it.
+  v.resize(old + n);
+  copyParallel(v.data() + old, src, bytes);
+}
+
+}  // namespace blobvk::vk
