@@ -19,7 +19,7 @@
 
 #include "blobvk/blobtree/gradient.h"
 
-#include "blobvk/cpu_simd/field_bounds.h"
+#include "blobvk/cpu_simd/block_bounds.h"
 #include "blobvk/cpu_simd/row_bits.h"
 #include "blobvk/cpu_simd/tape_pruning.h"
 #include "blobvk/mesh/marching_cubes.h"

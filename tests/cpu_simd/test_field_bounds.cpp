@@ -7,6 +7,7 @@
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/block_bounds.h"
 #include "blobvk/cpu_simd/field_bounds.h"
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "tests/cpu_simd/models.h"
