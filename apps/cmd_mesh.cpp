@@ -13,6 +13,7 @@
 #include "resolution_limit.h"
 #include "resource_limits.h"
 
+#include "blobvk/cpu_simd/sharp_features.h"
 #include "blobvk/mesh/checks.h"
 #include "blobvk/mesh/engine/gltf.h"
 #include "blobvk/mesh/engine/simplify.h"
@@ -37,6 +38,8 @@ void addMeshCommand(CLI::App& app) {
     PolygonizeSettings settings;
     bool ascii = false, json = false, stream = false;
     std::string simplify;  // parsed by mesh::parseSimplifyTarget
+    bool features = false;
+    float featureAngle = 30.0f;
     bool optimize = false, noOptimize = false;  // neither: on for glTF, off otherwise
     std::string maxMemory;
     Limits limits;
@@ -72,6 +75,10 @@ void addMeshCommand(CLI::App& app) {
                   "Memory budget (e.g. 2G; default: available): a cpu job whose mesh may not fit is streamed to the file layer by layer");
   cmd->add_flag("--stream", a->stream, "cpu: always stream (write the mesh layer by layer of MPUs, holding a few layers)");
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
+  cmd->add_flag("--features", a->features,
+                "Sharp features: a vertex on the crease or corner in each cell whose normals disagree (extended marching cubes)");
+  cmd->add_option("--feature-angle", a->featureAngle, "--features: degrees between normals that mark a crease (default 30)")
+      ->check(CLI::Range(1.0f, 179.0f));
   cmd->add_option("--simplify", a->simplify,
                   "Simplify with meshoptimizer: RATIO of triangles kept (0.25) or ERROR% of the extent (0.5%); "
                   "a closed mesh stays closed");
@@ -108,8 +115,8 @@ void addMeshCommand(CLI::App& app) {
     const std::uint64_t budget = a->limits.maxMemoryBytes ? a->limits.maxMemoryBytes : availableMemoryBytes();
     const std::uint64_t inMemory = estimatePolygonizeBytes(grid, a->settings.backend);
     const bool stream = a->stream || launchedByMpi() || (a->settings.backend == "cpu" && budget != 0 && inMemory > budget);
-    if (stream && (simplifyTarget || a->optimize)) {
-      throw UsageError("--simplify and --optimize need the whole mesh in memory; they cannot be combined with streaming"
+    if (stream && (simplifyTarget || a->optimize || a->features)) {
+      throw UsageError("--features, --simplify and --optimize need the whole mesh in memory; they cannot be combined with streaming"
                        " (--stream, an MPI launch, or a mesh over the --max-memory budget)");
     }
     if (stream) {
@@ -156,6 +163,12 @@ void addMeshCommand(CLI::App& app) {
     a->settings.progress = nullptr;  // it refers to `progress`, which ends here
     progress.reset();
     checkTriangles(mesh.triangleCount(), a->limits);
+    std::optional<cpu::FeatureReport> featured;
+    if (a->features) {
+      cpu::FeatureOptions options;
+      options.creaseDegrees = a->featureAngle;
+      cpu::placeSharpFeatures(mesh, grid, options, &featured.emplace());
+    }
     std::optional<mesh::SimplifyReport> simplified;
     if (simplifyTarget) mesh = mesh::simplifyMesh(mesh, *simplifyTarget, &simplified.emplace());
     std::optional<mesh::VertexOrderReport> ordered;
@@ -180,6 +193,10 @@ void addMeshCommand(CLI::App& app) {
       out["triangles"] = mesh.triangleCount();
       out["bytes"] = bytes.size();
       out["check"] = {{"watertight", report.watertight()}, {"volume", report.volume}, {"summary", report.summary()}};
+      if (featured)
+        out["features"] = {{"feature_cells", featured->featureCells}, {"feature_vertices", featured->featureVertices},
+                           {"kept", featured->rejected}, {"kept_not_a_disc", featured->notADisc},
+                           {"kept_folds", featured->folds}, {"flips", featured->flips}};
       if (simplified)
         out["simplify"] = {{"triangles_before", simplified->trianglesBefore}, {"triangles_after", simplified->trianglesAfter},
                            {"error", simplified->error}, {"watertight_before", simplified->watertightBefore},
@@ -195,6 +212,9 @@ void addMeshCommand(CLI::App& app) {
                 a->settings.backend.c_str(), stats.seconds);
     // One check line: the mesh's topology, then what simplification and reordering did to it.
     std::string check = report.summary();
+    if (featured)
+      check += "; features: " + std::to_string(featured->featureVertices) + " vertices, " + std::to_string(featured->flips) +
+               " flips (" + std::to_string(featured->rejected) + " cells kept)";
     if (simplified) check += "; " + simplified->summary();
     if (ordered) check += "; " + ordered->summary();
     std::printf("%s\n", check.c_str());

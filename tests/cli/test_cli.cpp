@@ -102,6 +102,30 @@ TEST(Cli, BackendsAndThreadCountsWriteIdenticalFiles) {
   EXPECT_EQ(bytes(a), bytes(c));
 }
 
+// --features after any backend: the same bytes from the CPU, the reference and Vulkan (lavapipe
+// gives the CPU's mesh bit for bit, and the pass runs on the host), and the check line says what
+// the pass did, with the mesh still watertight.
+TEST(Cli, SharpFeaturesGiveTheSameFileOnEveryBackend) {
+  const std::string scene = source("scenes/dice.json");
+  auto bytes = [](const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  std::string first;
+  for (const char* backend : {"cpu", "reference", "vk"}) {
+    const auto out = scratch(std::string("features_") + backend + ".ply");
+    const CliRun r = run("mesh " + scene + " -o " + out.string() + " --resolution 40 --features --backend " + backend);
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("watertight"), std::string::npos) << r.output;
+    EXPECT_TRUE(std::regex_search(r.output, std::regex(R"(features: [1-9]\d* vertices, \d+ flips)"))) << r.output;
+    if (first.empty()) first = bytes(out);
+    else EXPECT_EQ(bytes(out), first) << backend;
+  }
+  const CliRun streamed = run("mesh " + scene + " -o " + scratch("s.ply").string() + " --resolution 40 --features --stream");
+  EXPECT_NE(streamed.status, 0);
+  EXPECT_NE(streamed.output.find("--features"), std::string::npos) << streamed.output;
+}
+
 TEST(Cli, BadInputGivesOneLineAndNonZeroExit) {
   const auto bad = scratch("bad.json");
   std::ofstream(bad) << R"({"blobvk": 1, "root": {"type": "point", "support": -1}})";
