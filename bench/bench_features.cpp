@@ -6,7 +6,7 @@
 //   build/release/bench/bench_features --benchmark_counters_tabular=true --benchmark_format=json
 //
 // Cases: box_minus_cylinder and scenes/dice.json at 64 and 128; mode 0 plain marching cubes,
-// 1 with --features, 2 plain at 4x the resolution; 0 or 2 refinement steps per vertex (--refine).
+// 1 with --features, 2 plain at 4x the resolution, 3 --features --feature-angle 15; 0 or 2 refinement steps per vertex (--refine).
 // Time is polygonization plus the pass.
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
@@ -19,6 +19,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <memory>
 #include <string>
@@ -66,20 +68,26 @@ void featureError(benchmark::State& state) {
   for (auto _ : state) {
     mesh = cpu::polygonizeMpu(program, grid, options);
     report = {};
-    if (mode == 1) cpu::placeSharpFeatures(mesh, grid, {}, &report);
+    cpu::FeatureOptions features;
+    if (mode == 3) features.creaseDegrees = 15.0f;
+    if (mode == 1 || mode == 3) cpu::placeSharpFeatures(mesh, grid, features, &report);
     benchmark::DoNotOptimize(mesh.triangles.data());
   }
   const double h = double(gridOf(program, resolution).cellSize);
   const cpu::SurfaceError e = cpu::surfaceError(mesh, referenceOf(scene), double(grid.cellSize));
-  state.SetLabel(std::string(scene == 0 ? "box_minus_cylinder" : "dice") + (mode == 0 ? " mc" : mode == 1 ? " features" : " mc 4x"));
+  state.SetLabel(std::string(scene == 0 ? "box_minus_cylinder" : "dice") + (mode == 0 ? " mc" : mode == 1 ? " features" : mode == 3 ? " features 15 deg" : " mc 4x"));
   state.counters["hausdorff_cells"] = e.hausdorff() / h;
   state.counters["mean_cells"] = e.meanToReference / h;
+  if (std::getenv("BLOBVK_BENCH_WHERE"))
+    std::fprintf(stderr, "%s: to %.3f at (%.3f %.3f %.3f), from %.3f at (%.3f %.3f %.3f)\n", (std::to_string(scene) + "/" + std::to_string(resolution) + "/" + std::to_string(mode)).c_str(),
+                 e.toReference / h, e.worstTo.x, e.worstTo.y, e.worstTo.z, e.fromReference / h, e.worstFrom.x,
+                 e.worstFrom.y, e.worstFrom.z);
   state.counters["triangles"] = double(mesh.triangles.size());
   state.counters["feature_vertices"] = double(report.featureVertices);
 }
 
 BENCHMARK(featureError)
-    ->ArgsProduct({{0, 1}, {64, 128}, {0, 1, 2}, {0, 2}})
+    ->ArgsProduct({{0, 1}, {64, 128}, {0, 1, 2, 3}, {0, 2}})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
 

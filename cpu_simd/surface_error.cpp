@@ -71,6 +71,7 @@ class TriangleHash {
 
 struct MaxSum {
   double max = 0.0, sum = 0.0;
+  dvec3 at{0.0};
 };
 
 template <typename Point>
@@ -79,13 +80,17 @@ MaxSum distances(const TriangleHash& to, std::size_t n, Point&& point) {
       tbb::blocked_range<std::size_t>(0, n), MaxSum{},
       [&](const tbb::blocked_range<std::size_t>& r, MaxSum acc) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const double d = to.distance(point(i));
-          acc.max = std::max(acc.max, d);
+          const dvec3 p = point(i);
+          const double d = to.distance(p);
+          if (d > acc.max) acc.max = d, acc.at = p;
           acc.sum += d;
         }
         return acc;
       },
-      [](MaxSum a, const MaxSum& b) { return MaxSum{std::max(a.max, b.max), a.sum + b.sum}; });
+      [](MaxSum a, const MaxSum& b) {
+        // Ties keep the left range's point, so the answer does not depend on the split.
+        return b.max > a.max ? MaxSum{b.max, a.sum + b.sum, b.at} : MaxSum{a.max, a.sum + b.sum, a.at};
+      });
 }
 
 }  // namespace
@@ -103,6 +108,8 @@ SurfaceError surfaceError(const mesh::TriMesh& m, const mesh::TriMesh& reference
   const MaxSum from = distances(meshHash, reference.positions.size(), [&](std::size_t i) { return toD(reference.positions[i]); });
   e.toReference = to.max;
   e.fromReference = from.max;
+  e.worstTo = {float(to.at.x), float(to.at.y), float(to.at.z)};
+  e.worstFrom = {float(from.at.x), float(from.at.y), float(from.at.z)};
   e.meanToReference = to.sum / double(std::max<std::size_t>(1, nv + m.triangles.size()));
   return e;
 }

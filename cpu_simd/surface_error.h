@@ -12,6 +12,7 @@ struct SurfaceError {
   double toReference = 0.0;    // largest distance from the mesh to the reference
   double fromReference = 0.0;  // largest distance from the reference to the mesh
   double meanToReference = 0.0;
+  mesh::Float3 worstTo, worstFrom;  // where the two largest distances were found
   double hausdorff() const { return toReference > fromReference ? toReference : fromReference; }
 };
 
