@@ -10,6 +10,7 @@
 #include "mesh_distance.h"
 #include "model.h"
 
+#include "blobvk/cpu_simd/sharp_features.h"
 #include "blobvk/cpu_simd/simd_evaluator.h"
 
 #include <CLI/CLI.hpp>
@@ -94,7 +95,7 @@ void addCompareCommand(CLI::App& app) {
     std::optional<float> cellSize;
     std::string cpuBackend = "cpu";
     std::string device, traversal = "auto";
-    bool validation = false, json = false, images = false;
+    bool validation = false, json = false, images = false, features = false;
     double maxFieldDiff = 1e-4, maxHausdorffCells = 0.05;
     ImageCompareSettings imageSettings;
   };
@@ -110,6 +111,7 @@ void addCompareCommand(CLI::App& app) {
       ->check(CLI::IsMember(traversalNames()));
   cmd->add_option("--max-field-diff", a->maxFieldDiff, "Fail above this max |field difference| (default 1e-4)");
   cmd->add_option("--max-hausdorff", a->maxHausdorffCells, "Fail above this Hausdorff distance, in cells (default 0.05)");
+  cmd->add_flag("--features", a->features, "Compare the meshes after the sharp-feature pass (blobvk mesh --features)");
   cmd->add_flag("--images", a->images, "Also render CPU mesh, GPU mesh and ray-cast and compare pixels");
   cmd->add_option("--image-size", a->imageSettings.width, "Image side in pixels (default 256)")->check(CLI::Range(16, kMaxImageSide));
   cmd->add_option("--write-images", a->imageSettings.writeDir, "Folder for the rendered images");
@@ -156,10 +158,14 @@ void addCompareCommand(CLI::App& app) {
     gpuSettings.device = a->device;
     gpuSettings.validation = a->validation;
     gpuSettings.traversal = a->traversal;
-    const mesh::TriMesh cpuMesh = polygonize(model.program, grid, cpuSettings);
+    mesh::TriMesh cpuMesh = polygonize(model.program, grid, cpuSettings);
     progress.update(2, "cpu mesh");
-    const mesh::TriMesh gpuMesh = polygonize(model.program, grid, gpuSettings);
+    mesh::TriMesh gpuMesh = polygonize(model.program, grid, gpuSettings);
     progress.update(3, "vk mesh");
+    if (a->features) {
+      cpu::placeSharpFeatures(cpuMesh, grid);
+      cpu::placeSharpFeatures(gpuMesh, grid);
+    }
     const bool sameTopology = cpuMesh.edgeKeys == gpuMesh.edgeKeys && cpuMesh.triangles == gpuMesh.triangles;
     const double hausdorff = vertexHausdorff(cpuMesh, gpuMesh, grid.cellSize);
     report["mesh"] = {{"cpu", {{"vertices", cpuMesh.vertexCount()}, {"triangles", cpuMesh.triangleCount()}}},
