@@ -1,5 +1,6 @@
 #include "blobvk/cutting/cutter.h"
 
+#include "blobvk/cutting/crack_slivers.h"
 #include "blobvk/cutting/flat_hash.h"
 #include "blobvk/cutting/local_groups.h"
 #include "blobvk/cutting/predicates.h"
@@ -105,6 +106,7 @@ struct Cutter::Scratch {
   std::vector<Codes> orderCodes;      // codes of the touched tets, in `order`
   std::vector<std::uint64_t> faceKeys;
   LocalGroups groups;
+  CrackSlivers slivers;
   FlatHashMap<std::uint64_t, CutEdge, U64Hash> cutEdges{kNoEdge};
   FlatHashSet<std::uint64_t, U64Hash> tested{kNoEdge};
   FlatHashSet<std::uint32_t, U32Hash> cutNodes{kNone};
@@ -124,6 +126,7 @@ Cutter::Cutter(mesh::TetMesh mesh, CutOptions options) : topology_(std::move(mes
   scratch_->codesOf.assign(scratch_->isAdded.size(), Codes{});
   grid_.rebuild(topology_);
   meanEdge_ = grid_.cellSize() / 2.0;
+  snapReach_.assign(topology_.mesh().nodeCount() + topology_.mesh().nodeCount() / 2 + 4096, 0.0);
 }
 
 CutResult Cutter::cut(const std::vector<Triangle>& swept) {
@@ -201,6 +204,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     bool any = false;
     const std::array<Double3, 4> corners{pos[tet[0]], pos[tet[1]], pos[tet[2]], pos[tet[3]]};
     unsigned onPlane = 0;  // bit c: corner c lies within nearPlane of some triangle's plane
+    std::array<double, 4> planeDistance{1e300, 1e300, 1e300, 1e300};  // nearest triangle plane, by corner
     for (std::size_t i = 0; i < swept.size(); ++i) {
       int above = 0, below = 0;
       for (std::size_t c = 0; c < 4; ++c) {
@@ -208,6 +212,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
         above += d > tolAbs;
         below += d < -tolAbs;
         onPlane |= unsigned(std::fabs(d) <= nearPlane[i]) << c;
+        planeDistance[c] = std::min(planeDistance[c], std::fabs(d) - (nearPlane[i] - tolAbs));
       }
       // A triangle matters to the tet when the tet straddles its plane and meets its box.
       relevant[i] = above < 4 && below < 4 && overlaps(boxes[i], corners);
@@ -238,8 +243,13 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
         }
       }
     }
-    for (std::size_t c = 0; c < 4; ++c)
-      if ((onPlane >> c & 1) && distanceToSurface(corners[c], swept) <= tolAbs) cutNodes.insert(tet[c]);
+    for (std::size_t c = 0; c < 4; ++c) {
+      // A node the crack was snapped to earlier is on the surface again while within its reach.
+      const double reach = tolAbs + (tet[c] < snapReach_.size() ? snapReach_[tet[c]] : 0.0);
+      if (((onPlane >> c & 1) || planeDistance[c] <= reach) && !cutNodes.contains(tet[c]) &&
+          distanceToSurface(corners[c], swept) <= reach)
+        cutNodes.insert(tet[c]);
+    }
   }
 
   result.candidateTets = near.size();
@@ -249,6 +259,9 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     if (ce.t < tau) cutNodes.insert(ce.a);
     if (ce.t > 1.0 - tau) cutNodes.insert(ce.b);
   });
+  // Remember how far from the surface each cut node is (kept for later events, see snapReach_).
+  if (snapReach_.size() < pos.size()) snapReach_.resize(pos.size() + pos.size() / 2, 0.0);
+  cutNodes.forEach([&](std::uint32_t n) { snapReach_[n] = std::max(snapReach_[n], distanceToSurface(pos[n], swept)); });
   auto& kept = scratch.kept;
   kept.clear();
   cutEdges.forEach([&](std::uint64_t, const CutEdge& ce) {
@@ -261,6 +274,11 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   result.cutNodes = cutNodes.size();
 
   lap(1);
+
+  auto markOnCut = [&](std::uint32_t node, double reach) {
+    if (snapReach_.size() <= node) snapReach_.resize(node + node / 2 + 1, 0.0);
+    snapReach_[node] = std::max(snapReach_[node], reach);
+  };
 
   // 4. Codes per touched tet, in a per-slot array (zero between events; no hash probes) and the
   // list of touched slots (`order`, a slot joins it when its codes first become non-zero).
@@ -281,6 +299,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
                                                  lerp(topology_.mesh().restPositions[ce.a],
                                                       topology_.mesh().restPositions[ce.b], ce.t));
     edgePoint.insert(edgeKey(ce.a, ce.b), node);
+    markOnCut(node, tolAbs);
     NewNode nn;
     nn.index = node;
     nn.kind = NewNode::Kind::EdgePoint;
@@ -438,6 +457,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       NewNode nn;
       nn.index = global[kSteinerLocal];
       nn.kind = NewNode::Kind::Steiner;
+      if (lambda != std::array<double, 4>{0.25, 0.25, 0.25, 0.25}) markOnCut(global[kSteinerLocal], tolAbs);  // on the surface
       nn.sources = parent;
       nn.weights = lambda;
       result.newNodes.push_back(nn);
@@ -467,6 +487,8 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   };
   std::sort(crack.begin(), crack.end(), faceLess);
   crack.erase(std::unique(crack.begin(), crack.end()), crack.end());
+  // Nodes on a cut surface (cut points, snapped nodes) are marked in snapReach_ (> 0).
+  result.attachedSlivers = scratch.slivers.attach(topology_, crack, snapReach_);
   result.crackFaces = crack.size();
 
   lap(2);
@@ -583,6 +605,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
         nn.weights = {1.0, 0.0, 0.0, 0.0};
         result.newNodes.push_back(nn);
         ++result.duplicatedNodes;
+        markOnCut(copyOfRoot[root], v < snapReach_.size() ? snapReach_[v] : 0.0);
       }
       renames.push_back({around[i], v, copyOfRoot[root]});
     }

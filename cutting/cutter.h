@@ -55,6 +55,8 @@ struct CutResult {
   std::array<std::size_t, 11> caseCounts{};  // indexed by CutCase
   std::size_t candidateTets = 0, cutEdges = 0, cutNodes = 0, splitTets = 0, separatingFallbacks = 0;
   std::size_t crackFaces = 0, duplicatedNodes = 0;
+  // Thin pieces between two crack sheets kept attached instead of cut off (crack_slivers.h).
+  std::size_t attachedSlivers = 0;
   double minChildVolumeRatio = 1.0;  // smallest child rest volume / its parent's, this event
   double seconds = 0.0;
   // Wall time of the phases: candidates (spatial hash), cut edges and cut nodes, codes + splits
@@ -82,6 +84,12 @@ class Cutter {
   SpatialGrid grid_;
   DecompositionCache decompositions_;
   double meanEdge_ = 1.0;
+  // By node: how far from a swept surface the node was when the crack was snapped to it (0: never
+  // snapped). A snapped node stays a cut node for every later surface passing as close: without
+  // this memory a later event could cross one of its edges beyond tau (the node's edges change as
+  // its tets split) and put a second crack beside the first, cutting the sliver between them off
+  // as a chip. Grown with the nodes; a duplicate inherits its source's reach.
+  std::vector<double> snapReach_;
   // Per-event buffers reused across events (defined in cutter.cpp); makes Cutter move-only.
   struct Scratch;
   struct ScratchDeleter {

@@ -46,8 +46,7 @@ void checkRenderedVolume(const std::string &scene, int steps,
                          std::size_t minEvents) {
   surgery::SceneModel model = surgery::loadSceneModel(source(scene));
   nlohmann::json sim = nlohmann::json::parse(model.scene.simulationJson);
-  sim["mesher"] =
-      "tetgen"; // what the shipped scenes use; the peanut still ships on voxels
+  sim["mesher"] = "tetgen"; // what the shipped scenes use (a voxel override would fail here)
   sim.erase("voxel");
   model.scene.simulationJson = sim.dump();
   const surgery::TetModel body = surgery::buildTetModel(
