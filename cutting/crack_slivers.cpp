@@ -23,12 +23,19 @@ double squaredArea(const std::vector<mesh::Double3>& p, const FaceKey& f) {
 
 }  // namespace
 
-bool CrackSlivers::explore(const CutTopology& topology, const std::vector<FaceKey>& crack, std::uint32_t seed) {
+bool CrackSlivers::explore(const CutTopology& topology, const std::vector<FaceKey>& crack, std::span<const double> onCut,
+                           std::uint32_t seed) {
+  // A tet with a node off the cut surfaces ends the search: its piece is not a sliver.
+  auto thin = [&](std::uint32_t slot) {
+    for (std::uint32_t n : topology.tet(slot))
+      if (!(n < onCut.size() && onCut[n] > 0)) return false;
+    return true;
+  };
   piece_.clear();
   piece_.push_back(seed);
   state_[seed] = 1;
   seen_.push_back(seed);
-  bool small = true;
+  bool small = thin(seed);
   for (std::size_t next = 0; next < piece_.size() && small; ++next) {
     const Tet& t = topology.tet(piece_[next]);
     for (const auto& lf : kTetFaces) {
@@ -41,7 +48,7 @@ bool CrackSlivers::explore(const CutTopology& topology, const std::vector<FaceKe
       state_[other] = 1;
       seen_.push_back(other);
       piece_.push_back(other);
-      if (piece_.size() > kMaxPieceTets) small = false;
+      if (piece_.size() > kMaxPieceTets || !thin(other)) small = false;
     }
   }
   if (!small)
@@ -56,11 +63,7 @@ std::size_t CrackSlivers::attach(const CutTopology& topology, std::vector<FaceKe
   // Seeds in crack-face order (sorted keys): the result does not depend on hash or thread order.
   for (const FaceKey& face : crack)
     for (std::uint32_t seed : topology.tetsOfFace(face.a, face.b, face.c)) {
-      if (seed == kNone || state_[seed] != 0 || !explore(topology, crack, seed)) continue;
-      bool thin = true;
-      for (std::uint32_t slot : piece_)
-        for (std::uint32_t n : topology.tet(slot)) thin = thin && n < onCut.size() && onCut[n] > 0;
-      if (!thin) continue;
+      if (seed == kNone || state_[seed] != 0 || !explore(topology, crack, onCut, seed)) continue;
       // One shared face attaches the piece to the tet behind it; the rest of the crack stays
       // open. The piece's crack face of largest area (ties: the smallest key) is the one.
       FaceKey best{kNone, kNone, kNone};

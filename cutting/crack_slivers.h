@@ -29,10 +29,13 @@ class CrackSlivers {
 
  private:
   // Collects the piece of `seed` (tets joined by faces shared by two tets and not on the crack)
-  // into piece_; false when it exceeds kMaxPieceTets or meets a piece already found too large.
-  bool explore(const CutTopology& topology, const std::vector<FaceKey>& crack, std::uint32_t seed);
+  // into piece_; true for a sliver. The search stops, false, at a tet with a node off the cut
+  // surfaces, past kMaxPieceTets, or at a tet of a piece already found not to be a sliver: most
+  // tets along a crack have a node off it, so most searches end at their seed.
+  bool explore(const CutTopology& topology, const std::vector<FaceKey>& crack, std::span<const double> onCut,
+               std::uint32_t seed);
 
-  std::vector<std::uint8_t> state_;  // by slot: 0 unseen, 1 in a small piece, 2 in a large one
+  std::vector<std::uint8_t> state_;  // by slot: 0 unseen, 1 in a sliver, 2 in a piece that is not one
   std::vector<std::uint32_t> seen_, piece_;
   std::vector<FaceKey> uncrack_;
 };
