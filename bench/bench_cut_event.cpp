@@ -14,6 +14,8 @@
 #include "bench/cut_settings.h"
 #include "blobvk/cutting/cutter.h"
 #include "blobvk/fem/simulation.h"
+#include "blobvk/fem/tetgen_mesher.h"
+#include "tests/fem/icosphere.h"
 
 #include <benchmark/benchmark.h>
 
@@ -99,6 +101,79 @@ void BM_CutEventEndToEnd(benchmark::State& state) {
 }
 // 26^3 * 6 = 105,456 tets.
 BENCHMARK(BM_CutEventEndToEnd)->Arg(26)->Unit(benchmark::kMillisecond)->Iterations(64);
+
+// The same event on the kind of body the shipped scenes simulate: a TetGen ball of radius 1
+// (icosphere surface, -a maxVolume), ~100k tets, cut by 16 parallel tilted square strokes of
+// half-size 0.35 (about as many tets split per event as the block's strokes), centred at
+// z = -0.75 .. 0.75; cutter and simulation rebuilt every 16 strokes (outside the timed region).
+std::vector<cutting::Triangle> ballStroke(int k) {
+  using cutting::operator*;
+  using cutting::operator+;
+  using cutting::operator-;
+  const auto unit = [](mesh::Double3 v) { return v * (1.0 / cutting::length(v)); };
+  const mesh::Double3 c{0.03 * (k % 3), -0.02 * (k % 5), -0.75 + 0.1 * k + 0.013 * (k % 2)};
+  const mesh::Double3 u = unit({1, 0.2, 0.1}), v = unit(cutting::cross(u, {0.1, -0.3, 1}));
+  const cutting::BladeKeyframe from{0.0, c - u * 0.35 - v * 0.35, c - u * 0.35 + v * 0.35};
+  const cutting::BladeKeyframe to{1.0, c + u * 0.35 - v * 0.35, c + u * 0.35 + v * 0.35};
+  return cutting::sweptTriangles(from, to);
+}
+
+void BM_CutEventTetgenBall(benchmark::State& state) {
+  if (!fem::tetgenAvailable()) {
+    state.SkipWithError("built without TetGen");
+    return;
+  }
+  fem::TetgenOptions options;
+  options.maxVolume = double(state.range(0)) * 1e-6;
+  const mesh::TetMesh ball = fem::tetrahedralize(testing::icosphere(4), options);
+  fem::SimulationSettings settings = bench::cutBlockSettings();
+  settings.fixed = [](const mesh::Double3& p) { return p.y < -0.9; };
+  constexpr int kStrokesPerMesh = 16;
+  std::unique_ptr<cutting::Cutter> cutter;
+  std::optional<fem::Simulation> sim;
+  int k = kStrokesPerMesh;
+  PhaseClock cut, convert, apply;
+  double splits = 0, newNodes = 0, slots = 0;
+  for (auto _ : state) {
+    if (k == kStrokesPerMesh) {
+      state.PauseTiming();
+      cutter.reset();
+      sim.reset();
+      cutter = std::make_unique<cutting::Cutter>(ball);
+      sim.emplace(ball, settings);
+      sim->run(1);
+      k = 0;
+      state.ResumeTiming();
+    }
+    const std::size_t nodesBefore = sim->mesh().nodeCount(), tetsBefore = sim->mesh().tetCount();
+    const cutting::CutResult event = cut.time([&] { return cutter->cut(ballStroke(k++)); });
+    const fem::TopologyChange change =
+        convert.time([&] { return surgery::toTopologyChange(event, cutter->topology(), nodesBefore, tetsBefore); });
+    apply.time([&] {
+      sim->applyTopologyChange(change);
+      return 0;
+    });
+    benchmark::DoNotOptimize(sim->mesh().boundaryFaces.data());
+    splits += double(event.splitTets);
+    newNodes += double(change.newNodes.size());
+    slots += double(change.tetSlots.size());
+  }
+  const double events = double(state.iterations());
+  state.counters["tets"] = double(ball.tets.size());
+  state.counters["split_per_event"] = splits / events;
+  state.counters["new_nodes"] = newNodes / events;
+  state.counters["slots_written"] = slots / events;
+  state.counters["cut_ms"] = cut.wallMs / events;
+  state.counters["convert_ms"] = convert.wallMs / events;
+  state.counters["fem_ms"] = apply.wallMs / events;
+  state.counters["total_ms"] = (cut.wallMs + convert.wallMs + apply.wallMs) / events;
+  state.counters["cut_cpu_ms"] = cut.cpuMs / events;
+  state.counters["convert_cpu_ms"] = convert.cpuMs / events;
+  state.counters["fem_cpu_ms"] = apply.cpuMs / events;
+  state.counters["total_cpu_ms"] = (cut.cpuMs + convert.cpuMs + apply.cpuMs) / events;
+}
+// Argument: TetGen's -a bound in 1e-6 units; 130 gives ~100k tets.
+BENCHMARK(BM_CutEventTetgenBall)->Arg(130)->Unit(benchmark::kMillisecond)->Iterations(64);
 
 }  // namespace
 
