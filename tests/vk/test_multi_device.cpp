@@ -8,6 +8,7 @@
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/extract/multi_device.h"
 #include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/sparse_batches.h"
 #include "reference_checks.h"
 #include "vk_fixture.h"
 
@@ -156,6 +157,40 @@ TEST_F(MultiDeviceTest, NoActiveBrickIsAnEmptyMesh) {
   EXPECT_EQ(m.triangleCount(), 0u);
   EXPECT_EQ(st.activeBricks, 0u);
   EXPECT_EQ(st.batches, 0u);
+}
+
+// The batch plan for several devices (no Vulkan needed): every active brick is emitted by exactly
+// one batch, in order; batches end at the layer boundary nearest the share asked for, and the
+// memory limit still bounds what a batch loads.
+TEST(BatchPlan, SharesEndAtTheNearestLayerBoundaryWithinTheLimit) {
+  const std::vector<std::uint32_t> starts{0, 10, 20, 20, 45, 50, 60, 61, 80};  // layer 2 empty
+  auto check = [&](const std::vector<vk::SparseBatch>& plan) {
+    std::uint32_t next = 0;
+    for (const vk::SparseBatch& b : plan) {
+      EXPECT_EQ(b.activeBase, next);
+      EXPECT_GT(b.ownActive, 0u);
+      EXPECT_GE(b.loadedActive, b.ownActive);
+      next += b.ownActive;
+      EXPECT_LE(b.loadedActive, b.ownActive + 25) << "loads more than the next layer";
+    }
+    EXPECT_EQ(next, 80u);
+  };
+  const auto whole = vk::planSparseBatches(starts, 1000, 1000);
+  ASSERT_EQ(whole.size(), 1u);
+  check(whole);
+  const auto halves = vk::planSparseBatches(starts, 1000, 1000, 40);  // boundaries at 20 and 45: 45 is nearer
+  ASSERT_EQ(halves.size(), 2u);
+  EXPECT_EQ(halves[0].ownActive, 45u);
+  EXPECT_EQ(halves[0].loadedActive, 50u);
+  check(halves);
+  const auto limited = vk::planSparseBatches(starts, 30, 1000, 40);  // the limit wins over the share
+  EXPECT_GT(limited.size(), 2u);
+  for (const vk::SparseBatch& b : limited) EXPECT_LE(b.loadedActive, 30u);
+  check(limited);
+  const auto tiny = vk::planSparseBatches(starts, 1000, 1000, 1);  // smaller than a layer: one layer each
+  EXPECT_EQ(tiny.size(), 7u);
+  check(tiny);
+  EXPECT_THROW(vk::planSparseBatches(starts, 1000, 20), vk::VulkanError);  // two layers over one buffer
 }
 
 // --devices resolution over a made-up device list (no Vulkan needed).

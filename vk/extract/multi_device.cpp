@@ -100,11 +100,12 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     limit = std::min(limit, sparseBatchLimit(*d, bg, options.maxBatchBricks));
     range = std::min(range, sparseRangeBricks(*d, bg));
   }
+  std::uint64_t ownTarget = ~0ull;
   if (!options.maxBatchBricks) {
     const std::uint64_t pieces = n * std::max<std::uint32_t>(options.batchesPerDevice, 1);
-    limit = std::min<std::uint64_t>(limit, std::max<std::uint64_t>(1, (active + pieces - 1) / pieces));
+    ownTarget = std::max<std::uint64_t>(1, (active + pieces - 1) / pieces);
   }
-  const std::vector<SparseBatch> batches = planSparseBatches(classified.layerStarts, limit, range);
+  const std::vector<SparseBatch> batches = planSparseBatches(classified.layerStarts, limit, range, ownTarget);
   s.batches = std::uint32_t(batches.size());
   std::uint32_t maxLoaded = 0;
   for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);

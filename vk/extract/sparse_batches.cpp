@@ -73,7 +73,7 @@ std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uin
 }
 
 std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts, std::uint64_t limit,
-                                           std::uint64_t rangeBricks) {
+                                           std::uint64_t rangeBricks, std::uint64_t ownTarget) {
   std::vector<SparseBatch> batches;
   const std::uint32_t layers = std::uint32_t(starts.size()) - 1;
   for (std::uint32_t z = 0; z < layers;) {
@@ -82,8 +82,14 @@ std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts
       continue;
     }
     auto loaded = [&](std::uint32_t end) { return starts[std::min(end + 1, layers)] - starts[z]; };
+    auto own = [&](std::uint32_t end) -> std::uint64_t { return starts[end] - starts[z]; };
+    // One more layer when it brings the batch's own bricks nearer the target.
+    auto nearer = [&](std::uint32_t end) {
+      if (own(end + 1) <= ownTarget) return true;
+      return own(end) < ownTarget && own(end + 1) - ownTarget < ownTarget - own(end);
+    };
     std::uint32_t end = z + 1;
-    while (end < layers && loaded(end + 1) <= limit) ++end;
+    while (end < layers && loaded(end + 1) <= limit && nearer(end)) ++end;
     if (loaded(end) > rangeBricks) {
       throw VulkanError("GPU polygonizer: two brick layers hold " + std::to_string(loaded(end)) +
                         " active bricks, over the " + std::to_string(rangeBricks) +

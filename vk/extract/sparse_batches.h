@@ -35,8 +35,10 @@ std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uin
 // Cuts the active bricks into batches of whole layers of at most `limit` loaded bricks (a batch
 // of one layer may load more: it throws when that is over `rangeBricks`, what one storage buffer
 // holds). `layerStarts[z]` is the first active brick of layer z, `layerStarts[layers]` the count.
+// `ownTarget` (several devices): a batch also ends at the layer boundary nearest to that many
+// bricks of its own, so the batches carry about equal work.
 std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> layerStarts, std::uint64_t limit,
-                                           std::uint64_t rangeBricks);
+                                           std::uint64_t rangeBricks, std::uint64_t ownTarget = ~0ull);
 // What one storage buffer can hold, in active bricks of `bricks`' size, on `device`.
 std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks);
 
