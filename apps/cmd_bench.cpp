@@ -72,7 +72,7 @@ void addBenchCommand(CLI::App& app) {
                   "twice; several allowed: --devices 0 --devices 0,0)")
       ->excludes(one);
   cmd->add_option("--batches-per-device", a->batchesPerDevice,
-                  "vk, several devices: batches of brick layers per device, at least (0: the library's default, 2)")
+                  "vk, several devices: batches of brick layers per device (0: the library's default, 1)")
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--traversal", a->traversals,
                   "vk: auto (default: the cost model picks per job), specialised, stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")

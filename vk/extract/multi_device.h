@@ -18,9 +18,9 @@ namespace blobvk::vk {
 // The first device classifies the bricks and hands the classification (8 bytes per brick of the
 // grid, at most) to the others; then each device takes the next batch when it is free (a device
 // never runs more than 2 x devices batches ahead of the join, so finished pieces waiting for an
-// earlier batch stay bounded). With options.maxBatchBricks 0, batches are the smallest of every
-// device's memory limit (sparse_batches.h) and the active bricks / (devices x
-// options.batchesPerDevice): each device's batches obey its own budget. The devices must
+// earlier batch stay bounded). With options.maxBatchBricks 0, batches end at the layer boundary
+// nearest an equal share, active bricks / (devices x options.batchesPerDevice), and within the
+// smallest of every device's memory limits (sparse_batches.h): each device obeys its own budget. The devices must
 // compute the same floats (the same driver, or drivers that give the same mesh alone) and be
 // distinct Device objects (two may share one VkPhysicalDevice). One device: polygonize().
 // Needs the sparse extraction (not options.sparse = false or tiledVertexPass); throws

@@ -24,9 +24,10 @@ struct GpuPolygonizeOptions {
   // emit); 0: as many as fit one storage buffer and a quarter of the largest device-local heap.
   // The mesh is the same bytes whatever the batches.
   std::uint32_t maxBatchBricks = 0;
-  // Several devices (multi_device.h), maxBatchBricks 0: batches per device, at least. More
-  // balance the devices' loads; each batch evaluates one brick layer more than it emits.
-  std::uint32_t batchesPerDevice = 2;
+  // Several devices (multi_device.h), maxBatchBricks 0: batches per device (equal shares of the
+  // active bricks, fewer where the memory limit cuts them smaller). Each batch evaluates one
+  // brick layer more than it emits, so 1 suits equal devices; more let a faster device take more.
+  std::uint32_t batchesPerDevice = 1;
   bool normals = true;
   bool colours = true;
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation
