@@ -1,6 +1,7 @@
 #include "blobvk/vk/extract/multi_device.h"
 
 #include "blobvk/vk/device/error.h"
+#include "blobvk/vk/extract/host_copy.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
@@ -31,7 +32,7 @@ struct Queue {
 
 template <class T>
 void appendAll(std::vector<T>& to, const std::vector<T>& from) {
-  to.insert(to.end(), from.begin(), from.end());
+  appendParallel(to, from.data(), from.size());
 }
 
 // Appends a batch's piece (triangle indices counted from its own first vertex) to the mesh.
