@@ -147,6 +147,32 @@ TEST_F(MultiDeviceTest, RefusesWhatCannotBeSplit) {
   EXPECT_THROW(vk::polygonizeOnDevices(std::span<vk::Device* const>{}, sc.program, sc.grid), vk::VulkanError);
 }
 
+// A device that fails (every allocation refused, as a full heap does) ends the job with its
+// error, after the other devices stop: no hang, no partial mesh.
+TEST_F(MultiDeviceTest, AFailingDeviceEndsTheJobWithItsError) {
+  const Scene sc = shipped("dice", 32);
+  vk::MemorySimulation full;
+  full.properties = more_[1]->device().memory().properties();
+  full.refuse = [](std::uint32_t, VkDeviceSize) { return true; };
+  vk::DeviceOptions options;
+  options.memorySimulation = &full;
+  vk::Device failing(more_[1]->host(), options);  // more_[1]'s own Device stays idle meanwhile
+  vk::Device* list[3] = {&device(), &more_[0]->device(), &failing};
+  vk::GpuPolygonizeOptions o;
+  o.traversal = vk::Traversal::Stackless;
+  o.brickCells = 4;
+  try {
+    vk::polygonizeOnDevices(list, sc.program, sc.grid, o);
+    ADD_FAILURE() << "no error";
+  } catch (const vk::VulkanError& e) {
+    EXPECT_NE(std::string(e.what()).find("memory"), std::string::npos) << e.what();
+  }
+  // The devices that worked are still usable: the next job gives the one-device bytes.
+  vk::Device* two[2] = {&device(), &more_[0]->device()};
+  expectSameBytes(vk::polygonizeOnDevices(two, sc.program, sc.grid, o), vk::polygonize(device(), sc.program, sc.grid, o),
+                  "after a failed job");
+}
+
 // A grid away from the model: no active brick, an empty mesh, on two devices as on one.
 TEST_F(MultiDeviceTest, NoActiveBrickIsAnEmptyMesh) {
   const Scene sc = shipped("dice", 24);
