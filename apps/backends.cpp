@@ -7,6 +7,7 @@
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 
 #ifdef BLOBVK_HAVE_VULKAN
+#include "blobvk/vk/extract/multi_device.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/device/standalone.h"
 #endif
@@ -14,6 +15,7 @@
 #include <chrono>
 #include <map>
 #include <memory>
+#include <tuple>
 #include <stdexcept>
 
 namespace blobvk::app {
@@ -43,13 +45,15 @@ namespace {
 // Released by releaseSharedDevices() before main returns, not by a static destructor: a driver
 // loaded after this map was constructed (NVIDIA's) runs its exit handlers before such a
 // destructor would, and destroying a device after them crashes the process at exit.
-std::map<std::pair<std::string, bool>, std::unique_ptr<vk::StandaloneContext>>& sharedContexts() {
-  static std::map<std::pair<std::string, bool>, std::unique_ptr<vk::StandaloneContext>> contexts;
+// Keyed by (device, validation, copy): --devices may open one device several times.
+using ContextKey = std::tuple<std::string, bool, int>;
+std::map<ContextKey, std::unique_ptr<vk::StandaloneContext>>& sharedContexts() {
+  static std::map<ContextKey, std::unique_ptr<vk::StandaloneContext>> contexts;
   return contexts;
 }
 
-vk::StandaloneContext& sharedContext(const std::string& device, bool validation) {
-  auto& slot = sharedContexts()[{device, validation}];
+vk::StandaloneContext& sharedContext(const std::string& device, bool validation, int copy = 0) {
+  auto& slot = sharedContexts()[{device, validation, copy}];
   if (!slot) {
     vk::StandaloneOptions options;
     options.device = device;
@@ -57,6 +61,20 @@ vk::StandaloneContext& sharedContext(const std::string& device, bool validation)
     slot = std::make_unique<vk::StandaloneContext>(options);
   }
   return *slot;
+}
+// The contexts --devices names, in list order: the k-th mention of a device opens its k-th copy.
+std::vector<vk::StandaloneContext*> listedContexts(const std::string& list, bool validation) {
+  std::vector<vk::StandaloneContext*> contexts;
+  std::map<std::size_t, int> mentions;
+  for (std::size_t index : vk::resolveDeviceList(list, vk::listDevices()))
+    contexts.push_back(&sharedContext(std::to_string(index), validation, mentions[index]++));
+  return contexts;
+}
+
+std::uint64_t validationMessages(const std::vector<vk::StandaloneContext*>& contexts) {
+  std::uint64_t n = 0;
+  for (const vk::StandaloneContext* c : contexts) n += c->validationMessages();
+  return n;
 }
 }  // namespace
 #endif
@@ -67,8 +85,23 @@ void releaseSharedDevices() {
 #endif
 }
 
+void checkDeviceList([[maybe_unused]] const PolygonizeSettings& settings) {
+  if (settings.devices.empty()) return;
+#ifdef BLOBVK_HAVE_VULKAN
+  vk::resolveDeviceList(settings.devices, vk::listDevices());
+#else
+  throw std::runtime_error("--devices: this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
+#endif
+}
+
 nlohmann::json backendDeviceJson([[maybe_unused]] const PolygonizeSettings& settings) {
 #ifdef BLOBVK_HAVE_VULKAN
+  if (!settings.devices.empty()) {
+    nlohmann::json list = nlohmann::json::array();
+    for (vk::StandaloneContext* c : listedContexts(settings.devices, settings.validation))
+      list.push_back(deviceJson(c->host().physicalDevice));
+    return list;
+  }
   return deviceJson(sharedContext(settings.device, settings.validation).host().physicalDevice);
 #else
   return nlohmann::json::object();
@@ -111,8 +144,10 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     evaluations = double(grid.pointCount());
 #ifdef BLOBVK_HAVE_VULKAN
   } else if (settings.backend == "vk") {
-    vk::StandaloneContext& context = sharedContext(settings.device, settings.validation);
-    const std::uint64_t messagesBefore = context.validationMessages();
+    const std::vector<vk::StandaloneContext*> contexts =
+        settings.devices.empty() ? std::vector<vk::StandaloneContext*>{&sharedContext(settings.device, settings.validation)}
+                                 : listedContexts(settings.devices, settings.validation);
+    const std::uint64_t messagesBefore = validationMessages(contexts);
     vk::GpuPolygonizeOptions options;
     options.refineSteps = settings.refineSteps;
     options.traversal = traversalFromName(settings.traversal);
@@ -120,17 +155,24 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     if (settings.brickCells > 0) options.brickCells = std::uint32_t(settings.brickCells);
     options.sparse = !settings.dense;
     options.tiledVertexPass = settings.tiledVertices;
+    if (settings.batchesPerDevice > 0) options.batchesPerDevice = std::uint32_t(settings.batchesPerDevice);
     vk::GpuStats gpu;
-    mesh = vk::polygonize(context.device(), program, grid, options, &gpu);
+    if (contexts.size() == 1) {
+      mesh = vk::polygonize(contexts[0]->device(), program, grid, options, &gpu);
+    } else {
+      std::vector<vk::Device*> devices;
+      for (vk::StandaloneContext* c : contexts) devices.push_back(&c->device());
+      mesh = vk::polygonizeOnDevices(devices, program, grid, options, &gpu);
+    }
     evaluations = double(gpu.fieldEvaluations);
     if (stats) {
       stats->gpu = {gpu.classifySeconds, gpu.fieldSeconds, gpu.extractSeconds, gpu.readbackSeconds,
                     gpu.hostSeconds, gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes,
-                    gpu.submits, gpu.batches, gpu.deviceTimed};
+                    gpu.submits, gpu.batches, gpu.deviceTimed, gpu.devices};
     }
-    if (context.validationMessages() != messagesBefore) {
+    if (validationMessages(contexts) != messagesBefore) {
       throw std::runtime_error("the Vulkan validation layer reported " +
-                               std::to_string(context.validationMessages() - messagesBefore) + " message(s)");
+                               std::to_string(validationMessages(contexts) - messagesBefore) + " message(s)");
     }
 #else
   } else if (settings.backend == "vk") {

@@ -27,6 +27,11 @@ struct PolygonizeSettings {
   int mpuSize = 0;              // cpu: cells per MPU side, 0 = default
   int subBlockCells = -1;       // cpu: leaf size of the sparse field cache (0 = off, -1 = default)
   std::string device;           // vk: name substring or index
+  // vk: several devices sharing the sparse extraction's batches (vk/extract/multi_device.h):
+  // "all" or a comma-separated list of indices or names, a device named twice opened twice
+  // (vk::resolveDeviceList). Empty: the one `device`.
+  std::string devices;
+  int batchesPerDevice = 0;     // vk, several devices: GpuPolygonizeOptions::batchesPerDevice (0: default)
   bool validation = false;      // vk: Khronos validation layer
   // vk: auto (the cost model picks specialised or stackless per job; default), specialised (the
   // Program compiled into the kernel), stackless (the register code interpreted) or stack (the
@@ -53,6 +58,7 @@ struct PolygonizeStats {
     double classify = 0.0, field = 0.0, extract = 0.0, readback = 0.0, host = 0.0;
     std::uint64_t bricks = 0, activeBricks = 0, brickCells = 0, deviceBytes = 0, submits = 0, batches = 0;
     bool deviceTimed = false;
+    std::uint64_t devices = 1;
   } gpu;
 };
 
@@ -63,12 +69,16 @@ std::vector<std::string> traversalNames();  // for --traversal
 // only in Vulkan builds.
 vk::Traversal traversalFromName(const std::string& name);
 
-// The device the vk backend runs `settings` on (name, type, driver; json_report.h), opening it
-// if needed; an empty object in builds without Vulkan.
 // Destroys the Vulkan devices the backends opened (kept for the whole process otherwise); main
 // calls it before returning.
 void releaseSharedDevices();
 
+// Resolves settings.devices (vk::resolveDeviceList) without opening anything, so a bad list is
+// one error line before any work; throws std::runtime_error (or nothing without --devices).
+void checkDeviceList(const PolygonizeSettings& settings);
+
+// The device the vk backend runs `settings` on (name, type, driver; json_report.h), opening it
+// if needed; with --devices an array of them; an empty object in builds without Vulkan.
 nlohmann::json backendDeviceJson(const PolygonizeSettings& settings);
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,

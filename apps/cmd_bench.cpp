@@ -43,10 +43,12 @@ void addBenchCommand(CLI::App& app) {
     std::vector<int> resolutions{128};
     std::vector<std::string> backends{"cpu"};
     std::vector<int> threads{0};
+    int batchesPerDevice = 0;
     int repeats = 5, warmup = 1, mpuSize = 0, subBlock = -1, fieldTiles = 8, brickCells = 0;
     bool dense = false;
     bool tiledVertices = false;
     std::string device;
+    std::vector<std::string> deviceLists{""};
     std::vector<std::string> traversals{"auto"};
     bool json = false;
   };
@@ -64,7 +66,14 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--sub-block", a->subBlock,
                   "cpu: cells per leaf block of the sparse field cache (0 = every grid point; default 3, or 4 with --mpu)")
       ->check(CLI::Range(0, 64));
-  cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
+  auto* one = cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
+  cmd->add_option("--devices", a->deviceLists,
+                  "vk: device lists to compare, each as `mesh --devices` (all, or 0,1; a device named twice is opened "
+                  "twice; several allowed: --devices 0 --devices 0,0)")
+      ->excludes(one);
+  cmd->add_option("--batches-per-device", a->batchesPerDevice,
+                  "vk, several devices: batches of brick layers per device (0: the library's default, 1)")
+      ->check(CLI::Range(0, 1024));
   cmd->add_option("--traversal", a->traversals,
                   "vk: auto (default: the cost model picks per job), specialised, stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")
       ->check(CLI::IsMember(traversalNames()));
@@ -83,7 +92,7 @@ void addBenchCommand(CLI::App& app) {
     // traversals counting on vk only).
     long configurations = 0;
     for (const std::string& backend : a->backends)
-      configurations += long(a->threads.size()) * long(backend == "vk" ? a->traversals.size() : 1);
+      configurations += long(a->threads.size()) * long(backend == "vk" ? a->traversals.size() * a->deviceLists.size() : 1);
     Progress progress("bench", configurations * long(a->scenes.size() * a->resolutions.size()));
     for (const std::string& path : a->scenes) {
       const Model model = loadModel(path);
@@ -91,21 +100,26 @@ void addBenchCommand(CLI::App& app) {
         const blobtree::GridSpec grid = gridFor(model, std::nullopt, resolution);
         for (const std::string& backend : a->backends) {
           for (int threads : a->threads)
-          for (const std::string& traversal : a->traversals) {
-            // The traversal only matters on the GPU; CPU backends run once.
-            if (backend != "vk" && traversal != a->traversals.front()) continue;
+          for (const std::string& traversal : a->traversals)
+          for (const std::string& devices : a->deviceLists) {
+            // The traversal and devices only matter on the GPU; CPU backends run once.
+            if (backend != "vk" && (traversal != a->traversals.front() || devices != a->deviceLists.front())) continue;
             PolygonizeSettings settings;
             settings.backend = backend;
             settings.threads = threads;
             settings.mpuSize = a->mpuSize;
             if (a->subBlock >= 0) settings.subBlockCells = a->subBlock;
             settings.device = a->device;
+            if (backend == "vk") settings.devices = devices;
+            settings.batchesPerDevice = a->batchesPerDevice;
+            checkDeviceList(settings);
             settings.traversal = traversal;
             settings.fieldTiles = a->fieldTiles;
             settings.brickCells = a->brickCells;
             settings.dense = a->dense;
             settings.tiledVertices = a->tiledVertices;
-            Row row{path, backend == "vk" ? backend + "-" + traversal : backend, resolution, threads};
+            const std::string label = backend == "vk" ? backend + "-" + traversal + (devices.empty() ? "" : "@" + devices) : backend;
+            Row row{path, label, resolution, threads};
             std::vector<std::pair<double, PolygonizeStats::Phases>> times;
             mesh::TriMesh last;
             for (int i = 0; i < a->warmup + a->repeats; ++i) {
@@ -147,7 +161,7 @@ void addBenchCommand(CLI::App& app) {
           phases = {{"classification_s", r.gpu.classify}, {"field_s", r.gpu.field},
                     {"extraction_s", r.gpu.extract}, {"readback_s", r.gpu.readback},
                     {"host_s", r.gpu.host}, {"device_timed", r.gpu.deviceTimed}, {"submits", r.gpu.submits},
-                    {"batches", r.gpu.batches},
+                    {"batches", r.gpu.batches}, {"devices", r.gpu.devices},
                     {"bricks", r.gpu.bricks}, {"active_bricks", r.gpu.activeBricks},
                     {"brick_cells", r.gpu.brickCells}, {"device_bytes", r.gpu.deviceBytes}};
         }

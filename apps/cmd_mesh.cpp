@@ -62,7 +62,11 @@ void addMeshCommand(CLI::App& app) {
       ->check(CLI::Range(0, 64));
   cmd->add_option("--refine", a->settings.refineSteps, "Root refinement steps per vertex")
       ->check(CLI::Range(0, 16));
-  cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
+  auto* one = cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
+  cmd->add_option("--devices", a->settings.devices,
+                  "vk: several Vulkan devices sharing the bricks, same bytes as one: all, or indices/names "
+                  "(0,1; a device named twice is opened twice)")
+      ->excludes(one);
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
   cmd->add_option("--traversal", a->settings.traversal, "vk: auto (default: the cost model picks per job), specialised, stackless or stack")
       ->check(CLI::IsMember(traversalNames()));
@@ -95,6 +99,8 @@ void addMeshCommand(CLI::App& app) {
     std::string format = toStdout ? (a->format.empty() ? "ply" : a->format) : a->out.substr(a->out.rfind('.') + 1);
     for (char& c : format) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (a->ascii && format != "ply") throw UsageError("--ascii is for PLY output");
+    if (!a->settings.devices.empty() && a->settings.backend != "vk") throw UsageError("--devices is for the vk backend");
+    checkDeviceList(a->settings);
     if (!a->maxMemory.empty()) a->limits.maxMemoryBytes = parseByteSize(a->maxMemory);
     const bool gltf = format == "gltf" || format == "glb";
     std::optional<mesh::SimplifyTarget> simplifyTarget;
@@ -186,9 +192,12 @@ void addMeshCommand(CLI::App& app) {
       out["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cell_size", grid.cellSize},
                      {"origin", {grid.origin.x, grid.origin.y, grid.origin.z}}};
       out["backend"] = a->settings.backend;
-      if (a->settings.backend == "vk") out["device"] = backendDeviceJson(a->settings);
+      if (a->settings.backend == "vk") out[a->settings.devices.empty() ? "device" : "devices"] = backendDeviceJson(a->settings);
       out["seconds"] = stats.seconds;
       out["point_evaluations"] = stats.pointEvaluations;
+      if (a->settings.backend == "vk")
+        out["gpu"] = {{"batches", stats.gpu.batches}, {"active_bricks", stats.gpu.activeBricks},
+                      {"device_bytes", stats.gpu.deviceBytes}, {"devices", stats.gpu.devices}};
       out["vertices"] = mesh.vertexCount();
       out["triangles"] = mesh.triangleCount();
       out["bytes"] = bytes.size();

@@ -62,6 +62,7 @@
 #include "blobvk/blobvk.h"
 #include "blobvk/vk/device/context.h"
 #include "blobvk/vk/render/png_io.h"
+#include "blobvk/vk/extract/multi_device.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/render/raycast.h"
 #include "blobvk/vk/render/render_camera.h"

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -174,6 +175,39 @@ TEST_F(CliCommands, MeshOnTheVulkanBackendEqualsTheCpuMesh) {
   EXPECT_TRUE(report.watertight()) << report.summary();
   EXPECT_GT(report.triangles, 1000u);
   EXPECT_EQ(fileBytes(cwd / "vk.ply"), fileBytes(cwd / "cpu.ply"));
+}
+
+// --devices: lavapipe opened two and three times shares the brick batches and writes the bytes
+// of one device (and of the CPU backend); a bad list is one error line naming the entry, before
+// any work and with no file written.
+TEST_F(CliCommands, MeshOnSeveralDevicesWritesTheOneDeviceBytes) {
+  const fs::path cwd = dir("mesh_devices");
+  const std::string base = "mesh " + tower + " --resolution 64 ";
+  ASSERT_EQ(runCliSplit(base + "-o one.ply --backend vk --device 0 -q", cwd).status, 0);
+  ASSERT_EQ(runCliSplit(base + "-o cpu.ply -q", cwd).status, 0);
+  CliSplitRun r = runCliSplit(base + "-o two.ply --backend vk --devices 0,0 --validation --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["devices"].size(), 2u) << r.out;
+  EXPECT_EQ(j["devices"][1]["driver_name"], "llvmpipe");
+  EXPECT_EQ(j["gpu"]["devices"], 2);
+  EXPECT_GE(j["gpu"]["batches"].get<int>(), 2) << r.out;
+  ASSERT_EQ(runCliSplit(base + "-o three.ply --backend vk --devices llvmpipe,0,0 -q", cwd).status, 0);
+  const std::string one = fileBytes(cwd / "one.ply");
+  EXPECT_GT(one.size(), 10000u);
+  EXPECT_EQ(fileBytes(cwd / "two.ply"), one);
+  EXPECT_EQ(fileBytes(cwd / "three.ply"), one);
+  EXPECT_EQ(fileBytes(cwd / "cpu.ply"), one);
+  for (const auto& [list, problem] : std::vector<std::pair<std::string, std::string>>{
+           {"0,nosuchgpu", "entry 'nosuchgpu' matches no Vulkan device (see `blobvk devices`)"},
+           {"0,,0", "entry 2 is empty (a comma-separated list of device indices or names, or all)"},
+           {"0,7", "entry '7': only 1 Vulkan device(s) (see `blobvk devices`)"}}) {
+    const CliSplitRun bad = runCliSplit(base + "-o bad.ply --backend vk --devices " + list, cwd);
+    EXPECT_EQ(bad.status, 1) << list;
+    EXPECT_EQ(bad.err, "blobvk: error: --devices '" + list + "': " + problem + "\n") << list;
+    EXPECT_FALSE(fs::exists(cwd / "bad.ply")) << list;
+  }
+  EXPECT_EQ(runCliSplit(base + "-o bad.ply --devices 0,0", cwd).status, 2);  // the cpu backend has no devices
 }
 
 TEST_F(CliCommands, RenderWritesTheImageAskedFor) {

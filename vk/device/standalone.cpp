@@ -132,21 +132,26 @@ std::string lower(std::string s) {
   return s;
 }
 
+// `what` names the request in errors ("--device 'x'", or a --devices entry).
+std::size_t matchDevice(const std::vector<DeviceInfo>& infos, const std::string& request, const std::string& what) {
+  if (std::all_of(request.begin(), request.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+    const std::size_t index = request.size() > 9 ? infos.size() : std::stoul(request);
+    if (index >= infos.size()) {
+      throw VulkanError(what + ": only " + std::to_string(infos.size()) + " Vulkan device(s) (see `blobvk devices`)");
+    }
+    return index;
+  }
+  for (std::size_t i = 0; i < infos.size(); ++i) {
+    if (lower(infos[i].name).find(lower(request)) != std::string::npos) return i;
+  }
+  throw VulkanError(what + " matches no Vulkan device (see `blobvk devices`)");
+}
+
 std::size_t pickDevice(const std::vector<DeviceInfo>& infos, const std::string& request) {
   if (infos.empty()) throw VulkanError(kNoDevice);
   if (!request.empty()) {
-    if (std::all_of(request.begin(), request.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
-      const std::size_t index = std::stoul(request);
-      if (index >= infos.size()) {
-        throw VulkanError("--device " + request + ": only " + std::to_string(infos.size()) +
-                          " Vulkan device(s) (see `blobvk devices`)");
-      }
-      return index;
-    }
-    for (std::size_t i = 0; i < infos.size(); ++i) {
-      if (lower(infos[i].name).find(lower(request)) != std::string::npos) return i;
-    }
-    throw VulkanError("--device '" + request + "' matches no Vulkan device (see `blobvk devices`)");
+    const bool index = std::all_of(request.begin(), request.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); });
+    return matchDevice(infos, request, index ? "--device " + request : "--device '" + request + "'");
   }
   std::size_t best = 0;
   for (std::size_t i = 1; i < infos.size(); ++i) {
@@ -178,6 +183,37 @@ std::vector<DeviceInfo> listDevices() {
   }
   vkDestroyInstance(instance, nullptr);
   return infos;
+}
+
+std::vector<std::size_t> resolveDeviceList(const std::string& list, const std::vector<DeviceInfo>& infos) {
+  const std::string what = "--devices '" + list + "'";
+  if (infos.empty()) throw VulkanError(kNoDevice);
+  std::vector<std::size_t> picked;
+  if (lower(list) == "all") {
+    const bool gpu = std::any_of(infos.begin(), infos.end(),
+                                 [](const DeviceInfo& i) { return i.type != VK_PHYSICAL_DEVICE_TYPE_CPU; });
+    for (std::size_t i = 0; i < infos.size(); ++i) {
+      if (!gpu || infos[i].type != VK_PHYSICAL_DEVICE_TYPE_CPU) picked.push_back(i);
+    }
+    return picked;
+  }
+  std::size_t begin = 0;
+  for (int entry = 1;; ++entry) {
+    const std::size_t end = std::min(list.find(',', begin), list.size());
+    std::string request = list.substr(begin, end - begin);
+    request.erase(0, std::min(request.find_first_not_of(' '), request.size()));
+    request.erase(request.find_last_not_of(' ') + 1);
+    if (request.empty()) {
+      throw VulkanError(what + ": entry " + std::to_string(entry) + " is empty (a comma-separated list of device indices or names, or all)");
+    }
+    picked.push_back(matchDevice(infos, request, what + ": entry '" + request + "'"));
+    if (end == list.size()) break;
+    begin = end + 1;
+  }
+  if (picked.size() > kMaxListedDevices) {
+    throw VulkanError(what + ": " + std::to_string(picked.size()) + " entries, at most " + std::to_string(kMaxListedDevices));
+  }
+  return picked;
 }
 
 bool vulkanAvailable(std::string* why) {

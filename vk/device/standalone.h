@@ -68,6 +68,15 @@ class StandaloneContext {
 // VulkanError when there is no Vulkan driver at all.
 std::vector<DeviceInfo> listDevices();
 
+// --devices: "all" (every device of `infos` except CPU, i.e. software, ones when a GPU is there),
+// or a comma-separated list of requests, each an index into `infos` or a case-insensitive
+// substring of a name (as StandaloneOptions::device). A device named twice is meant to be opened
+// twice (one StandaloneContext each: how one GPU, or lavapipe, runs as several devices). Returns
+// indices into `infos` in list order; throws VulkanError naming the list and the entry at fault
+// (an empty entry, no match, an index out of range, more than kMaxListedDevices entries).
+inline constexpr std::size_t kMaxListedDevices = 64;
+std::vector<std::size_t> resolveDeviceList(const std::string& list, const std::vector<DeviceInfo>& infos);
+
 // True when a Vulkan instance with at least one device can be created (tests skip otherwise).
 bool vulkanAvailable(std::string* why = nullptr);
 

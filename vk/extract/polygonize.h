@@ -24,6 +24,10 @@ struct GpuPolygonizeOptions {
   // emit); 0: as many as fit one storage buffer and a quarter of the largest device-local heap.
   // The mesh is the same bytes whatever the batches.
   std::uint32_t maxBatchBricks = 0;
+  // Several devices (multi_device.h), maxBatchBricks 0: batches per device (equal shares of the
+  // active bricks, fewer where the memory limit cuts them smaller). Each batch evaluates one
+  // brick layer more than it emits, so 1 suits equal devices; more let a faster device take more.
+  std::uint32_t batchesPerDevice = 1;
   bool normals = true;
   bool colours = true;
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation
@@ -58,6 +62,7 @@ struct GpuStats {
   double hostSeconds = 0.0;
   std::uint32_t submits = 0;     // sparse: queue submissions (each one a host round trip)
   std::uint32_t batches = 0;     // sparse: batches of brick layers (1 + 2 x batches submits)
+  std::uint32_t devices = 1;     // devices that shared the batches (multi_device.h)
   std::uint32_t bricks = 0;      // dense: z-slabs; sparse: bricks of the grid
   std::uint32_t activeBricks = 0;  // sparse: bricks that may hold surface
   std::uint32_t brickCells = 0;    // sparse: cells per brick edge

@@ -43,6 +43,24 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
                                           const blobtree::GridSpec& grid, std::uint32_t brickCells);
 
+// The evaluator the batches run: options.traversal, or the cost model's choice for Auto.
+Traversal resolveSparseTraversal(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                 const GpuPolygonizeOptions& options);
+
+// Steps 1-2 in one submit: the bricks classified and compacted on `device`. The scanned flags
+// (bricks + 1 words: each active brick's number, then the count) and the active-brick list stay
+// on the device for the batches; layerStarts[z] is the number of the first active brick of brick
+// layer z (layerStarts[bricks.z]: the active count). Sets the stats' activeBricks,
+// classifySeconds (device time where the queue has timestamps, deviceTimed) and counts the submit.
+struct ClassifiedBricks {
+  BrickGrid bricks;
+  Buffer scan, list;
+  std::vector<std::uint32_t> layerStarts;
+  std::uint64_t bytes = 0;  // device memory of the classification's buffers
+};
+ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                    const BrickGrid& bricks, GpuStats& stats);
+
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);
 

@@ -1,0 +1,216 @@
+#include "blobvk/vk/extract/multi_device.h"
+
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/extract/host_copy.h"
+#include "blobvk/vk/extract/sparse_batches.h"
+#include "blobvk/vk/extract/sparse_polygonizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+namespace blobvk::vk {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// The batches' hand-out and join, shared by the device threads and the joining thread.
+struct Queue {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::size_t next = 0, joined = 0, window = 1;
+  std::vector<std::optional<mesh::TriMesh>> pieces;  // finished batches not yet joined
+  std::exception_ptr error;
+};
+
+template <class T>
+void appendAll(std::vector<T>& to, const std::vector<T>& from) {
+  appendParallel(to, from.data(), from.size());
+}
+
+// Appends a batch's piece (triangle indices counted from its own first vertex) to the mesh.
+void join(mesh::TriMesh& mesh, const mesh::TriMesh& piece) {
+  const std::uint64_t base = mesh.positions.size();
+  if (base + piece.positions.size() > 0xffffffffull) {
+    throw VulkanError("GPU polygonizer: the mesh has more than 2^32 vertices (32-bit indices): use a smaller grid");
+  }
+  appendAll(mesh.positions, piece.positions);
+  appendAll(mesh.normals, piece.normals);
+  appendAll(mesh.colours, piece.colours);
+  appendAll(mesh.edgeKeys, piece.edgeKeys);
+  const std::size_t t0 = mesh.triangles.size();
+  appendAll(mesh.triangles, piece.triangles);
+  const std::uint32_t offset = std::uint32_t(base);
+  for (std::size_t t = t0; t < mesh.triangles.size(); ++t)
+    for (std::uint32_t& v : mesh.triangles[t]) v += offset;
+}
+
+}  // namespace
+
+mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtree::Program& program,
+                                  const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options,
+                                  GpuStats* stats, std::vector<GpuStats>* perDevice) {
+  if (devices.empty()) throw VulkanError("GPU polygonizer: no device to run on");
+  for (std::size_t i = 0; i < devices.size(); ++i) {
+    if (!devices[i]) throw VulkanError("GPU polygonizer: device " + std::to_string(i) + " is null");
+    for (std::size_t j = 0; j < i; ++j) {
+      if (devices[j] == devices[i]) {
+        throw VulkanError("GPU polygonizer: devices " + std::to_string(j) + " and " + std::to_string(i) +
+                          " are the same Device object (open the physical device twice instead)");
+      }
+    }
+  }
+  const std::size_t n = devices.size();
+  if (n == 1 || grid.cells.x < 1 || grid.cells.y < 1 || grid.cells.z < 1) {
+    GpuStats one;
+    mesh::TriMesh mesh = polygonize(*devices[0], program, grid, options, &one);
+    if (stats) *stats = one;
+    if (perDevice) perDevice->assign(1, one);
+    return mesh;
+  }
+  if (!options.sparse || options.tiledVertexPass) {
+    throw VulkanError("GPU polygonizer: several devices need the sparse extraction (not the dense one, nor tiled vertices)");
+  }
+
+  const auto wallStart = Clock::now();
+  GpuStats s;
+  std::vector<GpuStats> shares(n);
+  const BrickGrid bg = brickGridFor(grid, options.brickCells);
+  s.brickCells = 1u << bg.log2B;
+  s.bricks = std::uint32_t(bg.count());
+  s.devices = std::uint32_t(n);
+  Device& first = *devices[0];
+  // One evaluator for every device: the bytes must not depend on which device ran a batch.
+  GpuPolygonizeOptions resolved = options;
+  resolved.traversal = resolveSparseTraversal(first, program, grid, options);
+  const ClassifiedBricks classified = classifyAndCompact(first, program, grid, bg, shares[0]);
+  const std::uint32_t active = classified.layerStarts.back();
+  s.activeBricks = active;
+  s.classifySeconds = shares[0].classifySeconds;
+  s.deviceTimed = shares[0].deviceTimed;
+
+  std::uint64_t limit = ~0ull, range = ~0ull;
+  for (Device* d : devices) {
+    limit = std::min(limit, sparseBatchLimit(*d, bg, options.maxBatchBricks));
+    range = std::min(range, sparseRangeBricks(*d, bg));
+  }
+  std::uint64_t ownTarget = ~0ull;
+  if (!options.maxBatchBricks) {
+    const std::uint64_t pieces = n * std::max<std::uint32_t>(options.batchesPerDevice, 1);
+    ownTarget = std::max<std::uint64_t>(1, (active + pieces - 1) / pieces);
+  }
+  const std::vector<SparseBatch> batches = planSparseBatches(classified.layerStarts, limit, range, ownTarget);
+  s.batches = std::uint32_t(batches.size());
+  std::uint32_t maxLoaded = 0;
+  for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
+
+  // The other devices get the classification from the host (the first device's copy).
+  std::vector<std::uint32_t> scanWords, listWords;
+  if (!batches.empty()) {
+    scanWords.resize(bg.count() + 1);
+    listWords.resize(active);
+    first.download(classified.scan, scanWords.data(), scanWords.size() * 4);
+    first.download(classified.list, listWords.data(), listWords.size() * 4);
+  }
+
+  Queue q;
+  q.pieces.resize(batches.size());
+  q.window = 2 * n;
+  auto work = [&](std::size_t d) {
+    GpuStats& share = shares[d];
+    const auto busyStart = Clock::now();
+    try {
+      Device& device = *devices[d];
+      std::uint64_t tableBytes = 0;
+      Buffer scan, list;
+      if (d > 0) {
+        scan = makeSparseBuffer(device, scanWords.size() * 4, "brick flags", tableBytes);
+        list = makeSparseBuffer(device, listWords.size() * 4, "brick list", tableBytes);
+        device.upload(scan, scanWords.data(), scanWords.size() * 4);
+        device.upload(list, listWords.data(), listWords.size() * 4);
+      } else {
+        tableBytes = classified.bytes;
+      }
+      SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, d ? scan : classified.scan,
+                               d ? list : classified.list, maxLoaded, s.batches);
+      for (;;) {
+        std::size_t b = 0;
+        {
+          std::unique_lock lock(q.mutex);
+          q.changed.wait(lock, [&] { return q.error || q.next >= batches.size() || q.next < q.joined + q.window; });
+          if (q.error || q.next >= batches.size()) break;
+          b = q.next++;
+        }
+        mesh::TriMesh piece;
+        runner.run(batches[b], 0, piece, share);
+        ++share.batches;
+        {
+          std::lock_guard lock(q.mutex);
+          q.pieces[b] = std::move(piece);
+        }
+        q.changed.notify_all();
+      }
+      runner.deviceTimes(share);
+      share.deviceBytes = tableBytes + runner.sharedBytes() + runner.peakOutputBytes();
+    } catch (...) {
+      std::lock_guard lock(q.mutex);
+      if (!q.error) q.error = std::current_exception();
+      q.changed.notify_all();
+    }
+    share.seconds = since(busyStart);
+  };
+
+  mesh::TriMesh mesh;
+  {
+    std::vector<std::jthread> threads;
+    if (!batches.empty()) {
+      for (std::size_t d = 0; d < n; ++d) threads.emplace_back(work, d);
+    }
+    try {
+      for (std::size_t b = 0; b < batches.size(); ++b) {
+        mesh::TriMesh piece;
+        {
+          std::unique_lock lock(q.mutex);
+          q.changed.wait(lock, [&] { return q.error || q.pieces[b].has_value(); });
+          if (q.error) break;
+          piece = std::move(*q.pieces[b]);
+          q.pieces[b].reset();
+        }
+        join(mesh, piece);
+        {
+          std::lock_guard lock(q.mutex);
+          q.joined = b + 1;
+        }
+        q.changed.notify_all();
+      }
+    } catch (...) {
+      std::lock_guard lock(q.mutex);
+      if (!q.error) q.error = std::current_exception();
+      q.changed.notify_all();
+    }
+  }  // the device threads end here
+  if (q.error) std::rethrow_exception(q.error);
+
+  for (const GpuStats& share : shares) {
+    s.submits += share.submits;
+    s.fieldEvaluations += share.fieldEvaluations;
+    s.fieldSeconds += share.fieldSeconds;
+    s.extractSeconds += share.extractSeconds;
+    s.readbackSeconds += share.readbackSeconds;
+    s.deviceBytes = std::max(s.deviceBytes, share.deviceBytes);
+  }
+  s.seconds = since(wallStart);
+  s.hostSeconds = std::max(0.0, s.seconds - s.classifySeconds - s.fieldSeconds - s.extractSeconds - s.readbackSeconds);
+  if (stats) *stats = s;
+  if (perDevice) *perDevice = std::move(shares);
+  return mesh;
+}
+
+}  // namespace blobvk::vk

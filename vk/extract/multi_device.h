@@ -1,0 +1,35 @@
+// One mesh from several Vulkan devices (docs/vulkan.md, "Several devices"): the sparse
+// extraction's batches of brick layers (sparse_batches.h) spread over the devices, one thread
+// and one set of pipelines and buffers per device, joined in batch order. The split is the MPI
+// ranks' contract (apps/mesh_mpi.h) at batch granularity: who computes a batch never changes
+// its bytes, so the mesh is the one device's, byte for byte, whatever the devices and their speed.
+#pragma once
+
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/mesh/trimesh.h"
+#include "blobvk/vk/extract/polygonize.h"
+
+#include <span>
+#include <vector>
+
+namespace blobvk::vk {
+
+// The first device classifies the bricks and hands the classification (8 bytes per brick of the
+// grid, at most) to the others; then each device takes the next batch when it is free (a device
+// never runs more than 2 x devices batches ahead of the join, so finished pieces waiting for an
+// earlier batch stay bounded). With options.maxBatchBricks 0, batches end at the layer boundary
+// nearest an equal share, active bricks / (devices x options.batchesPerDevice), and within the
+// smallest of every device's memory limits (sparse_batches.h): each device obeys its own budget. The devices must
+// compute the same floats (the same driver, or drivers that give the same mesh alone) and be
+// distinct Device objects (two may share one VkPhysicalDevice). One device: polygonize().
+// Needs the sparse extraction (not options.sparse = false or tiledVertexPass); throws
+// VulkanError otherwise, and rethrows the first error of any device after stopping the others.
+// `stats`: the job (field, extract and read-back summed over the devices; submits, evaluations
+// summed; deviceBytes the most any one device held); `perDevice`: each device's own share
+// (batches, submits, its busy seconds, its device bytes).
+mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtree::Program& program,
+                                  const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options = {},
+                                  GpuStats* stats = nullptr, std::vector<GpuStats>* perDevice = nullptr);
+
+}  // namespace blobvk::vk

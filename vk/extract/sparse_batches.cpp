@@ -1,0 +1,345 @@
+#include "blobvk/vk/extract/sparse_batches.h"
+
+#include "blobvk/vk/device/device_timer.h"
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/eval/gpu_program.h"
+#include "blobvk/vk/extract/case_table.h"
+#include "blobvk/vk/extract/host_copy.h"
+#include "blobvk/vk/extract/scan.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
+#include <functional>
+#include <string>
+#include <type_traits>
+
+namespace blobvk::vk {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Work groups in y and z for one index per active brick (y <= 65535).
+struct BrickGroups {
+  std::uint32_t y = 1, z = 1;
+};
+BrickGroups brickGroups(std::uint32_t bricks) {
+  BrickGroups g;
+  g.y = std::max<std::uint32_t>(1, std::min<std::uint32_t>(bricks, 65535));
+  g.z = (bricks + g.y - 1) / g.y;
+  return g;
+}
+
+std::uint64_t perBrickBytes(const BrickGrid& bricks) {
+  const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
+  return R * R * R * 4 + R * R * 32 + B * B * 12;
+}
+
+// Device memory a batch of bricks may take: a quarter of the largest device-local heap.
+std::uint64_t sparseBatchBudget(Device& device) {
+  const auto& mp = device.memory().properties();
+  std::uint64_t largest = 0;
+  for (std::uint32_t h = 0; h < mp.memoryHeapCount; ++h) {
+    if (mp.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) largest = std::max(largest, mp.memoryHeaps[h].size);
+  }
+  return std::max<std::uint64_t>(largest / 4, 64ull << 20);
+}
+
+}  // namespace
+
+Buffer makeSparseBuffer(Device& device, std::uint64_t size, const char* what, std::uint64_t& bytes) {
+  const std::uint64_t range = device.info().limits.maxStorageBufferRange;
+  if (size > range) {
+    throw VulkanError(std::string("GPU polygonizer: the sparse extraction's ") + what + " need " +
+                      std::to_string(size >> 20) + " MiB, over the device's maxStorageBufferRange (" +
+                      std::to_string(range >> 20) + " MiB): use a smaller grid");
+  }
+  bytes += std::max<std::uint64_t>(size, 16);
+  return device.createBuffer(std::max<std::uint64_t>(size, 16));
+}
+
+std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks) {
+  const std::uint64_t R = (1ull << bricks.log2B) + 1;
+  const std::uint64_t range = device.info().limits.maxStorageBufferRange;
+  return std::min(range / (R * R * R * 4), range / (R * R * 16));
+}
+
+std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uint32_t maxBatchBricks) {
+  return std::min<std::uint64_t>(sparseRangeBricks(device, bricks),
+                                 maxBatchBricks ? maxBatchBricks
+                                                : std::max<std::uint64_t>(1, sparseBatchBudget(device) / perBrickBytes(bricks)));
+}
+
+std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts, std::uint64_t limit,
+                                           std::uint64_t rangeBricks, std::uint64_t ownTarget) {
+  std::vector<SparseBatch> batches;
+  const std::uint32_t layers = std::uint32_t(starts.size()) - 1;
+  for (std::uint32_t z = 0; z < layers;) {
+    if (starts[z + 1] == starts[z]) {
+      ++z;
+      continue;
+    }
+    auto loaded = [&](std::uint32_t end) { return starts[std::min(end + 1, layers)] - starts[z]; };
+    auto own = [&](std::uint32_t end) -> std::uint64_t { return starts[end] - starts[z]; };
+    // One more layer when it brings the batch's own bricks nearer the target.
+    auto nearer = [&](std::uint32_t end) {
+      if (own(end + 1) <= ownTarget) return true;
+      return own(end) < ownTarget && own(end + 1) - ownTarget < ownTarget - own(end);
+    };
+    std::uint32_t end = z + 1;
+    while (end < layers && loaded(end + 1) <= limit && nearer(end)) ++end;
+    if (loaded(end) > rangeBricks) {
+      throw VulkanError("GPU polygonizer: two brick layers hold " + std::to_string(loaded(end)) +
+                        " active bricks, over the " + std::to_string(rangeBricks) +
+                        " one storage buffer can hold (maxStorageBufferRange): use a smaller grid or bricks");
+    }
+    batches.push_back({starts[z], starts[end] - starts[z], loaded(end)});
+    z = end;
+  }
+  return batches;
+}
+
+struct SparseBatchRunner::State {
+  Device& device;
+  const blobtree::GridSpec grid;
+  const GpuPolygonizeOptions options;
+  const BrickGrid bg;
+  const Buffer& brickScan;
+  const Buffer& brickList;
+  UploadBatch uploads;  // the program and case table ride in the first batch's submit
+  GpuProgram gpu;
+  std::uint64_t bytes = 0, peakOutputBytes = 0;
+  Buffer batchBricks, field, cases, masks, edges, vertexSegments, vertexRows, triangleSegments, triangleRows,
+      segmentScratch, counts;
+  std::uint64_t vertexScratch = 0;
+  KernelPtr fieldKernel, vertexKernel;
+  DeviceTimer timer;
+  std::uint32_t runs = 0, maxBatches = 0;
+
+  State(Device& d, const blobtree::Program& program, const blobtree::GridSpec& g, const GpuPolygonizeOptions& o,
+        Traversal traversal, const BrickGrid& b, const Buffer& scan, const Buffer& list, std::uint32_t maxLoaded,
+        std::uint32_t batches)
+      : device(d), grid(g), options(o), bg(b), brickScan(scan), brickList(list), uploads(d),
+        gpu(uploadProgram(d, program, traversal, o.codegen)), timer(d, 6 * batches), maxBatches(batches) {
+    const std::uint64_t B = 1ull << bg.log2B, R = B + 1, P = R * R * R;
+    const std::uint64_t maxRows = std::uint64_t(maxLoaded) * R * R, maxCellRows = std::uint64_t(maxLoaded) * B * B;
+    auto make = [&](std::uint64_t size, const char* what) { return makeSparseBuffer(device, size, what, bytes); };
+    batchBricks = make(std::uint64_t(maxLoaded) * 4, "batch brick list");
+    field = make(std::uint64_t(maxLoaded) * P * 4, "field samples");
+    const std::vector<std::uint32_t>& words = packedCaseTable();
+    cases = make(words.size() * 4, "case table");
+    device.upload(cases, words.data(), words.size() * 4);
+    masks = make(maxRows * 4, "inside masks");
+    edges = make(maxRows * 16, "edge masks");
+    vertexSegments = make(maxRows * 4, "vertex segments");
+    vertexRows = make(maxRows * 8, "vertex segment rows");
+    triangleSegments = make(maxCellRows * 4, "triangle segments");
+    triangleRows = make(maxCellRows * 8, "triangle segment rows");
+    vertexScratch = scanScratchWords(maxRows);
+    segmentScratch = make((vertexScratch + scanScratchWords(maxCellRows) + 1) * 4, "segment scan scratch");
+    counts = device.createBuffer(16, MemoryUse::Readback);
+    fieldKernel = evaluatorKernel(device, gpu, "brick_field", o.workgroupSize, traversal);
+    vertexKernel = evaluatorKernel(device, gpu, "brick_vertices", o.workgroupSize, traversal);
+  }
+};
+
+SparseBatchRunner::SparseBatchRunner(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                     const GpuPolygonizeOptions& options, Traversal traversal, const BrickGrid& bricks,
+                                     const Buffer& brickScan, const Buffer& brickList, std::uint32_t maxLoaded,
+                                     std::uint32_t maxBatches)
+    : state_(std::make_unique<State>(device, program, grid, options, traversal, bricks, brickScan, brickList,
+                                     maxLoaded, maxBatches)) {}
+
+SparseBatchRunner::~SparseBatchRunner() = default;
+
+std::uint64_t SparseBatchRunner::sharedBytes() const { return state_->bytes; }
+std::uint64_t SparseBatchRunner::peakOutputBytes() const { return state_->peakOutputBytes; }
+
+bool SparseBatchRunner::deviceTimes(GpuStats& s) {
+  State& st = *state_;
+  if (!st.timer.enabled()) return false;
+  s.fieldSeconds = s.extractSeconds = 0.0;
+  for (std::uint32_t b = 0; b < st.runs; ++b) {
+    const std::uint32_t m = 6 * b;
+    s.fieldSeconds += st.timer.seconds(m, m + 1);
+    s.extractSeconds += st.timer.seconds(m + 1, m + 2) + st.timer.seconds(m + 3, m + 4);
+    s.readbackSeconds += st.timer.seconds(m + 4, m + 5);
+  }
+  return true;
+}
+
+void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, mesh::TriMesh& mesh, GpuStats& s) {
+  State& st = *state_;
+  if (st.runs >= st.maxBatches) throw VulkanError("GPU polygonizer: more batches run than the runner was made for");
+  Device& device = st.device;
+  const GpuPolygonizeOptions& options = st.options;
+  const BrickGrid& bg = st.bg;
+  const GpuProgram& gpu = st.gpu;
+  const auto pb = gpu.bindings();
+  const std::uint32_t B = 1u << bg.log2B, R = B + 1, P = R * R * R, wg = options.workgroupSize;
+  const std::array<std::uint32_t, 1> wgSpec{wg};
+  const float originCell[4] = {st.grid.origin.x, st.grid.origin.y, st.grid.origin.z, st.grid.cellSize};
+  const std::uint32_t cells[4] = {std::uint32_t(st.grid.cells.x), std::uint32_t(st.grid.cells.y),
+                                  std::uint32_t(st.grid.cells.z), bg.log2B};
+  const std::uint32_t run = st.runs++, mark = 6 * run, loaded = batch.loadedActive;
+  const BrickGroups bgroups = brickGroups(loaded);
+  const std::uint64_t rowCount = std::uint64_t(loaded) * R * R;
+  const std::uint64_t triangleSegmentCount = std::uint64_t(loaded) * B * B;
+  const std::uint32_t rowGroups = (R * R + wg - 1) / wg;
+  s.fieldEvaluations += std::uint64_t(loaded) * P;
+  auto submit = [&](const std::function<void(Recorder&)>& record) {
+    device.run(record);
+    ++s.submits;
+  };
+
+  // 3-5: the field at the batch's points; inside masks per row of points, crossing edges and
+  // counts per row; the two scans; the counts of the layers the batch emits.
+  auto t0 = Clock::now();
+  submit([&](Recorder& rec) {
+    if (run == 0) st.timer.reset(rec);
+    rec.computeBarrier();  // the last batch's reads and writes of the shared buffers come first
+    st.timer.mark(rec, mark);
+    rec.copy(st.brickList, 4ull * batch.activeBase, st.batchBricks, 0, 4ull * loaded);
+    rec.computeBarrier();
+    {
+      struct {
+        float originCell[4];
+        std::uint32_t log2B, activeBricks, codeLength;
+      } push{{originCell[0], originCell[1], originCell[2], originCell[3]}, bg.log2B, loaded, gpu.codeLength};
+      const BufferRange bind[7] = {pb[0], pb[1], pb[2], pb[3], pb[4], st.batchBricks, st.field};
+      rec.dispatch(*st.fieldKernel, bind, &push, sizeof(push), (P + wg - 1) / wg, bgroups.y, bgroups.z);
+    }
+    rec.computeBarrier();
+    st.timer.mark(rec, mark + 1);
+    {
+      const std::uint32_t push[2] = {bg.log2B, loaded};
+      const BufferRange bind[2] = {st.field, st.masks};
+      rec.dispatch(*device.kernel("brick_masks", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
+    }
+    rec.computeBarrier();
+    {
+      const std::uint32_t push[9] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded,
+                                     batch.activeBase};
+      const BufferRange bind[9] = {st.masks,           st.batchBricks,      st.cases,
+                                   st.edges,           st.vertexSegments,   st.vertexRows,
+                                   st.triangleSegments, st.triangleRows,    st.brickScan};
+      rec.dispatch(*device.kernel("brick_rows", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
+    }
+    rec.computeBarrier();
+    recordExclusiveScan(rec, st.vertexSegments.handle(), 0, std::uint32_t(rowCount), st.segmentScratch.handle(), 0,
+                        st.counts.handle(), 0);
+    rec.computeBarrier();  // the scans share the scratch and totals buffers (see slab_polygonizer.cpp)
+    recordExclusiveScan(rec, st.triangleSegments.handle(), 0, std::uint32_t(triangleSegmentCount),
+                        st.segmentScratch.handle(), std::uint32_t(st.vertexScratch), st.counts.handle(), 1);
+    rec.computeBarrier();
+    if (batch.ownActive < loaded) {  // where the next layer's segments start
+      rec.copy(st.vertexSegments, 4ull * batch.ownActive * R * R, st.counts, 8, 4);
+      rec.copy(st.triangleSegments, 4ull * batch.ownActive * B * B, st.counts, 12, 4);
+    }
+    st.timer.mark(rec, mark + 2);
+    rec.hostBarrier();
+  });
+  std::uint32_t c[4] = {0, 0, 0, 0};
+  device.download(st.counts, c, 16);
+  const std::uint32_t vertices = batch.ownActive < loaded ? c[2] : c[0];
+  const std::uint32_t triangles = batch.ownActive < loaded ? c[3] : c[1];
+  if (vertexBase + vertices > 0xffffffffull) {
+    throw VulkanError("GPU polygonizer: the mesh has more than 2^32 vertices (32-bit indices): use a smaller grid");
+  }
+  s.extractSeconds += since(t0);
+
+  // 6-7: the batch's vertices and triangles, copied in the same submit into one read-back
+  // buffer (skipped where the device buffers are host-readable, as on lavapipe).
+  t0 = Clock::now();
+  std::uint64_t outBytes = 0;
+  auto make = [&](std::uint64_t size, const char* what) { return makeSparseBuffer(device, size, what, outBytes); };
+  Buffer positions = make(std::uint64_t(vertices) * 12, "vertex positions");
+  Buffer normals = make(options.normals ? std::uint64_t(vertices) * 12 : 16, "vertex normals");
+  Buffer colours = make(options.colours ? std::uint64_t(vertices) * 12 : 16, "vertex colours");
+  Buffer keys = make(std::uint64_t(vertices) * 8, "edge keys");
+  Buffer indices = make(std::uint64_t(triangles) * 12, "triangle indices");
+  // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
+  static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
+  auto append = [](auto& vec, std::uint64_t count) {
+    return [&vec, count](const void* from) {
+      using T = typename std::remove_reference_t<decltype(vec)>::value_type;
+      static_assert(std::is_trivially_copyable_v<T>);
+      appendParallel(vec, static_cast<const T*>(from), count);
+    };
+  };
+  struct Output {
+    const Buffer* buffer;
+    std::uint64_t bytes;
+    std::function<void(const void*)> fill;
+    std::uint64_t offset = 0;  // in the read-back buffer
+  };
+  std::vector<Output> outputs{{&positions, vertices * 12ull, append(mesh.positions, vertices)},
+                              {&keys, vertices * 8ull, append(mesh.edgeKeys, vertices)},
+                              {&indices, triangles * 12ull, append(mesh.triangles, triangles)}};
+  if (options.normals) outputs.push_back({&normals, vertices * 12ull, append(mesh.normals, vertices)});
+  if (options.colours) outputs.push_back({&colours, vertices * 12ull, append(mesh.colours, vertices)});
+  std::uint64_t stagingBytes = 0;
+  for (Output& o : outputs) {
+    if (o.buffer->hostReadable() || o.bytes == 0) continue;
+    o.offset = stagingBytes;
+    stagingBytes += (o.bytes + 15) / 16 * 16;
+  }
+  Buffer staging = stagingBytes ? device.createBuffer(stagingBytes, MemoryUse::Readback) : Buffer{};
+  st.peakOutputBytes = std::max(st.peakOutputBytes, outBytes);
+  submit([&](Recorder& rec) {
+    rec.computeBarrier();
+    st.timer.mark(rec, mark + 3);
+    if (vertices) {
+      struct {
+        float originCell[4];
+        std::uint32_t codeLength, refineSteps, attributes;
+        float normalStep;
+        std::uint32_t log2B, segments, vertices, nx, ny;
+      } push{{originCell[0], originCell[1], originCell[2], originCell[3]},
+             gpu.codeLength,
+             std::uint32_t(std::max(options.refineSteps, 0)),
+             (options.normals ? 1u : 0u) | (options.colours ? 2u : 0u),
+             options.normalStep,
+             bg.log2B,
+             std::uint32_t(rowCount),
+             vertices,
+             std::uint32_t(st.grid.cells.x + 1),
+             std::uint32_t(st.grid.cells.y + 1)};
+      const BufferRange bind[14] = {pb[0],          pb[1],          pb[2],         pb[3],     pb[4],
+                                    st.field,       st.edges,       st.batchBricks, st.vertexSegments,
+                                    st.vertexRows,  positions,      normals,       colours,   keys};
+      const Groups g = groupsFor(vertices, wg);
+      rec.dispatch(*st.vertexKernel, bind, &push, sizeof(push), g.x, g.y);
+    }
+    if (triangles) {
+      struct {
+        std::uint32_t cells[4], bricks[4];
+        std::uint32_t segments, triangles, activeBase, vertexBase;
+      } push{{cells[0], cells[1], cells[2], cells[3]}, {bg.x, bg.y, bg.z, loaded},
+             std::uint32_t(triangleSegmentCount), triangles, batch.activeBase, std::uint32_t(vertexBase)};
+      const BufferRange bind[9] = {st.masks,         st.cases,        st.edges,       st.vertexSegments, st.triangleSegments,
+                                   st.triangleRows,  st.batchBricks,  indices,        st.brickScan};
+      const Groups g = groupsFor(triangles, wg);
+      rec.dispatch(*device.kernel("brick_triangles", wgSpec), bind, &push, sizeof(push), g.x, g.y);
+    }
+    rec.computeBarrier();
+    st.timer.mark(rec, mark + 4);
+    for (const Output& o : outputs) {
+      if (!o.buffer->hostReadable() && o.bytes) rec.copy(*o.buffer, 0, staging, o.offset, o.bytes);
+    }
+    st.timer.mark(rec, mark + 5);
+    rec.hostBarrier();
+  });
+  s.extractSeconds += since(t0);
+
+  t0 = Clock::now();
+  for (const Output& o : outputs) {
+    if (o.bytes == 0) continue;
+    o.fill(o.buffer->hostReadable() ? o.buffer->mapped() : static_cast<const char*>(staging.mapped()) + o.offset);
+  }
+  s.readbackSeconds += since(t0);
+}
+
+}  // namespace blobvk::vk

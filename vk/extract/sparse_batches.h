@@ -1,0 +1,78 @@
+// The sparse extraction's batches of brick layers (docs/vulkan.md, "Sparse extraction"): how the
+// classified active bricks are cut into batches, and the per-device machinery that runs one
+// batch (field, masks, rows, scans, vertices, triangles, read-back). A batch is an independent
+// unit of work: given the classification (the scanned brick flags and the active-brick list) it
+// produces its vertices and its triangles with indices counted from its own first vertex, so
+// batches can run on any device in any order and be joined in batch order (multi_device.h).
+#pragma once
+
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/mesh/trimesh.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/sparse_polygonizer.h"
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace blobvk::vk {
+
+// Whole brick layers run together, holding one layer more than they emit: a triangle of the last
+// layer may use a vertex that the next layer's bricks own, whose index comes from that layer's
+// scanned segments.
+struct SparseBatch {
+  std::uint32_t activeBase = 0;    // the batch's first active brick (in (bz, by, bx) order)
+  std::uint32_t ownActive = 0;     // active bricks whose vertices and triangles it emits
+  std::uint32_t loadedActive = 0;  // ... plus the next layer's, whose segments it scans
+};
+
+// Active bricks per batch that fit `device`: its storage-buffer range and a quarter of its
+// largest device-local heap (or `maxBatchBricks` when that is smaller and not 0).
+std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uint32_t maxBatchBricks);
+
+// Cuts the active bricks into batches of whole layers of at most `limit` loaded bricks (a batch
+// of one layer may load more: it throws when that is over `rangeBricks`, what one storage buffer
+// holds). `layerStarts[z]` is the first active brick of layer z, `layerStarts[layers]` the count.
+// `ownTarget` (several devices): a batch also ends at the layer boundary nearest to that many
+// bricks of its own, so the batches carry about equal work.
+std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> layerStarts, std::uint64_t limit,
+                                           std::uint64_t rangeBricks, std::uint64_t ownTarget = ~0ull);
+// What one storage buffer can hold, in active bricks of `bricks`' size, on `device`.
+std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks);
+
+// A device buffer of `size` bytes (at least 16) for the sparse extraction's `what`, added to
+// `bytes`; throws naming `what` when it is over the device's maxStorageBufferRange.
+Buffer makeSparseBuffer(Device& device, std::uint64_t size, const char* what, std::uint64_t& bytes);
+
+// Runs batches on one device. The brick tables are the classification's (scanned flags, bricks
+// + 1 words; active-brick list) on this device; they and the device must outlive the runner.
+// `traversal` must be resolved (not Auto) and the same on every device of a job.
+class SparseBatchRunner {
+ public:
+  SparseBatchRunner(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                    const GpuPolygonizeOptions& options, Traversal traversal, const BrickGrid& bricks,
+                    const Buffer& brickScan, const Buffer& brickList, std::uint32_t maxLoaded,
+                    std::uint32_t maxBatches);
+  ~SparseBatchRunner();
+  SparseBatchRunner(const SparseBatchRunner&) = delete;
+  SparseBatchRunner& operator=(const SparseBatchRunner&) = delete;
+
+  // Two submits: appends the batch's vertices (positions, normals, colours, edge keys) and its
+  // triangles, indices offset by `vertexBase`, to `out`. Adds to the stats' field evaluations,
+  // submits and wall-time phases. At most `maxBatches` calls.
+  void run(const SparseBatch& batch, std::uint64_t vertexBase, mesh::TriMesh& out, GpuStats& stats);
+  // Device time of the batches run (when the queue has timestamps): replaces the stats' field
+  // and extract seconds with it and adds the read-back copies; returns false without timestamps.
+  bool deviceTimes(GpuStats& stats);
+  // Device bytes: the per-brick buffers, and the largest batch's outputs.
+  std::uint64_t sharedBytes() const;
+  std::uint64_t peakOutputBytes() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace blobvk::vk
