@@ -120,6 +120,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     if (settings.brickCells > 0) options.brickCells = std::uint32_t(settings.brickCells);
     options.sparse = !settings.dense;
     options.tiledVertexPass = settings.tiledVertices;
+    options.expectedRuns = std::uint32_t(std::max(settings.expectedRuns, 1));
     vk::GpuStats gpu;
     mesh = vk::polygonize(context.device(), program, grid, options, &gpu);
     evaluations = double(gpu.fieldEvaluations);

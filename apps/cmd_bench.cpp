@@ -105,6 +105,7 @@ void addBenchCommand(CLI::App& app) {
             settings.brickCells = a->brickCells;
             settings.dense = a->dense;
             settings.tiledVertices = a->tiledVertices;
+            settings.expectedRuns = a->warmup + a->repeats;
             Row row{path, backend == "vk" ? backend + "-" + traversal : backend, resolution, threads};
             std::vector<std::pair<double, PolygonizeStats::Phases>> times;
             mesh::TriMesh last;

@@ -133,17 +133,22 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   s.bricks = std::uint32_t(bg.count());
 
   Traversal traversal = options.traversal;
+  std::optional<CodegenOptions> codegen;
+  if (options.codegen) codegen = *options.codegen;
   if (traversal == Traversal::Auto) {
     EvaluatorJob job;
     job.vertexPass = true;
     job.refineSteps = options.refineSteps;
+    job.repeats = std::max<std::uint32_t>(options.expectedRuns, 1);
     job.tiling.maxTiles = 1;
-    const CodegenOptions codegen = options.codegen ? *options.codegen : defaultCodegenOptions(device);
-    traversal = chooseEvaluator(device, program, grid, job, codegen).chosen.traversal;
+    if (!codegen) codegen = defaultCodegenOptions(device);
+    const EvaluatorEstimate chosen = chooseEvaluator(device, program, grid, job, *codegen).chosen;
+    traversal = chosen.traversal;
+    codegen->gradient = chosen.vertexGradient;
   }
   // Uploads (the program, the case table) ride in the next submit instead of their own.
   UploadBatch uploads(device);
-  const GpuProgram gpu = uploadProgram(device, program, traversal, options.codegen);
+  const GpuProgram gpu = uploadProgram(device, program, traversal, codegen ? &*codegen : nullptr);
   const auto pb = gpu.bindings();
   // The classification interprets the register code; the stack-based traversal uploads a tree
   // encoding instead, so the classification gets the register code of its own.
