@@ -156,6 +156,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     options.sparse = !settings.dense;
     options.tiledVertexPass = settings.tiledVertices;
     if (settings.batchesPerDevice > 0) options.batchesPerDevice = std::uint32_t(settings.batchesPerDevice);
+    options.expectedRuns = std::uint32_t(std::max(settings.expectedRuns, 1));
     vk::GpuStats gpu;
     if (contexts.size() == 1) {
       mesh = vk::polygonize(contexts[0]->device(), program, grid, options, &gpu);

@@ -41,6 +41,7 @@ struct PolygonizeSettings {
   int brickCells = 0;           // vk: cells per brick edge of the sparse extraction (0: default)
   bool dense = false;           // vk: the dense z-slab extraction instead of the sparse one
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
+  int expectedRuns = 1;         // vk: runs of this job the caller makes (bench: warm-up + repeats)
   // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads.
   std::function<void(std::size_t done, std::size_t total)> progress;
 };

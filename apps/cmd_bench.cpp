@@ -118,6 +118,7 @@ void addBenchCommand(CLI::App& app) {
             settings.brickCells = a->brickCells;
             settings.dense = a->dense;
             settings.tiledVertices = a->tiledVertices;
+            settings.expectedRuns = a->warmup + a->repeats;
             const std::string label = backend == "vk" ? backend + "-" + traversal + (devices.empty() ? "" : "@" + devices) : backend;
             Row row{path, label, resolution, threads};
             std::vector<std::pair<double, PolygonizeStats::Phases>> times;

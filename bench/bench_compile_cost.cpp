@@ -125,7 +125,7 @@ void buildCost(benchmark::State& state, Size size, Evaluator e) {
     }
     emitted = vk::specialisedCodeSize(program, {}, codegen.loops);
     const double predicted = vk::specialisedKernelSeconds(emitted, 1.0) +
-                             vk::specialisedKernelSeconds(emitted, vk::costs::kVertexKernelCopies);
+                             vk::specialisedKernelSeconds(emitted, vk::costs::kGradientVertexKernelCopies);
     if (predicted > 60.0) {
       std::string why("predicted ");
       why.append(std::to_string(int(predicted))).append(" s to build");

@@ -1,12 +1,16 @@
 // The analytic gradient of a Program (field, gradient and colour in one pass): GLSL twin of
-// blobtree/evaluate_gradient.cpp, same formulas in the same order. Used at vertices only
-// (vertex_emit.glsl), so it is a plain interpreter over the Program's buffers whichever evaluator
-// computed the grid: kernels built around the specialised evaluator (vk/eval/program_codegen.h)
-// still have the register code and records bound (vk::uploadProgram puts the instructions first).
+// blobtree/evaluate_gradient.cpp, same formulas (eval_gradient_formulas.glsl) in the same order.
+// Used at vertices only (edge_vertex.glsl). This file is the interpreter over the Program's
+// buffers: kernels built around the interpreter use it, and so do kernels built around specialised
+// code that brings no gradient of its own (the specialised evaluator's register code and records
+// are still bound: vk::uploadProgram puts the instructions first). Specialised code that generates
+// its gradient (vk/eval/gradient_codegen.h) defines BLOBVK_GENERATED_GRADIENT and its own
+// evaluateGradient, and this file adds nothing.
 // The stack-based traversal uploads a tree encoding instead; its kernels keep central differences.
 // Include after eval_program.glsl or the generated evaluator, with PROGRAM_SET/PROGRAM_BINDING set.
 #ifndef BLOBVK_EVAL_GRADIENT_GLSL
 #define BLOBVK_EVAL_GRADIENT_GLSL
+#ifndef BLOBVK_GENERATED_GRADIENT
 
 #include "program_layout.h"
 
@@ -41,17 +45,9 @@ layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 3) readonly buffer
 layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 4) readonly buffer GradientWarps { WarpRecord programWarps[]; };
 #endif
 
-// M^T g for a matrix record's rows.
-precise vec3 transposeTimesRows(vec4 r0, vec4 r1, vec4 r2, vec3 g) {
-  return vec3(r0.x * g.x + r1.x * g.y + r2.x * g.z, r0.y * g.x + r1.y * g.y + r2.y * g.z,
-              r0.z * g.x + r1.z * g.y + r2.z * g.z);
-}
-
-// Row-major Jacobians as three rows (j[i] = d out_i / d in).
-precise vec3 jacobianTransposeTimes(vec3 j0, vec3 j1, vec3 j2, vec3 g) {
-  return vec3(j0.x * g.x + j1.x * g.y + j2.x * g.z, j0.y * g.x + j1.y * g.y + j2.y * g.z,
-              j0.z * g.x + j1.z * g.y + j2.z * g.z);
-}
+#define GRADIENT_FORMULA_HAS_PRIM(t) GRAD_HAS_PRIM(t)
+#define GRADIENT_FORMULA_HAS_WARP(t) GRAD_HAS_WARP(t)
+#include "eval_gradient_formulas.glsl"
 
 // Field of primitive `index` at p; its gradient (in p's space) in `grad`.
 precise float primitiveGradient(uint index, vec3 p, out vec3 grad) {
@@ -61,77 +57,14 @@ precise float primitiveGradient(uint index, vec3 p, out vec3 grad) {
     MatrixRecord m = programMatrices[meta.y];
     p = toLocalRows(m.r0, m.r1, m.r2, p);
   }
-  vec3 p0 = programPrims[index].p0.xyz;
-  vec4 p1 = programPrims[index].p1;
-  vec4 p2 = programPrims[index].p2;
-  // precise on everything the gradient depends on: it leaves through an out parameter, which the
-  // return value's `precise` does not reach (test_no_contraction audits the SPIR-V).
-  precise vec3 d = p - p0;
-  precise float dd = 1.0;
-  precise vec3 dg = vec3(0.0);
   precise vec3 g_;
-  precise float field;
-  uint type = meta.x;
-  if (GRAD_HAS_PRIM(PRIM_POINT) && type == PRIM_POINT) {
-    dd = dot3(d, d);
-    dg = d * 2.0;
-  } else if (GRAD_HAS_PRIM(PRIM_LINE) && type == PRIM_LINE) {
-    float t = clamp(dot3(d, p1.xyz) * p1.w, 0.0, 1.0);
-    vec3 e = d - p1.xyz * t;
-    dd = dot3(e, e);
-    dg = e * 2.0;
-  } else if ((GRAD_HAS_PRIM(PRIM_CYLINDER) && type == PRIM_CYLINDER) || (GRAD_HAS_PRIM(PRIM_DISC) && type == PRIM_DISC) ||
-             (GRAD_HAS_PRIM(PRIM_RING) && type == PRIM_RING)) {
-    vec3 n = p1.xyz;
-    float y = dot3(d, n);
-    float r2 = max(dot3(d, d) - y * y, 0.0);
-    float rl = sqrt(r2);
-    if (GRAD_HAS_PRIM(PRIM_CYLINDER) && type == PRIM_CYLINDER) {
-      float x = max(rl - p2.x, 0.0);
-      float below = -y, above = y - p2.y;
-      float h = max(max(below, above), 0.0);
-      dd = x * x + h * h;
-      float cx = x > 0.0 ? 2.0 * x / rl : 0.0;
-      float ch = h > 0.0 ? (below < above ? 2.0 * h : -2.0 * h) : 0.0;
-      dg = (d - n * y) * cx + n * ch;
-    } else {
-      float radial = type == PRIM_DISC ? max(rl - p2.x, 0.0) : rl - p2.x;
-      dd = radial * radial + y * y;
-      bool radialGradient = type == PRIM_DISC ? radial > 0.0 : rl > 0.0;
-      float cr = radialGradient ? 2.0 * radial / rl : 0.0;
-      dg = (d - n * y) * cr + n * (2.0 * y);
-    }
-  } else if (GRAD_HAS_PRIM(PRIM_CUBE) && type == PRIM_CUBE) {
-    vec3 e = max(abs(d) - p1.xyz, vec3(0.0));
-    dd = dot3(e, e);
-    dg = vec3(d.x < 0.0 ? -2.0 * e.x : 2.0 * e.x, d.y < 0.0 ? -2.0 * e.y : 2.0 * e.y,
-              d.z < 0.0 ? -2.0 * e.z : 2.0 * e.z);
-  } else if (GRAD_HAS_PRIM(PRIM_TRIANGLE) && type == PRIM_TRIANGLE) {
-    vec3 e = p - triangleClosest(p, p0, p1.xyz, p2.xyz);
-    dd = dot3(e, e);
-    dg = e * 2.0;
-  } else if (GRAD_HAS_PRIM(PRIM_QUADRIC) && type == PRIM_QUADRIC) {
-    dd = dot3(d, d);
-    float t = 1.0 - dd;
-    bool inside = dd < 1.0;
-    g_ = inside ? d * (2.0 * (-2.0 * programPrims[index].p0.w * t)) : vec3(0.0);  // S t^2: -2 S t
-    if (matrix) {
-      MatrixRecord m = programMatrices[meta.y];
-      g_ = transposeTimesRows(m.r0, m.r1, m.r2, g_);
-    }
-    grad = g_;
-    field = inside ? programPrims[index].p0.w * t * t : 0.0;
-    return field;
-  }
-  float t = 1.0 - dd;
-  bool inside = dd < 1.0;
-  g_ = inside ? dg * (-3.0 * t * t) : vec3(0.0);
+  precise float field = primitiveGradientOf(meta.x, p, programPrims[index].p0, programPrims[index].p1,
+                                            programPrims[index].p2, g_);
   if (matrix) {
     MatrixRecord m = programMatrices[meta.y];
     g_ = transposeTimesRows(m.r0, m.r1, m.r2, g_);
   }
   grad = g_;
-  field = inside ? t * t * t : 0.0;
   return field;
 }
 
@@ -144,48 +77,7 @@ precise vec3 applyWarpJacobian(uint index, vec3 p, inout vec3 j0, inout vec3 j1,
     p = toLocalRows(m.r0, m.r1, m.r2, p);
     jin = transpose(mat3(m.r0.xyz, m.r1.xyz, m.r2.xyz)) * jin;
   }
-  uint a = warp.meta.y, b = warp.meta.z;
-  float k = warp.params.x;
-  precise mat3 w = mat3(1.0);  // w[col][row]
-  if (GRAD_HAS_WARP(WARP_TWIST) && warp.meta.x == WARP_TWIST) {
-    uint u = (a + 1u) % 3u, v = (a + 2u) % 3u;
-    p = warpTwist(p, a, k);
-    float theta = k * p[a];
-    float c = cos(theta), s = sin(theta);
-    w[u][u] = c;
-    w[v][u] = -s;
-    w[a][u] = -k * p[v];
-    w[u][v] = s;
-    w[v][v] = c;
-    w[a][v] = k * p[u];
-  } else if (GRAD_HAS_WARP(WARP_TAPER) && warp.meta.x == WARP_TAPER) {
-    w[b][b] = 1.0 + k * p[a];
-    w[a][b] = k * p[b];
-    p = warpTaper(p, a, b, k);
-  } else if (GRAD_HAS_WARP(WARP_SHEAR) && warp.meta.x == WARP_SHEAR) {
-    p = warpShear(p, a, b, k);
-    w[b][a] = k;
-  } else if (GRAD_HAS_WARP(WARP_BEND) && warp.meta.x == WARP_BEND && k != 0.0) {
-    vec4 params = warp.params;
-    float y = p[a], z = p[b];
-    float yc = clamp(y, params.z, params.w);
-    float theta = k * (yc - params.y);
-    float c = cos(theta), s = sin(theta);
-    float invK = 1.0 / k;
-    float beyond = y - yc;
-    p = warpBend(p, a, b, params);
-    bool bent = y > params.z && y < params.w;
-    float dTheta = bent ? k : 0.0, dBeyond = bent ? 0.0 : 1.0;
-    w[a][a] = -c * dTheta * (z - invK) - s * dTheta * beyond + c * dBeyond;
-    w[a][b] = -s * dTheta * (z - invK) + c * dTheta * beyond + s * dBeyond;
-    w[b][a] = -s;
-    w[b][b] = c;
-  }
-  precise mat3 jout = transpose(w * jin);
-  j0 = jout[0];
-  j1 = jout[1];
-  j2 = jout[2];
-  return p;
+  return warpJacobianOf(warp.meta.x, warp.meta.y, warp.meta.z, warp.params, p, jin, 0.0, j0, j1, j2);
 }
 
 // Field at p, its gradient and (when wanted) its colour: blobtree::evaluateGradientColour.
@@ -291,4 +183,5 @@ precise float evaluateGradient(vec3 p, uint n, bool wantColour, out vec3 gradien
   return n > 0u ? r0 : 0.0;
 }
 
+#endif  // !BLOBVK_GENERATED_GRADIENT
 #endif  // BLOBVK_EVAL_GRADIENT_GLSL

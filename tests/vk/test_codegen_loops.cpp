@@ -230,7 +230,9 @@ TEST(EvaluatorChoice, BuiltKernelsAreASunkCost) {
   for (std::size_t i = 0; i < warm.candidates.size(); ++i) {
     EXPECT_EQ(warm.candidates[i].buildSeconds, 0.0);
     EXPECT_GT(cold.candidates[i].buildSeconds, 0.0);
-    EXPECT_EQ(warm.candidates[i].runSeconds, cold.candidates[i].runSeconds);
+    // With nothing to build, a candidate may take the vertex kernel with the generated gradient,
+    // which the cold job's memory bound rules out: never slower.
+    EXPECT_LE(warm.candidates[i].runSeconds, cold.candidates[i].runSeconds);
   }
   EXPECT_EQ(warm.chosen.traversal, vk::Traversal::Specialised);
   // Only the interpreter's field kernel built: the interpreter's field costs nothing to build,

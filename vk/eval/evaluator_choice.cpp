@@ -54,8 +54,11 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
   EvaluatorChoice choice;
   // Build seconds of a kernel unless the device holds it already (sunk).
   auto isBuilt = [&](const char* shader, const CodegenOptions* c) { return built && built(shader, c); };
+  // The generator options of the kernels the specialised candidates build (set below, once the
+  // vertex kernel's gradient is decided: it is part of every kernel's fingerprint).
+  CodegenOptions chosenCodegen = codegen;
   auto tileCodegen = [&](const PointRegion& region) {
-    CodegenOptions c = codegen;
+    CodegenOptions c = chosenCodegen;
     c.region = region;
     return c;
   };
@@ -109,21 +112,47 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
 
   const bool wholeFits = canSpecialise(program, {}, codegen.loops);
   const Kernel whole = wholeFits ? kernelFor({}) : Kernel{};
-  // The vertex kernel: the whole program specialised, else the interpreter.
-  const bool vertexBuilt = job.vertexPass && (wholeFits ? isBuilt("vertices", &codegen) : isBuilt("vertices", nullptr));
-  const double vertexBuild = !job.vertexPass || vertexBuilt ? 0.0
-                             : wholeFits ? kernelSeconds(whole, kVertexKernelCopies)
-                                         : kInterpreterKernelSeconds;
-  const double vertexMegabytes =
-      job.vertexPass && wholeFits && !vertexBuilt ? buildMegabytes(whole.size * kVertexKernelCopies) : 0.0;
-  const bool wholeFieldBuilt = wholeFits && isBuilt("field_grid", &codegen);
-  const double vertexRun = (wholeFits ? evaluationSeconds(whole, meanBranchCost, wholeCost)
-                                      : kInterpreterSecondsPerInstruction * meanBranchCost) *
-                           vertexEvaluations;
+  // The vertex kernel: the whole program specialised, else the interpreter. Unrolled code
+  // either generates the gradient (a larger kernel, a faster vertex pass) or interprets it; the
+  // variant that fits the memory bound and costs less over the job's repeats is taken.
+  struct VertexKernel {
+    bool gradient = false;
+    double build = 0.0, megabytes = 0.0, run = 0.0;
+  };
+  const double vertices = job.vertexPass ? kVerticesPerSurfacePoint * std::pow(points, 2.0 / 3.0) : 0.0;
+  auto vertexKernel = [&](bool gradient) {
+    VertexKernel v;
+    v.gradient = gradient;
+    if (!job.vertexPass) return v;
+    CodegenOptions c = codegen;
+    c.gradient = gradient;
+    const bool built = wholeFits ? isBuilt("vertices", &c) : isBuilt("vertices", nullptr);
+    const double copies = gradient ? kGradientVertexKernelCopies : kVertexKernelCopies;
+    const double memoryCopies = gradient ? kGradientVertexKernelMemoryCopies : kVertexKernelCopies;
+    v.build = built ? 0.0 : wholeFits ? kernelSeconds(whole, copies) : kInterpreterKernelSeconds;
+    v.megabytes = wholeFits && !built ? buildMegabytes(whole.size * memoryCopies) : 0.0;
+    v.run = (wholeFits ? evaluationSeconds(whole, meanBranchCost, wholeCost)
+                       : kInterpreterSecondsPerInstruction * meanBranchCost) *
+            vertexEvaluations;
+    if (!gradient) v.run += kInterpreterSecondsPerInstruction * meanBranchCost * kInterpretedGradientEvaluations * vertices;
+    return v;
+  };
+  VertexKernel vertex = vertexKernel(false);
+  if (!job.vertexPass) vertex.gradient = codegen.gradient;  // no vertex kernel: as the caller asked
+  if (job.vertexPass && codegen.gradient && wholeFits && !whole.looped) {  // looped code generates none
+    const VertexKernel generated = vertexKernel(true);
+    if (generated.megabytes <= kMaxBuildMegabytes &&
+        generated.build + job.repeats * generated.run < vertex.build + job.repeats * vertex.run)
+      vertex = generated;
+  }
+  const double vertexBuild = vertex.build, vertexMegabytes = vertex.megabytes, vertexRun = vertex.run;
+  chosenCodegen.gradient = vertex.gradient;
+  const bool wholeFieldBuilt = wholeFits && isBuilt("field_grid", &chosenCodegen);
   if (wholeFits) {
     EvaluatorEstimate e;
     e.traversal = Traversal::Specialised;
     e.fieldKernels = 1;
+    e.vertexGradient = vertex.gradient;
     e.buildSeconds = (wholeFieldBuilt ? 0.0 : kernelSeconds(whole, 1.0)) + vertexBuild;
     e.buildMegabytes = std::max(wholeFieldBuilt ? 0.0 : buildMegabytes(whole.size), vertexMegabytes);
     e.runSeconds = (whole.looped ? kLoopedSecondsPerInstruction * branchWork : kSpecialisedSecondsPerCost * wholeCost * points) +
@@ -136,6 +165,7 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     EvaluatorEstimate tiled;
     tiled.traversal = Traversal::Specialised;
     tiled.fieldKernels = std::uint32_t(tiles.size());
+    tiled.vertexGradient = vertex.gradient;
     bool shared = false, own = false;
     for (const FieldTile& t : tiles) {
       if (specialiseTile(program, t.region, codegen.loops)) {

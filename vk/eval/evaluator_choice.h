@@ -32,6 +32,9 @@ struct EvaluatorJob {
 struct EvaluatorEstimate {
   Traversal traversal = Traversal::Stackless;
   std::uint32_t fieldKernels = 1;  // specialised: 1 = one kernel for the grid; more = per tile
+  // Specialised unrolled code: the vertex kernel runs the generated gradient (CodegenOptions::
+  // gradient), or interprets it where that kernel's build would cost more than it saves.
+  bool vertexGradient = true;
   double buildSeconds = 0.0, runSeconds = 0.0;
   double buildMegabytes = 0.0;  // peak memory of its largest kernel build, beyond the process's
   double total(std::uint32_t repeats) const { return buildSeconds + repeats * runSeconds; }

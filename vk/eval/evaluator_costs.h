@@ -42,6 +42,21 @@ inline constexpr double kSpecialisedSecondsPerInstruction = 1.0e-4;
 // 1.8 s/107 MB for a small scene, so ~18 s and ~310 MB are its two kernels' build.
 inline constexpr double kSpecialisedSecondsPerInstruction2 = 3.0e-6;
 inline constexpr double kVertexKernelCopies = 2.5;
+// With the generated gradient (vk/eval/gradient_codegen.h) the vertex kernel holds the field code
+// and the gradient's, which spells out field, gradient and colour per instruction. Fitted to
+// `blobvk --pipeline-cache off mesh S --resolution 64 --backend vk --traversal specialised`
+// against the same with the interpreted gradient (user seconds, peak RSS): tower L2P8G1 (134
+// instructions) +0.5 s and +80 MB, L3P8G1 (201) +0.6 s and +128 MB, tower (268) +1.2 s and +177
+// MB, random128 (256) +1.6 s and +220 MB: the build's memory grows like 6.5 field copies, its time
+// (in this file's loaded-machine seconds, about twice those user seconds) like 4.
+inline constexpr double kGradientVertexKernelCopies = 4.0;
+inline constexpr double kGradientVertexKernelMemoryCopies = 6.5;
+// The interpreted gradient at a vertex costs about this many interpreter evaluations of the field
+// (vec3 gradient and colour registers selected by index) per vertex of the model's estimate
+// (kVerticesPerSurfacePoint): the extraction of random128 at 256 cells took 17.9 s interpreting it
+// and 1.6 s generated (1.6 evaluations), tower 2.7 s and 1.0 s (2.1)
+// (`blobvk bench S --resolution 256 --backend vk`, `vk_phases`).
+inline constexpr double kInterpretedGradientEvaluations = 2.0;
 // Peak memory of the build grows about linearly (808 instructions x 10 copies: +570 MB); a
 // candidate predicted above kMaxBuildMegabytes is not taken whatever its time.
 inline constexpr double kBuildMegabytesPerInstruction = 0.15;

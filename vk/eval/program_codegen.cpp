@@ -1,6 +1,7 @@
 #include "blobvk/vk/eval/program_codegen.h"
 
 #include "blobvk/vk/eval/codegen_text.h"
+#include "blobvk/vk/eval/gradient_codegen.h"
 #include "blobvk/vk/eval/program_codegen_loops.h"
 
 #include <algorithm>
@@ -294,6 +295,7 @@ std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const Codeg
   f.value(options.loops.minCount);
   f.value(options.loops.minInstructions);
   f.value(options.loops.minProgramInstructions);
+  f.value(options.gradient);
   if (options.region.valid) {
     f.value(options.region.lo);
     f.value(options.region.hi);
@@ -355,8 +357,11 @@ Generated generate(const blobtree::Program& program, const CodegenOptions& optio
     g.glsl = generateLoopedEvaluators(program, *shapes, looped, &g.emitted);
   } else {
     g.emitted = prunedInstructionCount(program, options.region);
+    // The gradient for the vertex kernels' normals, unrolled with the field (kernels that do not
+    // call it lose it to glslang's removal of uncalled functions).
     g.glsl = codeDeclaration(program) + Generator(program, options, false).function() +
-             Generator(program, options, true).function();
+             Generator(program, options, true).function() +
+             (options.gradient ? generateSpecialisedGradient(program, options, kCodeArray) : std::string());
   }
   return g;
 }
@@ -404,7 +409,8 @@ std::string generateSpecialisedEvaluator(const blobtree::Program& program, const
       "#extension GL_KHR_shader_subgroup_vote : require\n"
       "#include \"program_layout.h\"\n#include \"eval_formulas.glsl\"\n\n";
   // What the whole program contains, for the vertex pass's gradient interpreter
-  // (shaders/eval_gradient.glsl), which runs the uploaded code and folds away what is absent.
+  // (shaders/eval_gradient.glsl), which runs the uploaded code and folds away what is absent:
+  // the looped form brings no gradient of its own.
   std::uint32_t ops = 0, prims = 0, warps = 0;
   for (const auto& in : program.code) ops |= 1u << (in.code.x & 0x1fu);
   for (const auto& prim : program.primitives) prims |= (1u << (prim.meta.x & 0x1fu)) | (prim.meta.y ? 0x80000000u : 0u);

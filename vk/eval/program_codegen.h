@@ -52,6 +52,10 @@ struct CodegenOptions {
   // says: masked, every lane would run every instance of every loop (the 3,024-instruction tower
   // at 64 cells: 88 s of field against 1 s branching).
   LoopOptions loops;
+  // Unrolled code also defines the analytic gradient (vk/eval/gradient_codegen.h) for the vertex
+  // kernels' normals; false: vertex kernels interpret it (shaders/eval_gradient.glsl), which
+  // builds in a fraction of the time and memory and runs slower (the cost model weighs both).
+  bool gradient = true;
 };
 
 // True when the skip box [lo, hi] holds no point of the region (a conservative test: false

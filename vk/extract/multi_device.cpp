@@ -88,8 +88,8 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   s.devices = std::uint32_t(n);
   Device& first = *devices[0];
   // One evaluator for every device: the bytes must not depend on which device ran a batch.
-  GpuPolygonizeOptions resolved = options;
-  resolved.traversal = resolveSparseTraversal(first, program, grid, options);
+  const SparseEvaluator evaluator = resolveSparseEvaluator(first, program, grid, options);
+  const GpuPolygonizeOptions resolved = evaluator.apply(options);
   const ClassifiedBricks classified = classifyAndCompact(first, program, grid, bg, shares[0]);
   const std::uint32_t active = classified.layerStarts.back();
   s.activeBricks = active;

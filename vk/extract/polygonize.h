@@ -33,6 +33,9 @@ struct GpuPolygonizeOptions {
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation
   float normalStep = 1e-4f;    // central-difference step (blobtree::normal's default)
   Traversal traversal = Traversal::Auto;  // Auto: the cost model's choice (vk/eval/evaluator_choice.h)
+  // Auto: runs of this job with the same kernels the caller expects (a benchmark's repeats): the
+  // cost model weighs the kernels' build once against this many runs (EvaluatorJob::repeats).
+  std::uint32_t expectedRuns = 1;
   // Traversal::Specialised: code generation options (default: chosen for the device).
   const CodegenOptions* codegen = nullptr;
   std::uint32_t workgroupSize = 64;

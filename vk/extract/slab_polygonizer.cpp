@@ -7,6 +7,7 @@
 #include "blobvk/vk/extract/scan.h"
 
 #include <algorithm>
+#include <optional>
 #include <array>
 #include <vector>
 
@@ -123,19 +124,23 @@ SlabPolygonizer::SlabPolygonizer(Device& device, const blobtree::Program& progra
   }
   FieldTilingOptions tiling;
   tiling.maxTiles = options.maxFieldTiles;
+  std::optional<CodegenOptions> codegen;
+  if (options.codegen) codegen = *options.codegen;
   if (options_.traversal == Traversal::Auto) {
     EvaluatorJob job;
     job.vertexPass = true;
     job.refineSteps = options.refineSteps;
+    job.repeats = std::max<std::uint32_t>(options.expectedRuns, 1);
     job.tiling = tiling;
     job.workgroupSize = options.workgroupSize;
-    const CodegenOptions codegen = options.codegen ? *options.codegen : defaultCodegenOptions(device);
-    const EvaluatorEstimate e = chooseEvaluator(device, program, grid, job, codegen).chosen;
+    codegen = options.codegen ? *options.codegen : defaultCodegenOptions(device);
+    const EvaluatorEstimate e = chooseEvaluator(device, program, grid, job, *codegen).chosen;
     options_.traversal = e.traversal;
+    codegen->gradient = e.vertexGradient;
     tiling.maxTiles = e.fieldKernels;
     tiling.minPointsForLargePrograms = 0;  // the model weighed the tiles' build time
   }
-  program_ = uploadProgram(device, program, options_.traversal, options.codegen);
+  program_ = uploadProgram(device, program, options_.traversal, codegen ? &*codegen : nullptr);
   fieldPass_ = std::make_unique<FieldPass>(device, program, program_, options_.traversal, options.workgroupSize,
                                            grid, tiling);
   // Vertex kernels inline the evaluator several times (refinement, six normal samples, colour):

@@ -80,15 +80,29 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
   return (bricks.count() + 1) * 8 + activeBricks * perBrick + scan + outputs + 256 * 20 * 4;
 }
 
-Traversal resolveSparseTraversal(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                  const GpuPolygonizeOptions& options) {
-  if (options.traversal != Traversal::Auto) return options.traversal;
+SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                       const GpuPolygonizeOptions& options) {
+  SparseEvaluator e;
+  e.traversal = options.traversal;
+  if (options.codegen) e.codegen = *options.codegen;
+  if (e.traversal != Traversal::Auto) return e;
   EvaluatorJob job;
   job.vertexPass = true;
   job.refineSteps = options.refineSteps;
+  job.repeats = std::max<std::uint32_t>(options.expectedRuns, 1);
   job.tiling.maxTiles = 1;
-  const CodegenOptions codegen = options.codegen ? *options.codegen : defaultCodegenOptions(device);
-  return chooseEvaluator(device, program, grid, job, codegen).chosen.traversal;
+  if (!e.codegen) e.codegen = defaultCodegenOptions(device);
+  const EvaluatorEstimate chosen = chooseEvaluator(device, program, grid, job, *e.codegen).chosen;
+  e.traversal = chosen.traversal;
+  e.codegen->gradient = chosen.vertexGradient;
+  return e;
+}
+
+GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options) const {
+  GpuPolygonizeOptions resolved = options;
+  resolved.traversal = traversal;
+  if (codegen) resolved.codegen = &*codegen;
+  return resolved;
 }
 
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
@@ -144,7 +158,8 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
   const auto wallStart = Clock::now();
-  const Traversal traversal = resolveSparseTraversal(device, program, grid, options);
+  const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options);
+  const GpuPolygonizeOptions resolved = evaluator.apply(options);
 
   // Submits: one classifies and compacts the bricks; then, per batch of whole brick layers, two
   // (sparse_batches.h).
@@ -157,8 +172,8 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   if (!batches.empty()) {
     std::uint32_t maxLoaded = 0;
     for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
-    SparseBatchRunner runner(device, program, grid, options, traversal, bg, classified.scan, classified.list,
-                             maxLoaded, s.batches);
+    SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, classified.scan,
+                             classified.list, maxLoaded, s.batches);
     std::uint64_t vertexBase = 0;
     for (const SparseBatch& b : batches) {
       runner.run(b, vertexBase, mesh, s);

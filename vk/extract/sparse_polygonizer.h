@@ -18,9 +18,11 @@
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/mesh/trimesh.h"
+#include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/extract/polygonize.h"
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace blobvk::vk {
@@ -43,9 +45,16 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
                                           const blobtree::GridSpec& grid, std::uint32_t brickCells);
 
-// The evaluator the batches run: options.traversal, or the cost model's choice for Auto.
-Traversal resolveSparseTraversal(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                 const GpuPolygonizeOptions& options);
+// The evaluator the batches run: options.traversal, or the cost model's choice for Auto with the
+// code generation it chose (the vertex kernel's generated or interpreted gradient).
+struct SparseEvaluator {
+  Traversal traversal = Traversal::Auto;
+  std::optional<CodegenOptions> codegen;  // empty: options.codegen was empty and not needed
+  // `options` with this evaluator; its codegen points into this object, which must outlive it.
+  GpuPolygonizeOptions apply(const GpuPolygonizeOptions& options) const;
+};
+SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                       const GpuPolygonizeOptions& options);
 
 // Steps 1-2 in one submit: the bricks classified and compacted on `device`. The scanned flags
 // (bricks + 1 words: each active brick's number, then the count) and the active-brick list stay

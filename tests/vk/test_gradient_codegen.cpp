@@ -1,0 +1,187 @@
+// The specialised gradient (vk/eval/gradient_codegen.h): vertex kernels built around unrolled
+// specialised code carry their own generated gradient instead of the interpreter, and their
+// normals and colours are the interpreter's byte for byte and the CPU reference's
+// (blobtree::evaluateGradientColour through cpu::polygonizeReference).
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/device/shader_registry.h"
+#include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/eval/evaluator_costs.h"
+#include "blobvk/vk/eval/gpu_program.h"
+#include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/eval/runtime_compiler.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "models.h"
+#include "reference_checks.h"
+#include "vk_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace blobvk::testing {
+namespace {
+
+// Whether the SPIR-V declares a variable at the binding of the Program's box records
+// (PROGRAM_BINDING + 3 = 3 in the vertex kernels): the gradient interpreter reads them, the
+// generated gradient spells its boxes out (the field code never binds them).
+bool bindsBoxRecords(std::span<const std::uint32_t> words) {
+  constexpr std::uint32_t kOpDecorate = 71, kDecorationBinding = 33;
+  for (std::size_t i = 5; i < words.size();) {
+    const std::uint32_t count = words[i] >> 16, op = words[i] & 0xffffu;
+    if (count == 0 || i + count > words.size()) break;
+    if (op == kOpDecorate && count >= 4 && words[i + 2] == kDecorationBinding && words[i + 3] == 3) return true;
+    i += count;
+  }
+  return false;
+}
+
+TEST(SpecialisedGradient, VertexKernelsOfSpecialisedCodeInterpretNothing) {
+  // The check can fail: the embedded kernels interpret, and bind the boxes.
+  EXPECT_TRUE(bindsBoxRecords(vk::shaderCode("brick_vertices")));
+  EXPECT_TRUE(bindsBoxRecords(vk::shaderCode("vertices")));
+  for (const auto& model : testModels()) {
+    const auto program = blobtree::compile(model.root);
+    // Unrolled, as lavapipe runs programs of up to 400 instructions.
+    const std::string glsl = vk::generateSpecialisedEvaluator(program, vk::defaultCodegenOptions(true));
+    EXPECT_NE(glsl.find("BLOBVK_GENERATED_GRADIENT"), std::string::npos) << model.name;
+    for (const char* shader : {"vertices.comp", "brick_vertices.comp"}) {
+      const auto code = vk::compileComputeShader(shader, {{"eval_program.glsl", glsl}});
+      EXPECT_FALSE(bindsBoxRecords(code)) << model.name << " " << shader;
+    }
+  }
+}
+
+// The cost model weighs the generated gradient's larger vertex kernel: the shipped tower at 256
+// cells on lavapipe, meshed 4 times (a benchmark), takes it (its interpreted gradient was most of
+// the mesh's time); a program whose unrolled vertex kernel would break the build's memory bound
+// interprets the gradient.
+TEST(SpecialisedGradient, TheCostModelTakesItWhereItsBuildFits) {
+  vk::EvaluatorJob job;
+  job.vertexPass = true;
+  job.repeats = 4;
+  const auto tower =
+      blobtree::compile(blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/tower.json").root);
+  blobtree::GridRequest request;
+  request.resolution = 256;
+  const auto towerChoice =
+      vk::chooseEvaluator(true, tower, blobtree::chooseGrid(tower, {}, request), job, vk::defaultCodegenOptions(true));
+  EXPECT_EQ(towerChoice.chosen.traversal, vk::Traversal::Specialised);
+  EXPECT_TRUE(towerChoice.chosen.vertexGradient);
+  EXPECT_LE(towerChoice.chosen.buildMegabytes, vk::costs::kMaxBuildMegabytes);
+
+  const auto large = blobtree::compile(blobtree::generateTower(3, 8, 6.0, 6.0, 2));  // 808 instructions
+  vk::CodegenOptions unrolled = vk::defaultCodegenOptions(true);
+  unrolled.loops.enabled = false;
+  request.resolution = 64;
+  const auto largeChoice = vk::chooseEvaluator(true, large, blobtree::chooseGrid(large, {}, request), job, unrolled);
+  for (const auto& c : largeChoice.candidates)
+    if (c.traversal == vk::Traversal::Specialised) {
+      EXPECT_FALSE(c.vertexGradient);
+    }
+}
+
+::testing::AssertionResult sameBytes(const std::vector<mesh::Float3>& a, const std::vector<mesh::Float3>& b) {
+  if (a.size() != b.size()) return ::testing::AssertionFailure() << a.size() << " against " << b.size() << " values";
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (std::memcmp(&a[i], &b[i], sizeof(mesh::Float3)) != 0)
+      return ::testing::AssertionFailure() << "value " << i << " of " << a.size() << " differs: (" << a[i].x << ", "
+                                           << a[i].y << ", " << a[i].z << ") against (" << b[i].x << ", " << b[i].y
+                                           << ", " << b[i].z << ")";
+  return ::testing::AssertionSuccess();
+}
+
+float worstDifference(const std::vector<mesh::Float3>& a, const std::vector<mesh::Float3>& b) {
+  if (a.size() != b.size()) return INFINITY;
+  float w = 0.0f;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    w = std::max({w, std::abs(a[i].x - b[i].x), std::abs(a[i].y - b[i].y), std::abs(a[i].z - b[i].z)});
+  return w;
+}
+
+// sin, cos and pow on lavapipe are not the C library's: programs with twist or bend warps or
+// Ricci blends agree with the CPU to rounding, the others bit for bit (docs/vulkan.md).
+bool usesTranscendentals(const blobtree::Program& program) {
+  for (const auto& in : program.code)
+    if ((in.code.x & 0xffu) == layout::OP_POW) return true;
+  for (const auto& w : program.warps)
+    if (w.meta.x == layout::WARP_TWIST || w.meta.x == layout::WARP_BEND) return true;
+  return false;
+}
+
+struct GradientCase {
+  const char* name;  // a shipped scene, or "csg_warps" (tests/vk/models.h: every primitive, operator and warp)
+  int refineSteps;
+};
+
+class SpecialisedGradientTest : public VulkanTest, public ::testing::WithParamInterface<GradientCase> {};
+
+TEST_P(SpecialisedGradientTest, NormalsAndColoursEqualTheInterpretersAndTheReference) {
+  const GradientCase c = GetParam();
+  blobtree::Program program;
+  blobtree::GridSpec grid;
+  blobtree::GridRequest request;
+  request.resolution = 24;
+  if (std::string(c.name) == "csg_warps") {
+    program = blobtree::compile(testModels()[2].root);
+    grid = blobtree::chooseGrid(program, testBounds(), request);
+  } else {
+    const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + c.name + ".json");
+    program = blobtree::compile(scene.root);
+    grid = blobtree::chooseGrid(program, scene.grid, request);
+  }
+  ASSERT_TRUE(vk::canSpecialise(program)) << c.name;
+  vk::GpuPolygonizeOptions options;
+  options.refineSteps = c.refineSteps;
+  options.traversal = vk::Traversal::Specialised;
+  const mesh::TriMesh specialised = vk::polygonize(device(), program, grid, options);
+  options.traversal = vk::Traversal::Stackless;
+  const mesh::TriMesh interpreted = vk::polygonize(device(), program, grid, options);
+  cpu::ReferenceOptions ro;
+  ro.refineSteps = c.refineSteps;
+  const mesh::TriMesh reference = cpu::polygonizeReference(program, grid, ro);
+  const std::string what = std::string(c.name) + ", " + std::to_string(c.refineSteps) + " refinement steps";
+
+  ASSERT_GT(reference.triangleCount(), 0u) << what;
+  ASSERT_EQ(specialised.normals.size(), specialised.positions.size()) << what;
+  ASSERT_EQ(specialised.colours.size(), specialised.positions.size()) << what;
+  EXPECT_EQ(specialised.edgeKeys, reference.edgeKeys) << what;
+  EXPECT_EQ(specialised.triangles, reference.triangles) << what;
+  const bool lavapipe = device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  if (lavapipe) {
+    // Same float operations in the same order as the interpreter: the same bytes.
+    EXPECT_TRUE(sameBytes(specialised.positions, interpreted.positions)) << what;
+    EXPECT_TRUE(sameBytes(specialised.normals, interpreted.normals)) << what;
+    EXPECT_TRUE(sameBytes(specialised.colours, interpreted.colours)) << what;
+  }
+  if (lavapipe && !usesTranscendentals(program)) {
+    EXPECT_TRUE(sameBytes(specialised.positions, reference.positions)) << what;
+    EXPECT_TRUE(sameBytes(specialised.normals, reference.normals)) << what;
+    EXPECT_TRUE(sameBytes(specialised.colours, reference.colours)) << what;
+  } else {
+    EXPECT_LE(worstDifference(specialised.positions, reference.positions), 1e-4f * grid.cellSize) << what;
+    EXPECT_LE(worstDifference(specialised.normals, reference.normals), 1e-4f) << what;
+    EXPECT_LE(worstDifference(specialised.colours, reference.colours), 1e-4f) << what;
+  }
+}
+
+// Warps (twist, bend, taper, shear, with matrices), Ricci blends and CSG: the csg_warps model
+// and twisted_column; box skips, unions and blends over many primitives: tower and dice;
+// differences and intersections: craniotomy.
+INSTANTIATE_TEST_SUITE_P(Scenes, SpecialisedGradientTest,
+                         ::testing::Values(GradientCase{"csg_warps", 0}, GradientCase{"csg_warps", 2},
+                                           GradientCase{"twisted_column", 0}, GradientCase{"tower", 2},
+                                           GradientCase{"dice", 0}, GradientCase{"craniotomy", 0}),
+                         [](const auto& info) {
+                           return std::string(info.param.name) + "_refine" + std::to_string(info.param.refineSteps);
+                         });
+
+}  // namespace
+}  // namespace blobvk::testing
