@@ -245,6 +245,25 @@ TEST(EvaluatorChoice, BuiltKernelsAreASunkCost) {
   EXPECT_LT(fieldOnly.candidates[0].buildSeconds, cold.candidates[0].buildSeconds);
 }
 
+// Looped code generates no gradient, so the choice leaves the option as the caller set it: the
+// kernels an Auto job builds have the names a Specialised job with the default options builds
+// (on GPU drivers, where all code is looped, a job's kernels were otherwise never found again).
+TEST(EvaluatorChoice, LoopedCodeKeepsTheCallersGradientOption) {
+  const auto program = blobtree::compile(blobtree::generateTower(1, 4, 6.0, 6.0, 1));
+  vk::EvaluatorJob job;
+  job.vertexPass = true;
+  job.tiling.maxTiles = 1;
+  const vk::CodegenOptions gpu = vk::defaultCodegenOptions(false);
+  ASSERT_TRUE(vk::specialisedCodeLoops(program, {}, gpu.loops));
+  for (bool gradient : {true, false}) {
+    vk::CodegenOptions c = gpu;
+    c.gradient = gradient;
+    const auto choice = vk::chooseEvaluator(false, program, gridAt(program, 12), job, c);
+    ASSERT_EQ(choice.chosen.traversal, vk::Traversal::Specialised);
+    EXPECT_EQ(choice.chosen.vertexGradient, gradient);
+  }
+}
+
 // On a device, the kernels a job built are found: the same job again weighs no build.
 TEST_F(VulkanTest, TheDeviceReportsTheKernelsAJobBuilt) {
   const auto program = blobtree::compile(blobtree::generateTower(1, 4, 6.0, 6.0, 1));

@@ -166,9 +166,13 @@ TEST_P(SpecialisedGradientTest, NormalsAndColoursEqualTheInterpretersAndTheRefer
     EXPECT_TRUE(sameBytes(specialised.normals, reference.normals)) << what;
     EXPECT_TRUE(sameBytes(specialised.colours, reference.colours)) << what;
   } else {
-    EXPECT_LE(worstDifference(specialised.positions, reference.positions), 1e-4f * grid.cellSize) << what;
-    EXPECT_LE(worstDifference(specialised.normals, reference.normals), 1e-4f) << what;
-    EXPECT_LE(worstDifference(specialised.colours, reference.colours), 1e-4f) << what;
+    // sin/cos/pow round differently from the CPU's; other drivers' refinement steps then settle
+    // up to a hundredth of a cell apart (docs/vulkan.md; 1e-3 cells seen on an NVIDIA H200 for
+    // csg_warps with 2 steps).
+    const float tolerance = lavapipe ? 1e-4f : 1e-2f;
+    EXPECT_LE(worstDifference(specialised.positions, reference.positions), tolerance * grid.cellSize) << what;
+    EXPECT_LE(worstDifference(specialised.normals, reference.normals), lavapipe ? 1e-4f : 1e-2f) << what;
+    EXPECT_LE(worstDifference(specialised.colours, reference.colours), lavapipe ? 1e-4f : 1e-3f) << what;
   }
 }
 

@@ -138,7 +138,9 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     return v;
   };
   VertexKernel vertex = vertexKernel(false);
-  if (!job.vertexPass) vertex.gradient = codegen.gradient;  // no vertex kernel: as the caller asked
+  // No vertex kernel, or looped code (which generates no gradient): the option stays as the
+  // caller set it, so the kernels keep the names a job with these options builds.
+  if (!job.vertexPass || (wholeFits && whole.looped)) vertex.gradient = codegen.gradient;
   if (job.vertexPass && codegen.gradient && wholeFits && !whole.looped) {  // looped code generates none
     const VertexKernel generated = vertexKernel(true);
     if (generated.megabytes <= kMaxBuildMegabytes &&
