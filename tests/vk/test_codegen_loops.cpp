@@ -261,6 +261,14 @@ TEST(EvaluatorChoice, LoopedCodeKeepsTheCallersGradientOption) {
     const auto choice = vk::chooseEvaluator(false, program, gridAt(program, 12), job, c);
     ASSERT_EQ(choice.chosen.traversal, vk::Traversal::Specialised);
     EXPECT_EQ(choice.chosen.vertexGradient, gradient);
+    // Kernels a job with these options built (their names carry the option) are found: the
+    // specialised candidate builds nothing.
+    const auto built = vk::chooseEvaluator(false, program, gridAt(program, 12), job, c,
+                                           [&](const std::string&, const vk::CodegenOptions* k) {
+                                             return k != nullptr && k->gradient == gradient;
+                                           });
+    ASSERT_GE(built.candidates.size(), 2u);
+    EXPECT_EQ(built.candidates[1].buildSeconds, 0.0) << "gradient option " << gradient;
   }
 }
 

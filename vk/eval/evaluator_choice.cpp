@@ -120,6 +120,8 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     double build = 0.0, megabytes = 0.0, run = 0.0;
   };
   const double vertices = job.vertexPass ? kVerticesPerSurfacePoint * std::pow(points, 2.0 / 3.0) : 0.0;
+  // `gradient` is the generator option (part of the kernel's name); looped code generates no
+  // gradient whatever the option, so it costs as interpreting it.
   auto vertexKernel = [&](bool gradient) {
     VertexKernel v;
     v.gradient = gradient;
@@ -127,20 +129,22 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     CodegenOptions c = codegen;
     c.gradient = gradient;
     const bool built = wholeFits ? isBuilt("vertices", &c) : isBuilt("vertices", nullptr);
-    const double copies = gradient ? kGradientVertexKernelCopies : kVertexKernelCopies;
-    const double memoryCopies = gradient ? kGradientVertexKernelMemoryCopies : kVertexKernelCopies;
+    const bool generated = gradient && wholeFits && !whole.looped;
+    const double copies = generated ? kGradientVertexKernelCopies : kVertexKernelCopies;
+    const double memoryCopies = generated ? kGradientVertexKernelMemoryCopies : kVertexKernelCopies;
     v.build = built ? 0.0 : wholeFits ? kernelSeconds(whole, copies) : kInterpreterKernelSeconds;
     v.megabytes = wholeFits && !built ? buildMegabytes(whole.size * memoryCopies) : 0.0;
     v.run = (wholeFits ? evaluationSeconds(whole, meanBranchCost, wholeCost)
                        : kInterpreterSecondsPerInstruction * meanBranchCost) *
             vertexEvaluations;
-    if (!gradient) v.run += kInterpreterSecondsPerInstruction * meanBranchCost * kInterpretedGradientEvaluations * vertices;
+    if (!generated) v.run += kInterpreterSecondsPerInstruction * meanBranchCost * kInterpretedGradientEvaluations * vertices;
     return v;
   };
-  VertexKernel vertex = vertexKernel(false);
-  // No vertex kernel, or looped code (which generates no gradient): the option stays as the
-  // caller set it, so the kernels keep the names a job with these options builds.
-  if (!job.vertexPass || (wholeFits && whole.looped)) vertex.gradient = codegen.gradient;
+  // No vertex kernel, or none that could generate the gradient (looped code, the interpreter):
+  // the option stays as the caller set it, so the kernels keep the names a job with these
+  // options builds.
+  const bool keepOption = !job.vertexPass || !wholeFits || whole.looped;
+  VertexKernel vertex = vertexKernel(keepOption ? codegen.gradient : false);
   if (job.vertexPass && codegen.gradient && wholeFits && !whole.looped) {  // looped code generates none
     const VertexKernel generated = vertexKernel(true);
     if (generated.megabytes <= kMaxBuildMegabytes &&
