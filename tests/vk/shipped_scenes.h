@@ -1,8 +1,14 @@
-// The names of the shipped scenes (scenes/*.json, without extension), sorted: the parameter list
-// of the Vulkan tests that run on every scene.
+// The shipped scenes (scenes/*.json) for the Vulkan tests: their names, sorted (the parameter
+// list of the tests that run on every scene), one loaded on its own grid at a resolution, and a
+// byte comparison of two arrays.
 #pragma once
 
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/blobtree/scene_io.h"
+
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -15,6 +21,26 @@ inline std::vector<std::string> shippedSceneNames() {
     if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
   std::sort(names.begin(), names.end());
   return names;
+}
+
+struct ShippedScene {
+  blobtree::Program program;
+  blobtree::GridSpec grid;
+};
+
+// scenes/<name>.json compiled, on its grid settings with `resolution` cells along the longest side.
+inline ShippedScene shipped(const std::string& name, int resolution) {
+  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + name + ".json");
+  ShippedScene s{blobtree::compile(scene.root), {}};
+  blobtree::GridRequest request;
+  request.resolution = resolution;
+  s.grid = blobtree::chooseGrid(s.program, scene.grid, request);
+  return s;
+}
+
+template <class T>
+bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
 }
 
 }  // namespace blobvk::testing

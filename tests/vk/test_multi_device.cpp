@@ -10,6 +10,7 @@
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "reference_checks.h"
+#include "shipped_scenes.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
@@ -24,24 +25,6 @@
 namespace blobvk::testing {
 namespace {
 
-struct Scene {
-  blobtree::Program program;
-  blobtree::GridSpec grid;
-};
-
-Scene shipped(const std::string& name, int resolution) {
-  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + name + ".json");
-  Scene s{blobtree::compile(scene.root), {}};
-  blobtree::GridRequest request;
-  request.resolution = resolution;
-  s.grid = blobtree::chooseGrid(s.program, scene.grid, request);
-  return s;
-}
-
-template <class T>
-bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
 
 void expectSameBytes(const mesh::TriMesh& m, const mesh::TriMesh& one, const std::string& what) {
   EXPECT_TRUE(sameBytes(m.positions, one.positions)) << what;
@@ -85,7 +68,7 @@ class MultiDeviceTest : public VulkanTest {
 // and each device's memory follows its batches, not the job.
 TEST_F(MultiDeviceTest, SeveralDevicesGiveTheOneDeviceBytes) {
   for (const char* name : {"tower", "dice", "twisted_column"}) {
-    const Scene sc = shipped(name, 36);
+    const ShippedScene sc = shipped(name, 36);
     vk::GpuPolygonizeOptions o;
     o.traversal = vk::Traversal::Stackless;
     o.brickCells = 4;
@@ -126,7 +109,7 @@ TEST_F(MultiDeviceTest, SeveralDevicesGiveTheOneDeviceBytes) {
 
 // The specialised evaluator (generated code, compiled on each device) gives the same bytes too.
 TEST_F(MultiDeviceTest, GeneratedKernelsOnEachDeviceGiveTheSameBytes) {
-  const Scene sc = shipped("tower_L6P8I4", 48);
+  const ShippedScene sc = shipped("tower_L6P8I4", 48);
   vk::GpuPolygonizeOptions o;
   o.traversal = vk::Traversal::Specialised;
   o.brickCells = 8;
@@ -138,7 +121,7 @@ TEST_F(MultiDeviceTest, GeneratedKernelsOnEachDeviceGiveTheSameBytes) {
 }
 
 TEST_F(MultiDeviceTest, RefusesWhatCannotBeSplit) {
-  const Scene sc = shipped("dice", 24);
+  const ShippedScene sc = shipped("dice", 24);
   vk::Device* same[2] = {&device(), &device()};
   EXPECT_THROW(vk::polygonizeOnDevices(same, sc.program, sc.grid), vk::VulkanError);
   vk::GpuPolygonizeOptions dense;
@@ -150,7 +133,7 @@ TEST_F(MultiDeviceTest, RefusesWhatCannotBeSplit) {
 // A device that fails (every allocation refused, as a full heap does) ends the job with its
 // error, after the other devices stop: no hang, no partial mesh.
 TEST_F(MultiDeviceTest, AFailingDeviceEndsTheJobWithItsError) {
-  const Scene sc = shipped("dice", 32);
+  const ShippedScene sc = shipped("dice", 32);
   vk::MemorySimulation full;
   full.properties = more_[1]->device().memory().properties();
   full.refuse = [](std::uint32_t, VkDeviceSize) { return true; };
@@ -175,7 +158,7 @@ TEST_F(MultiDeviceTest, AFailingDeviceEndsTheJobWithItsError) {
 
 // A grid away from the model: no active brick, an empty mesh, on two devices as on one.
 TEST_F(MultiDeviceTest, NoActiveBrickIsAnEmptyMesh) {
-  const Scene sc = shipped("dice", 24);
+  const ShippedScene sc = shipped("dice", 24);
   blobtree::GridSpec grid = sc.grid;
   grid.origin = {500.0f, 500.0f, 500.0f};
   vk::GpuStats st;

@@ -22,31 +22,13 @@
 namespace blobvk::testing {
 namespace {
 
-struct Scene {
-  blobtree::Program program;
-  blobtree::GridSpec grid;
-};
-
-Scene shipped(const std::string& name, int resolution) {
-  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + name + ".json");
-  Scene s{blobtree::compile(scene.root), {}};
-  blobtree::GridRequest request;
-  request.resolution = resolution;
-  s.grid = blobtree::chooseGrid(s.program, scene.grid, request);
-  return s;
-}
-
-template <class T>
-bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
 
 class SparseClassification : public VulkanTest, public ::testing::WithParamInterface<std::string> {};
 
 // An inactive brick must have all (B+1)^3 samples of the reference field on one side of the iso
 // value; and on the benchmark scenes some bricks are dropped (the extraction is sparse).
 TEST_P(SparseClassification, NeverDropsABrickThatHoldsSurface) {
-  const Scene s = shipped(GetParam(), 40);
+  const ShippedScene s = shipped(GetParam(), 40);
   for (std::uint32_t brickCells : {4u, 8u}) {
     const vk::BrickGrid bg = vk::brickGridFor(s.grid, brickCells);
     const std::vector<std::uint32_t> active = vk::classifyBricks(device(), s.program, s.grid, brickCells);
@@ -145,7 +127,7 @@ TEST_F(VulkanTest, ThreeSubmitsAndStagedReadBackGiveTheSameMesh) {
 // batches submits.
 TEST_F(VulkanTest, BatchesOfBrickLayersGiveTheSameBytes) {
   for (const char* name : {"tower", "dice", "twisted_column"}) {
-    const Scene sc = shipped(name, 40);
+    const ShippedScene sc = shipped(name, 40);
     vk::GpuPolygonizeOptions o;
     o.traversal = vk::Traversal::Stackless;
     o.brickCells = 4;
