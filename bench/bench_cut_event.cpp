@@ -52,22 +52,24 @@ struct PhaseClock {
   }
 };
 
-void BM_CutEventEndToEnd(benchmark::State& state) {
-  const int n = int(state.range(0));
-  const mesh::TetMesh block = cube(n);
-  constexpr int kStrokesPerMesh = 16;  // slices z = 3.5 .. 18.5 of a block at least 26 cells high
+// Cut events on `body` (FEM settings `settings`) with strokes stroke(0 .. strokesPerMesh-1), the
+// cutter and simulation rebuilt every strokesPerMesh events outside the timed region: per event,
+// the cut, its conversion to an FEM topology change and the FEM update, wall and CPU time.
+template <class Stroke>
+void runCutEvents(benchmark::State& state, const mesh::TetMesh& body, const fem::SimulationSettings& settings,
+                  int strokesPerMesh, Stroke&& stroke) {
   std::unique_ptr<cutting::Cutter> cutter;
   std::optional<fem::Simulation> sim;
-  int k = kStrokesPerMesh;
+  int k = strokesPerMesh;
   PhaseClock cut, convert, apply;
   double splits = 0, newNodes = 0, slots = 0;
   for (auto _ : state) {
-    if (k == kStrokesPerMesh) {
+    if (k == strokesPerMesh) {
       state.PauseTiming();
       cutter.reset();
       sim.reset();
-      cutter = std::make_unique<cutting::Cutter>(block);
-      sim.emplace(block, bench::cutBlockSettings());
+      cutter = std::make_unique<cutting::Cutter>(body);
+      sim.emplace(body, settings);
       sim->run(1);
       k = 0;
       state.ResumeTiming();
@@ -86,7 +88,7 @@ void BM_CutEventEndToEnd(benchmark::State& state) {
     slots += double(change.tetSlots.size());
   }
   const double events = double(state.iterations());
-  state.counters["tets"] = double(block.tets.size());
+  state.counters["tets"] = double(body.tets.size());
   state.counters["split_per_event"] = splits / events;
   state.counters["new_nodes"] = newNodes / events;
   state.counters["slots_written"] = slots / events;
@@ -98,6 +100,13 @@ void BM_CutEventEndToEnd(benchmark::State& state) {
   state.counters["convert_cpu_ms"] = convert.cpuMs / events;
   state.counters["fem_cpu_ms"] = apply.cpuMs / events;
   state.counters["total_cpu_ms"] = (cut.cpuMs + convert.cpuMs + apply.cpuMs) / events;
+}
+
+void BM_CutEventEndToEnd(benchmark::State& state) {
+  const int n = int(state.range(0));
+  const mesh::TetMesh block = cube(n);
+  constexpr int kStrokesPerMesh = 16;  // slices z = 3.5 .. 18.5 of a block at least 26 cells high
+  runCutEvents(state, block, bench::cutBlockSettings(), kStrokesPerMesh, [](int k) { return stroke(k); });
 }
 // 26^3 * 6 = 105,456 tets.
 BENCHMARK(BM_CutEventEndToEnd)->Arg(26)->Unit(benchmark::kMillisecond)->Iterations(64);
@@ -129,48 +138,7 @@ void BM_CutEventTetgenBall(benchmark::State& state) {
   fem::SimulationSettings settings = bench::cutBlockSettings();
   settings.fixed = [](const mesh::Double3& p) { return p.y < -0.9; };
   constexpr int kStrokesPerMesh = 16;
-  std::unique_ptr<cutting::Cutter> cutter;
-  std::optional<fem::Simulation> sim;
-  int k = kStrokesPerMesh;
-  PhaseClock cut, convert, apply;
-  double splits = 0, newNodes = 0, slots = 0;
-  for (auto _ : state) {
-    if (k == kStrokesPerMesh) {
-      state.PauseTiming();
-      cutter.reset();
-      sim.reset();
-      cutter = std::make_unique<cutting::Cutter>(ball);
-      sim.emplace(ball, settings);
-      sim->run(1);
-      k = 0;
-      state.ResumeTiming();
-    }
-    const std::size_t nodesBefore = sim->mesh().nodeCount(), tetsBefore = sim->mesh().tetCount();
-    const cutting::CutResult event = cut.time([&] { return cutter->cut(ballStroke(k++)); });
-    const fem::TopologyChange change =
-        convert.time([&] { return surgery::toTopologyChange(event, cutter->topology(), nodesBefore, tetsBefore); });
-    apply.time([&] {
-      sim->applyTopologyChange(change);
-      return 0;
-    });
-    benchmark::DoNotOptimize(sim->mesh().boundaryFaces.data());
-    splits += double(event.splitTets);
-    newNodes += double(change.newNodes.size());
-    slots += double(change.tetSlots.size());
-  }
-  const double events = double(state.iterations());
-  state.counters["tets"] = double(ball.tets.size());
-  state.counters["split_per_event"] = splits / events;
-  state.counters["new_nodes"] = newNodes / events;
-  state.counters["slots_written"] = slots / events;
-  state.counters["cut_ms"] = cut.wallMs / events;
-  state.counters["convert_ms"] = convert.wallMs / events;
-  state.counters["fem_ms"] = apply.wallMs / events;
-  state.counters["total_ms"] = (cut.wallMs + convert.wallMs + apply.wallMs) / events;
-  state.counters["cut_cpu_ms"] = cut.cpuMs / events;
-  state.counters["convert_cpu_ms"] = convert.cpuMs / events;
-  state.counters["fem_cpu_ms"] = apply.cpuMs / events;
-  state.counters["total_cpu_ms"] = (cut.cpuMs + convert.cpuMs + apply.cpuMs) / events;
+  runCutEvents(state, ball, settings, kStrokesPerMesh, ballStroke);
 }
 // Argument: TetGen's -a bound in 1e-6 units; 130 gives ~100k tets.
 BENCHMARK(BM_CutEventTetgenBall)->Arg(130)->Unit(benchmark::kMillisecond)->Iterations(64);

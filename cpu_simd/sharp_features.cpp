@@ -43,6 +43,10 @@ struct Lattice {
     const auto nx = std::uint64_t(points[0]), ny = std::uint64_t(points[1]);
     return {{std::int64_t(p % nx), std::int64_t((p / nx) % ny), std::int64_t(p / (nx * ny))}, int(key % 3)};
   }
+  void cellCoords(std::uint64_t index, std::int64_t (&c)[3]) const {
+    const auto nx = std::uint64_t(cells[0]), ny = std::uint64_t(cells[1]);
+    c[0] = std::int64_t(index % nx), c[1] = std::int64_t((index / nx) % ny), c[2] = std::int64_t(index / (nx * ny));
+  }
   std::uint64_t cellIndex(const std::int64_t c[3]) const {
     return (std::uint64_t(c[2]) * std::uint64_t(cells[1]) + std::uint64_t(c[1])) * std::uint64_t(cells[0]) +
            std::uint64_t(c[0]);
@@ -57,7 +61,7 @@ struct Lattice {
   }
   // The one cell that has the edges of all three corners (a marching-cubes triangle's cell);
   // kNoCell when none does, or when two do (a triangle lying in a cell face).
-  std::uint64_t triangleCell(const Edge (&e)[3], std::int64_t (&cell)[3]) const {
+  std::uint64_t triangleCell(const Edge (&e)[3]) const {
     std::uint64_t found = kNoCell;
     int matches = 0;
     const int a1 = (e[0].axis + 1) % 3, a2 = (e[0].axis + 2) % 3;
@@ -70,7 +74,6 @@ struct Lattice {
       if (!inside || !cellHasEdge(c, e[1]) || !cellHasEdge(c, e[2])) continue;
       ++matches;
       found = cellIndex(c);
-      std::copy(c, c + 3, cell);
     }
     return matches == 1 ? found : kNoCell;
   }
@@ -91,44 +94,49 @@ class FeaturePass {
         cosCrease_(std::cos(double(options.creaseDegrees) * 3.14159265358979323846 / 180.0)) {}
 
   void run(FeatureReport& report) {
-    const std::vector<Triangle> input = mesh_.triangles;
-    std::vector<Triangle> output;
-    output.reserve(input.size() + input.size() / 4);
-    fanOf_.clear();
-    const std::uint32_t firstFeature = std::uint32_t(mesh_.positions.size());
+    // Each triangle's cell, once; input out of cell order is refused before anything changes.
+    std::vector<std::uint64_t> cellOfTriangle(mesh_.triangles.size());
     std::uint64_t previousCell = 0;
-    for (std::size_t t = 0; t < input.size();) {
-      std::int64_t cell[3];
-      const std::uint64_t c = cellOf(input[t], cell);
-      std::size_t end = t + 1;
-      while (end < input.size()) {
-        std::int64_t other[3];
-        if (cellOf(input[end], other) != c) break;
-        ++end;
-      }
+    for (std::size_t t = 0; t < cellOfTriangle.size(); ++t) {
+      const std::uint64_t c = cellOf(mesh_.triangles[t]);
       if (c != kNoCell) {
         if (c < previousCell)
           throw std::invalid_argument("sharp features: the triangles are not in cell order (give the polygonizer's mesh, "
                                       "before simplification or reordering)");
         previousCell = c;
       }
+      cellOfTriangle[t] = c;
+    }
+    const std::vector<Triangle> input = std::move(mesh_.triangles);
+    std::vector<Triangle> output;
+    output.reserve(input.size() + input.size() / 4);
+    fanOf_.clear();
+    fanOf_.reserve(output.capacity());
+    const std::uint32_t firstFeature = std::uint32_t(mesh_.positions.size());
+    for (std::size_t t = 0; t < input.size();) {
+      const std::uint64_t c = cellOfTriangle[t];
+      std::size_t end = t + 1;
+      while (end < input.size() && cellOfTriangle[end] == c) ++end;
       std::optional<Fan> fan;
-      if (c != kNoCell) fan = fanFor(std::span<const Triangle>(input.data() + t, end - t), cell, report);
+      if (c != kNoCell) {
+        std::int64_t cell[3];
+        lattice_.cellCoords(c, cell);
+        fan = fanFor(std::span<const Triangle>(input.data() + t, end - t), cell, report);
+      }
       if (!fan) {
         output.insert(output.end(), input.begin() + std::ptrdiff_t(t), input.begin() + std::ptrdiff_t(end));
+        fanOf_.insert(fanOf_.end(), end - t, kNotFan);
       } else {
         const auto f = std::uint32_t(mesh_.positions.size());
         addVertex(*fan, c);
         for (std::size_t i = 0; i < fan->loop.size(); ++i) {
-          fanOf_.resize(output.size() + 1, kNotFan);
-          fanOf_[output.size()] = f;
           output.push_back({fan->loop[i], fan->loop[(i + 1) % fan->loop.size()], f});
+          fanOf_.push_back(f);
         }
         ++report.featureVertices;
       }
       t = end;
     }
-    fanOf_.resize(output.size(), kNotFan);
     mesh_.triangles = std::move(output);
     if (options_.flipEdges && mesh_.positions.size() > firstFeature) flipAlongCreases(report);
   }
@@ -136,10 +144,10 @@ class FeaturePass {
  private:
   static constexpr std::uint32_t kNotFan = ~std::uint32_t(0);
 
-  std::uint64_t cellOf(const Triangle& t, std::int64_t (&cell)[3]) const {
+  std::uint64_t cellOf(const Triangle& t) const {
     const Lattice::Edge e[3] = {lattice_.edge(mesh_.edgeKeys[t[0]]), lattice_.edge(mesh_.edgeKeys[t[1]]),
                                 lattice_.edge(mesh_.edgeKeys[t[2]])};
-    return lattice_.triangleCell(e, cell);
+    return lattice_.triangleCell(e);
   }
 
   std::optional<Fan> fanFor(std::span<const Triangle> patch, const std::int64_t (&cell)[3], FeatureReport& report) const {

@@ -25,22 +25,8 @@
 namespace blobvk::testing {
 namespace {
 
-struct Model {
-  blobtree::Program program;
-  blobtree::GridSpec grid;
-};
-
-Model load(const std::string& name, int resolution) {
-  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + name + ".json");
-  Model m{blobtree::compile(scene.root), {}};
-  blobtree::GridRequest request;
-  request.resolution = resolution;
-  m.grid = blobtree::chooseGrid(m.program, scene.grid, request);
-  return m;
-}
-
 TEST(FieldTiles, CoverEveryPointOnceAndPruneTheTower) {
-  const Model m = load("tower", 64);
+  const ShippedScene m = shipped("tower", 64);
   vk::FieldTilingOptions options;
   options.maxTiles = 12;
   const auto tiles = vk::planFieldTiles(m.program, m.grid, options);
@@ -65,7 +51,7 @@ TEST(FieldTiles, CoverEveryPointOnceAndPruneTheTower) {
 }
 
 TEST(FieldTiles, OneTileWhenAskedAndTheSamePlanEveryTime) {
-  const Model m = load("random128", 48);
+  const ShippedScene m = shipped("random128", 48);
   vk::FieldTilingOptions one;
   one.maxTiles = 1;
   EXPECT_EQ(vk::planFieldTiles(m.program, m.grid, one).size(), 1u);
@@ -78,7 +64,7 @@ TEST(FieldTiles, OneTileWhenAskedAndTheSamePlanEveryTime) {
 }
 
 TEST(FieldTiles, PrunedCodeDropsPrimitivesAndSubtreesOutsideTheRegion) {
-  const Model m = load("tower", 32);
+  const ShippedScene m = shipped("tower", 32);
   vk::PointRegion far;
   far.valid = true;
   for (int a = 0; a < 3; ++a) far.lo[a] = 1e6f, far.hi[a] = 1e6f + 1.0f;
@@ -94,7 +80,7 @@ TEST(FieldTiles, PrunedCodeDropsPrimitivesAndSubtreesOutsideTheRegion) {
 class TiledFieldTest : public VulkanTest, public ::testing::WithParamInterface<std::string> {};
 
 TEST_P(TiledFieldTest, EqualsTheUntiledFieldBitForBit) {
-  const Model m = load(GetParam(), 40);
+  const ShippedScene m = shipped(GetParam(), 40);
   vk::FieldOptions untiled;
   untiled.traversal = vk::Traversal::Specialised;
   untiled.tiling.maxTiles = 1;
@@ -124,7 +110,7 @@ TEST_P(TiledFieldTest, EqualsTheUntiledFieldBitForBit) {
 // interpreter and the generated code may contract multiply-adds differently). Unrolled code is
 // asked for: by default the whole program would be looped (vk/eval/program_shape.h).
 TEST_F(VulkanTest, LargeProgramIsSpecialisedPerTile) {
-  const Model m = load("tower_L6P8I4", 40);
+  const ShippedScene m = shipped("tower_L6P8I4", 40);
   vk::CodegenOptions unrolled = vk::defaultCodegenOptions(device());
   unrolled.loops.enabled = false;
   const vk::LoopOptions loops = unrolled.loops;
@@ -174,7 +160,7 @@ std::vector<std::string> scenesWithSpecialisableTiles() {
 }
 
 TEST_P(TiledMeshTest, TiledPolygonizationEqualsUntiledBitForBit) {
-  const Model m = load(GetParam(), 36);
+  const ShippedScene m = shipped(GetParam(), 36);
   vk::GpuPolygonizeOptions untiled;
   untiled.traversal = vk::Traversal::Specialised;
   untiled.maxFieldTiles = 1;
