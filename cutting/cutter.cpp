@@ -344,8 +344,9 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       ++result.caseCounts[std::size_t(kind)];
       if (kind != CutCase::Z) continue;
       // A face of three cut nodes is on the crack where the surface really separates the two
-      // tets sharing it: each tet's side is that of its solid (non-cut) nodes, or of its centroid
-      // when all four nodes are cut nodes, against the swept triangle nearest the face.
+      // tets sharing it: each tet's side is that of its solid (non-cut) nodes against the swept
+      // triangle nearest the face, or of its centroid against the triangle nearest the centroid
+      // when all four nodes are cut nodes.
       for (const auto& f : kTetFaces) {
         if (!(codes.nodes >> f[0] & 1) || !(codes.nodes >> f[1] & 1) || !(codes.nodes >> f[2] & 1)) continue;
         const std::uint32_t a = parent[f[0]], b = parent[f[1]], c = parent[f[2]];
@@ -374,9 +375,21 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
               const double value = orient3dValue(plane[0], plane[1], plane[2], pos[v]);
               if (std::fabs(value) > std::fabs(best)) best = value;
             }
-          if (best == 0.0)
-            best = orient3dValue(plane[0], plane[1], plane[2],
-                                 (pos[nodes[0]] + pos[nodes[1]] + pos[nodes[2]] + pos[nodes[3]]) * 0.25);
+          if (best == 0.0) {
+            // A tet with four cut nodes lies flat on the surface and has several such faces: its
+            // side must be one answer for all of them, so it is its centroid's side of the
+            // triangle nearest that centroid, not of each face's nearest triangle (on a curved
+            // stroke two triangles' planes can disagree, and the crack then passed on neither
+            // side of the tet: the craniotomy's flap stayed attached by it).
+            const Double3 centroid = (pos[nodes[0]] + pos[nodes[1]] + pos[nodes[2]] + pos[nodes[3]]) * 0.25;
+            const Triangle* own = &plane;
+            double ownDistance = 1e300;
+            for (const auto& tri : swept) {
+              const double dist = length(centroid - closestPointOnTriangle(centroid, tri[0], tri[1], tri[2]));
+              if (dist < ownDistance) ownDistance = dist, own = &tri;
+            }
+            best = orient3dValue((*own)[0], (*own)[1], (*own)[2], centroid);
+          }
           return best > 0 ? 1 : (best < 0 ? -1 : 0);
         };
         if (sideOf(slot) * sideOf(other) < 0) crack.push_back(makeFaceKey(a, b, c));
