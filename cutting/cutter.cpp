@@ -93,6 +93,7 @@ struct Cutter::Scratch {
   std::vector<TriBox> boxes;
   std::vector<Double3> normals;
   std::vector<SpatialGrid::Slab> slabs;
+  std::vector<std::uint32_t> flipSeeds;
   std::vector<std::uint32_t> candidates, near, order, around, groupSize, copyOfRoot, rootOf, faceTet, usedSlots;
   std::vector<std::uint8_t> relevant;
   std::vector<double> nearPlane, distances;
@@ -654,6 +655,21 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   }
   for (std::size_t i = 0; i < splitAdded; ++i) isAdded[result.addedTets[i]] = 0;
   lap(3);
+
+  // 8. Flips around what the event wrote, now that the crack faces are boundary faces (no flip
+  // can cross them). At most two attempts per written tet bound the cost.
+  if (options_.improveBelowDeg > 0 && !result.addedTets.empty()) {
+    const auto flipStart = std::chrono::steady_clock::now();
+    auto& seeds = scratch.flipSeeds;
+    seeds.assign(result.addedTets.begin(), result.addedTets.end());
+    std::sort(seeds.begin(), seeds.end());
+    seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
+    const FlipStats flips = flips_.improve(topology_, grid_, seeds, options_.improveBelowDeg, 2 * seeds.size() + 16,
+                                           {result.removedTets, result.removedTetNodes, result.addedTets});
+    result.faceRemovals = flips.faceRemovals;
+    result.edgeRemovals = flips.edgeRemovals;
+    result.flipSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - flipStart).count();
+  }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

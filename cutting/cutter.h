@@ -6,6 +6,7 @@
 
 #include "blobvk/cutting/blade.h"
 #include "blobvk/cutting/decompose.h"
+#include "blobvk/cutting/local_flips.h"
 #include "blobvk/cutting/spatial_grid.h"
 #include "blobvk/cutting/topology.h"
 
@@ -27,6 +28,9 @@ struct CutOptions {
   // Partial cuts split around a Steiner point placed on the swept surface when all its
   // barycentric weights are >= this (else at the centroid); bounds those children's volumes.
   double steinerMargin = 0.1;
+  // After the crack opens, tets the event wrote whose smallest dihedral angle at rest is below
+  // this (degrees) are improved by flips (local_flips.h); 0: no flips.
+  double improveBelowDeg = 15.0;
 };
 
 struct NewNode {
@@ -57,11 +61,14 @@ struct CutResult {
   std::size_t crackFaces = 0, duplicatedNodes = 0;
   // Thin pieces between two crack sheets kept attached instead of cut off (crack_slivers.h).
   std::size_t attachedSlivers = 0;
+  // Flips after the opening (local_flips.h): face removals (2-3) and edge removals (n -> 2n-4).
+  std::size_t faceRemovals = 0, edgeRemovals = 0;
   double minChildVolumeRatio = 1.0;  // smallest child rest volume / its parent's, this event
   double seconds = 0.0;
   // Wall time of the phases: candidates (spatial hash), cut edges and cut nodes, codes + splits
   // + crack faces, crack opening.
   std::array<double, 4> phaseSeconds{};
+  double flipSeconds = 0.0;  // the flips after the opening (included in seconds)
   std::size_t count(CutCase c) const { return caseCounts[std::size_t(c)]; }
 };
 
@@ -83,6 +90,7 @@ class Cutter {
   CutOptions options_;
   SpatialGrid grid_;
   DecompositionCache decompositions_;
+  LocalFlips flips_;
   double meanEdge_ = 1.0;
   // By node: how far from a swept surface the node was when the crack was snapped to it (0: never
   // snapped). A snapped node stays a cut node for every later surface passing as close: without

@@ -1,0 +1,270 @@
+#include "blobvk/cutting/local_flips.h"
+
+#include "blobvk/cutting/vec.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace blobvk::cutting {
+namespace {
+
+// Triangulations of a convex n-gon (vertices 0..n-1 in cycle order), n = 4..7, each as its n - 2
+// triangles (i < j < k): 2, 5, 14 and 42 of them. Built once.
+using Triangulation = std::vector<std::array<std::uint8_t, 3>>;
+void triangulate(int i, int j, Triangulation& current, std::vector<std::pair<int, int>> pending,
+                 std::vector<Triangulation>& out) {
+  // Polygon i..j (vertices i, i+1, ..., j) with base edge (i, j): a triangle (i, k, j), then the
+  // two sub-polygons, handled through a list of pending ones so every combination is produced.
+  if (j - i >= 2) {
+    for (int k = i + 1; k < j; ++k) {
+      Triangulation next = current;
+      next.push_back({std::uint8_t(i), std::uint8_t(k), std::uint8_t(j)});
+      auto more = pending;
+      more.emplace_back(i, k);
+      more.emplace_back(k, j);
+      const auto [a, b] = more.back();
+      more.pop_back();
+      triangulate(a, b, next, more, out);
+    }
+    return;
+  }
+  if (pending.empty()) {
+    out.push_back(current);
+    return;
+  }
+  const auto [a, b] = pending.back();
+  pending.pop_back();
+  triangulate(a, b, current, pending, out);
+}
+
+const std::vector<Triangulation>& triangulations(int n) {
+  static const std::array<std::vector<Triangulation>, 8> all = [] {
+    std::array<std::vector<Triangulation>, 8> t{};
+    for (int m = 4; m <= 7; ++m) {
+      Triangulation current;
+      triangulate(0, m - 1, current, {}, t[std::size_t(m)]);
+    }
+    return t;
+  }();
+  return all[std::size_t(n)];
+}
+
+// Positive at rest and in the current positions, with some margin for rounding.
+bool positive(const mesh::TetMesh& m, const Tet& t) {
+  const auto& r = m.restPositions;
+  const auto& p = m.positions;
+  auto ok = [&](const std::vector<mesh::Double3>& x) {
+    const double v = tetVolume(x[t[0]], x[t[1]], x[t[2]], x[t[3]]);
+    const double l = std::max({length(x[t[1]] - x[t[0]]), length(x[t[2]] - x[t[0]]), length(x[t[3]] - x[t[0]])});
+    return v > 1e-12 * l * l * l;
+  };
+  return ok(r) && (&r == &p || ok(p));
+}
+
+double quality(const mesh::TetMesh& m, const Tet& t) {
+  const auto& r = m.restPositions;
+  return minDihedralDeg(r[t[0]], r[t[1]], r[t[2]], r[t[3]]);
+}
+
+}  // namespace
+
+double minDihedralDeg(Double3 a, Double3 b, Double3 c, Double3 d) {
+  // Outward normals of the faces opposite each vertex; the dihedral angle at the edge shared by
+  // faces i and j is pi minus the angle between their normals: the largest -cos wins.
+  const std::array<Double3, 4> n{cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a), cross(c - a, b - a)};
+  std::array<double, 4> len{};
+  for (int i = 0; i < 4; ++i) len[std::size_t(i)] = length(n[std::size_t(i)]);
+  double worst = -1.0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) {
+      const double l = len[std::size_t(i)] * len[std::size_t(j)];
+      if (!(l > 0)) return 0.0;
+      worst = std::max(worst, -dot(n[std::size_t(i)], n[std::size_t(j)]) / l);
+    }
+  return std::acos(std::clamp(worst, -1.0, 1.0)) * (180.0 / 3.14159265358979323846);
+}
+
+void LocalFlips::write(CutTopology& topology, std::uint32_t slot, const Tet& nodes) {
+  if (listed_.size() <= slot) listed_.resize(std::size_t(slot) + slot / 2 + 1, 0);
+  if (!listed_[slot]) {
+    change_->removedTets.push_back(slot);
+    change_->removedTetNodes.push_back(topology.tet(slot));
+    listed_[slot] = 1;
+  }
+  change_->addedTets.push_back(slot);
+  topology.setTet(slot, nodes);
+  written_.push_back(slot);
+}
+
+std::uint32_t LocalFlips::append(CutTopology& topology, const Tet& nodes, std::uint32_t region) {
+  const std::uint32_t slot = topology.addTet(nodes, region);
+  if (listed_.size() <= slot) listed_.resize(std::size_t(slot) + slot / 2 + 1, 0);
+  listed_[slot] = 1;
+  change_->addedTets.push_back(slot);
+  written_.push_back(slot);
+  return slot;
+}
+
+bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double belowDeg, FlipStats& stats) {
+  const mesh::TetMesh& m = topology.mesh();
+  const Tet t = topology.tet(slot);
+  const double own = quality(m, t);
+  if (own >= belowDeg) return false;
+  const std::uint32_t region = m.regions.empty() ? 0u : m.regions[slot];
+  auto regionOf = [&](std::uint32_t s) { return m.regions.empty() ? 0u : m.regions[s]; };
+  ++stats.attempts;
+  double bestQuality = own;  // an operation must raise the minimum of what it replaces
+  enum class Op { None, Face, Edge } bestOp = Op::None;
+  std::uint32_t bestOther = kNone;
+  std::vector<std::uint32_t> bestRing;
+  best_.clear();
+
+  // Face removal: the tet and its neighbour across face i become three tets around (t[i], e).
+  for (int i = 0; i < 4; ++i) {
+    const auto& f = kTetFaces[std::size_t(i)];
+    const auto pair = topology.tetsOfFace(t[std::size_t(f[0])], t[std::size_t(f[1])], t[std::size_t(f[2])]);
+    const std::uint32_t other = pair[0] == slot ? pair[1] : pair[0];
+    if (other == kNone || regionOf(other) != region) continue;
+    const Tet& u = topology.tet(other);
+    std::uint32_t e = kNone;
+    for (std::uint32_t v : u)
+      if (v != t[0] && v != t[1] && v != t[2] && v != t[3]) e = v;
+    if (e == kNone) continue;
+    const double before = std::min(own, quality(m, u));
+    // Each new tet is the tet with one of the face's nodes replaced by e: positive exactly when
+    // e lies beyond the face on that side (the union is convex there).
+    std::array<Tet, 3> made{};
+    double worst = 1e300;
+    bool valid = !topology.hasEdge(t[std::size_t(i)], e);
+    for (int k = 0; k < 3 && valid; ++k) {
+      made[std::size_t(k)] = t;
+      made[std::size_t(k)][std::size_t(f[std::size_t(k)])] = e;
+      valid = positive(m, made[std::size_t(k)]);
+      if (valid) worst = std::min(worst, quality(m, made[std::size_t(k)]));
+    }
+    if (valid && worst > std::max(before, bestQuality) + 1e-9) {
+      bestQuality = worst;
+      bestOp = Op::Face;
+      bestOther = other;
+      best_.assign(made.begin(), made.end());
+    }
+  }
+
+  // Edge removal: the ring of tets around edge (a, b) (closed, 4..7 tets) becomes the cones from a
+  // and b over a triangulation of the ring polygon.
+  for (const auto& e : kTetEdges) {
+    const std::uint32_t a = t[std::size_t(e[0])], b = t[std::size_t(e[1])];
+    ring_.clear();
+    for (std::uint32_t s : topology.tetsOfNode(a)) {
+      const Tet& u = topology.tet(s);
+      if (std::find(u.begin(), u.end(), b) != u.end()) ring_.push_back(s);
+    }
+    const int n = int(ring_.size());
+    if (n < 4 || n > 7) continue;
+    bool sameRegion = true;
+    double before = 1e300;
+    // Cycle: for the tet with other nodes {p, q}, (a, b, p, q) positive means q follows p.
+    std::array<std::uint32_t, 7> from{}, to{};
+    for (int k = 0; k < n; ++k) {
+      const Tet& u = topology.tet(ring_[std::size_t(k)]);
+      sameRegion = sameRegion && regionOf(ring_[std::size_t(k)]) == region;
+      before = std::min(before, quality(m, u));
+      std::uint32_t p = kNone, q = kNone;
+      for (std::uint32_t v : u)
+        if (v != a && v != b) (p == kNone ? p : q) = v;
+      const auto& r = m.restPositions;
+      if (tetVolume(r[a], r[b], r[p], r[q]) < 0) std::swap(p, q);
+      from[std::size_t(k)] = p, to[std::size_t(k)] = q;
+    }
+    if (!sameRegion) continue;
+    std::array<std::uint32_t, 7> cycle{};
+    cycle[0] = from[0];
+    bool closed = true;
+    for (int k = 1; k <= n && closed; ++k) {
+      const std::uint32_t prev = cycle[std::size_t(k - 1)];
+      int next = -1;
+      for (int j = 0; j < n; ++j)
+        if (from[std::size_t(j)] == prev) next = j;
+      if (next < 0) closed = false;
+      else if (k < n) cycle[std::size_t(k)] = to[std::size_t(next)];
+      else closed = to[std::size_t(next)] == cycle[0];
+    }
+    if (!closed) continue;
+    for (int x = 0; x < n && closed; ++x)
+      for (int y = x + 1; y < n; ++y)
+        if (cycle[std::size_t(x)] == cycle[std::size_t(y)]) closed = false;
+    if (!closed) continue;
+    // Quality of the two cones over each triangle of the polygon (0: invalid), then the best
+    // triangulation. A diagonal that is already an edge elsewhere makes its triangles invalid.
+    std::array<std::array<std::array<double, 7>, 7>, 7> cone{};
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j)
+        for (int k = j + 1; k < n; ++k) {
+          const std::uint32_t ri = cycle[std::size_t(i)], rj = cycle[std::size_t(j)], rk = cycle[std::size_t(k)];
+          const bool diagonalExists = (j - i > 1 && topology.hasEdge(ri, rj)) ||
+                                      (k - j > 1 && topology.hasEdge(rj, rk)) ||
+                                      (!(i == 0 && k == n - 1) && topology.hasEdge(ri, rk));
+          const Tet below{ri, rj, rk, b}, above{rk, rj, ri, a};
+          double q = 0.0;
+          if (!diagonalExists && positive(m, below) && positive(m, above))
+            q = std::min(quality(m, below), quality(m, above));
+          cone[std::size_t(i)][std::size_t(j)][std::size_t(k)] = q;
+        }
+    const Triangulation* chosen = nullptr;
+    double chosenQuality = std::max(before, bestQuality) + 1e-9;
+    for (const Triangulation& tri : triangulations(n)) {
+      double worst = 1e300;
+      for (const auto& [i, j, k] : tri) worst = std::min(worst, cone[i][j][k]);
+      if (worst > chosenQuality) chosenQuality = worst, chosen = &tri;
+    }
+    if (chosen == nullptr) continue;
+    bestQuality = chosenQuality;
+    bestOp = Op::Edge;
+    bestRing.assign(ring_.begin(), ring_.end());
+    best_.clear();
+    for (const auto& [i, j, k] : *chosen) {
+      best_.push_back({cycle[i], cycle[j], cycle[k], b});
+      best_.push_back({cycle[k], cycle[j], cycle[i], a});
+    }
+  }
+
+  if (bestOp == Op::None) return false;
+  if (bestOp == Op::Face) {
+    ++stats.faceRemovals;
+    write(topology, slot, best_[0]);
+    write(topology, bestOther, best_[1]);
+    append(topology, best_[2], region);
+  } else {
+    ++stats.edgeRemovals;
+    std::sort(bestRing.begin(), bestRing.end());
+    for (std::size_t k = 0; k < best_.size(); ++k)
+      if (k < bestRing.size()) write(topology, bestRing[k], best_[k]);
+      else append(topology, best_[k], region);
+  }
+  return true;
+}
+
+FlipStats LocalFlips::improve(CutTopology& topology, SpatialGrid& grid, std::span<const std::uint32_t> seeds,
+                              double belowDeg, std::size_t maxAttempts, FlipChangeSet change) {
+  FlipStats stats;
+  change_ = &change;
+  if (listed_.size() < topology.slotCount()) listed_.resize(topology.slotCount() + topology.slotCount() / 2, 0);
+  for (std::uint32_t s : change.addedTets) listed_[s] = 1;
+  queue_.assign(seeds.begin(), seeds.end());
+  for (std::size_t q = 0; q < queue_.size() && stats.attempts < maxAttempts; ++q) {
+    const std::uint32_t slot = queue_[q];
+    if (slot >= topology.slotCount() || !topology.alive(slot)) continue;
+    written_.clear();
+    if (!improveTet(topology, slot, belowDeg, stats)) continue;
+    for (std::uint32_t s : written_) {
+      grid.insert(topology, s);
+      queue_.push_back(s);  // still bad: tried again (an operation around it may now exist)
+    }
+  }
+  for (std::uint32_t s : change.addedTets) listed_[s] = 0;
+  change_ = nullptr;
+  return stats;
+}
+
+}  // namespace blobvk::cutting
