@@ -41,6 +41,7 @@ void triangulate(int i, int j, Triangulation& current, std::vector<std::pair<int
 const std::vector<Triangulation>& triangulations(int n) {
   static const std::array<std::vector<Triangulation>, 8> all = [] {
     std::array<std::vector<Triangulation>, 8> t{};
+    t[3] = {Triangulation{{0, 1, 2}}};
     for (int m = 4; m <= 7; ++m) {
       Triangulation current;
       triangulate(0, m - 1, current, {}, t[std::size_t(m)]);
@@ -106,6 +107,36 @@ std::uint32_t LocalFlips::append(CutTopology& topology, const Tet& nodes, std::u
   return slot;
 }
 
+bool LocalFlips::freeable(std::uint32_t region) const {
+  const std::size_t slots = topology_->slotCount();
+  if (slots == 0 || slots - 1 < firstFlipSlot_ || topology_->liveTetCount() != slots) return false;
+  const auto& regions = topology_->mesh().regions;
+  return regions.empty() || regions[slots - 1] == region;
+}
+
+void LocalFlips::releaseLast(CutTopology& topology, const std::vector<std::uint32_t>& ring, const std::vector<Tet>& made) {
+  // The two new tets go into two ring slots; the last slot (appended by a flip of this call: not
+  // in any family of the spatial hash, listed only as added) moves into the third ring slot,
+  // unless it is one of the ring, and is given back.
+  const std::uint32_t last = std::uint32_t(topology.slotCount() - 1);
+  std::array<std::uint32_t, 3> keep{};
+  std::size_t kept = 0;
+  const bool lastInRing = std::find(ring.begin(), ring.end(), last) != ring.end();
+  for (std::uint32_t s : ring)
+    if (s != last && kept < 2) keep[kept++] = s;
+  const std::uint32_t spare = lastInRing ? last : ring[2];
+  const Tet lastNodes = topology.tet(last);
+  write(topology, keep[0], made[0]);
+  write(topology, keep[1], made[1]);
+  if (!lastInRing) write(topology, spare, lastNodes);
+  auto& added = change_->addedTets;
+  added.erase(std::remove(added.begin(), added.end(), last), added.end());
+  written_.erase(std::remove(written_.begin(), written_.end(), last), written_.end());
+  listed_[last] = 0;
+  topology.removeTet(last);
+  topology.compact();  // the only hole is the last slot: a truncation, no move
+}
+
 bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double belowDeg, FlipStats& stats) {
   const mesh::TetMesh& m = topology.mesh();
   const Tet t = topology.tet(slot);
@@ -163,7 +194,8 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
       if (std::find(u.begin(), u.end(), b) != u.end()) ring_.push_back(s);
     }
     const int n = int(ring_.size());
-    if (n < 4 || n > 7) continue;
+    // Three tets (the 3-2 flip) only when a slot can be given back (see freeableSlot).
+    if (n < 3 || n > 7 || (n == 3 && !freeable(region))) continue;
     bool sameRegion = true;
     double before = 1e300;
     // Cycle: for the tet with other nodes {p, q}, (a, b, p, q) positive means q follows p.
@@ -220,6 +252,8 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     };
     const Triangulation* chosen = nullptr;
     double chosenQuality = std::max(before, bestQuality) + 1e-9;
+    // With three tets the two new ones share the face of the ring's nodes: it must not exist.
+    if (n == 3 && topology.tetsOfFace(cycle[0], cycle[1], cycle[2])[0] != kNone) continue;
     for (const Triangulation& tri : triangulations(n)) {
       double worst = 1e300;
       for (const auto& [i, j, k] : tri) worst = std::min(worst, cone[i][j][k]);
@@ -245,6 +279,11 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
   } else {
     ++stats.edgeRemovals;
     std::sort(bestRing.begin(), bestRing.end());
+    if (bestRing.size() == 3) {
+      ++stats.threeTwo;
+      releaseLast(topology, bestRing, best_);
+      return true;
+    }
     for (std::size_t k = 0; k < best_.size(); ++k)
       if (k < bestRing.size()) write(topology, bestRing[k], best_[k]);
       else append(topology, best_[k], region);
@@ -258,6 +297,8 @@ FlipStats LocalFlips::improve(CutTopology& topology, SpatialGrid& grid, std::spa
   change_ = &change;
   if (listed_.size() < topology.slotCount()) listed_.resize(topology.slotCount() + topology.slotCount() / 2, 0);
   for (std::uint32_t s : change.addedTets) listed_[s] = 1;
+  topology_ = &topology;
+  firstFlipSlot_ = topology.slotCount();
   queue_.assign(seeds.begin(), seeds.end());
   for (std::size_t q = 0; q < queue_.size() && stats.attempts < maxAttempts; ++q) {
     const std::uint32_t slot = queue_[q];
@@ -271,6 +312,7 @@ FlipStats LocalFlips::improve(CutTopology& topology, SpatialGrid& grid, std::spa
   }
   for (std::uint32_t s : change.addedTets) listed_[s] = 0;
   change_ = nullptr;
+  topology_ = nullptr;
   return stats;
 }
 

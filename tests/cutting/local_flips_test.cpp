@@ -175,6 +175,7 @@ TEST(LocalFlips, ManyFlipsKeepRegionsBoundaryVolumeAndReplay) {
   for (std::uint32_t s = 0; s < topology.slotCount(); ++s) mirror[s] = topology.tet(s);
   const FlipRun run = improveAll(topology, 40);
   EXPECT_GT(run.stats.edgeRemovals, 10u);
+  EXPECT_GT(run.stats.threeTwo, 0u);  // after edge removals that appended slots
   EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
   EXPECT_EQ(boundary(topology), faces);
   const auto after = regionVolumes(topology);
@@ -189,8 +190,8 @@ TEST(LocalFlips, ManyFlipsKeepRegionsBoundaryVolumeAndReplay) {
   for (const auto& [slot, nodes] : mirror) EXPECT_EQ(topology.tet(slot), nodes);
   const double improved = minAngle(topology.toTetMesh());
   EXPECT_GE(improved, before);
-  std::printf("ball of %zu tets: %zu face removals, %zu edge removals, min dihedral %.2f -> %.2f deg\n", m.tets.size(),
-              run.stats.faceRemovals, run.stats.edgeRemovals, before, improved);
+  std::printf("ball of %zu tets: %zu face removals, %zu edge removals (%zu 3-2), min dihedral %.2f -> %.2f deg\n",
+              m.tets.size(), run.stats.faceRemovals, run.stats.edgeRemovals, run.stats.threeTwo, before, improved);
 }
 
 }  // namespace
