@@ -168,13 +168,15 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     std::array<Tet, 3> made{};
     double worst = 1e300;
     bool valid = !topology.hasEdge(t[std::size_t(i)], e);
+    const double bar = std::max(before, bestQuality) + 1e-9;
     for (int k = 0; k < 3 && valid; ++k) {
       made[std::size_t(k)] = t;
       made[std::size_t(k)][std::size_t(f[std::size_t(k)])] = e;
       valid = positive(m, made[std::size_t(k)]);
       if (valid) worst = std::min(worst, quality(m, made[std::size_t(k)]));
+      valid = valid && worst > bar;  // no better than the bar: the rest need not be evaluated
     }
-    if (valid && worst > std::max(before, bestQuality) + 1e-9) {
+    if (valid) {
       bestQuality = worst;
       bestOp = Op::Face;
       bestOther = other;
@@ -228,18 +230,19 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
       for (int y = x + 1; y < n; ++y)
         if (cycle[std::size_t(x)] == cycle[std::size_t(y)]) closed = false;
     if (!closed) continue;
-    // Quality of the two cones over each triangle of the polygon (0: invalid), then the best
-    // triangulation. A diagonal that is already an edge elsewhere makes its triangles invalid.
+    // Quality of the two cones over each triangle of the polygon (0: invalid, or no better than
+    // the bar a triangulation must clear, so that the second cone is not evaluated), then the
+    // best triangulation.
+    const double bar = std::max(before, bestQuality) + 1e-9;
     std::array<std::array<std::array<double, 7>, 7>, 7> cone{};
     for (int i = 0; i < n; ++i)
       for (int j = i + 1; j < n; ++j)
         for (int k = j + 1; k < n; ++k) {
           const std::uint32_t ri = cycle[std::size_t(i)], rj = cycle[std::size_t(j)], rk = cycle[std::size_t(k)];
           const Tet below{ri, rj, rk, b}, above{rk, rj, ri, a};
-          double q = 0.0;
-          if (positive(m, below) && positive(m, above))
-            q = std::min(quality(m, below), quality(m, above));
-          cone[std::size_t(i)][std::size_t(j)][std::size_t(k)] = q;
+          double q = positive(m, below) ? quality(m, below) : 0.0;
+          if (q > bar) q = positive(m, above) ? std::min(q, quality(m, above)) : 0.0;
+          cone[std::size_t(i)][std::size_t(j)][std::size_t(k)] = q > bar ? q : 0.0;
         }
     // A diagonal that is already an edge elsewhere rules its triangulation out; checked only for
     // a triangulation that would be taken (a few incidence scans instead of one per triangle).
@@ -251,7 +254,7 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
       return true;
     };
     const Triangulation* chosen = nullptr;
-    double chosenQuality = std::max(before, bestQuality) + 1e-9;
+    double chosenQuality = bar;
     // With three tets the two new ones share the face of the ring's nodes: it must not exist.
     if (n == 3 && topology.tetsOfFace(cycle[0], cycle[1], cycle[2])[0] != kNone) continue;
     for (const Triangulation& tri : triangulations(n)) {
