@@ -169,7 +169,9 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     if (stats) {
       stats->gpu = {gpu.classifySeconds, gpu.fieldSeconds, gpu.extractSeconds, gpu.readbackSeconds,
                     gpu.hostSeconds, gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes,
-                    gpu.submits, gpu.batches, gpu.deviceTimed, gpu.devices};
+                    gpu.submits, gpu.batches, gpu.deviceTimed, gpu.devices,
+                    gpu.traversal == vk::Traversal::Auto ? std::string() : std::string(vk::traversalName(gpu.traversal)),
+                    gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds};
     }
     if (validationMessages(contexts) != messagesBefore) {
       throw std::runtime_error("the Vulkan validation layer reported " +

@@ -60,6 +60,11 @@ struct PolygonizeStats {
     std::uint64_t bricks = 0, activeBricks = 0, brickCells = 0, deviceBytes = 0, submits = 0, batches = 0;
     bool deviceTimed = false;
     std::uint64_t devices = 1;
+    // The evaluator the batches ran ("stackless", "specialised"; empty: dense path) and, on CPU
+    // drivers, the cost model's estimate for it (< 0: none).
+    std::string evaluator;
+    bool vertexGradient = false;
+    double modelBuild = -1.0, modelRun = -1.0;
   } gpu;
 };
 

@@ -197,7 +197,8 @@ void addMeshCommand(CLI::App& app) {
       out["point_evaluations"] = stats.pointEvaluations;
       if (a->settings.backend == "vk")
         out["gpu"] = {{"batches", stats.gpu.batches}, {"active_bricks", stats.gpu.activeBricks},
-                      {"device_bytes", stats.gpu.deviceBytes}, {"devices", stats.gpu.devices}};
+                      {"device_bytes", stats.gpu.deviceBytes}, {"devices", stats.gpu.devices},
+                      {"evaluator", stats.gpu.evaluator}, {"generated_gradient", stats.gpu.vertexGradient}};
       out["vertices"] = mesh.vertexCount();
       out["triangles"] = mesh.triangleCount();
       out["bytes"] = bytes.size();
