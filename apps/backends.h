@@ -14,6 +14,10 @@
 #include <utility>
 #include <vector>
 
+namespace blobvk::mesh {
+class MeshSink;
+}
+
 namespace blobvk::vk {
 enum class Traversal;  // vk/eval/gpu_program.h
 }
@@ -42,7 +46,8 @@ struct PolygonizeSettings {
   bool dense = false;           // vk: the dense z-slab extraction instead of the sparse one
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
   int expectedRuns = 1;         // vk: runs of this job the caller makes (bench: warm-up + repeats)
-  // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads.
+  // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads; vk streamed:
+  // after each batch of brick layers.
   std::function<void(std::size_t done, std::size_t total)> progress;
 };
 
@@ -89,5 +94,11 @@ nlohmann::json backendDeviceJson(const PolygonizeSettings& settings);
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats = nullptr);
+
+// The vk backend's sparse extraction handed to `sink` batch by batch (vk/extract/streamed_extract.h),
+// the same runs as polygonize()'s mesh; one device. Throws for other backends, --devices, or in
+// builds without Vulkan.
+void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                        const PolygonizeSettings& settings, mesh::MeshSink& sink, PolygonizeStats* stats = nullptr);
 
 }  // namespace blobvk::app

@@ -193,10 +193,8 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   return c;
 }
 
-mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                               const GpuPolygonizeOptions& options, GpuStats* stats) {
-  mesh::TriMesh mesh;
-  GpuStats s;
+void runSparseExtraction(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                         const GpuPolygonizeOptions& options, const SparseBatchSink& sink, GpuStats& s) {
   const BrickGrid bg = brickGridFor(grid, options.brickCells);
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
@@ -218,9 +216,12 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
     SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, classified.scan,
                              classified.list, maxLoaded, s.batches);
     std::uint64_t vertexBase = 0;
-    for (const SparseBatch& b : batches) {
-      runner.run(b, vertexBase, mesh, s);
-      vertexBase = mesh.positions.size();
+    for (std::size_t i = 0; i < batches.size(); ++i) {
+      mesh::TriMesh& into = sink.into();
+      const std::size_t before = into.positions.size();
+      runner.run(batches[i], vertexBase, into, s);
+      vertexBase += into.positions.size() - before;
+      if (sink.done) sink.done(i, batches.size());
     }
     runner.deviceTimes(s);
     bytes += runner.sharedBytes() + runner.peakOutputBytes();
@@ -228,6 +229,13 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   s.deviceBytes = bytes;
   s.seconds = since(wallStart);
   s.hostSeconds = std::max(0.0, s.seconds - s.classifySeconds - s.fieldSeconds - s.extractSeconds - s.readbackSeconds);
+}
+
+mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                               const GpuPolygonizeOptions& options, GpuStats* stats) {
+  mesh::TriMesh mesh;
+  GpuStats s;
+  runSparseExtraction(device, program, grid, options, {[&]() -> mesh::TriMesh& { return mesh; }, {}}, s);
   if (stats) *stats = s;
   return mesh;
 }

@@ -22,6 +22,7 @@
 #include "blobvk/vk/extract/polygonize.h"
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -81,5 +82,16 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
 
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);
+
+// What polygonizeSparse runs, batch by batch: each batch appends its vertices and its triangles
+// (indices counted from the mesh's first vertex) to the mesh `into` returns, then `done` is
+// called with the batch's number and the batch count. polygonizeSparse keeps one mesh; the
+// streamed extraction (streamed_extract.h) hands each batch on and drops it.
+struct SparseBatchSink {
+  std::function<mesh::TriMesh&()> into;
+  std::function<void(std::size_t batch, std::size_t batches)> done;
+};
+void runSparseExtraction(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                         const GpuPolygonizeOptions& options, const SparseBatchSink& sink, GpuStats& stats);
 
 }  // namespace blobvk::vk
