@@ -8,6 +8,7 @@
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
+#include "shipped_scenes.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
@@ -17,12 +18,6 @@
 
 namespace blobvk::testing {
 namespace {
-
-blobtree::GridSpec gridAt(const blobtree::Program& program, int resolution) {
-  blobtree::GridRequest request;
-  request.resolution = resolution;
-  return blobtree::chooseGrid(program, {}, request);
-}
 
 // Every brick of `cells`-cell bricks over the grid.
 vk::EvaluatedBricks allBricks(const blobtree::GridSpec& grid, std::uint32_t cells) {
