@@ -9,6 +9,7 @@
 #ifdef BLOBVK_HAVE_VULKAN
 #include "blobvk/vk/extract/multi_device.h"
 #include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/streamed_extract.h"
 #include "blobvk/vk/device/standalone.h"
 #endif
 
@@ -108,6 +109,63 @@ nlohmann::json backendDeviceJson([[maybe_unused]] const PolygonizeSettings& sett
 #endif
 }
 
+#ifdef BLOBVK_HAVE_VULKAN
+namespace {
+vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {
+  vk::GpuPolygonizeOptions options;
+  options.refineSteps = settings.refineSteps;
+  options.traversal = traversalFromName(settings.traversal);
+  options.maxFieldTiles = std::uint32_t(std::max(settings.fieldTiles, 1));
+  if (settings.brickCells > 0) options.brickCells = std::uint32_t(settings.brickCells);
+  options.sparse = !settings.dense;
+  options.tiledVertexPass = settings.tiledVertices;
+  if (settings.batchesPerDevice > 0) options.batchesPerDevice = std::uint32_t(settings.batchesPerDevice);
+  options.expectedRuns = std::uint32_t(std::max(settings.expectedRuns, 1));
+  return options;
+}
+
+PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
+  return {gpu.classifySeconds, gpu.fieldSeconds, gpu.extractSeconds, gpu.readbackSeconds,
+          gpu.hostSeconds, gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes,
+          gpu.submits, gpu.batches, gpu.deviceTimed, gpu.devices,
+          gpu.traversal == vk::Traversal::Auto ? std::string() : std::string(vk::traversalName(gpu.traversal)),
+          gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds};
+}
+
+void checkValidation(const std::vector<vk::StandaloneContext*>& contexts, std::uint64_t messagesBefore) {
+  if (validationMessages(contexts) != messagesBefore) {
+    throw std::runtime_error("the Vulkan validation layer reported " +
+                             std::to_string(validationMessages(contexts) - messagesBefore) + " message(s)");
+  }
+}
+}  // namespace
+#endif
+
+void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                        const PolygonizeSettings& settings, mesh::MeshSink& sink, PolygonizeStats* stats) {
+  if (settings.backend != "vk") throw std::invalid_argument("polygonizeStreamed: the vk backend only, not " + settings.backend);
+#ifdef BLOBVK_HAVE_VULKAN
+  if (!settings.devices.empty()) throw std::runtime_error("streamed meshing on the vk backend runs on one device (drop --devices)");
+  const auto start = std::chrono::steady_clock::now();
+  vk::StandaloneContext& context = sharedContext(settings.device, settings.validation);
+  const std::vector<vk::StandaloneContext*> contexts{&context};
+  const std::uint64_t messagesBefore = validationMessages(contexts);
+  vk::GpuStats gpu;
+  vk::polygonizeStreamed(context.device(), program, grid, gpuOptions(settings), sink, &gpu,
+                         settings.progress ? std::function<void(std::size_t, std::size_t)>(settings.progress)
+                                           : std::function<void(std::size_t, std::size_t)>());
+  checkValidation(contexts, messagesBefore);
+  if (stats) {
+    stats->gpu = gpuPhases(gpu);
+    stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    stats->pointEvaluations = double(gpu.fieldEvaluations);
+  }
+#else
+  (void)program, (void)grid, (void)sink, (void)stats;
+  throw std::runtime_error("the vk backend: this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
+#endif
+}
+
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats) {
   const auto start = std::chrono::steady_clock::now();
@@ -148,15 +206,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
         settings.devices.empty() ? std::vector<vk::StandaloneContext*>{&sharedContext(settings.device, settings.validation)}
                                  : listedContexts(settings.devices, settings.validation);
     const std::uint64_t messagesBefore = validationMessages(contexts);
-    vk::GpuPolygonizeOptions options;
-    options.refineSteps = settings.refineSteps;
-    options.traversal = traversalFromName(settings.traversal);
-    options.maxFieldTiles = std::uint32_t(std::max(settings.fieldTiles, 1));
-    if (settings.brickCells > 0) options.brickCells = std::uint32_t(settings.brickCells);
-    options.sparse = !settings.dense;
-    options.tiledVertexPass = settings.tiledVertices;
-    if (settings.batchesPerDevice > 0) options.batchesPerDevice = std::uint32_t(settings.batchesPerDevice);
-    options.expectedRuns = std::uint32_t(std::max(settings.expectedRuns, 1));
+    const vk::GpuPolygonizeOptions options = gpuOptions(settings);
     vk::GpuStats gpu;
     if (contexts.size() == 1) {
       mesh = vk::polygonize(contexts[0]->device(), program, grid, options, &gpu);
@@ -166,15 +216,8 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
       mesh = vk::polygonizeOnDevices(devices, program, grid, options, &gpu);
     }
     evaluations = double(gpu.fieldEvaluations);
-    if (stats) {
-      stats->gpu = {gpu.classifySeconds, gpu.fieldSeconds, gpu.extractSeconds, gpu.readbackSeconds,
-                    gpu.hostSeconds, gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes,
-                    gpu.submits, gpu.batches, gpu.deviceTimed, gpu.devices};
-    }
-    if (validationMessages(contexts) != messagesBefore) {
-      throw std::runtime_error("the Vulkan validation layer reported " +
-                               std::to_string(validationMessages(contexts) - messagesBefore) + " message(s)");
-    }
+    if (stats) stats->gpu = gpuPhases(gpu);
+    checkValidation(contexts, messagesBefore);
 #else
   } else if (settings.backend == "vk") {
     throw std::runtime_error("the vk backend: this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");

@@ -14,6 +14,10 @@
 #include <utility>
 #include <vector>
 
+namespace blobvk::mesh {
+class MeshSink;
+}
+
 namespace blobvk::vk {
 enum class Traversal;  // vk/eval/gpu_program.h
 }
@@ -42,7 +46,8 @@ struct PolygonizeSettings {
   bool dense = false;           // vk: the dense z-slab extraction instead of the sparse one
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
   int expectedRuns = 1;         // vk: runs of this job the caller makes (bench: warm-up + repeats)
-  // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads.
+  // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads; vk streamed:
+  // after each batch of brick layers.
   std::function<void(std::size_t done, std::size_t total)> progress;
 };
 
@@ -60,6 +65,11 @@ struct PolygonizeStats {
     std::uint64_t bricks = 0, activeBricks = 0, brickCells = 0, deviceBytes = 0, submits = 0, batches = 0;
     bool deviceTimed = false;
     std::uint64_t devices = 1;
+    // The evaluator the batches ran ("stackless", "specialised"; empty: dense path) and, on CPU
+    // drivers, the cost model's estimate for it (< 0: none).
+    std::string evaluator;
+    bool vertexGradient = false;
+    double modelBuild = -1.0, modelRun = -1.0;
   } gpu;
 };
 
@@ -84,5 +94,11 @@ nlohmann::json backendDeviceJson(const PolygonizeSettings& settings);
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats = nullptr);
+
+// The vk backend's sparse extraction handed to `sink` batch by batch (vk/extract/streamed_extract.h),
+// the same runs as polygonize()'s mesh; one device. Throws for other backends, --devices, or in
+// builds without Vulkan.
+void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                        const PolygonizeSettings& settings, mesh::MeshSink& sink, PolygonizeStats* stats = nullptr);
 
 }  // namespace blobvk::app

@@ -165,6 +165,11 @@ void addBenchCommand(CLI::App& app) {
                     {"batches", r.gpu.batches}, {"devices", r.gpu.devices},
                     {"bricks", r.gpu.bricks}, {"active_bricks", r.gpu.activeBricks},
                     {"brick_cells", r.gpu.brickCells}, {"device_bytes", r.gpu.deviceBytes}};
+          if (!r.gpu.evaluator.empty()) {
+            auto seconds = [](double v) { return v >= 0 ? nlohmann::json(v) : nlohmann::json(nullptr); };
+            phases["evaluator"] = {{"traversal", r.gpu.evaluator}, {"generated_gradient", r.gpu.vertexGradient},
+                                   {"model_build_s", seconds(r.gpu.modelBuild)}, {"model_run_s", seconds(r.gpu.modelRun)}};
+          }
         }
         out.push_back({{"vk_phases", phases}, {"scene", r.scene}, {"backend", r.backend}, {"resolution", r.resolution},
                        {"threads", r.threads}, {"median_s", r.median}, {"min_s", r.min},

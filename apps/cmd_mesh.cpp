@@ -76,8 +76,9 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_flag("--tiled-vertices", a->settings.tiledVertices,
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
   cmd->add_option("--max-memory", a->maxMemory,
-                  "Memory budget (e.g. 2G; default: available): a cpu job whose mesh may not fit is streamed to the file layer by layer");
-  cmd->add_flag("--stream", a->stream, "cpu: always stream (write the mesh layer by layer of MPUs, holding a few layers)");
+                  "Memory budget (e.g. 2G; default: available): a cpu or vk job whose mesh may not fit is streamed to the file layer by layer");
+  cmd->add_flag("--stream", a->stream,
+                "Always stream: write the mesh as it is made (cpu: layer by layer of MPUs; vk: batch by batch of brick layers), holding a few layers");
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
   cmd->add_flag("--features", a->features,
                 "Sharp features: a vertex on the crease or corner in each cell whose normals disagree (extended marching cubes)");
@@ -117,10 +118,12 @@ void addMeshCommand(CLI::App& app) {
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
     const std::string gridText =
         std::to_string(grid.cells.x) + " x " + std::to_string(grid.cells.y) + " x " + std::to_string(grid.cells.z);
-    // --max-memory is a budget: a cpu job whose whole mesh may not fit is streamed instead.
+    // --max-memory is a budget: a cpu or vk job whose whole mesh may not fit is streamed instead
+    // (vk with one device: several devices join their batches in memory).
     const std::uint64_t budget = a->limits.maxMemoryBytes ? a->limits.maxMemoryBytes : availableMemoryBytes();
     const std::uint64_t inMemory = estimatePolygonizeBytes(grid, a->settings.backend);
-    const bool stream = a->stream || launchedByMpi() || (a->settings.backend == "cpu" && budget != 0 && inMemory > budget);
+    const bool streams = a->settings.backend == "cpu" || (a->settings.backend == "vk" && a->settings.devices.empty());
+    const bool stream = a->stream || launchedByMpi() || (streams && budget != 0 && inMemory > budget);
     if (stream && (simplifyTarget || a->optimize || a->features)) {
       throw UsageError("--features, --simplify and --optimize need the whole mesh in memory; they cannot be combined with streaming"
                        " (--stream, an MPI launch, or a mesh over the --max-memory budget)");
@@ -197,7 +200,8 @@ void addMeshCommand(CLI::App& app) {
       out["point_evaluations"] = stats.pointEvaluations;
       if (a->settings.backend == "vk")
         out["gpu"] = {{"batches", stats.gpu.batches}, {"active_bricks", stats.gpu.activeBricks},
-                      {"device_bytes", stats.gpu.deviceBytes}, {"devices", stats.gpu.devices}};
+                      {"device_bytes", stats.gpu.deviceBytes}, {"devices", stats.gpu.devices},
+                      {"evaluator", stats.gpu.evaluator}, {"generated_gradient", stats.gpu.vertexGradient}};
       out["vertices"] = mesh.vertexCount();
       out["triangles"] = mesh.triangleCount();
       out["bytes"] = bytes.size();

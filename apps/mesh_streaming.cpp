@@ -70,14 +70,67 @@ CLI::Validator meshResolutionRange() {
       "RESOLUTION", "resolution");
 }
 
+namespace {
+// The streamed file and, when asked for, the streamed check beside it, fed by one tee.
+struct StreamedOutput {
+  mesh::StreamedMeshFile file;
+  mesh::StreamedMeshCheck checker;
+  mesh::TeeSink tee;
+  bool check;
+
+  static mesh::StreamedFileOptions fileOptions(const std::string& format, bool asciiPly) {
+    mesh::StreamedFileOptions o;
+    o.format = format;
+    o.asciiPly = asciiPly;
+    return o;
+  }
+  StreamedOutput(const std::string& out, const std::string& format, bool asciiPly, bool check)
+      : file(out, fileOptions(format, asciiPly)),
+        tee(check ? std::vector<mesh::MeshSink*>{&file, &checker} : std::vector<mesh::MeshSink*>{&file}),
+        check(check) {}
+
+  // Counts, the triangle limit (before anything is written: the spools go with `file`), the
+  // file put in place, the check's report.
+  void finish(StreamedMeshResult& result, const Limits& limits) {
+    result.vertices = file.vertexCount();
+    result.triangles = file.triangleCount();
+    checkTriangles(result.triangles, limits);
+    result.bytes = file.finish();
+    if (check) result.report = checker.finish();
+  }
+};
+
+// The vk backend: the sparse extraction's batches of brick layers, handed on as they come back.
+StreamedMeshResult meshStreamedOnDevice(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                        PolygonizeSettings settings, const std::string& out, const std::string& format,
+                                        bool asciiPly, bool check, const Limits& limits) {
+  if (launchedByMpi())
+    throw std::runtime_error("MPI ranks share the cpu backend's layers; the vk backend runs in one process (use --backend cpu under mpirun)");
+  const auto start = std::chrono::steady_clock::now();
+  StreamedMeshResult result;
+  StreamedOutput output(out, format, asciiPly, check);
+  {
+    Progress progress("mesh", 0);
+    settings.progress = [&progress](std::size_t done, std::size_t total) { progress.update(long(done), long(total)); };
+    PolygonizeStats stats;
+    polygonizeStreamed(program, grid, settings, output.tee, &stats);
+    result.pointEvaluations = stats.pointEvaluations;
+  }
+  output.finish(result, limits);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+}  // namespace
+
 StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree::GridSpec& grid,
                                 const PolygonizeSettings& settings, const std::string& out,
                                 const std::string& format, bool asciiPly, bool check, const Limits& limits) {
-  if (settings.backend != "cpu")
-    throw std::runtime_error("streamed meshing runs on the cpu backend only (use --backend cpu, or drop --stream)");
+  if (settings.backend != "cpu" && settings.backend != "vk")
+    throw std::runtime_error("streamed meshing runs on the cpu and vk backends (not " + settings.backend + "; drop --stream)");
   if (format != "ply" && format != "obj" && format != "stl")
     throw std::runtime_error("streamed meshing writes .ply, .obj or .stl; ." + format +
                              " needs the whole mesh in memory (drop --stream or raise --max-memory)");
+  if (settings.backend == "vk") return meshStreamedOnDevice(program, grid, settings, out, format, asciiPly, check, limits);
   const auto start = std::chrono::steady_clock::now();
   cpu::MpuOptions options;
   options.threads = settings.threads;
@@ -96,17 +149,10 @@ StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree
       result.worker = true;
       return result;
     }
-    mesh::StreamedFileOptions fileOptions;
-    fileOptions.format = format;
-    fileOptions.asciiPly = asciiPly;
-    mesh::StreamedMeshFile file(out, fileOptions);
-    mesh::StreamedMeshCheck checker;
-    std::vector<mesh::MeshSink*> sinks{&file};
-    if (check) sinks.push_back(&checker);
-    mesh::TeeSink tee(sinks);
+    StreamedOutput output(out, format, asciiPly, check);
     {
       Progress progress("mesh", layers.layerCount());
-      cpu::LayerJoiner join(tee);
+      cpu::LayerJoiner join(output.tee);
       for (int z = 0; z < layers.layerCount(); ++z) {
         join.push(mpi ? mpiLayer(world, layers, z) : layers.layer(z));
         progress.update(z + 1);
@@ -114,11 +160,7 @@ StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree
       join.finish();
     }
     result.pointEvaluations = double(layers.stats().pointEvaluations);  // this rank's
-    result.vertices = file.vertexCount();
-    result.triangles = file.triangleCount();
-    checkTriangles(result.triangles, limits);  // the spools go with `file`; nothing is written
-    result.bytes = file.finish();
-    if (check) result.report = checker.finish();
+    output.finish(result, limits);
   } catch (const std::exception& e) {
     if (mpi && world.size > 1) mpiAbort(e.what());  // the other ranks would wait for ever
     throw;

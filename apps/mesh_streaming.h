@@ -1,5 +1,6 @@
 // `blobvk mesh` out of core: the cpu backend's mesh written layer by layer of MPUs
-// (cpu_simd/streaming_polygonizer.h) into a streamed file (mesh/streamed_writer.h), with the
+// (cpu_simd/streaming_polygonizer.h), or the vk backend's batch by batch of brick layers
+// (vk/extract/streamed_extract.h), into a streamed file (mesh/streamed_writer.h), with the
 // streamed mesh check beside it, so peak memory is a few layers instead of the whole mesh.
 #pragma once
 
@@ -35,7 +36,8 @@ struct StreamedMeshResult {
   bool worker = false;  // this process is an MPI rank other than 0: it wrote nothing
 };
 
-// Polygonizes with the cpu backend's settings (over MPI ranks when started by mpirun) into `out` ("-": standard output) as `format`
+// Polygonizes with the cpu backend's settings (over MPI ranks when started by mpirun), or the vk
+// backend's (one process, one device), into `out` ("-": standard output) as `format`
 // (ply, obj, stl; asciiPly for ASCII PLY). Throws before writing anything past --max-triangles.
 StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree::GridSpec& grid,
                                 const PolygonizeSettings& settings, const std::string& out,

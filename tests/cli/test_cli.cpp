@@ -86,8 +86,37 @@ TEST(Cli, StreamedMeshFilesEqualInMemoryOnes) {
   // Formats that need the whole mesh, and other backends, are refused with a clear line.
   const CliRun vk = run("mesh " + scene + " -o " + scratch("vk.ply").string() + " --resolution 40 --backend reference --stream");
   EXPECT_NE(vk.status, 0);
-  EXPECT_NE(vk.output.find("cpu backend"), std::string::npos) << vk.output;
+  EXPECT_NE(vk.output.find("cpu and vk backends"), std::string::npos) << vk.output;
 }
+
+#ifdef BLOBVK_HAVE_VULKAN
+// The vk backend streams batch by batch of brick layers: the same bytes as the cpu backend's
+// in-memory file, and the same check line; a --max-memory budget below the in-memory estimate
+// streams by itself.
+TEST(Cli, StreamedVulkanMeshFilesEqualTheCpuFiles) {
+  const std::string scene = source("scenes/tower.json");
+  const auto cpu = scratch("vk_cpu.ply"), str = scratch("vk_str.ply"), budget = scratch("vk_budget.ply");
+  const CliRun mem = run("mesh " + scene + " -o " + cpu.string() + " --resolution 96");
+  const CliRun vk = run("mesh " + scene + " -o " + str.string() + " --resolution 96 --backend vk --stream");
+  ASSERT_EQ(mem.status, 0) << mem.output;
+  ASSERT_EQ(vk.status, 0) << vk.output;
+  EXPECT_NE(vk.output.find("backend vk (streamed)"), std::string::npos) << vk.output;
+  EXPECT_EQ(blobvk::testing::fileBytes(cpu), blobvk::testing::fileBytes(str));
+  EXPECT_EQ(mem.output.substr(mem.output.rfind('\n', mem.output.size() - 2)),
+            vk.output.substr(vk.output.rfind('\n', vk.output.size() - 2)));
+  const auto cpu200 = scratch("vk_cpu200.ply");
+  ASSERT_EQ(run("mesh " + scene + " -o " + cpu200.string() + " --resolution 200 -q").status, 0);
+  const CliRun small = run("mesh " + scene + " -o " + budget.string() + " --resolution 200 --backend vk --max-memory 40M");
+  ASSERT_EQ(small.status, 0) << small.output;
+  EXPECT_NE(small.output.find("backend vk (streamed)"), std::string::npos) << small.output;
+  EXPECT_EQ(blobvk::testing::fileBytes(cpu200), blobvk::testing::fileBytes(budget));
+  // Several devices join in memory: --stream with --devices is one clear line.
+  const CliRun devices = run("mesh " + scene + " -o " + scratch("vk_dev.ply").string() +
+                             " --resolution 32 --backend vk --devices 0,0 --stream");
+  EXPECT_EQ(devices.status, 1) << devices.output;
+  EXPECT_NE(devices.output.find("one device"), std::string::npos) << devices.output;
+}
+#endif
 
 TEST(Cli, BackendsAndThreadCountsWriteIdenticalFiles) {
   const auto a = scratch("a.ply"), b = scratch("b.ply"), c = scratch("c.ply");

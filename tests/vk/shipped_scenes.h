@@ -38,6 +38,13 @@ inline ShippedScene shipped(const std::string& name, int resolution) {
   return s;
 }
 
+// A generated program's own grid (its bounds) at `resolution` cells along the longest side.
+inline blobtree::GridSpec gridAt(const blobtree::Program& program, int resolution) {
+  blobtree::GridRequest request;
+  request.resolution = resolution;
+  return blobtree::chooseGrid(program, {}, request);
+}
+
 template <class T>
 bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;

@@ -15,6 +15,7 @@
 #include "blobvk/vk/eval/program_shape.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "reference_checks.h"
+#include "shipped_scenes.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
@@ -25,12 +26,6 @@
 
 namespace blobvk::testing {
 namespace {
-
-blobtree::GridSpec gridAt(const blobtree::Program& program, int resolution) {
-  blobtree::GridRequest request;
-  request.resolution = resolution;
-  return blobtree::chooseGrid(program, {}, request);
-}
 
 bool sameBits(const std::vector<float>& a, const std::vector<float>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;

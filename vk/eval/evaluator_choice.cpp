@@ -22,24 +22,63 @@ namespace {
 // but blocks already drop what lies away from the points, which the whole program does not. Counted
 // in instructions, not prunedEvaluationCost: on llvmpipe the interpreter pays every opcode's and
 // primitive type's code under a mask at each instruction, so an operator costs about a primitive.
-double branchingWork(const blobtree::Program& program, const blobtree::GridSpec& grid) {
+//
+// With `evaluated` bricks only their points count: each block (whole bricks) weighs its pruned
+// program by the points of the bricks whose first point lies in it (its region reaches one point
+// further, where the last of those bricks ends). Blocks stay at most 8 per axis, so the cost stays a few hundred pruned counts
+// however many bricks are active.
+struct EvaluatedWork {
+  double points = 0.0, work = 0.0;
+};
+EvaluatedWork branchingWork(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                            const EvaluatedBricks* evaluated) {
   constexpr std::uint32_t kBlockPoints = 16, kMaxBlocksPerAxis = 8;
+  EvaluatedWork w;
   const auto pts = grid.points();
-  if (pts.x < 1 || pts.y < 1 || pts.z < 1) return 0.0;
+  if (pts.x < 1 || pts.y < 1 || pts.z < 1) return w;
   const std::uint32_t n[3] = {std::uint32_t(pts.x), std::uint32_t(pts.y), std::uint32_t(pts.z)};
-  std::uint32_t step[3];
-  for (int a = 0; a < 3; ++a) step[a] = std::max(kBlockPoints, (n[a] + kMaxBlocksPerAxis - 1) / kMaxBlocksPerAxis);
-  double work = 0.0;
+  // Blocks of whole bricks, so that a brick starting in a block ends at most one point past it.
+  const std::uint32_t brick = evaluated ? std::max<std::uint32_t>(evaluated->cells, 1) : 1;
+  std::uint32_t step[3], blocks[3];
+  for (int a = 0; a < 3; ++a) {
+    step[a] = std::max(kBlockPoints, (n[a] + kMaxBlocksPerAxis - 1) / kMaxBlocksPerAxis);
+    step[a] = (step[a] + brick - 1) / brick * brick;
+    blocks[a] = (n[a] + step[a] - 1) / step[a];
+  }
+  // Points evaluated per block: all of its own, or those of the bricks starting in it.
+  std::vector<double> blockPoints(std::size_t(blocks[0]) * blocks[1] * blocks[2], 0.0);
+  auto blockIndex = [&](std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+    return (std::size_t(z / step[2]) * blocks[1] + y / step[1]) * blocks[0] + x / step[0];
+  };
+  if (evaluated) {
+    const std::uint32_t B = std::max<std::uint32_t>(evaluated->cells, 1);
+    for (const auto& b : evaluated->bricks) {
+      const std::uint32_t first[3] = {b[0] * B, b[1] * B, b[2] * B};
+      if (first[0] >= n[0] || first[1] >= n[1] || first[2] >= n[2]) continue;
+      double p = 1.0;
+      for (int a = 0; a < 3; ++a) p *= double(std::min(first[a] + B, n[a] - 1) - first[a] + 1);
+      blockPoints[blockIndex(first[0], first[1], first[2])] += p;
+    }
+  }
+  const std::uint32_t reach = evaluated ? 1 : 0;
   for (std::uint32_t z = 0; z < n[2]; z += step[2])
     for (std::uint32_t y = 0; y < n[1]; y += step[1])
       for (std::uint32_t x = 0; x < n[0]; x += step[0]) {
         const std::array<std::uint32_t, 3> first{x, y, z};
-        const std::array<std::uint32_t, 3> last{std::min(x + step[0], n[0]) - 1, std::min(y + step[1], n[1]) - 1,
-                                                std::min(z + step[2], n[2]) - 1};
-        const double points = double(last[0] - first[0] + 1) * (last[1] - first[1] + 1) * (last[2] - first[2] + 1);
-        work += points * double(prunedInstructionCount(program, regionOfPoints(grid, first, last)));
+        const std::array<std::uint32_t, 3> last{std::min(x + step[0] + reach, n[0]) - 1,
+                                                std::min(y + step[1] + reach, n[1]) - 1,
+                                                std::min(z + step[2] + reach, n[2]) - 1};
+        double points = blockPoints[blockIndex(x, y, z)];
+        if (!evaluated) {
+          const std::array<std::uint32_t, 3> own{std::min(x + step[0], n[0]) - 1, std::min(y + step[1], n[1]) - 1,
+                                                 std::min(z + step[2], n[2]) - 1};
+          points = double(own[0] - first[0] + 1) * (own[1] - first[1] + 1) * (own[2] - first[2] + 1);
+        }
+        if (points <= 0.0) continue;
+        w.points += points;
+        w.work += points * double(prunedInstructionCount(program, regionOfPoints(grid, first, last)));
       }
-  return work;
+  return w;
 }
 
 // Memory a specialised kernel's build takes beyond the process's own (kernels are built one at a
@@ -62,20 +101,23 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     c.region = region;
     return c;
   };
-  const double points = double(grid.pointCount());
+  // The surface, and so the vertex pass, scales with the grid; the field with the points evaluated.
+  const double gridPoints = double(grid.pointCount());
   const double vertexEvaluations =
-      job.vertexPass ? kVerticesPerSurfacePoint * std::pow(points, 2.0 / 3.0) *
+      job.vertexPass ? kVerticesPerSurfacePoint * std::pow(gridPoints, 2.0 / 3.0) *
                            (kEvaluationsPerVertex + std::max(job.refineSteps, 0))
                      : 0.0;
   const double wholeCost = prunedEvaluationCost(program, {});
   FieldTilingOptions tiling = job.tiling;
   tiling.minPointsForLargePrograms = 0;
+  if (job.evaluated) tiling.maxTiles = 1;
   const std::vector<FieldTile> tiles = planFieldTiles(program, grid, tiling);
-  double tileWork = 0.0;
-  for (const FieldTile& t : tiles) tileWork += double(t.points()) * t.cost;
   // What evaluators that branch on skips run (the interpreter, looped code), in instructions;
   // branchScale turns a tile's pruned cost into those.
-  const double branchWork = branchingWork(program, grid);
+  const EvaluatedWork evaluatedWork = branchingWork(program, grid, job.evaluated);
+  const double points = evaluatedWork.points, branchWork = evaluatedWork.work;
+  double tileWork = 0.0;
+  for (const FieldTile& t : tiles) tileWork += (tiles.size() == 1 ? points : double(t.points())) * t.cost;
   const double meanBranchCost = points > 0.0 ? branchWork / points : double(program.code.size());
   const double branchScale = tileWork > 0.0 ? branchWork / tileWork : 1.0;
 
@@ -119,7 +161,7 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     bool gradient = false;
     double build = 0.0, megabytes = 0.0, run = 0.0;
   };
-  const double vertices = job.vertexPass ? kVerticesPerSurfacePoint * std::pow(points, 2.0 / 3.0) : 0.0;
+  const double vertices = job.vertexPass ? kVerticesPerSurfacePoint * std::pow(gridPoints, 2.0 / 3.0) : 0.0;
   // `gradient` is the generator option (part of the kernel's name); looped code generates no
   // gradient whatever the option, so it costs as interpreting it.
   auto vertexKernel = [&](bool gradient) {

@@ -14,6 +14,7 @@
 #include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/gpu_program.h"
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -21,12 +22,23 @@
 
 namespace blobvk::vk {
 
+// The points a job evaluates when that is not the whole grid: the sparse extraction's active
+// bricks, known once they are classified. Each brick evaluates the (cells + 1)^3 grid points of
+// its cells (clipped to the grid).
+struct EvaluatedBricks {
+  std::uint32_t cells = 16;  // per brick edge
+  std::vector<std::array<std::uint32_t, 3>> bricks;  // brick coordinates (grid point = brick * cells)
+};
+
 struct EvaluatorJob {
   bool vertexPass = false;      // polygonization: a vertex kernel evaluates too
   int refineSteps = 0;          // per vertex (vertex pass)
   std::uint32_t repeats = 1;    // runs of the job with the same kernels
   FieldTilingOptions tiling;    // the field pass's tiles when specialised
   std::uint32_t workgroupSize = 64;  // the kernels' (to find those already built)
+  // Null: the whole grid is evaluated (dense paths, or before classification). Otherwise only
+  // these bricks' points are, and the field is one kernel (no tiles).
+  const EvaluatedBricks* evaluated = nullptr;
 };
 
 struct EvaluatorEstimate {

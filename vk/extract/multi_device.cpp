@@ -88,9 +88,10 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   s.devices = std::uint32_t(n);
   Device& first = *devices[0];
   // One evaluator for every device: the bytes must not depend on which device ran a batch.
-  const SparseEvaluator evaluator = resolveSparseEvaluator(first, program, grid, options);
-  const GpuPolygonizeOptions resolved = evaluator.apply(options);
   const ClassifiedBricks classified = classifyAndCompact(first, program, grid, bg, shares[0]);
+  const SparseEvaluator evaluator = resolveSparseEvaluator(first, program, grid, options, &classified);
+  evaluator.report(s);
+  const GpuPolygonizeOptions resolved = evaluator.apply(options);
   const std::uint32_t active = classified.layerStarts.back();
   s.activeBricks = active;
   s.classifySeconds = shares[0].classifySeconds;

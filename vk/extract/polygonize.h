@@ -72,6 +72,11 @@ struct GpuStats {
   std::uint64_t deviceBytes = 0;   // sparse: device memory of the extraction's buffers
   std::uint32_t fieldTiles = 0;        // field and vertex passes run per tile (vk/eval/field_tiles.h)
   std::uint64_t fieldEvaluations = 0;  // grid samples (normals/colours/refinement excluded)
+  // Sparse: the evaluator the batches ran, and on CPU drivers what the cost model
+  // (vk/eval/evaluator_choice.h) predicted for it (seconds; < 0 where it made no prediction).
+  Traversal traversal = Traversal::Auto;
+  bool vertexGradient = false;
+  double modelBuildSeconds = -1.0, modelRunSeconds = -1.0;
 };
 
 mesh::TriMesh polygonize(Device& device, const blobtree::Program& program,

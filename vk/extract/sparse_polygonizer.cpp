@@ -80,22 +80,65 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
   return (bricks.count() + 1) * 8 + activeBricks * perBrick + scan + outputs + 256 * 20 * 4;
 }
 
+namespace {
+// The active bricks' coordinates, read back from the device's compacted list (4 bytes a brick).
+EvaluatedBricks activeBricks(Device& device, const ClassifiedBricks& classified) {
+  EvaluatedBricks e;
+  e.cells = 1u << classified.bricks.log2B;
+  const std::uint32_t active = classified.layerStarts.empty() ? 0 : classified.layerStarts.back();
+  if (active == 0) return e;
+  std::vector<std::uint32_t> packed(active);
+  device.download(classified.list, packed.data(), packed.size() * 4);
+  e.bricks.reserve(active);
+  for (std::uint32_t p : packed) e.bricks.push_back({p & 1023u, (p >> 10) & 1023u, (p >> 20) & 1023u});
+  return e;
+}
+}  // namespace
+
 SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                       const GpuPolygonizeOptions& options) {
+                                       const GpuPolygonizeOptions& options, const ClassifiedBricks* classified) {
   SparseEvaluator e;
   e.traversal = options.traversal;
   if (options.codegen) e.codegen = *options.codegen;
-  if (e.traversal != Traversal::Auto) return e;
+  // The model's constants are lavapipe's: elsewhere it only picks Auto's evaluator.
+  const bool cpuDevice = device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  const bool choose = e.traversal == Traversal::Auto;
+  const bool predict = cpuDevice && (e.traversal == Traversal::Stackless || e.traversal == Traversal::Specialised);
+  if (!choose && !predict) return e;
   EvaluatorJob job;
   job.vertexPass = true;
   job.refineSteps = options.refineSteps;
   job.repeats = std::max<std::uint32_t>(options.expectedRuns, 1);
   job.tiling.maxTiles = 1;
-  if (!e.codegen) e.codegen = defaultCodegenOptions(device);
-  const EvaluatorEstimate chosen = chooseEvaluator(device, program, grid, job, *e.codegen).chosen;
-  e.traversal = chosen.traversal;
-  e.codegen->gradient = chosen.vertexGradient;
+  EvaluatedBricks evaluated;
+  if (classified && cpuDevice) {
+    evaluated = activeBricks(device, *classified);
+    job.evaluated = &evaluated;
+  }
+  CodegenOptions codegen = e.codegen ? *e.codegen : defaultCodegenOptions(device);
+  const EvaluatorChoice choice = chooseEvaluator(device, program, grid, job, codegen);
+  const EvaluatorEstimate* estimate = &choice.chosen;
+  if (!choose) {
+    estimate = nullptr;
+    for (const EvaluatorEstimate& c : choice.candidates)
+      if (c.traversal == e.traversal && !estimate) estimate = &c;
+  } else {
+    e.traversal = choice.chosen.traversal;
+    e.codegen = codegen;
+    e.codegen->gradient = choice.chosen.vertexGradient;
+  }
+  if (estimate && cpuDevice) {
+    e.modelBuildSeconds = estimate->buildSeconds;
+    e.modelRunSeconds = estimate->runSeconds;
+  }
   return e;
+}
+
+void SparseEvaluator::report(GpuStats& stats) const {
+  stats.traversal = traversal;
+  stats.vertexGradient = codegen && codegen->gradient && traversal == Traversal::Specialised;
+  stats.modelBuildSeconds = modelBuildSeconds;
+  stats.modelRunSeconds = modelRunSeconds;
 }
 
 GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options) const {
@@ -150,20 +193,18 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   return c;
 }
 
-mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                               const GpuPolygonizeOptions& options, GpuStats* stats) {
-  mesh::TriMesh mesh;
-  GpuStats s;
+void runSparseExtraction(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                         const GpuPolygonizeOptions& options, const SparseBatchSink& sink, GpuStats& s) {
   const BrickGrid bg = brickGridFor(grid, options.brickCells);
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
   const auto wallStart = Clock::now();
-  const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options);
-  const GpuPolygonizeOptions resolved = evaluator.apply(options);
-
   // Submits: one classifies and compacts the bricks; then, per batch of whole brick layers, two
-  // (sparse_batches.h).
+  // (sparse_batches.h). The evaluator is chosen once the active bricks are known.
   const ClassifiedBricks classified = classifyAndCompact(device, program, grid, bg, s);
+  const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
+  evaluator.report(s);
+  const GpuPolygonizeOptions resolved = evaluator.apply(options);
   const std::vector<SparseBatch> batches =
       planSparseBatches(classified.layerStarts, sparseBatchLimit(device, bg, options.maxBatchBricks),
                         sparseRangeBricks(device, bg));
@@ -175,9 +216,12 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
     SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, classified.scan,
                              classified.list, maxLoaded, s.batches);
     std::uint64_t vertexBase = 0;
-    for (const SparseBatch& b : batches) {
-      runner.run(b, vertexBase, mesh, s);
-      vertexBase = mesh.positions.size();
+    for (std::size_t i = 0; i < batches.size(); ++i) {
+      mesh::TriMesh& into = sink.into();
+      const std::size_t before = into.positions.size();
+      runner.run(batches[i], vertexBase, into, s);
+      vertexBase += into.positions.size() - before;
+      if (sink.done) sink.done(i, batches.size());
     }
     runner.deviceTimes(s);
     bytes += runner.sharedBytes() + runner.peakOutputBytes();
@@ -185,6 +229,13 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   s.deviceBytes = bytes;
   s.seconds = since(wallStart);
   s.hostSeconds = std::max(0.0, s.seconds - s.classifySeconds - s.fieldSeconds - s.extractSeconds - s.readbackSeconds);
+}
+
+mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                               const GpuPolygonizeOptions& options, GpuStats* stats) {
+  mesh::TriMesh mesh;
+  GpuStats s;
+  runSparseExtraction(device, program, grid, options, {[&]() -> mesh::TriMesh& { return mesh; }, {}}, s);
   if (stats) *stats = s;
   return mesh;
 }

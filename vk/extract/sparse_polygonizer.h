@@ -22,6 +22,7 @@
 #include "blobvk/vk/extract/polygonize.h"
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -45,16 +46,25 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
                                           const blobtree::GridSpec& grid, std::uint32_t brickCells);
 
+struct ClassifiedBricks;
+
 // The evaluator the batches run: options.traversal, or the cost model's choice for Auto with the
-// code generation it chose (the vertex kernel's generated or interpreted gradient).
+// code generation it chose (the vertex kernel's generated or interpreted gradient). Given the
+// classified bricks, the model weighs the field at the active bricks' points only: a model whose
+// surface fills a tenth of its grid evaluates a tenth of it, so an evaluator that builds slowly
+// and runs fast pays back later than the whole grid says.
 struct SparseEvaluator {
   Traversal traversal = Traversal::Auto;
   std::optional<CodegenOptions> codegen;  // empty: options.codegen was empty and not needed
+  // On CPU drivers, the model's estimate for `traversal` (< 0: none; GpuStats reports them).
+  double modelBuildSeconds = -1.0, modelRunSeconds = -1.0;
+  void report(GpuStats& stats) const;
   // `options` with this evaluator; its codegen points into this object, which must outlive it.
   GpuPolygonizeOptions apply(const GpuPolygonizeOptions& options) const;
 };
 SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                       const GpuPolygonizeOptions& options);
+                                       const GpuPolygonizeOptions& options,
+                                       const ClassifiedBricks* classified = nullptr);
 
 // Steps 1-2 in one submit: the bricks classified and compacted on `device`. The scanned flags
 // (bricks + 1 words: each active brick's number, then the count) and the active-brick list stay
@@ -72,5 +82,16 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
 
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);
+
+// What polygonizeSparse runs, batch by batch: each batch appends its vertices and its triangles
+// (indices counted from the mesh's first vertex) to the mesh `into` returns, then `done` is
+// called with the batch's number and the batch count. polygonizeSparse keeps one mesh; the
+// streamed extraction (streamed_extract.h) hands each batch on and drops it.
+struct SparseBatchSink {
+  std::function<mesh::TriMesh&()> into;
+  std::function<void(std::size_t batch, std::size_t batches)> done;
+};
+void runSparseExtraction(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                         const GpuPolygonizeOptions& options, const SparseBatchSink& sink, GpuStats& stats);
 
 }  // namespace blobvk::vk

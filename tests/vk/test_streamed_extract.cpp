@@ -1,0 +1,100 @@
+// The sparse extraction handed to a mesh sink batch by batch (vk/extract/streamed_extract.h): the
+// runs joined are the CPU reference's mesh index by index, every triangle's corners lie in the
+// window it comes with, and the host never holds more than two batches' vertices.
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/mesh/mesh_sink.h"
+#include "blobvk/vk/extract/streamed_extract.h"
+#include "reference_checks.h"
+#include "shipped_scenes.h"
+#include "vk_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+namespace blobvk::testing {
+namespace {
+
+// Joins the runs into one mesh, checking each triangle against its window as a file writer or
+// the streamed check would read it.
+class JoiningSink final : public mesh::MeshSink {
+ public:
+  mesh::TriMesh mesh;
+  std::size_t vertexRuns = 0, triangleRuns = 0, largestWindow = 0, outsideWindow = 0, wrongWindowVertex = 0;
+
+  void vertices(std::span<const mesh::Float3> p, std::span<const mesh::Float3> n,
+                std::span<const mesh::Float3> c) override {
+    ++vertexRuns;
+    mesh.positions.insert(mesh.positions.end(), p.begin(), p.end());
+    mesh.normals.insert(mesh.normals.end(), n.begin(), n.end());
+    mesh.colours.insert(mesh.colours.end(), c.begin(), c.end());
+  }
+  void triangles(std::span<const std::array<std::uint32_t, 3>> t, const mesh::VertexWindow& w) override {
+    ++triangleRuns;
+    const std::uint64_t size = w.a.size() + w.b.size();
+    largestWindow = std::max<std::size_t>(largestWindow, size);
+    for (const auto& tri : t) {
+      for (std::uint32_t v : tri) {
+        if (v < w.first || v >= w.first + size || v >= mesh.positions.size()) {
+          ++outsideWindow;
+        } else if (!(w[v] == mesh.positions[v])) {
+          ++wrongWindowVertex;
+        }
+      }
+    }
+    mesh.triangles.insert(mesh.triangles.end(), t.begin(), t.end());
+  }
+};
+
+TEST_F(VulkanTest, StreamedBatchesJoinToTheReferenceMesh) {
+  for (const char* name : {"tower", "dice", "twisted_column"}) {
+    const auto scene = shipped(name, 64);
+    cpu::ReferenceOptions ro;
+    const mesh::TriMesh reference = cpu::polygonizeReference(scene.program, scene.grid, ro);
+    vk::GpuPolygonizeOptions options;
+    options.brickCells = 4;      // many bricks ...
+    options.maxBatchBricks = 64;  // ... in many batches, each a few brick layers
+    JoiningSink sink;
+    std::size_t lastDone = 0, total = 0;
+    vk::GpuStats stats;
+    vk::polygonizeStreamed(device(), scene.program, scene.grid, options, sink, &stats,
+                           [&](std::size_t done, std::size_t n) { lastDone = done, total = n; });
+    ASSERT_GE(stats.batches, 4u) << name;
+    EXPECT_EQ(sink.vertexRuns, stats.batches) << name;
+    EXPECT_EQ(sink.triangleRuns, stats.batches) << name;
+    EXPECT_EQ(lastDone, total) << name;
+    EXPECT_EQ(total, stats.batches) << name;
+    EXPECT_EQ(sink.outsideWindow, 0u) << name;
+    EXPECT_EQ(sink.wrongWindowVertex, 0u) << name;
+    EXPECT_LT(sink.largestWindow, reference.positions.size()) << name << ": a window as large as the mesh";
+    // The reference's topology index by index, its positions to docs/vulkan.md's tolerance, and
+    // the in-memory extraction's bytes (one batch).
+    mesh::TriMesh referenceRuns = reference;
+    referenceRuns.edgeKeys.clear();  // a sink gets no edge keys
+    expectSameMeshAsReference(sink.mesh, referenceRuns, 1e-4f * scene.grid.cellSize, name);
+    vk::GpuPolygonizeOptions whole = options;
+    whole.maxBatchBricks = 0;
+    const mesh::TriMesh inMemory = vk::polygonize(device(), scene.program, scene.grid, whole);
+    EXPECT_TRUE(sameBytes(sink.mesh.positions, inMemory.positions)) << name;
+    EXPECT_TRUE(sameBytes(sink.mesh.normals, inMemory.normals)) << name;
+    EXPECT_TRUE(sameBytes(sink.mesh.colours, inMemory.colours)) << name;
+    EXPECT_EQ(sink.mesh.triangles, inMemory.triangles) << name;
+  }
+}
+
+TEST_F(VulkanTest, StreamingNeedsTheSparseExtraction) {
+  const auto scene = shipped("tower", 32);
+  vk::GpuPolygonizeOptions options;
+  options.sparse = false;
+  JoiningSink sink;
+  EXPECT_THROW(vk::polygonizeStreamed(device(), scene.program, scene.grid, options, sink), std::runtime_error);
+  EXPECT_EQ(sink.vertexRuns, 0u);
+}
+
+}  // namespace
+}  // namespace blobvk::testing
