@@ -63,16 +63,11 @@ bool positive(const mesh::TetMesh& m, const Tet& t) {
   return ok(r) && (&r == &p || ok(p));
 }
 
-double quality(const mesh::TetMesh& m, const Tet& t) {
-  const auto& r = m.restPositions;
-  return minDihedralDeg(r[t[0]], r[t[1]], r[t[2]], r[t[3]]);
-}
-
-}  // namespace
-
-double minDihedralDeg(Double3 a, Double3 b, Double3 c, Double3 d) {
+// -cos of the smallest dihedral angle: increases with that angle, and needs no acos (the acos
+// was a quarter of the flips' time).
+double cosineQuality(Double3 a, Double3 b, Double3 c, Double3 d) {
   // Outward normals of the faces opposite each vertex; the dihedral angle at the edge shared by
-  // faces i and j is pi minus the angle between their normals: the largest -cos wins.
+  // faces i and j is pi minus the angle between their normals: its cosine is -cos(normals).
   const std::array<Double3, 4> n{cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a), cross(c - a, b - a)};
   std::array<double, 4> len{};
   for (int i = 0; i < 4; ++i) len[std::size_t(i)] = length(n[std::size_t(i)]);
@@ -80,10 +75,24 @@ double minDihedralDeg(Double3 a, Double3 b, Double3 c, Double3 d) {
   for (int i = 0; i < 4; ++i)
     for (int j = i + 1; j < 4; ++j) {
       const double l = len[std::size_t(i)] * len[std::size_t(j)];
-      if (!(l > 0)) return 0.0;
+      if (!(l > 0)) return -1.0;
       worst = std::max(worst, -dot(n[std::size_t(i)], n[std::size_t(j)]) / l);
     }
-  return std::acos(std::clamp(worst, -1.0, 1.0)) * (180.0 / 3.14159265358979323846);
+  return -std::min(worst, 1.0);
+}
+
+// Below every quality (-cos lies in [-1, 1]).
+constexpr double kInvalid = -2.0;
+
+double quality(const mesh::TetMesh& m, const Tet& t) {
+  const auto& r = m.restPositions;
+  return cosineQuality(r[t[0]], r[t[1]], r[t[2]], r[t[3]]);
+}
+
+}  // namespace
+
+double minDihedralDeg(Double3 a, Double3 b, Double3 c, Double3 d) {
+  return std::acos(std::clamp(-cosineQuality(a, b, c, d), -1.0, 1.0)) * (180.0 / 3.14159265358979323846);
 }
 
 void LocalFlips::write(CutTopology& topology, std::uint32_t slot, const Tet& nodes) {
@@ -141,7 +150,7 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
   const mesh::TetMesh& m = topology.mesh();
   const Tet t = topology.tet(slot);
   const double own = quality(m, t);
-  if (own >= belowDeg) return false;
+  if (own >= -std::cos(belowDeg * (3.14159265358979323846 / 180.0))) return false;
   const std::uint32_t region = m.regions.empty() ? 0u : m.regions[slot];
   auto regionOf = [&](std::uint32_t s) { return m.regions.empty() ? 0u : m.regions[s]; };
   ++stats.attempts;
@@ -230,7 +239,7 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
       for (int y = x + 1; y < n; ++y)
         if (cycle[std::size_t(x)] == cycle[std::size_t(y)]) closed = false;
     if (!closed) continue;
-    // Quality of the two cones over each triangle of the polygon (0: invalid, or no better than
+    // Quality of the two cones over each triangle of the polygon (kInvalid: invalid, or no better than
     // the bar a triangulation must clear, so that the second cone is not evaluated), then the
     // best triangulation.
     const double bar = std::max(before, bestQuality) + 1e-9;
@@ -240,9 +249,9 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
         for (int k = j + 1; k < n; ++k) {
           const std::uint32_t ri = cycle[std::size_t(i)], rj = cycle[std::size_t(j)], rk = cycle[std::size_t(k)];
           const Tet below{ri, rj, rk, b}, above{rk, rj, ri, a};
-          double q = positive(m, below) ? quality(m, below) : 0.0;
-          if (q > bar) q = positive(m, above) ? std::min(q, quality(m, above)) : 0.0;
-          cone[std::size_t(i)][std::size_t(j)][std::size_t(k)] = q > bar ? q : 0.0;
+          double q = positive(m, below) ? quality(m, below) : kInvalid;
+          if (q > bar) q = positive(m, above) ? std::min(q, quality(m, above)) : kInvalid;
+          cone[std::size_t(i)][std::size_t(j)][std::size_t(k)] = q > bar ? q : kInvalid;
         }
     // A diagonal that is already an edge elsewhere rules its triangulation out; checked only for
     // a triangulation that would be taken (a few incidence scans instead of one per triangle).
