@@ -72,12 +72,14 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
                                 std::uint64_t triangles, bool normals, bool colours) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
   const std::uint64_t perBrick = R * R * R * 4   // field
-                                 + R * R * 32    // inside and edge masks, vertex segments, their rows
-                                 + B * B * 12;   // triangle segments, their rows
+                                 + R * R * 24    // inside and edge masks (+ first vertex), vertex segments
+                                 + B * B * 4     // triangle segments
+                                 + 32;           // neighbours
   const std::uint64_t scan = (scanScratchWords(bricks.count() + 1) + scanScratchWords(activeBricks * R * R) +
                               scanScratchWords(activeBricks * B * B)) * 4;
-  const std::uint64_t outputs = vertices * (12 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * 12;
-  return (bricks.count() + 1) * 8 + activeBricks * perBrick + scan + outputs + 256 * 20 * 4;
+  // Outputs, and where each vertex and triangle comes from (8 bytes each).
+  const std::uint64_t outputs = vertices * (12 + 8 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * (12 + 8);
+  return (bricks.count() + 1) * 8 + activeBricks * perBrick + scan + outputs + 256 * 4 * 4;
 }
 
 namespace {
