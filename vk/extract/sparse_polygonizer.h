@@ -44,9 +44,12 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
                                 std::uint64_t triangles, bool normals, bool colours);
 
 // The classification alone: 1 for each brick (x fastest) that may hold part of the surface, 0
-// for one whose (B+1)^3 grid samples provably lie on one side of the iso value.
+// for one whose (B+1)^3 grid samples provably lie on one side of the iso value. The Program's
+// records go in uniform buffers where they fit (64 KB per record array; brick_classify_uniform),
+// else, or with `uniformRecords` false, in storage buffers (brick_classify): the same flags.
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
-                                          const blobtree::GridSpec& grid, std::uint32_t brickCells);
+                                          const blobtree::GridSpec& grid, std::uint32_t brickCells,
+                                          bool uniformRecords = true);
 
 struct ClassifiedBricks;
 
