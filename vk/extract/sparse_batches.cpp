@@ -147,7 +147,11 @@ struct SparseBatchRunner::State {
     segmentScratch = make((vertexScratch + scanScratchWords(maxCellRows) + 1) * 4, "segment scan scratch");
     counts = device.createBuffer(16, MemoryUse::Readback);
     fieldKernel = evaluatorKernel(device, gpu, "brick_field", o.workgroupSize, traversal);
-    vertexKernel = evaluatorKernel(device, gpu, "brick_vertices", o.workgroupSize, traversal);
+    // Without samples to take (no refinement; normals from the gradient), the kernel without the
+    // sample loop, whose field evaluator llvmpipe would run once per vertex anyway.
+    const bool samples = o.refineSteps > 0 || traversal == Traversal::StackBased;
+    vertexKernel = evaluatorKernel(device, gpu, samples ? "brick_vertices" : "brick_vertices_direct", o.workgroupSize,
+                                   traversal);
   }
 };
 
