@@ -129,7 +129,8 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.hostSeconds, gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes,
           gpu.submits, gpu.batches, gpu.deviceTimed, gpu.devices,
           gpu.traversal == vk::Traversal::Auto ? std::string() : std::string(vk::traversalName(gpu.traversal)),
-          gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds};
+          gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds,
+          gpu.edgesSeconds, gpu.scansSeconds, gpu.sourcesSeconds, gpu.verticesSeconds, gpu.trianglesSeconds};
 }
 
 void checkValidation(const std::vector<vk::StandaloneContext*>& contexts, std::uint64_t messagesBefore) {

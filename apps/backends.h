@@ -70,6 +70,8 @@ struct PolygonizeStats {
     std::string evaluator;
     bool vertexGradient = false;
     double modelBuild = -1.0, modelRun = -1.0;
+    // extract by pass (device time): masks and edges, scans, sources, vertices, triangles
+    double edges = 0.0, scans = 0.0, sources = 0.0, vertices = 0.0, triangles = 0.0;
   } gpu;
 };
 

@@ -55,14 +55,15 @@ std::uint64_t estimatePolygonizeBytes(const blobtree::GridSpec& grid, const std:
   double bytes = crossing * (2.0 * 12.0 + 1.5 * 44.0) * 2.0;
   // Working sets: the reference keeps three z-layers. The GPU's sparse extraction (bricks of 16^3
   // cells, vk/extract/sparse_polygonizer.h) keeps 8 bytes per brick of the grid and, per active
-  // brick, its 17^3 field samples and 8 words per row of points, 32 KB (vk::sparseDeviceBytes);
+  // brick, its 17^3 field samples, 6 words per row of points and 1 per row of cells, 27 KB
+  // (vk::sparseDeviceBytes);
   // the surface crosses at most as many bricks as the crossing estimate above gives at brick
   // scale, however fine the grid.
   const double layer = double(grid.cells.x + 1) * (grid.cells.y + 1);
   if (backend == "vk") {
     const double bx = std::ceil(grid.cells.x / 16.0), by = std::ceil(grid.cells.y / 16.0), bz = std::ceil(grid.cells.z / 16.0);
     const double active = std::min(bx * by * bz, 8.0 * (bx * by + by * bz + bx * bz));
-    bytes += bx * by * bz * 8.0 + active * 31972.0;
+    bytes += bx * by * bz * 8.0 + active * 27644.0;
   } else {
     bytes += layer * 3.0 * 16.0;
   }

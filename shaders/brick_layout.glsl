@@ -34,6 +34,15 @@ uint rowVerticesBefore(uvec3 e, uint x) {
   return bitCount(e.x & below) + bitCount(e.y & below) + bitCount(e.z & below);
 }
 
+// The marching-cubes case table as a uniform buffer (vk::caseTableUniform): per configuration,
+// x = triangle count, y = edges 0..7 and z = edges 8..14 (triangle k's edge i is edge 3k + i),
+// four bits each. A uniform load at a per-lane index is one vector gather on llvmpipe; a storage
+// load is a loop over the lanes with a bounds check each.
+#ifdef CASES_BINDING
+layout(std140, set = 0, binding = CASES_BINDING) uniform Cases { uvec4 cases[256]; };
+uint caseEdge(uvec4 entry, uint j) { return j < 8u ? (entry.y >> (4u * j)) & 15u : (entry.z >> (4u * (j - 8u))) & 15u; }
+#endif
+
 #ifdef BRICK_SCAN_BINDING
 layout(std430, set = 0, binding = BRICK_SCAN_BINDING) readonly buffer BrickScan { uint brickScan[]; };
 

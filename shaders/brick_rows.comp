@@ -2,25 +2,22 @@
 // Sparse extraction, pass 5: per row of points of an active brick (brick_layout.glsl), one
 // invocation finds, from the inside masks of brick_masks.comp, the crossing upper edges of the
 // points the row owns (bit x of edges.x, .y, .z: the +x, +y, +z edge of point x) and stores the
-// row's vertex count at its segment position (and the segment's brick and row, for the vertex
-// pass's search); for local y, z < B, the triangle count of the row of cells likewise.
-// Invocation x is the row (y + z * R), y + z * (groups in y) the active brick of the batch
-// (vk/extract/sparse_polygonizer.cpp: bricks run in batches of whole brick layers; `bricks` and
-// every per-brick array hold the batch's, segment positions are the batch's share of the global
-// order).
+// row's vertex count at its segment position; for local y, z < B, the triangle count of the row
+// of cells likewise. Invocation x is the row (y + z * R), y + z * (groups in y) the active brick
+// of the batch (vk/extract/sparse_batches.cpp: bricks run in batches of whole brick layers;
+// `bricks` and every per-brick array hold the batch's, segment positions are the batch's share of
+// the global order). edges.w is left for brick_sources.comp (the row's first vertex).
 #extension GL_GOOGLE_include_directive : require
 #include "program_layout.h"
 #include "common.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Masks { uint masks[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Bricks { uint bricks[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Cases { uint cases[]; };  // 20 per config
 layout(std430, set = 0, binding = 3) writeonly buffer Edges { uvec4 edges[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer VertexSegments { uint vertexSegments[]; };
-layout(std430, set = 0, binding = 5) writeonly buffer VertexRows { uvec2 vertexRows[]; };
-layout(std430, set = 0, binding = 6) writeonly buffer TriangleSegments { uint triangleSegments[]; };
-layout(std430, set = 0, binding = 7) writeonly buffer TriangleRows { uvec2 triangleRows[]; };
-#define BRICK_SCAN_BINDING 8
+layout(std430, set = 0, binding = 5) writeonly buffer TriangleSegments { uint triangleSegments[]; };
+#define CASES_BINDING 2
+#define BRICK_SCAN_BINDING 6
 #include "brick_layout.glsl"
 
 layout(push_constant) uniform Push {
@@ -53,21 +50,19 @@ void main() {
     e.y = gy < pc.cells.y ? (m ^ my) & owned : 0u;
     e.z = gz < pc.cells.z ? (m ^ mz) & owned : 0u;
   }
-  edges[row] = uvec4(e, 0u);
+  edges[row].xyz = e;
   uint s = segmentPosition(pc.activeBase + a, b, pc.bricks.xyz, ly, lz, R) - pc.activeBase * R * R;
   vertexSegments[s] = bitCount(e.x) + bitCount(e.y) + bitCount(e.z);
-  vertexRows[s] = uvec2(a, r);
   if (ly < B && lz < B) {
     uint triangles = 0u;
     if (gy < pc.cells.y && gz < pc.cells.z) {
       uint myz = masks[row + R + 1u];
       for (uint x = 0u; x < xEnd; ++x) {
         uint config = ((m >> x) & 3u) | (((my >> x) & 3u) << 2) | (((mz >> x) & 3u) << 4) | (((myz >> x) & 3u) << 6);
-        triangles += cases[config * 20u];
+        triangles += cases[config].x;
       }
     }
     uint t = segmentPosition(pc.activeBase + a, b, pc.bricks.xyz, ly, lz, B) - pc.activeBase * B * B;
     triangleSegments[t] = triangles;
-    triangleRows[t] = uvec2(a, r);
   }
 }

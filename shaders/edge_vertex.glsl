@@ -51,6 +51,7 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
   precise vec3 grad = vec3(0.0);
   precise vec3 p = pa;
   p[axis] = pa[axis] + t * len;
+#ifndef EDGE_VERTEX_NO_SAMPLES  // defined by kernels that take no sample (brick_vertices_direct.comp)
   for (;;) {
     if (!refining && n >= normalSamples) break;
     // p + (±h on axis a, 0 elsewhere): the sums blobtree::normal forms (x - h == x + -h), by
@@ -89,6 +90,7 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
     p[axis] = pa[axis] + t * len;
     if (steps >= pc.refineSteps) refining = false;
   }
+#endif
   uint v = out_ * 3u;
   positions[v] = p.x;
   positions[v + 1u] = p.y;

@@ -46,13 +46,14 @@ bool bindsBoxRecords(std::span<const std::uint32_t> words) {
 TEST(SpecialisedGradient, VertexKernelsOfSpecialisedCodeInterpretNothing) {
   // The check can fail: the embedded kernels interpret, and bind the boxes.
   EXPECT_TRUE(bindsBoxRecords(vk::shaderCode("brick_vertices")));
+  EXPECT_TRUE(bindsBoxRecords(vk::shaderCode("brick_vertices_direct")));
   EXPECT_TRUE(bindsBoxRecords(vk::shaderCode("vertices")));
   for (const auto& model : testModels()) {
     const auto program = blobtree::compile(model.root);
     // Unrolled, as lavapipe runs programs of up to 400 instructions.
     const std::string glsl = vk::generateSpecialisedEvaluator(program, vk::defaultCodegenOptions(true));
     EXPECT_NE(glsl.find("BLOBVK_GENERATED_GRADIENT"), std::string::npos) << model.name;
-    for (const char* shader : {"vertices.comp", "brick_vertices.comp"}) {
+    for (const char* shader : {"vertices.comp", "brick_vertices.comp", "brick_vertices_direct.comp"}) {
       const auto code = vk::compileComputeShader(shader, {{"eval_program.glsl", glsl}});
       EXPECT_FALSE(bindsBoxRecords(code)) << model.name << " " << shader;
     }

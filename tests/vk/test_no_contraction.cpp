@@ -55,7 +55,8 @@ std::string ids(const std::vector<std::uint32_t>& v) {
 }
 
 TEST(NoContraction, EmbeddedFieldAndVertexKernels) {
-  for (const char* name : {"field_grid", "vertices", "vertices_tiled", "brick_field", "brick_vertices"}) {
+  for (const char* name :
+       {"field_grid", "vertices", "vertices_tiled", "brick_field", "brick_vertices", "brick_vertices_direct"}) {
     const Audit a = audit(vk::shaderCode(name));
     EXPECT_GT(a.arithmetic, 20u) << name;  // the evaluator is in there
     EXPECT_TRUE(a.contractible.empty()) << name << ": contractible float ops" << ids(a.contractible);
@@ -67,7 +68,8 @@ TEST(NoContraction, SpecialisedEvaluatorOfEveryPrimitiveOperatorAndWarp) {
   for (const auto& model : testModels()) {
     const auto program = blobtree::compile(model.root);
     const std::string glsl = vk::generateSpecialisedEvaluator(program);
-    for (const char* shader : {"field_grid.comp", "vertices.comp", "brick_field.comp", "brick_vertices.comp"}) {
+    for (const char* shader :
+         {"field_grid.comp", "vertices.comp", "brick_field.comp", "brick_vertices.comp", "brick_vertices_direct.comp"}) {
       const auto code = vk::compileComputeShader(shader, {{"eval_program.glsl", glsl}});
       const Audit a = audit(code);
       EXPECT_GT(a.arithmetic, 10u) << model.name << " " << shader;

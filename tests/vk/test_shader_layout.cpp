@@ -10,6 +10,7 @@
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/field.h"
 #include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/sparse_polygonizer.h"
 #include "blobvk/vk/render/raycast.h"
 #include "blobvk/vk/render/render_camera.h"
 #include "blobvk/vk/device/shader_layout.h"
@@ -109,6 +110,11 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
   vk::GpuPolygonizeOptions stackBased;
   stackBased.traversal = vk::Traversal::StackBased;
   EXPECT_GT(vk::polygonize(dev, program, grid, stackBased).triangleCount(), 0u);
+  vk::GpuPolygonizeOptions stackless;  // the sparse vertex kernel without the sample loop
+  stackless.traversal = vk::Traversal::Stackless;
+  EXPECT_GT(vk::polygonize(dev, program, grid, stackless).triangleCount(), 0u);
+  // The classification with the records in storage buffers (the default reads them as uniforms).
+  EXPECT_FALSE(vk::classifyBricks(dev, program, grid, 8, false).empty());
   stackBased.sparse = false;  // the dense pipeline's kernels
   EXPECT_GT(vk::polygonize(dev, program, grid, stackBased).triangleCount(), 0u);
   EXPECT_EQ(vk::evaluateFieldOnGrid(dev, program, grid).size(), std::size_t(grid.pointCount()));

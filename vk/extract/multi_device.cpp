@@ -204,6 +204,11 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     s.fieldEvaluations += share.fieldEvaluations;
     s.fieldSeconds += share.fieldSeconds;
     s.extractSeconds += share.extractSeconds;
+    s.edgesSeconds += share.edgesSeconds;
+    s.scansSeconds += share.scansSeconds;
+    s.sourcesSeconds += share.sourcesSeconds;
+    s.trianglesSeconds += share.trianglesSeconds;
+    s.verticesSeconds += share.verticesSeconds;
     s.readbackSeconds += share.readbackSeconds;
     s.deviceBytes = std::max(s.deviceBytes, share.deviceBytes);
   }

@@ -58,6 +58,12 @@ struct GpuStats {
   double fieldSeconds = 0.0;     // sparse: the field at the active bricks' points
   double extractSeconds = 0.0;   // sparse: edges, counts, scans, vertices, triangles
   double readbackSeconds = 0.0;  // sparse: the mesh copied to the host (device copy + host copy)
+  // Sparse, device time only: extractSeconds by pass.
+  double edgesSeconds = 0.0;      // inside masks, crossing edges, per-row counts
+  double scansSeconds = 0.0;      // the segment scans
+  double sourcesSeconds = 0.0;    // per row: where each vertex and triangle comes from
+  double verticesSeconds = 0.0;   // positions, normals, colours, edge keys
+  double trianglesSeconds = 0.0;  // triangle indices
   // Sparse: with timestamps on the queue (deviceTimed), classify/field/extract are device time
   // and hostSeconds is the rest of `seconds` (submits, waits, allocations, host copies); without,
   // they are wall time per submit (the field counted in extract).

@@ -34,7 +34,10 @@ BrickGroups brickGroups(std::uint32_t bricks) {
 
 std::uint64_t perBrickBytes(const BrickGrid& bricks) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
-  return R * R * R * 4 + R * R * 32 + B * B * 12;
+  return R * R * R * 4   // field samples
+         + R * R * 24      // inside masks, edge masks and first vertex, vertex segments
+         + B * B * 4       // triangle segments
+         + 32;             // the brick's neighbours
 }
 
 // Device memory a batch of bricks may take: a quarter of the largest device-local heap.
@@ -101,6 +104,10 @@ std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts
   return batches;
 }
 
+// Device timestamps per batch: field, masks and edges, scans | (second submit) sources,
+// vertices, triangles, read-back copies.
+constexpr std::uint32_t kMarks = 9;
+
 struct SparseBatchRunner::State {
   Device& device;
   const blobtree::GridSpec grid;
@@ -111,8 +118,7 @@ struct SparseBatchRunner::State {
   UploadBatch uploads;  // the program and case table ride in the first batch's submit
   GpuProgram gpu;
   std::uint64_t bytes = 0, peakOutputBytes = 0;
-  Buffer batchBricks, field, cases, masks, edges, vertexSegments, vertexRows, triangleSegments, triangleRows,
-      segmentScratch, counts;
+  Buffer batchBricks, field, cases, masks, edges, vertexSegments, triangleSegments, neighbours, segmentScratch, counts;
   std::uint64_t vertexScratch = 0;
   KernelPtr fieldKernel, vertexKernel;
   DeviceTimer timer;
@@ -122,26 +128,30 @@ struct SparseBatchRunner::State {
         Traversal traversal, const BrickGrid& b, const Buffer& scan, const Buffer& list, std::uint32_t maxLoaded,
         std::uint32_t batches)
       : device(d), grid(g), options(o), bg(b), brickScan(scan), brickList(list), uploads(d),
-        gpu(uploadProgram(d, program, traversal, o.codegen)), timer(d, 6 * batches), maxBatches(batches) {
+        gpu(uploadProgram(d, program, traversal, o.codegen)), timer(d, kMarks * batches), maxBatches(batches) {
     const std::uint64_t B = 1ull << bg.log2B, R = B + 1, P = R * R * R;
     const std::uint64_t maxRows = std::uint64_t(maxLoaded) * R * R, maxCellRows = std::uint64_t(maxLoaded) * B * B;
     auto make = [&](std::uint64_t size, const char* what) { return makeSparseBuffer(device, size, what, bytes); };
     batchBricks = make(std::uint64_t(maxLoaded) * 4, "batch brick list");
     field = make(std::uint64_t(maxLoaded) * P * 4, "field samples");
-    const std::vector<std::uint32_t>& words = packedCaseTable();
-    cases = make(words.size() * 4, "case table");
+    const std::vector<std::uint32_t>& words = caseTableUniform();
+    bytes += words.size() * 4;
+    cases = device.createBuffer(words.size() * 4, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     device.upload(cases, words.data(), words.size() * 4);
     masks = make(maxRows * 4, "inside masks");
     edges = make(maxRows * 16, "edge masks");
     vertexSegments = make(maxRows * 4, "vertex segments");
-    vertexRows = make(maxRows * 8, "vertex segment rows");
     triangleSegments = make(maxCellRows * 4, "triangle segments");
-    triangleRows = make(maxCellRows * 8, "triangle segment rows");
+    neighbours = make(std::uint64_t(maxLoaded) * 32, "brick neighbours");
     vertexScratch = scanScratchWords(maxRows);
     segmentScratch = make((vertexScratch + scanScratchWords(maxCellRows) + 1) * 4, "segment scan scratch");
     counts = device.createBuffer(16, MemoryUse::Readback);
     fieldKernel = evaluatorKernel(device, gpu, "brick_field", o.workgroupSize, traversal);
-    vertexKernel = evaluatorKernel(device, gpu, "brick_vertices", o.workgroupSize, traversal);
+    // Without samples to take (no refinement; normals from the gradient), the kernel without the
+    // sample loop, whose field evaluator llvmpipe would run once per vertex anyway.
+    const bool samples = o.refineSteps > 0 || traversal == Traversal::StackBased;
+    vertexKernel = evaluatorKernel(device, gpu, samples ? "brick_vertices" : "brick_vertices_direct", o.workgroupSize,
+                                   traversal);
   }
 };
 
@@ -161,12 +171,18 @@ bool SparseBatchRunner::deviceTimes(GpuStats& s) {
   State& st = *state_;
   if (!st.timer.enabled()) return false;
   s.fieldSeconds = s.extractSeconds = 0.0;
+  s.edgesSeconds = s.scansSeconds = s.sourcesSeconds = s.trianglesSeconds = s.verticesSeconds = 0.0;
   for (std::uint32_t b = 0; b < st.runs; ++b) {
-    const std::uint32_t m = 6 * b;
+    const std::uint32_t m = kMarks * b;
     s.fieldSeconds += st.timer.seconds(m, m + 1);
-    s.extractSeconds += st.timer.seconds(m + 1, m + 2) + st.timer.seconds(m + 3, m + 4);
-    s.readbackSeconds += st.timer.seconds(m + 4, m + 5);
+    s.edgesSeconds += st.timer.seconds(m + 1, m + 2);
+    s.scansSeconds += st.timer.seconds(m + 2, m + 3);
+    s.sourcesSeconds += st.timer.seconds(m + 4, m + 5);
+    s.verticesSeconds += st.timer.seconds(m + 5, m + 6);
+    s.trianglesSeconds += st.timer.seconds(m + 6, m + 7);
+    s.readbackSeconds += st.timer.seconds(m + 7, m + 8);
   }
+  s.extractSeconds = s.edgesSeconds + s.scansSeconds + s.sourcesSeconds + s.verticesSeconds + s.trianglesSeconds;
   return true;
 }
 
@@ -183,7 +199,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const float originCell[4] = {st.grid.origin.x, st.grid.origin.y, st.grid.origin.z, st.grid.cellSize};
   const std::uint32_t cells[4] = {std::uint32_t(st.grid.cells.x), std::uint32_t(st.grid.cells.y),
                                   std::uint32_t(st.grid.cells.z), bg.log2B};
-  const std::uint32_t run = st.runs++, mark = 6 * run, loaded = batch.loadedActive;
+  const std::uint32_t run = st.runs++, mark = kMarks * run, loaded = batch.loadedActive;
   const BrickGroups bgroups = brickGroups(loaded);
   const std::uint64_t rowCount = std::uint64_t(loaded) * R * R;
   const std::uint64_t triangleSegmentCount = std::uint64_t(loaded) * B * B;
@@ -222,12 +238,18 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     {
       const std::uint32_t push[9] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded,
                                      batch.activeBase};
-      const BufferRange bind[9] = {st.masks,           st.batchBricks,      st.cases,
-                                   st.edges,           st.vertexSegments,   st.vertexRows,
-                                   st.triangleSegments, st.triangleRows,    st.brickScan};
+      const BufferRange bind[7] = {st.masks,          st.batchBricks,      st.cases,    st.edges,
+                                   st.vertexSegments, st.triangleSegments, st.brickScan};
       rec.dispatch(*device.kernel("brick_rows", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
     }
+    {
+      const std::uint32_t push[5] = {bg.x, bg.y, bg.z, loaded, batch.activeBase};
+      const BufferRange bind[3] = {st.batchBricks, st.neighbours, st.brickScan};
+      const Groups g = groupsFor(loaded, wg);
+      rec.dispatch(*device.kernel("brick_neighbours", wgSpec), bind, push, sizeof(push), g.x, g.y);
+    }
     rec.computeBarrier();
+    st.timer.mark(rec, mark + 2);
     recordExclusiveScan(rec, st.vertexSegments.handle(), 0, std::uint32_t(rowCount), st.segmentScratch.handle(), 0,
                         st.counts.handle(), 0);
     rec.computeBarrier();  // the scans share the scratch and totals buffers (see slab_polygonizer.cpp)
@@ -238,7 +260,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       rec.copy(st.vertexSegments, 4ull * batch.ownActive * R * R, st.counts, 8, 4);
       rec.copy(st.triangleSegments, 4ull * batch.ownActive * B * B, st.counts, 12, 4);
     }
-    st.timer.mark(rec, mark + 2);
+    st.timer.mark(rec, mark + 3);
     rec.hostBarrier();
   });
   std::uint32_t c[4] = {0, 0, 0, 0};
@@ -260,6 +282,8 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   Buffer colours = make(options.colours ? std::uint64_t(vertices) * 12 : 16, "vertex colours");
   Buffer keys = make(std::uint64_t(vertices) * 8, "edge keys");
   Buffer indices = make(std::uint64_t(triangles) * 12, "triangle indices");
+  Buffer vertexSources = make(std::uint64_t(vertices) * 8, "vertex sources");
+  Buffer triangleSources = make(std::uint64_t(triangles) * 8, "triangle sources");
   // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
   static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
   auto append = [](auto& vec, std::uint64_t count) {
@@ -290,46 +314,49 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   st.peakOutputBytes = std::max(st.peakOutputBytes, outBytes);
   submit([&](Recorder& rec) {
     rec.computeBarrier();
-    st.timer.mark(rec, mark + 3);
+    st.timer.mark(rec, mark + 4);
+    if (vertices || triangles) {
+      const std::uint32_t push[10] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded,
+                                      batch.activeBase, batch.ownActive};
+      const BufferRange bind[9] = {st.masks,           st.batchBricks,  st.cases,        st.edges,    st.vertexSegments,
+                                   st.triangleSegments, vertexSources, triangleSources, st.brickScan};
+      rec.dispatch(*device.kernel("brick_sources", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
+    }
+    rec.computeBarrier();
+    st.timer.mark(rec, mark + 5);
     if (vertices) {
       struct {
         float originCell[4];
         std::uint32_t codeLength, refineSteps, attributes;
         float normalStep;
-        std::uint32_t log2B, segments, vertices, nx, ny;
+        std::uint32_t log2B, vertices, nx, ny;
       } push{{originCell[0], originCell[1], originCell[2], originCell[3]},
              gpu.codeLength,
              std::uint32_t(std::max(options.refineSteps, 0)),
              (options.normals ? 1u : 0u) | (options.colours ? 2u : 0u),
              options.normalStep,
              bg.log2B,
-             std::uint32_t(rowCount),
              vertices,
              std::uint32_t(st.grid.cells.x + 1),
              std::uint32_t(st.grid.cells.y + 1)};
-      const BufferRange bind[14] = {pb[0],          pb[1],          pb[2],         pb[3],     pb[4],
-                                    st.field,       st.edges,       st.batchBricks, st.vertexSegments,
-                                    st.vertexRows,  positions,      normals,       colours,   keys};
+      const BufferRange bind[12] = {pb[0],    pb[1],          pb[2],         pb[3],     pb[4],   st.field,
+                                    st.batchBricks, vertexSources, positions, normals, colours, keys};
       const Groups g = groupsFor(vertices, wg);
       rec.dispatch(*st.vertexKernel, bind, &push, sizeof(push), g.x, g.y);
     }
+    st.timer.mark(rec, mark + 6);
     if (triangles) {
-      struct {
-        std::uint32_t cells[4], bricks[4];
-        std::uint32_t segments, triangles, activeBase, vertexBase;
-      } push{{cells[0], cells[1], cells[2], cells[3]}, {bg.x, bg.y, bg.z, loaded},
-             std::uint32_t(triangleSegmentCount), triangles, batch.activeBase, std::uint32_t(vertexBase)};
-      const BufferRange bind[9] = {st.masks,         st.cases,        st.edges,       st.vertexSegments, st.triangleSegments,
-                                   st.triangleRows,  st.batchBricks,  indices,        st.brickScan};
+      const std::uint32_t push[3] = {bg.log2B, triangles, std::uint32_t(vertexBase)};
+      const BufferRange bind[5] = {st.cases, st.edges, st.neighbours, triangleSources, indices};
       const Groups g = groupsFor(triangles, wg);
       rec.dispatch(*device.kernel("brick_triangles", wgSpec), bind, &push, sizeof(push), g.x, g.y);
     }
     rec.computeBarrier();
-    st.timer.mark(rec, mark + 4);
+    st.timer.mark(rec, mark + 7);
     for (const Output& o : outputs) {
       if (!o.buffer->hostReadable() && o.bytes) rec.copy(*o.buffer, 0, staging, o.offset, o.bytes);
     }
-    st.timer.mark(rec, mark + 5);
+    st.timer.mark(rec, mark + 8);
     rec.hostBarrier();
   });
   s.extractSeconds += since(t0);

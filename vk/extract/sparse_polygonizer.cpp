@@ -18,9 +18,37 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// The Program's records in uniform buffers of kUniformBlock bytes each, records at the start, for
+// brick_classify_uniform.comp; empty when a record array is over its block (or the device's
+// uniform range is smaller), and brick_classify.comp reads them as storage buffers.
+constexpr std::uint64_t kUniformBlock = 65536;
+struct ClassifyUniforms {
+  std::vector<Buffer> buffers;
+};
+
+ClassifyUniforms classifyUniforms(Device& device, const blobtree::Program& program) {
+  ClassifyUniforms u;
+  if (device.info().limits.maxUniformBufferRange < kUniformBlock) return u;
+  // The blocks' array lengths (brick_classify_uniform.comp): whole records of each size.
+  const std::pair<const void*, std::uint64_t> records[5] = {
+      {program.code.data(), program.code.size() * sizeof(program.code[0])},
+      {program.primitives.data(), program.primitives.size() * sizeof(program.primitives[0])},
+      {program.matrices.data(), program.matrices.size() * sizeof(program.matrices[0])},
+      {program.boxes.data(), program.boxes.size() * sizeof(program.boxes[0])},
+      {program.warps.data(), program.warps.size() * sizeof(program.warps[0])}};
+  for (const auto& r : records) {
+    if (r.second > kUniformBlock) return u;
+  }
+  for (const auto& r : records) {
+    u.buffers.push_back(device.createBuffer(kUniformBlock, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT));
+    if (r.second) device.upload(u.buffers.back(), r.first, r.second);
+  }
+  return u;
+}
+
 // brick_classify over every brick of the grid, into flags[0 .. bricks] (the last word 0).
-void recordClassify(Recorder& rec, const GpuProgram& gpu, const blobtree::GridSpec& grid, const BrickGrid& bg,
-                    const Buffer& flags) {
+void recordClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
+                    const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags) {
   const auto pb = gpu.bindings();
   struct {
     float originCell[4];
@@ -28,22 +56,30 @@ void recordClassify(Recorder& rec, const GpuProgram& gpu, const blobtree::GridSp
   } push{{grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize},
          {std::uint32_t(grid.cells.x), std::uint32_t(grid.cells.y), std::uint32_t(grid.cells.z), bg.log2B},
          {bg.x, bg.y, bg.z, gpu.codeLength}};
-  const BufferRange bind[6] = {pb[0], pb[1], pb[2], pb[3], pb[4], flags};
+  const bool uniform = !uniforms.buffers.empty();
+  const BufferRange bind[6] = {uniform ? BufferRange(uniforms.buffers[0]) : pb[0],
+                               uniform ? BufferRange(uniforms.buffers[1]) : pb[1],
+                               uniform ? BufferRange(uniforms.buffers[2]) : pb[2],
+                               uniform ? BufferRange(uniforms.buffers[3]) : pb[3],
+                               uniform ? BufferRange(uniforms.buffers[4]) : pb[4],
+                               flags};
   // Constants 3-5: the program's opcode, primitive and warp masks (the others are not used).
   const auto specs = gpu.specs(64, Traversal::Stackless);
-  rec.dispatch(*rec.device().kernel("brick_classify", specs), bind, &push, sizeof(push), (bg.x + 3) / 4,
-               (bg.y + 3) / 4, (bg.z + 3) / 4);
+  rec.dispatch(*rec.device().kernel(uniform ? "brick_classify_uniform" : "brick_classify", specs), bind, &push,
+               sizeof(push), (bg.x + 3) / 4, (bg.y + 3) / 4, (bg.z + 3) / 4);
 }
 
 }  // namespace
 
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
-                                          const blobtree::GridSpec& grid, std::uint32_t brickCells) {
+                                          const blobtree::GridSpec& grid, std::uint32_t brickCells,
+                                          bool uniformRecords) {
   const BrickGrid bg = brickGridFor(grid, brickCells);
   const GpuProgram gpu = uploadProgram(device, program, Traversal::Stackless);
+  const ClassifyUniforms uniforms = uniformRecords ? classifyUniforms(device, program) : ClassifyUniforms{};
   Buffer flags = device.createBuffer((bg.count() + 1) * 4);
   device.run([&](Recorder& rec) {
-    recordClassify(rec, gpu, grid, bg, flags);
+    recordClassify(rec, gpu, uniforms, grid, bg, flags);
     rec.hostBarrier();
   });
   std::vector<std::uint32_t> out(bg.count());
@@ -72,12 +108,14 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
                                 std::uint64_t triangles, bool normals, bool colours) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
   const std::uint64_t perBrick = R * R * R * 4   // field
-                                 + R * R * 32    // inside and edge masks, vertex segments, their rows
-                                 + B * B * 12;   // triangle segments, their rows
+                                 + R * R * 24    // inside and edge masks (+ first vertex), vertex segments
+                                 + B * B * 4     // triangle segments
+                                 + 32;           // neighbours
   const std::uint64_t scan = (scanScratchWords(bricks.count() + 1) + scanScratchWords(activeBricks * R * R) +
                               scanScratchWords(activeBricks * B * B)) * 4;
-  const std::uint64_t outputs = vertices * (12 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * 12;
-  return (bricks.count() + 1) * 8 + activeBricks * perBrick + scan + outputs + 256 * 20 * 4;
+  // Outputs, and where each vertex and triangle comes from (8 bytes each).
+  const std::uint64_t outputs = vertices * (12 + 8 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * (12 + 8);
+  return (bricks.count() + 1) * 8 + activeBricks * perBrick + scan + outputs + 256 * 4 * 4;
 }
 
 namespace {
@@ -155,6 +193,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   // The classification interprets the register code (whatever evaluator the batches use).
   UploadBatch uploads(device);  // the program rides in the classification's submit
   const GpuProgram gpu = uploadProgram(device, program, Traversal::Stackless);
+  const ClassifyUniforms uniforms = classifyUniforms(device, program);
   DeviceTimer timer(device, 2);
   const auto t0 = Clock::now();
   const std::uint64_t brickCount = bg.count();
@@ -167,7 +206,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   device.run([&](Recorder& rec) {
     timer.reset(rec);
     timer.mark(rec, 0);
-    recordClassify(rec, gpu, grid, bg, c.scan);
+    recordClassify(rec, gpu, uniforms, grid, bg, c.scan);
     rec.computeBarrier();
     recordExclusiveScan(rec, c.scan.handle(), 0, std::uint32_t(brickCount + 1), scratch.handle(), 0, totals.handle(), 0);
     rec.computeBarrier();

@@ -8,9 +8,11 @@
 //  5. brick_rows: crossing edges (three bit masks) and vertex counts per row of points, triangle
 //     counts per row of cells, each at its position in the global order
 //     (shaders/brick_layout.glsl), two scans;
-//  6. brick_vertices and brick_triangles, one lane per vertex and per triangle.
+//  6. brick_sources, per row: the row's first vertex, and where each of its vertices and
+//     triangles comes from (brick_neighbours gives each brick its upper neighbours);
+//  7. brick_vertices and brick_triangles, one lane per vertex and per triangle, no search.
 // Device memory follows the active bricks: besides 8 bytes per brick of the grid, each active
-// brick holds one float per point of its (B+1)^3 and 8 words per row of points. The mesh equals
+// brick holds one float per point of its (B+1)^3, 6 words per row of points, 1 per row of cells. The mesh equals
 // cpu::polygonizeReference index by index (vertices in global edge-key order, triangles in cell
 // order) wherever the two classify the grid points alike.
 #pragma once
@@ -42,9 +44,12 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
                                 std::uint64_t triangles, bool normals, bool colours);
 
 // The classification alone: 1 for each brick (x fastest) that may hold part of the surface, 0
-// for one whose (B+1)^3 grid samples provably lie on one side of the iso value.
+// for one whose (B+1)^3 grid samples provably lie on one side of the iso value. The Program's
+// records go in uniform buffers where they fit (64 KB per record array; brick_classify_uniform),
+// else, or with `uniformRecords` false, in storage buffers (brick_classify): the same flags.
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
-                                          const blobtree::GridSpec& grid, std::uint32_t brickCells);
+                                          const blobtree::GridSpec& grid, std::uint32_t brickCells,
+                                          bool uniformRecords = true);
 
 struct ClassifiedBricks;
 

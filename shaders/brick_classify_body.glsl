@@ -1,0 +1,242 @@
+// The sparse extraction's brick classification (brick_classify.comp, brick_classify_uniform.comp):
+// everything but the Program's record bindings (0-4), which the including kernel declares as
+// storage buffers (any size) or uniform buffers (llvmpipe loads a uniform buffer at a per-lane
+// index with one vector gather, a storage buffer with a loop over the lanes).
+#ifndef BLOBVK_BRICK_CLASSIFY_BODY_GLSL
+#define BLOBVK_BRICK_CLASSIFY_BODY_GLSL
+layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+
+// Specialization constants 3-5 of the evaluators (vk::GpuProgram::specs): the opcodes, primitive
+// types and warp types the program has. llvmpipe runs every branch of the interpreter loop under
+// a lane mask, so what a program lacks must fold away.
+layout(constant_id = 3) const uint OP_MASK = 0xffffffffu;
+layout(constant_id = 4) const uint PRIM_MASK = 0xffffffffu;
+layout(constant_id = 5) const uint WARP_MASK = 0xffffffffu;
+#define HAS_OP(op) ((OP_MASK & (1u << (op))) != 0u)
+#define HAS_PRIM(t) ((PRIM_MASK & (1u << (t))) != 0u)
+#define HAS_WARP(t) ((WARP_MASK & (1u << (t))) != 0u)
+const uint MASK_HAS_MATRIX = 0x80000000u;
+
+layout(std430, set = 0, binding = 5) writeonly buffer ActiveFlags { uint activeFlags[]; };
+
+layout(push_constant) uniform Push {
+  vec4 originCell;          // grid origin, cell size
+  uvec4 cells;              // cells per axis, w = log2(B)
+  uvec4 bricks;             // bricks per axis, w = code length
+} pc;
+
+const float INF = 1.0 / 0.0;  // +infinity
+const uint MAX_PENDING = 16u;
+
+struct Box {
+  vec3 lo, hi;
+};
+
+bool finiteBox(Box b) { return all(lessThan(abs(b.lo), vec3(1e30))) && all(lessThan(abs(b.hi), vec3(1e30))); }
+Box everything() { return Box(vec3(-INF), vec3(INF)); }
+
+// Float evaluation of coordinates errs by a few ulps of the largest magnitude: pad by more.
+Box padBox(Box b) {
+  if (!finiteBox(b)) return everything();
+  vec3 m = max(max(abs(b.lo), abs(b.hi)), vec3(1.0)) * 1e-5;
+  return Box(b.lo - m, b.hi + m);
+}
+
+Box transformBox(MatrixRecord m, Box b) {
+  if (!finiteBox(b)) return everything();
+  vec4 rows[3] = vec4[3](vec4(m.r0.x, m.r0.y, m.r0.z, m.r0.w), vec4(m.r1.x, m.r1.y, m.r1.z, m.r1.w),
+                         vec4(m.r2.x, m.r2.y, m.r2.z, m.r2.w));
+  Box o;
+  for (int r = 0; r < 3; ++r) {
+    vec3 u = rows[r].xyz * b.lo, v = rows[r].xyz * b.hi;
+    vec3 lo = min(u, v), hi = max(u, v);
+    float magnitude = abs(rows[r].w) + dot(max(abs(u), abs(v)), vec3(1.0));
+    // The reference's float sum of products errs by a few ulps of its largest terms.
+    float rounding = 1e-5 * magnitude;
+    o.lo[r] = rows[r].w + lo.x + lo.y + lo.z - rounding;
+    o.hi[r] = rows[r].w + hi.x + hi.y + hi.z + rounding;
+  }
+  return padBox(o);
+}
+
+vec2 mulInterval(vec2 a, vec2 b) {
+  vec4 p = vec4(a.x * b.x, a.x * b.y, a.y * b.x, a.y * b.y);
+  vec2 r = vec2(min(min(p.x, p.y), min(p.z, p.w)), max(max(p.x, p.y), max(p.z, p.w)));
+  if (any(isnan(r))) r = vec2(-INF, INF);
+  return r;
+}
+
+// Smallest and largest squared distance between the box and the skeleton box [slo, shi].
+vec2 boxDistance2(Box a, vec3 slo, vec3 shi) {
+  vec3 gap = max(max(slo - a.hi, a.lo - shi), vec3(0.0));
+  vec3 far = max(abs(shi - a.lo), abs(a.hi - slo));
+  return vec2(dot(gap, gap), dot(far, far));
+}
+
+// Box of the skeleton in the unit frame (cpu_simd/field_bounds.cpp skeletonBox).
+void skeletonBox(uint index, uint type, out vec3 lo, out vec3 hi) {
+  vec3 c = programPrims[index].p0.xyz, n = programPrims[index].p1.xyz;
+  vec3 inPlane = sqrt(max(vec3(0.0), vec3(1.0) - n * n));
+  if (HAS_PRIM(PRIM_LINE) && type == PRIM_LINE) {
+    lo = min(c, c + n);
+    hi = max(c, c + n);
+  } else if (HAS_PRIM(PRIM_CYLINDER) && type == PRIM_CYLINDER) {
+    vec3 top = c + n * programPrims[index].p2.y;
+    vec3 ext = inPlane * abs(programPrims[index].p2.x);
+    lo = min(c, top) - ext;
+    hi = max(c, top) + ext;
+  } else if ((HAS_PRIM(PRIM_DISC) && type == PRIM_DISC) || (HAS_PRIM(PRIM_RING) && type == PRIM_RING)) {
+    vec3 ext = inPlane * abs(programPrims[index].p2.x);
+    lo = c - ext;
+    hi = c + ext;
+  } else if (HAS_PRIM(PRIM_CUBE) && type == PRIM_CUBE) {
+    lo = c - abs(n);
+    hi = c + abs(n);
+  } else if (HAS_PRIM(PRIM_TRIANGLE) && type == PRIM_TRIANGLE) {
+    vec3 q = programPrims[index].p2.xyz;
+    lo = min(min(c, n), q);
+    hi = max(max(c, n), q);
+  } else {  // point, quadric
+    lo = c;
+    hi = c;
+  }
+  // Unit-normal rounding and float distance arithmetic: an absolute pad in the unit frame.
+  lo -= vec3(1e-4);
+  hi += vec3(1e-4);
+}
+
+vec2 primitiveBounds(uint index, Box world) {
+  uvec4 meta = programPrims[index].meta;
+  uint type = meta.x;
+  if (type > PRIM_QUADRIC) return vec2(0.0);  // the reference gives 0 for unknown types
+  Box local = (PRIM_MASK & MASK_HAS_MATRIX) != 0u && meta.y != 0u ? transformBox(programMatrices[meta.y], world) : world;
+  float scale = type == PRIM_QUADRIC ? programPrims[index].p0.w : 1.0;
+  if (!finiteBox(local)) return vec2(min(0.0, scale), max(0.0, scale));
+  vec3 slo, shi;
+  skeletonBox(index, type, slo, shi);
+  vec2 dd = boxDistance2(local, slo, shi);
+  // Relative rounding of the distances (the reference's and this one's).
+  dd = vec2(dd.x * (1.0 - 1e-5), dd.y * (1.0 + 1e-5));
+  if (dd.x >= 1.0) return vec2(0.0);
+  float tHi = 1.0 - dd.x, tLo = max(1.0 - dd.y, 0.0);
+  if (type == PRIM_QUADRIC) return vec2(min(0.0, scale), max(0.0, scale * tHi * tHi));
+  return vec2(tLo * tLo * tLo, tHi * tHi * tHi);
+}
+
+Box warpBox(WarpRecord w, Box b) {
+  if ((WARP_MASK & MASK_HAS_MATRIX) != 0u && w.meta.w != 0u) b = transformBox(programMatrices[w.meta.w], b);
+  if (!finiteBox(b)) return b;
+  uint a = min(w.meta.y, 2u), c = min(w.meta.z, 2u);
+  float k = w.params.x;
+  if (HAS_WARP(WARP_TWIST) && w.meta.x == WARP_TWIST) {
+    // A rotation about axis a keeps the coordinate along a and the distance from the axis.
+    uint u = (a + 1u) % 3u, v = (a + 2u) % 3u;
+    float mu = max(abs(b.lo[u]), abs(b.hi[u])), mv = max(abs(b.lo[v]), abs(b.hi[v]));
+    float r = sqrt(mu * mu + mv * mv);
+    b.lo[u] = -r;
+    b.lo[v] = -r;
+    b.hi[u] = r;
+    b.hi[v] = r;
+    return padBox(b);
+  }
+  if (HAS_WARP(WARP_TAPER) && w.meta.x == WARP_TAPER) {
+    vec2 f = mulInterval(vec2(b.lo[c], b.hi[c]), vec2(1.0 + min(k * b.lo[a], k * b.hi[a]), 1.0 + max(k * b.lo[a], k * b.hi[a])));
+    b.lo[c] = f.x;
+    b.hi[c] = f.y;
+    return padBox(b);
+  }
+  if (HAS_WARP(WARP_SHEAR) && w.meta.x == WARP_SHEAR) {
+    vec2 s = mulInterval(vec2(b.lo[c], b.hi[c]), vec2(k));
+    b.lo[a] += s.x;
+    b.hi[a] += s.y;
+    return padBox(b);
+  }
+  return everything();  // bend: not worth a tight bound
+}
+
+// Interval of the field over `query`; sets `exact` false when the bound gave up (too many
+// partially covered skips nested).
+vec2 fieldBounds(Box query, out bool gaveUp) {
+  vec2 reg[MAX_FIELD_REGISTERS];
+  Box pts[MAX_POINT_REGISTERS];
+  uvec2 pending[MAX_PENDING];  // (skip target, register): the register also takes 0 there
+  uint pendingCount = 0u;
+  for (uint r = 0u; r < MAX_FIELD_REGISTERS; ++r) reg[r] = vec2(0.0);
+  for (uint r = 0u; r < MAX_POINT_REGISTERS; ++r) pts[r] = query;
+  pts[0] = padBox(query);
+  gaveUp = false;
+  uint n = pc.bricks.w;
+  uint at = 0u;
+  for (;;) {
+    while (pendingCount > 0u && pending[pendingCount - 1u].x <= at) {
+      uint dst = pending[pendingCount - 1u].y;
+      reg[dst] = vec2(min(reg[dst].x, 0.0), max(reg[dst].y, 0.0));
+      --pendingCount;
+    }
+    if (at >= n) break;
+    uvec4 in_ = programCode[at].code;
+    uint op = in_.x & 0xffu, dst = min(in_.x >> 8, MAX_FIELD_REGISTERS - 1u);
+    uint y = min(in_.y, MAX_FIELD_REGISTERS - 1u);
+    vec2 d = reg[dst];
+    if (HAS_OP(OP_PRIM) && op == OP_PRIM) {
+      d = primitiveBounds(in_.y, pts[min(in_.z, MAX_POINT_REGISTERS - 1u)]);
+    } else if (HAS_OP(OP_ADD) && op == OP_ADD) {
+      d += reg[y];
+    } else if (HAS_OP(OP_MAX) && op == OP_MAX) {
+      d = max(d, reg[y]);
+    } else if (HAS_OP(OP_MIN) && op == OP_MIN) {
+      d = min(d, reg[y]);
+    } else if (HAS_OP(OP_DIFF) && op == OP_DIFF) {
+      d = vec2(min(d.x, 1.0 - reg[y].y), min(d.y, 1.0 - reg[y].x));
+    } else if (HAS_OP(OP_SDIFF) && op == OP_SDIFF) {
+      d = mulInterval(d, vec2(1.0 - reg[y].y, 1.0 - reg[y].x));
+    } else if (HAS_OP(OP_ONE_MINUS) && op == OP_ONE_MINUS) {
+      d = vec2(1.0 - d.y, 1.0 - d.x);
+    } else if (HAS_OP(OP_MUL) && op == OP_MUL) {
+      d = mulInterval(d, reg[y]);
+    } else if (HAS_OP(OP_POW) && op == OP_POW) {
+      float e = uintBitsToFloat(in_.w);
+      // pow's precision is the driver's: widen by a relative margin.
+      d = e > 0.0 ? vec2(pow(max(d.x, 0.0), e) * (1.0 - 1e-4), pow(max(d.y, 0.0), e) * (1.0 + 1e-4)) : vec2(0.0, INF);
+    } else if (HAS_OP(OP_WARP) && op == OP_WARP) {
+      pts[min(dst, MAX_POINT_REGISTERS - 1u)] = warpBox(programWarps[in_.y], pts[min(in_.z, MAX_POINT_REGISTERS - 1u)]);
+    } else if (HAS_OP(OP_SKIP) && op == OP_SKIP) {
+      BoxRecord s = programBoxes[in_.y];
+      Box q = pts[min(in_.z, MAX_POINT_REGISTERS - 1u)];
+      vec3 slo = vec3(s.lo.x, s.lo.y, s.lo.z), shi = vec3(s.hi.x, s.hi.y, s.hi.z);
+      if (any(lessThan(q.hi, slo)) || any(greaterThan(q.lo, shi))) {
+        reg[dst] = vec2(0.0);
+        at = in_.w;
+        continue;
+      }
+      if (!(all(greaterThanEqual(q.lo, slo)) && all(lessThanEqual(q.hi, shi)))) {
+        if (pendingCount == MAX_PENDING) {
+          gaveUp = true;
+          return vec2(-INF, INF);
+        }
+        pending[pendingCount++] = uvec2(in_.w, dst);
+      }
+    }
+    reg[dst] = d;
+    ++at;
+  }
+  return n > 0u ? reg[0] : vec2(0.0);
+}
+
+void main() {
+  uvec3 b = gl_GlobalInvocationID;
+  if (any(greaterThanEqual(b, pc.bricks.xyz))) return;
+  uint brick = (b.z * pc.bricks.y + b.y) * pc.bricks.x + b.x;
+  uint B = 1u << pc.cells.w;
+  uvec3 first = b * B, last = min(first + B, pc.cells.xyz);
+  Box box = Box(pc.originCell.xyz + pc.originCell.w * vec3(first), pc.originCell.xyz + pc.originCell.w * vec3(last));
+  bool gaveUp;
+  vec2 f = fieldBounds(box, gaveUp);
+  // The reference's float rounding of sums and products, and this bound's own float rounding.
+  float margin = 1e-3 * max(1.0, max(abs(f.x), abs(f.y)));
+  bool uniformSide = !gaveUp && (f.y < ISO_VALUE - margin || f.x >= ISO_VALUE + margin);
+  activeFlags[brick] = uniformSide ? 0u : 1u;
+  if (brick == 0u) activeFlags[pc.bricks.x * pc.bricks.y * pc.bricks.z] = 0u;
+}
+
+#endif

@@ -1,0 +1,53 @@
+// The sparse vertex kernels' body (brick_vertices.comp, brick_vertices_direct.comp).
+#ifndef BLOBVK_BRICK_VERTICES_BODY_GLSL
+#define BLOBVK_BRICK_VERTICES_BODY_GLSL
+#define PROGRAM_SET 0
+#define PROGRAM_BINDING 0
+#include "eval_program.glsl"
+#include "common.glsl"
+#include "brick_layout.glsl"
+
+layout(std430, set = 0, binding = 5) readonly buffer Field { float field[]; };
+layout(std430, set = 0, binding = 6) readonly buffer Bricks { uint bricks[]; };
+layout(std430, set = 0, binding = 7) readonly buffer VertexSources { uvec2 vertexSources[]; };  // brick_sources.comp
+layout(std430, set = 0, binding = 8) writeonly buffer Positions { float positions[]; };
+layout(std430, set = 0, binding = 9) writeonly buffer Normals { float normals[]; };
+layout(std430, set = 0, binding = 10) writeonly buffer Colours { float colours[]; };
+layout(std430, set = 0, binding = 11) writeonly buffer Keys { uvec2 keys[]; };
+
+layout(push_constant) uniform Push {
+  vec4 originCell;
+  uint codeLength;
+  uint refineSteps;
+  uint attributes;  // bit 0 normals, bit 1 colours
+  float normalStep;
+  uint log2B;
+  uint vertices;    // the batch's vertex count
+  uint nx, ny;      // grid points per axis (edge keys)
+} pc;
+
+#include "edge_vertex.glsl"
+
+void main() {
+  uint v = linearInvocation();
+  if (v >= pc.vertices) return;
+  uvec2 source = vertexSources[v];
+  uint R = (1u << pc.log2B) + 1u;
+  uint r = source.y >> 7, x0 = (source.y >> 2) & 31u, axis = source.y & 3u;
+  uint lz = divideSmall(r, R), ly = r - lz * R;
+  uvec3 g = (unpackBrick(bricks[source.x]) << pc.log2B) + uvec3(x0, ly, lz);
+  uint idx = (source.x * R * R + r) * R + x0;
+  emitEdgeVertex(v, g, axis, field[idx], field[idx + (axis == 0u ? 1u : (axis == 1u ? R : R * R))]);
+  // Key = ((z * ny + y) * nx + x) * 3 + axis in 64 bits.
+  uint khi, klo, carry;
+  umulExtended(g.z * pc.ny + g.y, pc.nx, khi, klo);
+  klo = uaddCarry(klo, g.x, carry);
+  khi += carry;
+  uint h3, l3;
+  umulExtended(klo, 3u, h3, l3);
+  khi = khi * 3u + h3;
+  l3 = uaddCarry(l3, axis, carry);
+  keys[v] = uvec2(l3, khi + carry);
+}
+
+#endif
