@@ -2,20 +2,23 @@
 // (docs/editing.md) and writes the mesh, or a PNG of it, after each: frame 0 is the scene as
 // loaded, frame k the mesh after k edits. The grid is chosen once, from the scene as loaded, and
 // kept (an incremental re-mesh needs a fixed grid). Each edit re-meshes only the MPUs its region
-// touches (cpu_simd/incremental_polygonizer.h); --check compares each result with a full
-// re-mesh, byte for byte.
+// touches (cpu_simd/incremental_polygonizer.h) or, with --backend vk, the brick layers it reaches
+// (vk/extract/incremental_extract.h); --check compares each result with a full re-mesh, byte for
+// byte.
+#include "backends.h"
 #include "cli_conventions.h"
 #include "commands.h"
+#include "edit_remesher.h"
 #include "json_report.h"
 #include "model.h"
 #include "resolution_limit.h"
 
 #include "blobvk/blobtree/edit_script.h"
-#include "blobvk/cpu_simd/incremental_polygonizer.h"
 #include "blobvk/mesh/io.h"
 
 #ifdef BLOBVK_HAVE_VULKAN
 #include "blobvk/vk/device/standalone.h"
+#include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/render/png_io.h"
 #include "blobvk/vk/render/render_camera.h"
 #include "blobvk/vk/render/render_mesh.h"
@@ -75,8 +78,9 @@ void addEditCommand(CLI::App& app) {
     std::string scene, edits, out, size = "512x512";
     std::optional<float> cellSize;
     std::optional<int> resolution;
-    int threads = 0, mpu = 0;
-    bool json = false, check = false;
+    int threads = 0, mpu = 0, brickCells = 0;
+    std::string backend = "cpu", device, traversal = "auto";
+    bool json = false, check = false, validation = false;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("edit", "Apply a scripted sequence of edits, re-meshing incrementally after each");
@@ -88,7 +92,16 @@ void addEditCommand(CLI::App& app) {
       ->check(resolutionRange())
       ->excludes(cs);
   cmd->add_option("--threads", a->threads, "CPU threads (0 = all cores)")->check(CLI::Range(0, 1024));
-  cmd->add_option("--mpu", a->mpu, "Cells per MPU side (0 = default)")->check(CLI::Range(0, 64));
+  cmd->add_option("--mpu", a->mpu, "cpu: cells per MPU side (0 = default)")->check(CLI::Range(0, 64));
+  cmd->add_option("--backend", a->backend, "cpu (default) or vk")->check(CLI::IsMember({"cpu", "vk"}));
+  cmd->add_option("--device", a->device, "vk: Vulkan device (name substring or index)");
+  cmd->add_option("--traversal", a->traversal,
+                  "vk: auto (default: the interpreter, as a specialised kernel would be built per edit), specialised, "
+                  "stackless or stack")
+      ->check(CLI::IsMember(traversalNames()));
+  cmd->add_option("--brick-cells", a->brickCells, "vk: cells per brick edge, 2 to 16, a power of two (0 = default)")
+      ->check(CLI::IsMember({0, 2, 4, 8, 16}));
+  cmd->add_flag("--validation", a->validation, "vk: enable the Vulkan validation layer");
   cmd->add_option("--size", a->size, "PNG frames: image size WxH (default 512x512)");
   cmd->add_flag("--check", a->check, "Also re-mesh the whole grid after each edit and fail unless the bytes are equal");
   cmd->add_flag("--json", a->json, "Print per-edit timings as JSON");
@@ -110,23 +123,45 @@ void addEditCommand(CLI::App& app) {
       throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF): write .ply frames instead");
 #endif
     }
+    const bool vkBackend = a->backend == "vk";
+#ifndef BLOBVK_HAVE_VULKAN
+    if (vkBackend) throw std::runtime_error("--backend vk: this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
+#endif
+    if (!vkBackend && (!a->device.empty() || a->traversal != "auto" || a->brickCells || a->validation))
+      throw UsageError("--device, --traversal, --brick-cells and --validation are for --backend vk");
+    if (vkBackend && (a->threads || a->mpu)) throw UsageError("--threads and --mpu are for --backend cpu");
 
     const Model model = loadModel(a->scene);
     const blobtree::EditScript script = blobtree::readEditScript(a->edits);
     checkOutputFile(framePath(a->out, int(script.edits.size())), {".ply", ".obj", ".stl", ".png"}, false, "a mesh or an image");
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
     blobtree::EditableTree tree(model.scene.root);
-    cpu::MpuOptions options;
-    options.threads = a->threads;
-    if (a->mpu > 0) options.mpuCells = a->mpu;
-    cpu::IncrementalPolygonizer inc(grid, options);
+    std::unique_ptr<EditRemesher> inc;
+    if (!vkBackend) {
+      cpu::MpuOptions options;
+      options.threads = a->threads;
+      if (a->mpu > 0) options.mpuCells = a->mpu;
+      inc = makeCpuRemesher(grid, options);
+    }
 
 #ifdef BLOBVK_HAVE_VULKAN
+    // One device for the vk backend and the PNG frames.
     std::unique_ptr<vk::StandaloneContext> ctx;
+    if (png || vkBackend) {
+      vk::StandaloneOptions contextOptions;
+      contextOptions.device = a->device;
+      contextOptions.validation = a->validation;
+      ctx = std::make_unique<vk::StandaloneContext>(contextOptions);
+    }
+    if (vkBackend) {
+      vk::GpuPolygonizeOptions options;
+      options.traversal = traversalFromName(a->traversal);
+      if (a->brickCells > 0) options.brickCells = std::uint32_t(a->brickCells);
+      inc = makeVkRemesher(ctx->device(), grid, options);
+    }
     std::unique_ptr<vk::MeshRenderer> renderer;
     std::optional<vk::Camera> camera;
     if (png) {
-      ctx = std::make_unique<vk::StandaloneContext>(vk::StandaloneOptions{});
       renderer = std::make_unique<vk::MeshRenderer>(ctx->device(), width, height);
       // One camera for every frame, from the model as loaded, so frames compare.
       camera = vk::resolveCamera(model.program.bounds, model.scene.camera, {}, float(width) / float(height));
@@ -147,10 +182,11 @@ void addEditCommand(CLI::App& app) {
     nlohmann::json report = versionJson();
     report["scene"] = a->scene;
     report["edits_file"] = a->edits;
+    report["backend"] = a->backend;
     report["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cell_size", grid.cellSize},
                       {"origin", {grid.origin.x, grid.origin.y, grid.origin.z}}};
     auto t0 = Clock::now();
-    const mesh::TriMesh& initial = inc.reset(tree.program());
+    const mesh::TriMesh& initial = inc->reset(tree.program());
     const double initialMs = msSince(t0);
     const std::string initialPath = write(initial, 0);
     report["initial"] = {{"ms", initialMs}, {"triangles", initial.triangleCount()}, {"output", initialPath}};
@@ -163,19 +199,15 @@ void addEditCommand(CLI::App& app) {
       t0 = Clock::now();
       const blobtree::Region region = blobtree::applyScriptEdit(script, i, tree);
       const double applyMs = msSince(t0);
-      cpu::IncrementalStats st;
-      const mesh::TriMesh& m = inc.update(tree.program(), region, &st);
-      if (a->check && !(m == cpu::polygonizeMpu(tree.program(), grid, options)))
+      RemeshReport st;
+      const mesh::TriMesh& m = inc->update(tree.program(), region, st);
+      if (a->check && !(m == inc->full(tree.program())))
         throw std::runtime_error(a->edits + ": /edits/" + std::to_string(i) + ": the incremental mesh differs from a full re-mesh");
       const std::string path = write(m, int(i) + 1);
       nlohmann::json row = {{"index", i},
                             {"edit", blobtree::describeEdit(script, i)},
                             {"apply_ms", applyMs},
-                            {"remesh_ms", st.msTotal},
-                            {"polygonize_ms", st.msPolygonize},
-                            {"splice_ms", st.msSplice},
-                            {"mpus_rerun", st.mpusRerun},
-                            {"mpus", st.mpus},
+                            {"remesh_ms", st.ms},
                             {"full_remesh", st.full},
                             {"vertices", m.vertexCount()},
                             {"triangles", m.triangleCount()},
@@ -183,11 +215,12 @@ void addEditCommand(CLI::App& app) {
       if (region.empty()) row["region"] = nullptr;
       else if (region.everything()) row["region"] = "everything";
       else row["region"] = {{"lo", {region.lo.x, region.lo.y, region.lo.z}}, {"hi", {region.hi.x, region.hi.y, region.hi.z}}};
+      row.update(st.fields);
       if (a->check) row["checked"] = true;
       if (talk)
-        std::printf("edit %zu/%zu %s: apply %.2f ms, re-mesh %.2f ms (%zu of %zu MPUs%s), %zu triangles -> %s\n", i + 1,
-                    script.edits.size(), blobtree::describeEdit(script, i).c_str(), applyMs, st.msTotal, st.mpusRerun,
-                    st.mpus, st.full ? ", whole grid" : "", m.triangleCount(), path.c_str());
+        std::printf("edit %zu/%zu %s: apply %.2f ms, re-mesh %.2f ms (%s%s), %zu triangles -> %s\n", i + 1,
+                    script.edits.size(), blobtree::describeEdit(script, i).c_str(), applyMs, st.ms, st.note.c_str(),
+                    st.full ? ", whole grid" : "", m.triangleCount(), path.c_str());
       rows.push_back(std::move(row));
     }
     report["edits"] = std::move(rows);

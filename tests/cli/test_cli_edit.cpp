@@ -8,8 +8,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cstdio>
 #include <fstream>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -33,6 +35,52 @@ Json fixedGridScene() {
   return scene;
 }
 
+// Three edits of fixedGridScene() (move and recolour, add, remove) as a script, and the scene
+// after each, edited by this test itself: the independent path a frame is checked against.
+struct ScriptedEdits {
+  Json script;
+  std::vector<Json> steps;  // the scene as loaded, then after each edit
+};
+ScriptedEdits threeEdits() {
+  ScriptedEdits e;
+  const Json scene = fixedGridScene();
+  const Json point = {{"type", "point"}, {"centre", {0.5, 0.5, 0.5}}, {"support", 2.0}, {"colour", {1, 0, 0}}};
+  e.script = {{"blobvk_edits", 1},
+              {"edits",
+               {{{"path", {5}}, {"set", {{"centre", {1.0, -0.5, 0.25}}, {"colour", {0.1, 0.9, 0.2}}}}},
+                {{"path", Json::array()}, {"add", point}, {"at", 0}},
+                {{"path", Json::array()}, {"remove", 3}}}}};
+  e.steps.push_back(scene);
+  Json s = scene;
+  s["root"]["children"][5]["centre"] = {1.0, -0.5, 0.25};
+  s["root"]["children"][5]["colour"] = {0.1, 0.9, 0.2};
+  e.steps.push_back(s);
+  s["root"]["children"].insert(s["root"]["children"].begin(), point);
+  e.steps.push_back(s);
+  s["root"]["children"].erase(s["root"]["children"].begin() + 3);
+  e.steps.push_back(s);
+  return e;
+}
+
+// Each frame `prefix_NN.ply` equals `blobvk mesh` (the cpu backend) of the scene after its edits,
+// and the report counts what the frame holds (the PLY header's face count).
+void expectFramesEqualFullMeshes(const fs::path& cwd, const std::string& prefix, const ScriptedEdits& e,
+                                 const Json& report) {
+  for (std::size_t k = 0; k < e.steps.size(); ++k) {
+    writeJson(cwd / "step.json", e.steps[k]);
+    ASSERT_EQ(runCliSplit("mesh step.json -o full.ply", cwd).status, 0);
+    char frame[32];
+    std::snprintf(frame, sizeof frame, "%s_%02zu.ply", prefix.c_str(), k);
+    EXPECT_EQ(fileBytes(cwd / frame), fileBytes(cwd / "full.ply")) << frame;
+    const std::string ply = fileBytes(cwd / frame);
+    const auto face = ply.find("element face ");
+    ASSERT_NE(face, std::string::npos);
+    const Json& row = k == 0 ? report["initial"] : report["edits"][k - 1];
+    EXPECT_EQ(std::stoull(ply.substr(face + 13)), row["triangles"].get<std::uint64_t>()) << frame;
+  }
+  EXPECT_NE(fileBytes(cwd / (prefix + "_00.ply")), fileBytes(cwd / (prefix + "_01.ply")));
+}
+
 class CliEdit : public ::testing::Test {
  protected:
   static void SetUpTestSuite() { setenv("LP_NUM_THREADS", "2", 0); }
@@ -40,47 +88,47 @@ class CliEdit : public ::testing::Test {
 
 TEST_F(CliEdit, EveryFrameEqualsAFullMeshOfTheEditedScene) {
   const fs::path cwd = dir("edit_frames");
-  Json scene = fixedGridScene();
-  ASSERT_GE(scene["root"]["children"].size(), 10u);
-  writeJson(cwd / "s.json", scene);
-  const Json point = {{"type", "point"}, {"centre", {0.5, 0.5, 0.5}}, {"support", 2.0}, {"colour", {1, 0, 0}}};
-  const Json edits = {{"blobvk_edits", 1},
-                      {"edits",
-                       {{{"path", {5}}, {"set", {{"centre", {1.0, -0.5, 0.25}}, {"colour", {0.1, 0.9, 0.2}}}}},
-                        {{"path", Json::array()}, {"add", point}, {"at", 0}},
-                        {{"path", Json::array()}, {"remove", 3}}}}};
-  writeJson(cwd / "e.json", edits);
+  const ScriptedEdits e = threeEdits();
+  ASSERT_GE(e.steps[0]["root"]["children"].size(), 10u);
+  writeJson(cwd / "s.json", e.steps[0]);
+  writeJson(cwd / "e.json", e.script);
   const CliSplitRun r = runCliSplit("edit s.json e.json -o f_%02d.ply --json", cwd);
   ASSERT_EQ(r.status, 0) << r.err;
   const Json report = Json::parse(r.out);
   ASSERT_EQ(report["edits"].size(), 3u);
   EXPECT_FALSE(report["edits"][0]["full_remesh"].get<bool>());
   EXPECT_LT(report["edits"][0]["mpus_rerun"].get<int>(), report["edits"][0]["mpus"].get<int>());
+  expectFramesEqualFullMeshes(cwd, "f", e, report);
+}
 
-  // The same edits on the scene file, by this test, then meshed from scratch.
-  std::vector<Json> steps{scene};
-  Json s = scene;
-  s["root"]["children"][5]["centre"] = {1.0, -0.5, 0.25};
-  s["root"]["children"][5]["colour"] = {0.1, 0.9, 0.2};
-  steps.push_back(s);
-  s["root"]["children"].insert(s["root"]["children"].begin(), point);
-  steps.push_back(s);
-  s["root"]["children"].erase(s["root"]["children"].begin() + 3);
-  steps.push_back(s);
-  for (std::size_t k = 0; k < steps.size(); ++k) {
-    writeJson(cwd / "step.json", steps[k]);
-    ASSERT_EQ(runCliSplit("mesh step.json -o full.ply", cwd).status, 0);
-    char frame[32];
-    std::snprintf(frame, sizeof frame, "f_%02zu.ply", k);
-    EXPECT_EQ(fileBytes(cwd / frame), fileBytes(cwd / "full.ply")) << frame;
-    // The report counts what the frame holds (the PLY header's face count).
-    const std::string ply = fileBytes(cwd / frame);
-    const auto face = ply.find("element face ");
-    ASSERT_NE(face, std::string::npos);
-    const Json& row = k == 0 ? report["initial"] : report["edits"][k - 1];
-    EXPECT_EQ(std::stoull(ply.substr(face + 13)), row["triangles"].get<std::uint64_t>()) << frame;
-  }
-  EXPECT_NE(fileBytes(cwd / "f_00.ply"), fileBytes(cwd / "f_01.ply"));
+// --backend vk re-runs brick layers on lavapipe under validation; its frames are the CPU's full
+// meshes byte for byte (lavapipe computes random128's field as the CPU does).
+TEST_F(CliEdit, VulkanBackendFramesEqualFullMeshesOfTheEditedScene) {
+#ifndef BLOBVK_HAVE_VULKAN
+  GTEST_SKIP() << "--backend vk needs Vulkan; this build has none (the sanitizer build)";
+#endif
+  const fs::path cwd = dir("edit_frames_vk");
+  const ScriptedEdits e = threeEdits();
+  writeJson(cwd / "s.json", e.steps[0]);
+  writeJson(cwd / "e.json", e.script);
+  const CliSplitRun r =
+      runCliSplit("edit s.json e.json -o v_%02d.ply --backend vk --brick-cells 8 --validation --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Json report = Json::parse(r.out);
+  EXPECT_EQ(report["backend"], "vk");
+  ASSERT_EQ(report["edits"].size(), 3u);
+  const Json& first = report["edits"][0];
+  EXPECT_FALSE(first["full_remesh"].get<bool>());
+  EXPECT_GT(first["layers_rerun"].get<int>(), 0);
+  EXPECT_LT(first["layers_rerun"].get<int>(), first["layers"].get<int>());
+  for (const char* key : {"remesh_ms", "classify_ms", "extract_ms", "splice_ms", "apply_ms"})
+    EXPECT_GT(first[key].get<double>(), 0.0) << key;
+  expectFramesEqualFullMeshes(cwd, "v", e, report);
+  // Options of the other backend are refused before any work.
+  const CliSplitRun wrong = runCliSplit("edit s.json e.json -o w_%02d.ply --brick-cells 8", cwd);
+  EXPECT_EQ(wrong.status, 2) << wrong.err;
+  EXPECT_NE(wrong.err.find("--backend vk"), std::string::npos) << wrong.err;
+  EXPECT_FALSE(fs::exists(cwd / "w_00.ply"));
 }
 
 TEST_F(CliEdit, ShippedScriptRunsWithCheckAndWritesPngFrames) {
