@@ -1,0 +1,165 @@
+// Edit latency on Vulkan: one edit of scenes/tower_L6P8I4.json's generator (generateTower(6, 8,
+// 6, 6, 4), as bench_edit) and the incremental re-extraction (vk::IncrementalExtractor::update)
+// at 256 cells, against edit size (a capital point, a pillar's cylinder, a whole pillar, a
+// storey) and brick size (the argument: 16, the default, or 8: thinner layers, more bricks to
+// classify). Each iteration moves the node by +-0.3 (about one cell) and re-meshes. Counters per
+// edit: ms_apply (recompile, region), ms_classify (every brick, one submit), ms_extract (the
+// re-run layers: program upload, field, extraction, read-back), ms_splice, layers_rerun of
+// layers; full_ms: a full vk::polygonize of the same scene with the session's options (the
+// interpreter, the bytes the splice equals), best of 2 after a warm-up, in the same process;
+// full_auto_ms: the default path (the cost model's evaluator, its kernels already built);
+// fraction_of_full: edit latency / full_ms. Bytes: tests/vk/test_incremental_extract.cpp.
+//   LP_NUM_THREADS=2 bench_edit_vk --benchmark_counters_tabular=true
+//   LP_NUM_THREADS=2 bench_edit_vk --benchmark_filter='cylinder' --benchmark_format=json
+#include "blobvk/blobtree/edit.h"
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/grid.h"
+#include "blobvk/vk/device/standalone.h"
+#include "blobvk/vk/extract/incremental_extract.h"
+#include "blobvk/vk/extract/polygonize.h"
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+
+namespace {
+
+using namespace blobvk;
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+std::unique_ptr<vk::StandaloneContext>& contextSlot() {
+  static std::unique_ptr<vk::StandaloneContext> ctx;
+  return ctx;
+}
+vk::Device& device() {
+  auto& ctx = contextSlot();
+  if (!ctx) {
+    vk::StandaloneOptions o;
+    if (const char* d = std::getenv("BLOBVK_BENCH_DEVICE")) o.device = d;
+    ctx = std::make_unique<vk::StandaloneContext>(o);
+  }
+  return ctx->device();
+}
+
+enum class EditKind { Capital, Cylinder, Pillar, Storey };
+
+// As bench_edit: root union -> tower (of 16) -> storey -> pillar (union of {union of disc and
+// cylinder} and the capital point). Tower 5, storey 1, pillar 3.
+blobtree::NodePath pathOf(EditKind kind) {
+  switch (kind) {
+    case EditKind::Capital: return {5, 1, 3, 1};
+    case EditKind::Cylinder: return {5, 1, 3, 0, 1};
+    case EditKind::Pillar: return {5, 1, 3};
+    case EditKind::Storey: return {5, 1};
+  }
+  return {};
+}
+
+// Full re-mesh times per brick size (each takes seconds on lavapipe; measured once).
+struct FullTimes {
+  double session = 1e30, automatic = 1e30;
+};
+FullTimes fullTimes(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                    const vk::GpuPolygonizeOptions& session, std::uint32_t brickCells) {
+  static std::map<std::uint32_t, FullTimes> cache;
+  auto [it, added] = cache.try_emplace(brickCells);
+  if (!added) return it->second;
+  vk::GpuPolygonizeOptions defaults;
+  defaults.brickCells = brickCells;
+  const vk::GpuPolygonizeOptions* automatic = &defaults;
+  for (const vk::GpuPolygonizeOptions* o : {&session, automatic}) {
+    double& best = o == &session ? it->second.session : it->second.automatic;
+    vk::polygonize(device(), program, grid, *o);  // warm-up: kernels built
+    for (int i = 0; i < 2; ++i) {
+      const auto t0 = Clock::now();
+      const mesh::TriMesh m = vk::polygonize(device(), program, grid, *o);
+      best = std::min(best, msSince(t0));
+      benchmark::DoNotOptimize(m.positions.data());
+    }
+  }
+  return it->second;
+}
+
+void edit(benchmark::State& state, EditKind kind) {
+  const std::uint32_t brickCells = std::uint32_t(state.range(0));
+  blobtree::EditableTree tree(blobtree::generateTower(6, 8, 6.0, 6.0, 4));
+  blobtree::GridRequest request;
+  request.resolution = 256;
+  const blobtree::GridSpec grid = blobtree::chooseGrid(tree.program(), {}, request);
+  vk::GpuPolygonizeOptions options;
+  options.brickCells = brickCells;
+  vk::IncrementalExtractor inc(device(), grid, options);
+  inc.reset(tree.program());
+  const FullTimes full = fullTimes(tree.program(), grid, inc.options(), brickCells);
+
+  const blobtree::NodePath path = pathOf(kind);
+  const blobtree::Transform home = tree.node(path).transform;
+  double apply = 0, classify = 0, extract = 0, splice = 0, total = 0, layers = 0, bricks = 0, gridLayers = 0;
+  std::int64_t n = 0;
+  for (auto _ : state) {
+    const auto t0 = Clock::now();
+    blobtree::Transform t = home;
+    t.translate.x += n % 2 ? 0.0 : 0.3;
+    const blobtree::Region region = tree.apply({path, blobtree::SetTransform{t}});
+    apply += msSince(t0);
+    vk::IncrementalGpuStats st;
+    const mesh::TriMesh& m = inc.update(tree.program(), region, &st);
+    benchmark::DoNotOptimize(m.positions.data());
+    total += msSince(t0);
+    classify += st.msClassify, extract += st.msExtract, splice += st.msSplice;
+    layers += double(st.layersRerun), bricks += double(st.gpu.activeBricks), gridLayers = double(st.layers);
+    ++n;
+  }
+  const double k = n ? 1.0 / double(n) : 0.0;
+  state.counters["ms_apply"] = apply * k;
+  state.counters["ms_classify"] = classify * k;
+  state.counters["ms_extract"] = extract * k;
+  state.counters["ms_splice"] = splice * k;
+  state.counters["layers_rerun"] = layers * k;
+  state.counters["layers"] = gridLayers;
+  state.counters["active_bricks_rerun"] = bricks * k;
+  state.counters["triangles"] = double(inc.mesh().triangleCount());
+  state.counters["full_ms"] = full.session;
+  state.counters["full_auto_ms"] = full.automatic;
+  state.counters["fraction_of_full"] = total * k / full.session;
+}
+
+void registerAll() {
+  const std::pair<EditKind, const char*> kinds[] = {
+      {EditKind::Capital, "capital"}, {EditKind::Cylinder, "cylinder"}, {EditKind::Pillar, "pillar"},
+      {EditKind::Storey, "storey"}};
+  for (const auto& [kind, name] : kinds) {
+    const std::string label = std::string("edit_vk/L6/") + name;
+    benchmark::RegisterBenchmark(label.c_str(), [kind = kind](benchmark::State& s) { edit(s, kind); })
+        ->Arg(16)
+        ->Arg(8)
+        ->ArgName("brick")
+        ->Unit(benchmark::kMillisecond)
+        ->Iterations(4)
+        ->UseRealTime();
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  setenv("LP_NUM_THREADS", "2", 0);
+  setenv("LP_NATIVE_VECTOR_WIDTH", "256", 0);  // as the CLI does (apps/main.cpp)
+  registerAll();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  contextSlot().reset();  // before the driver's exit handlers (docs/vulkan.md)
+  return 0;
+}
