@@ -146,7 +146,7 @@ TEST_P(IncrementalExtractMatchesFull, AfterEveryEdit) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, IncrementalExtractMatchesFull,
-                         ::testing::Values(Case{"tower", 48, 4, 0, 14, true}, Case{"random128", 32, 4, 0, 5, true},
+                         ::testing::Values(Case{"tower", 48, 4, 0, 14, true}, Case{"random128", 28, 4, 0, 5, true},
                                            Case{"dice", 40, 4, 0, 10, false},
                                            Case{"twisted_column", 40, 4, 0, 10, false},
                                            Case{"craniotomy", 40, 4, 7, 10, false}),
