@@ -96,8 +96,8 @@ void addEditCommand(CLI::App& app) {
   cmd->add_option("--backend", a->backend, "cpu (default) or vk")->check(CLI::IsMember({"cpu", "vk"}));
   cmd->add_option("--device", a->device, "vk: Vulkan device (name substring or index)");
   cmd->add_option("--traversal", a->traversal,
-                  "vk: auto (default: the interpreter, as a specialised kernel would be built per edit), specialised, "
-                  "stackless or stack")
+                  "vk: auto (default: the cost model picks per re-run, counting a specialised kernel's build per "
+                  "edit), specialised, stackless or stack")
       ->check(CLI::IsMember(traversalNames()));
   cmd->add_option("--brick-cells", a->brickCells, "vk: cells per brick edge, 2 to 16, a power of two (0 = default)")
       ->check(CLI::IsMember({0, 2, 4, 8, 16}));

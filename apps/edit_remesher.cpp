@@ -51,7 +51,8 @@ class VkRemesher final : public EditRemesher {
     report.fields = {{"classify_ms", st.msClassify},      {"extract_ms", st.msExtract},
                      {"splice_ms", st.msSplice},          {"layers_rerun", st.layersRerun},
                      {"first_layer", st.firstLayer},      {"layers", st.layers},
-                     {"active_bricks_rerun", st.gpu.activeBricks}, {"submits", st.gpu.submits}};
+                     {"active_bricks_rerun", st.gpu.activeBricks}, {"submits", st.gpu.submits},
+                     {"evaluator", st.layersRerun ? vk::traversalName(st.gpu.traversal) : "none"}};
     report.note = std::to_string(st.layersRerun) + " of " + std::to_string(st.layers) + " brick layers";
     return m;
   }

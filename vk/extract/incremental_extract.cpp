@@ -13,6 +13,7 @@
 #include "blobvk/vk/extract/incremental_extract.h"
 
 #include "blobvk/vk/device/error.h"
+#include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
@@ -98,7 +99,6 @@ struct IncrementalExtractor::State {
     if (!o.sparse || o.tiledVertexPass) {
       throw VulkanError("incremental extraction: needs the sparse extraction (not the dense one, nor tiled vertices)");
     }
-    if (options.traversal == Traversal::Auto) options.traversal = Traversal::Stackless;
     if (o.codegen) {
       codegen = *o.codegen;
       options.codegen = &*codegen;
@@ -142,6 +142,40 @@ struct IncrementalExtractor::State {
     triangleStarts[layers] = std::uint32_t(tris.size());
   }
 
+  // The evaluator for one run over the active bricks [a0, a1): the session's, or for Auto the cost
+  // model's choice for those bricks' points with the build of a specialised kernel counted (each
+  // edit's Program needs its own), as polygonizeSparse chooses for a whole grid.
+  GpuPolygonizeOptions evaluatorFor(const blobtree::Program& program, const ClassifiedBricks& classified,
+                                    std::uint32_t a0, std::uint32_t a1, std::optional<CodegenOptions>& chosen,
+                                    GpuStats& s) const {
+    GpuPolygonizeOptions resolved = options;
+    if (options.traversal != Traversal::Auto) {
+      s.traversal = options.traversal;
+      return resolved;
+    }
+    EvaluatorJob job;
+    job.vertexPass = true;
+    job.refineSteps = options.refineSteps;
+    job.tiling.maxTiles = 1;
+    EvaluatedBricks evaluated;
+    evaluated.cells = 1u << bricks.log2B;
+    if (device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU && a1 > a0) {  // elsewhere the choice ignores them
+      std::vector<std::uint32_t> packed(a1 - a0);
+      device.download(classified.list, packed.data(), packed.size() * 4, 4ull * a0);
+      evaluated.bricks.reserve(packed.size());
+      for (std::uint32_t p : packed) evaluated.bricks.push_back({p & 1023u, (p >> 10) & 1023u, (p >> 20) & 1023u});
+    }
+    job.evaluated = &evaluated;
+    chosen = codegen ? *codegen : defaultCodegenOptions(device);
+    const EvaluatorEstimate e = chooseEvaluator(device, program, grid, job, *chosen).chosen;
+    chosen->gradient = e.vertexGradient;
+    resolved.traversal = e.traversal;
+    resolved.codegen = &*chosen;
+    s.traversal = e.traversal;
+    s.vertexGradient = e.traversal == Traversal::Specialised && e.vertexGradient;
+    return resolved;
+  }
+
   // Classifies the grid and extracts layers [first, end) into `piece`, its triangles numbered
   // from `vertexBase`.
   void extract(const blobtree::Program& program, std::uint32_t first, std::uint32_t end, std::uint32_t vertexBase,
@@ -175,7 +209,10 @@ struct IncrementalExtractor::State {
     if (!batches.empty()) {
       std::uint32_t maxLoaded = 0;
       for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
-      SparseBatchRunner runner(device, program, grid, options, options.traversal, bricks, classified.scan,
+      std::optional<CodegenOptions> chosen;
+      const GpuPolygonizeOptions resolved = evaluatorFor(
+          program, classified, starts[first], starts[std::min<std::uint32_t>(end + 1, bricks.z)], chosen, s);
+      SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bricks, classified.scan,
                                classified.list, maxLoaded, s.batches);
       for (const SparseBatch& b : batches) runner.run(b, vertexBase + piece.positions.size(), piece, s);
       runner.deviceTimes(s);

@@ -36,12 +36,13 @@ struct IncrementalGpuStats {
 
 class IncrementalExtractor {
  public:
-  // `options` must ask for the sparse extraction (throws VulkanError otherwise). Traversal::Auto
-  // resolves to the interpreter (Stackless) for the whole session: a specialised kernel is built
-  // per Program, so every edit would build a new one (seconds on lavapipe for a large tower)
-  // to evaluate a few brick layers, and one evaluator for every update keeps the spliced bytes
-  // those of a full run on drivers where the interpreter and the generated code round apart.
-  // An explicit traversal is kept (Specialised then builds per edit). The device must outlive it.
+  // `options` must ask for the sparse extraction (throws VulkanError otherwise). With
+  // Traversal::Auto each run takes the cost model's evaluator (vk/eval/evaluator_choice.h) for
+  // the bricks it re-runs, counting the build of a specialised kernel, which every edit's
+  // Program needs anew: a small edit interprets, a large one of a long program may build. The
+  // bytes stay a full run's: on CPU drivers the interpreter and the generated code agree bit for
+  // bit (docs/vulkan.md), and elsewhere the model keeps the specialised code for every run. An
+  // explicit traversal is used for every run. The device must outlive the extractor.
   IncrementalExtractor(Device& device, const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options = {});
   ~IncrementalExtractor();
   IncrementalExtractor(const IncrementalExtractor&) = delete;
@@ -58,8 +59,7 @@ class IncrementalExtractor {
 
   const mesh::TriMesh& mesh() const;
   const blobtree::GridSpec& grid() const;
-  // The options every run of the session uses (traversal resolved): a full vk::polygonize with
-  // them gives the same bytes.
+  // The options every run of the session uses: a full vk::polygonize with them gives the same bytes.
   const GpuPolygonizeOptions& options() const;
 
  private:
