@@ -8,8 +8,9 @@
 // final indices.
 //
 // Why the bricks are classified again over the whole grid: the batch runner reads the active
-// bricks' global numbering (the scanned flags) to find a brick's neighbours, and classifying
-// every brick is one dispatch of one lane per brick, small next to a layer's field.
+// bricks' global numbering (the scanned flags) to find a brick's neighbours, and
+// classifyAndCompact covers the grid. Narrowing it to the re-run layers needs brick_classify to
+// take a first layer; it is a sixth of an edit of tower_L6P8I4 at 256 (docs/performance.md).
 #include "blobvk/vk/extract/incremental_extract.h"
 
 #include "blobvk/vk/device/error.h"

@@ -40,8 +40,8 @@ class IncrementalExtractor {
   // Traversal::Auto each run takes the cost model's evaluator (vk/eval/evaluator_choice.h) for
   // the bricks it re-runs, counting the build of a specialised kernel, which every edit's
   // Program needs anew: a small edit interprets, a large one of a long program may build. The
-  // bytes stay a full run's: on CPU drivers the interpreter and the generated code agree bit for
-  // bit (docs/vulkan.md), and elsewhere the model keeps the specialised code for every run. An
+  // bytes stay a full run's: on lavapipe the interpreter and the generated code agree bit for bit
+  // (docs/vulkan.md), and off CPU drivers the model keeps the specialised code for every run. An
   // explicit traversal is used for every run. The device must outlive the extractor.
   IncrementalExtractor(Device& device, const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options = {});
   ~IncrementalExtractor();
