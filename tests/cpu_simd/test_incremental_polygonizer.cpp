@@ -9,6 +9,7 @@
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 
 #include "../blobtree/random_edits.h"
+#include "mesh_bytes.h"
 
 #include <gtest/gtest.h>
 
@@ -20,21 +21,6 @@ namespace {
 using namespace blobvk;
 
 const std::string kScenes = BLOBVK_SOURCE_DIR "/scenes/";
-
-template <class T>
-bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
-}
-
-void expectSameMesh(const mesh::TriMesh& got, const mesh::TriMesh& want, const std::string& what) {
-  ASSERT_EQ(got.vertexCount(), want.vertexCount()) << what;
-  ASSERT_EQ(got.triangleCount(), want.triangleCount()) << what;
-  EXPECT_TRUE(sameBytes(got.positions, want.positions)) << what << ": positions";
-  EXPECT_TRUE(sameBytes(got.normals, want.normals)) << what << ": normals";
-  EXPECT_TRUE(sameBytes(got.colours, want.colours)) << what << ": colours";
-  EXPECT_TRUE(sameBytes(got.edgeKeys, want.edgeKeys)) << what << ": edge keys";
-  EXPECT_TRUE(sameBytes(got.triangles, want.triangles)) << what << ": triangles";
-}
 
 struct Case {
   std::string scene;
@@ -55,7 +41,7 @@ TEST_P(IncrementalMatchesFull, AfterEveryEdit) {
   options.mpuCells = c.mpuCells;
   options.threads = c.threads;
   cpu::IncrementalPolygonizer inc(grid, options);
-  expectSameMesh(inc.reset(tree.program()), cpu::polygonizeMpu(tree.program(), grid, options), "reset");
+  blobvk::testing::expectSameMeshBytes(inc.reset(tree.program()), cpu::polygonizeMpu(tree.program(), grid, options), "reset");
 
   const glm::dvec3 lo(grid.origin), hi = lo + double(grid.cellSize) * glm::dvec3(grid.cells);
   blobvk::testing::RandomEdits edits(c.resolution * 31 + c.mpuCells, lo, hi);
@@ -67,7 +53,7 @@ TEST_P(IncrementalMatchesFull, AfterEveryEdit) {
     cpu::IncrementalStats st;
     const mesh::TriMesh& got = inc.update(tree.program(), region, &st);
     const mesh::TriMesh want = cpu::polygonizeMpu(tree.program(), grid, options);
-    expectSameMesh(got, want, c.scene + " step " + std::to_string(step) + " path " +
+    blobvk::testing::expectSameMeshBytes(got, want, c.scene + " step " + std::to_string(step) + " path " +
                                   blobtree::toString(edit.path) + " change " + std::to_string(edit.change.index()));
     if (::testing::Test::HasFailure()) return;
     partial += !st.full && st.mpusRerun < st.mpus;
@@ -100,12 +86,12 @@ TEST(IncrementalPolygonizer, EmptyRegionKeepsTheMeshAndUpdateNeedsAReset) {
   EXPECT_THROW(inc.update(tree.program(), blobtree::Region{}), std::logic_error);
   const mesh::TriMesh first = inc.reset(tree.program());
   cpu::IncrementalStats st;
-  expectSameMesh(inc.update(tree.program(), blobtree::Region{}, &st), first, "empty region");
+  blobvk::testing::expectSameMeshBytes(inc.update(tree.program(), blobtree::Region{}, &st), first, "empty region");
   EXPECT_EQ(st.mpusRerun, 0u);
   // A region covering everything re-meshes the whole grid.
   blobtree::Region all;
   all.grow(glm::dvec3(-1e30), glm::dvec3(1e30));
-  expectSameMesh(inc.update(tree.program(), all, &st), first, "everything");
+  blobvk::testing::expectSameMeshBytes(inc.update(tree.program(), all, &st), first, "everything");
   EXPECT_TRUE(st.full);
 }
 

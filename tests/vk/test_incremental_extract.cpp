@@ -15,6 +15,7 @@
 #include "../blobtree/random_edits.h"
 #include "reference_checks.h"
 #include "shipped_scenes.h"
+#include "mesh_bytes.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
@@ -25,16 +26,6 @@
 
 namespace blobvk::testing {
 namespace {
-
-void expectSameBytes(const mesh::TriMesh& got, const mesh::TriMesh& want, const std::string& what) {
-  ASSERT_EQ(got.vertexCount(), want.vertexCount()) << what;
-  ASSERT_EQ(got.triangleCount(), want.triangleCount()) << what;
-  EXPECT_TRUE(sameBytes(got.positions, want.positions)) << what << ": positions";
-  EXPECT_TRUE(sameBytes(got.normals, want.normals)) << what << ": normals";
-  EXPECT_TRUE(sameBytes(got.colours, want.colours)) << what << ": colours";
-  EXPECT_TRUE(sameBytes(got.edgeKeys, want.edgeKeys)) << what << ": edge keys";
-  EXPECT_TRUE(sameBytes(got.triangles, want.triangles)) << what << ": triangles";
-}
 
 // The per-layer split assumes a triangle's cell is the least point layer of its corners' edges,
 // i.e. no triangle of the table has all three corners on its cell's top face (z = 1, x/y edges).
@@ -114,7 +105,7 @@ TEST_P(IncrementalExtractMatchesFull, AfterEveryEdit) {
   vk::IncrementalExtractor inc(device(), grid, options);
   const float tolerance = referenceToleranceCells(true) * grid.cellSize;
   const auto check = [&](const mesh::TriMesh& got, const std::string& what) {
-    expectSameBytes(got, vk::polygonize(device(), tree.program(), grid, inc.options()), what + " (full vk)");
+    expectSameMeshBytes(got, vk::polygonize(device(), tree.program(), grid, inc.options()), what + " (full vk)");
     const mesh::TriMesh ref = cpu::polygonizeReference(tree.program(), grid);
     if (ref.triangleCount() > 0) expectSameMeshAsReference(got, ref, tolerance, what + " (CPU reference)");
     else EXPECT_EQ(got.triangleCount(), 0u) << what;
@@ -202,7 +193,7 @@ TEST_F(IncrementalExtract, ChangesAtTheRegionsEdgesAreKept) {
       const blobtree::Region region = tree.apply({{child}, blobtree::SetTransform{t}});
       vk::IncrementalGpuStats st;
       const mesh::TriMesh& got = inc.update(tree.program(), region, &st);
-      expectSameBytes(got, vk::polygonize(device(), tree.program(), grid, inc.options()),
+      expectSameMeshBytes(got, vk::polygonize(device(), tree.program(), grid, inc.options()),
                       "shift " + std::to_string(shift) + " child " + std::to_string(child) + " layers " +
                           std::to_string(st.firstLayer) + "+" + std::to_string(st.layersRerun));
       if (HasFailure()) return;
@@ -223,18 +214,18 @@ TEST_F(IncrementalExtract, EmptyRegionKeepsTheMeshAndUpdateNeedsAReset) {
   const mesh::TriMesh first = inc.reset(s.program);
   ASSERT_GT(first.triangleCount(), 100u);
   vk::IncrementalGpuStats st;
-  expectSameBytes(inc.update(s.program, blobtree::Region{}, &st), first, "empty region");
+  expectSameMeshBytes(inc.update(s.program, blobtree::Region{}, &st), first, "empty region");
   EXPECT_EQ(st.layersRerun, 0u);
   blobtree::Region all;
   all.grow(glm::dvec3(-1e30), glm::dvec3(1e30));
-  expectSameBytes(inc.update(s.program, all, &st), first, "everything");
+  expectSameMeshBytes(inc.update(s.program, all, &st), first, "everything");
   EXPECT_TRUE(st.full);
   // A region in the middle of the unchanged program re-runs a few layers and keeps the bytes.
   const blobtree::GridSpec& g = s.grid;
   const glm::dvec3 mid = glm::dvec3(g.origin) + 0.5 * double(g.cellSize) * glm::dvec3(g.cells);
   blobtree::Region middle;
   middle.grow(mid, mid + glm::dvec3(g.cellSize));
-  expectSameBytes(inc.update(s.program, middle, &st), first, "middle");
+  expectSameMeshBytes(inc.update(s.program, middle, &st), first, "middle");
   EXPECT_FALSE(st.full);
   EXPECT_GT(st.layersRerun, 0u);
   EXPECT_LT(st.layersRerun, st.layers);

@@ -145,37 +145,3 @@ TEST_F(VulkanTest, StackBasedSparseMeshOfAShippedSceneIsTheReference) {
 
 }  // namespace
 }  // namespace blobvk::testing
-
-namespace blobvk::testing {
-namespace {
-
-// Timing, not a check: run with --gtest_also_run_disabled_tests --gtest_filter='*Measure*'.
-TEST_F(VulkanTest, DISABLED_MeasureLavapipe) {
-  std::vector<blobtree::Node> pts;
-  for (int i = 0; i < 64; ++i)
-    pts.push_back(pointAt({-0.8 + 0.22 * (i % 8), -0.8 + 0.22 * (i / 8), 0.1 * std::sin(i)}));
-  const auto program = blobtree::compile(combine(blobtree::OperatorType::Blend, std::move(pts)));
-  for (int res : {64, 128}) {
-    blobtree::GridRequest request;
-    request.resolution = res;
-    const auto grid = blobtree::chooseGrid(program, testBounds(), request);
-    for (auto traversal : {vk::Traversal::Stackless, vk::Traversal::StackBased}) {
-      vk::FieldOptions fo;
-      fo.traversal = traversal;
-      vk::FieldStats fs;
-      vk::evaluateFieldOnGrid(device(), program, grid, fo, &fs);  // warm-up: JIT at first dispatch
-      vk::evaluateFieldOnGrid(device(), program, grid, fo, &fs);
-      std::printf("res %d %s: %.3f s, %.2f M field evals/s\n", res,
-                  traversal == vk::Traversal::Stackless ? "stackless " : "stack-based",
-                  fs.seconds, double(fs.evaluations) / fs.seconds * 1e-6);
-    }
-    vk::GpuStats gs;
-    vk::polygonize(device(), program, grid, {}, &gs);
-    const auto mesh = vk::polygonize(device(), program, grid, {}, &gs);
-    std::printf("res %d polygonize: %.3f s (classify %.3f, emit %.3f), %zu triangles\n", res,
-                gs.seconds, gs.classifySeconds, gs.emitSeconds, mesh.triangleCount());
-  }
-}
-
-}  // namespace
-}  // namespace blobvk::testing
