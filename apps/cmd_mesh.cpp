@@ -30,6 +30,14 @@
 
 namespace blobvk::app {
 
+namespace {
+// The vk backend's figures in `mesh --json` (in memory and streamed alike).
+nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
+  return {{"batches", gpu.batches}, {"active_bricks", gpu.activeBricks}, {"device_bytes", gpu.deviceBytes},
+          {"devices", gpu.devices}, {"evaluator", gpu.evaluator}, {"generated_gradient", gpu.vertexGradient}};
+}
+}  // namespace
+
 void addMeshCommand(CLI::App& app) {
   struct Args {
     std::string scene, out, format;
@@ -140,6 +148,10 @@ void addMeshCommand(CLI::App& app) {
         out["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cell_size", grid.cellSize},
                        {"origin", {grid.origin.x, grid.origin.y, grid.origin.z}}};
         out["backend"] = a->settings.backend;
+        if (r.gpu) {
+          out["device"] = backendDeviceJson(a->settings);
+          out["gpu"] = gpuJson(*r.gpu);
+        }
         out["streamed"] = true;
         out["ranks"] = r.ranks;
         out["seconds"] = r.seconds;
@@ -199,9 +211,7 @@ void addMeshCommand(CLI::App& app) {
       out["seconds"] = stats.seconds;
       out["point_evaluations"] = stats.pointEvaluations;
       if (a->settings.backend == "vk")
-        out["gpu"] = {{"batches", stats.gpu.batches}, {"active_bricks", stats.gpu.activeBricks},
-                      {"device_bytes", stats.gpu.deviceBytes}, {"devices", stats.gpu.devices},
-                      {"evaluator", stats.gpu.evaluator}, {"generated_gradient", stats.gpu.vertexGradient}};
+        out["gpu"] = gpuJson(stats.gpu);
       out["vertices"] = mesh.vertexCount();
       out["triangles"] = mesh.triangleCount();
       out["bytes"] = bytes.size();

@@ -115,6 +115,7 @@ StreamedMeshResult meshStreamedOnDevice(const blobtree::Program& program, const 
     PolygonizeStats stats;
     polygonizeStreamed(program, grid, settings, output.tee, &stats);
     result.pointEvaluations = stats.pointEvaluations;
+    result.gpu = stats.gpu;
   }
   output.finish(result, limits);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -32,6 +32,7 @@ struct StreamedMeshResult {
   double seconds = 0, pointEvaluations = 0;
   std::uint64_t vertices = 0, triangles = 0, bytes = 0;
   std::optional<mesh::MeshReport> report;  // when asked for
+  std::optional<PolygonizeStats::Phases> gpu;  // vk: batches, bricks, device bytes, evaluator
   int ranks = 1;        // MPI ranks that shared the layers (mesh_mpi.h)
   bool worker = false;  // this process is an MPI rank other than 0: it wrote nothing
 };

@@ -5,6 +5,7 @@
 #include "blobvk/mesh/io.h"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <array>
@@ -110,6 +111,15 @@ TEST(Cli, StreamedVulkanMeshFilesEqualTheCpuFiles) {
   ASSERT_EQ(small.status, 0) << small.output;
   EXPECT_NE(small.output.find("backend vk (streamed)"), std::string::npos) << small.output;
   EXPECT_EQ(blobvk::testing::fileBytes(cpu200), blobvk::testing::fileBytes(budget));
+  // --json says what ran on the device, as the in-memory run does.
+  const CliRun json = run("mesh " + scene + " -o " + scratch("vk_json.ply").string() + " --resolution 96 --backend vk --stream --json");
+  ASSERT_EQ(json.status, 0) << json.output;
+  const nlohmann::json j = nlohmann::json::parse(json.output.substr(json.output.find('{')));
+  EXPECT_EQ(j["streamed"], true);
+  EXPECT_GE(j["gpu"]["batches"].get<int>(), 1) << json.output;
+  EXPECT_GT(j["gpu"]["active_bricks"].get<int>(), 0) << json.output;
+  EXPECT_FALSE(j["gpu"]["evaluator"].get<std::string>().empty()) << json.output;
+  EXPECT_EQ(j["device"]["driver_name"], "llvmpipe") << json.output;
   // Several devices join in memory: --stream with --devices is one clear line.
   const CliRun devices = run("mesh " + scene + " -o " + scratch("vk_dev.ply").string() +
                              " --resolution 32 --backend vk --devices 0,0 --stream");
