@@ -6,16 +6,7 @@
 #define BLOBVK_BRICK_CLASSIFY_BODY_GLSL
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
-// Specialization constants 3-5 of the evaluators (vk::GpuProgram::specs): the opcodes, primitive
-// types and warp types the program has. llvmpipe runs every branch of the interpreter loop under
-// a lane mask, so what a program lacks must fold away.
-layout(constant_id = 3) const uint OP_MASK = 0xffffffffu;
-layout(constant_id = 4) const uint PRIM_MASK = 0xffffffffu;
-layout(constant_id = 5) const uint WARP_MASK = 0xffffffffu;
-#define HAS_OP(op) ((OP_MASK & (1u << (op))) != 0u)
-#define HAS_PRIM(t) ((PRIM_MASK & (1u << (t))) != 0u)
-#define HAS_WARP(t) ((WARP_MASK & (1u << (t))) != 0u)
-const uint MASK_HAS_MATRIX = 0x80000000u;
+#include "program_masks.glsl"
 
 layout(std430, set = 0, binding = 5) writeonly buffer ActiveFlags { uint activeFlags[]; };
 

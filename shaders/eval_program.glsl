@@ -27,13 +27,7 @@
 
 layout(constant_id = 1) const uint TRAVERSAL = 0u;  // 0 stackless, 1 stack-based
 layout(constant_id = 2) const uint FIELD_REGS = 32u;
-layout(constant_id = 3) const uint OP_MASK = 0xffffffffu;
-layout(constant_id = 4) const uint PRIM_MASK = 0xffffffffu;
-layout(constant_id = 5) const uint WARP_MASK = 0xffffffffu;
-#define HAS_OP(op) ((OP_MASK & (1u << (op))) != 0u)
-#define HAS_PRIM(t) ((PRIM_MASK & (1u << (t))) != 0u)
-#define HAS_WARP(t) ((WARP_MASK & (1u << (t))) != 0u)
-const uint MASK_HAS_MATRIX = 0x80000000u;
+#include "program_masks.glsl"
 
 #include "eval_registers.glsl"
 
