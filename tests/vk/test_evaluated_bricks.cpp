@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace blobvk::testing {
@@ -134,6 +135,35 @@ TEST_F(VulkanTest, TheSparsePathChoosesWithItsActiveBricks) {
   EXPECT_EQ(stats.traversal, vk::Traversal::Stackless);
   if (lavapipe) {
     EXPECT_GT(stats.modelRunSeconds, 0.0);
+  }
+}
+
+// The decisions whole meshes at 64 cells measured on a quiet lavapipe machine (fresh process each,
+// `--traversal auto` against `stackless`, docs/performance.md): a four-instruction shell on 8-22
+// active bricks evaluates in about 10 ms interpreted, less than its specialised kernels take to
+// build, so it keeps the interpreter; dice and random128, whose overlapping primitives the
+// interpreter evaluates slowly (0.9 s and 4.5 s), take the specialised code.
+TEST_F(VulkanTest, MeshesAt64CellsChooseWhatMeasuredFaster) {
+  if (device().info().type != VK_PHYSICAL_DEVICE_TYPE_CPU) GTEST_SKIP() << "the model's constants are lavapipe's";
+  const std::pair<const char*, vk::Traversal> cases[] = {{"eggshell", vk::Traversal::Stackless},
+                                                         {"soft_peanut", vk::Traversal::Stackless},
+                                                         {"dice", vk::Traversal::Specialised},
+                                                         {"random128", vk::Traversal::Specialised}};
+  for (const auto& [name, expected] : cases) {
+    const ShippedScene s = shipped(name, 64);
+    const std::uint32_t cells = vk::GpuPolygonizeOptions{}.brickCells;
+    const auto flags = vk::classifyBricks(device(), s.program, s.grid, cells);
+    const vk::BrickGrid bg = vk::brickGridFor(s.grid, cells);
+    vk::EvaluatedBricks active;
+    active.cells = cells;
+    for (std::uint32_t i = 0; i < flags.size(); ++i)
+      if (flags[i]) active.bricks.push_back({i % bg.x, i / bg.x % bg.y, i / (bg.x * bg.y)});
+    vk::EvaluatorJob job;
+    job.vertexPass = true;
+    job.tiling.maxTiles = 1;
+    job.evaluated = &active;
+    const auto choice = vk::chooseEvaluator(true, s.program, s.grid, job, vk::defaultCodegenOptions(true));
+    EXPECT_EQ(choice.chosen.traversal, expected) << name << ", " << active.bricks.size() << " active bricks";
   }
 }
 

@@ -103,10 +103,13 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
   };
   // The surface, and so the vertex pass, scales with the grid; the field with the points evaluated.
   const double gridPoints = double(grid.pointCount());
-  const double vertexEvaluations =
-      job.vertexPass ? kVerticesPerSurfacePoint * std::pow(gridPoints, 2.0 / 3.0) *
-                           (kEvaluationsPerVertex + std::max(job.refineSteps, 0))
-                     : 0.0;
+  // Vertices: from the active bricks where the job knows them (a sparse surface in a large grid
+  // has far fewer than the grid's surface-sized estimate), else from the grid.
+  const double brickFace = job.evaluated ? double(job.evaluated->cells) * double(job.evaluated->cells) : 0.0;
+  const double vertices = !job.vertexPass ? 0.0
+                          : job.evaluated ? kVerticesPerBrickFaceCell * brickFace * double(job.evaluated->bricks.size())
+                                          : kVerticesPerSurfacePoint * std::pow(gridPoints, 2.0 / 3.0);
+  const double vertexEvaluations = vertices * (kEvaluationsPerVertex + std::max(job.refineSteps, 0));
   const double wholeCost = prunedEvaluationCost(program, {});
   FieldTilingOptions tiling = job.tiling;
   tiling.minPointsForLargePrograms = 0;
@@ -161,7 +164,6 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     bool gradient = false;
     double build = 0.0, megabytes = 0.0, run = 0.0;
   };
-  const double vertices = job.vertexPass ? kVerticesPerSurfacePoint * std::pow(gridPoints, 2.0 / 3.0) : 0.0;
   // `gradient` is the generator option (part of the kernel's name); looped code generates no
   // gradient whatever the option, so it costs as interpreting it.
   auto vertexKernel = [&](bool gradient) {
@@ -201,6 +203,7 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     e.traversal = Traversal::Specialised;
     e.fieldKernels = 1;
     e.vertexGradient = vertex.gradient;
+    e.looped = whole.looped;
     e.buildSeconds = (wholeFieldBuilt ? 0.0 : kernelSeconds(whole, 1.0)) + vertexBuild;
     e.buildMegabytes = std::max(wholeFieldBuilt ? 0.0 : buildMegabytes(whole.size), vertexMegabytes);
     e.runSeconds = (whole.looped ? kLoopedSecondsPerInstruction * branchWork : kSpecialisedSecondsPerCost * wholeCost * points) +
@@ -248,9 +251,19 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
       if (e.traversal == Traversal::Specialised) choice.chosen = e;
     return choice;
   }
-  for (const EvaluatorEstimate& e : choice.candidates)
-    if (e.buildMegabytes <= kMaxBuildMegabytes && e.total(job.repeats) < choice.chosen.total(job.repeats))
+  // Unrolled code must beat the interpreter by a margin (its run and the interpreter's are
+  // predicted by different measures); looped code runs as a fraction of the interpreter's time
+  // by the same measure, so the plain comparison holds for it.
+  const double interpreterTotal = interpreter.total(job.repeats);
+  double best = interpreterTotal;
+  for (const EvaluatorEstimate& e : choice.candidates) {
+    if (e.traversal != Traversal::Specialised || e.buildMegabytes > kMaxBuildMegabytes) continue;
+    const double total = e.total(job.repeats);
+    if (total < best && (e.looped || total < kSpecialisedPaybackFraction * interpreterTotal)) {
       choice.chosen = e;
+      best = total;
+    }
+  }
   return choice;
 }
 

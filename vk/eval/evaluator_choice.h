@@ -47,6 +47,7 @@ struct EvaluatorEstimate {
   // Specialised unrolled code: the vertex kernel runs the generated gradient (CodegenOptions::
   // gradient), or interprets it where that kernel's build would cost more than it saves.
   bool vertexGradient = true;
+  bool looped = false;  // specialised: the code loops over instances (vk/eval/program_shape.h)
   double buildSeconds = 0.0, runSeconds = 0.0;
   double buildMegabytes = 0.0;  // peak memory of its largest kernel build, beyond the process's
   double total(std::uint32_t repeats) const { return buildSeconds + repeats * runSeconds; }

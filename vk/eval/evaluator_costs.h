@@ -13,42 +13,40 @@
 
 namespace blobvk::vk::costs {
 
-// Figures are wall seconds with other builds running on the machine (load average 6-9), so
-// about 2x a quiet machine's; only their ratios decide.
+// Building is single-threaded LLVM work: wall seconds of a quiet 2-core machine, from the CPU
+// seconds of fresh processes meshing a scene at 8 cells (where evaluation costs nothing), each
+// evaluator forced, fastest of three (`python`-free form: `/usr/bin/time -f '%U %S' blobvk
+// --pipeline-cache off mesh S -o m.ply --resolution 8 --backend vk --traversal T -q`). What the
+// specialised kernels of a mesh (field, and vertices with the generated gradient) cost beyond the
+// interpreter's: eggshell (4 instructions) +0.01-0.04 s, twisted_column (25) +0.10, craniotomy
+// (28) +0.07, creature and dice (48) +0.21 and +0.23, tower L1P8G1 (67) +0.28, L2P8G1 (134)
+// +0.72, tower (268) +1.28, random128 (256) +2.15.
 
-// Building one kernel that embeds the interpreter (field_grid or vertices): SPIR-V is embedded,
-// so this is pipeline creation and LLVM, independent of the program. (A mesh's kernels: 3.7-4.9 s
-// for the interpreter, of which ~1.9 s the fixed extraction kernels every evaluator builds.)
-// Refitted: `blobvk bench scenes/tower.json --backend vk --traversal stackless --resolution 64
-// --repeats 2` starts up (first run minus steady) in 0.7-1.1 s for all of a mesh's kernels, the
-// fixed extraction kernels included.
-inline constexpr double kInterpreterKernelSeconds = 0.3;
+// Building one kernel that embeds the interpreter (field_grid or vertices): its SPIR-V is
+// embedded, so this is pipeline creation and LLVM, independent of the program. A stackless mesh
+// at 8 cells takes 0.21-0.31 s of CPU in all, the device's start and the fixed extraction kernels
+// included, so each interpreter kernel is a small part of it.
+inline constexpr double kInterpreterKernelSeconds = 0.03;
 
-// Building one specialised kernel: a fixed part, then per instruction the generated evaluator
-// spells out times the copies of the evaluator in the kernel (field_grid 1; vertices 2.5: one
-// field call site for the refinement and normal samples, shaders/edge_vertex.glsl, and the
-// colour evaluator, about 1.5 field copies with its colour registers), and a quadratic term: LLVM's time
-// on long straight-line code grows much faster than the code. Unrolled towers, a mesh's kernels:
-// 67 instructions 2.8 s, 201 4.9 s, 808 103 s and 734 MB. The quadratic term is fitted so that
-// the shipped tower (268 instructions, a 2,412-instruction vertex kernel) builds in the ~1.5 s
-// `blobvk bench scenes/tower.json --backend vk --traversal specialised --resolution 128` shows
-// for its first run beyond the interpreter's; past ~470 instructions the memory bound below
-// rules the vertex kernel out before this term matters.
-inline constexpr double kSpecialisedKernelSeconds = 0.1;
-inline constexpr double kSpecialisedSecondsPerInstruction = 1.0e-4;
-// Refitted with one evaluator call site in the vertex kernel: the generated 808-instruction
-// tower (L3P8G2, `blobvk generate tower --levels 3 --pillars 8 --grid 2`) meshed at 64 cells
-// with its field kernel and a 2,020-instruction vertex kernel took 21.9 s and 423 MB against
-// 1.8 s/107 MB for a small scene, so ~18 s and ~310 MB are its two kernels' build.
-inline constexpr double kSpecialisedSecondsPerInstruction2 = 3.0e-6;
-inline constexpr double kVertexKernelCopies = 2.5;
+// Building one specialised kernel: a fixed part (glslang on generated source, then as the
+// interpreter's), then per instruction the generated evaluator spells out times the copies of
+// the evaluator in the kernel (field_grid 1; vertices 2.5 with the interpreted gradient: one field
+// call site for the refinement and normal samples, shaders/edge_vertex.glsl, and the colour
+// evaluator, about 1.5 field copies with its colour registers; 4 with the generated gradient),
+// and a quadratic term: LLVM's time on long straight-line code grows faster than the code.
+// Fitted to the differences above (48 and 134 instructions exactly, the others within 0.05 s
+// below 100 instructions; tower and random128 at 268/256 bracket the 1.9 s it predicts).
+inline constexpr double kSpecialisedKernelSeconds = 0.04;
+inline constexpr double kSpecialisedSecondsPerInstruction = 7.2e-4;
+inline constexpr double kSpecialisedSecondsPerInstruction2 = 7.3e-7;
+// The vertex kernel with the interpreted gradient builds like 1.5 field copies (tower L2P8G1 at 8
+// cells: +0.29 s over the interpreter with it, +0.72 s with the generated gradient).
+inline constexpr double kVertexKernelCopies = 1.5;
 // With the generated gradient (vk/eval/gradient_codegen.h) the vertex kernel holds the field code
-// and the gradient's, which spells out field, gradient and colour per instruction. Fitted to
-// `blobvk --pipeline-cache off mesh S --resolution 64 --backend vk --traversal specialised`
-// against the same with the interpreted gradient (user seconds, peak RSS): tower L2P8G1 (134
-// instructions) +0.5 s and +80 MB, L3P8G1 (201) +0.6 s and +128 MB, tower (268) +1.2 s and +177
-// MB, random128 (256) +1.6 s and +220 MB: the build's memory grows like 6.5 field copies, its time
-// (in this file's loaded-machine seconds, about twice those user seconds) like 4.
+// and the gradient's, which spells out field, gradient and colour per instruction: its build
+// grows like 4 field copies, its memory like 6.5 (`blobvk --pipeline-cache off mesh S
+// --resolution 64 --backend vk --traversal specialised` against the interpreted gradient, peak
+// RSS: L2P8G1 +80 MB, L3P8G1 +128 MB, tower +177 MB, random128 +220 MB).
 inline constexpr double kGradientVertexKernelCopies = 4.0;
 inline constexpr double kGradientVertexKernelMemoryCopies = 6.5;
 // The interpreted gradient at a vertex costs about this many interpreter evaluations of the field
@@ -66,20 +64,34 @@ inline constexpr double kMaxBuildMegabytes = 300.0;
 // it pays for the code in the kernel: seconds per point and unit of prunedEvaluationCost (a
 // primitive 8, an operator 1), from field evaluations on 129^3 grids (bench_vk
 // --benchmark_filter='field/.*/128'): tower 10.9 M/s specialised (8 tiles).
-inline constexpr double kSpecialisedSecondsPerCost = 1.5e-10;
+// Run constants are quiet-machine wall seconds with LP_NUM_THREADS=2, as the build constants.
+inline constexpr double kSpecialisedSecondsPerCost = 0.75e-10;
 // The interpreter's subgroups jump over skipped subtrees, so it pays per instruction run
 // (evaluator_choice.cpp's branchingWork, vertex evaluations at the mean). Fitted to whole meshes
 // at 64 cells, `blobvk bench S --backend vk --traversal stackless --resolution 64 --repeats 2`
-// steady seconds against the model's instructions: tower 5.5e-8, tower L5P8G3 3.3e-8, L3P8G2
-// 7.2e-8, dice and random128 1.5e-7 (their primitives overlap, so subgroups skip less).
-inline constexpr double kInterpreterSecondsPerInstruction = 6.0e-8;
+// steady seconds against the model's instructions, on a machine loaded about twice over: tower
+// 5.5e-8, tower L5P8G3 3.3e-8, L3P8G2 7.2e-8, dice and random128 1.5e-7 (their primitives
+// overlap, so subgroups skip less); halved for a quiet machine (quiet whole meshes at 64 cells:
+// random128's interpreted evaluation about 4.5 s, dice's 0.9 s).
+inline constexpr double kInterpreterSecondsPerInstruction = 3.0e-8;
 
 // Looped code (vk/eval/program_shape.h) on llvmpipe: every load of an instance's record values
 // is a loop over the lanes, so a kernel builds like the interpreter's (a fixed part beyond its
 // few spelled-out instructions), and it branches on skips as the interpreter does, in 0.47-0.72
 // of its time (tower L5P8G3 and tower_L6P8I4 meshed at 64 cells, the same command with
 // --traversal specialised and looped code).
-inline constexpr double kLoopedKernelSeconds = 0.3;
+// Its kernels build in the interpreter's time plus the few spelled-out instructions' (at 8
+// cells, as above: the two looped mesh kernels of towers L3P8G2, L5P8G3 and tower_L6P8I4 cost
+// 0.05-0.16 s beyond the interpreter's).
+inline constexpr double kLoopedKernelSeconds = kInterpreterKernelSeconds;
+
+// Unrolled specialised code is taken only where the model predicts it finishes within this
+// fraction of the interpreter's time. Its build is predicted to within ~0.05 s below 150 instructions, but
+// the interpreter's run per instruction varies about 4x between scenes (how often its subgroups
+// skip together), and the interpreter is the evaluator the default must never lose to: on a
+// quiet machine creature at 64 cells meshes in 0.38 s interpreted against 0.42 s specialised,
+// where the model without this margin predicted the reverse.
+inline constexpr double kSpecialisedPaybackFraction = 0.7;
 inline constexpr double kLoopedSecondsPerInstruction = 0.6 * kInterpreterSecondsPerInstruction;
 // On CPU drivers code longer than this is generated looped (LoopOptions::minProgramInstructions,
 // defaultCodegenOptions). Below it the unrolled mesh kernels build in under ~4 s and then run
@@ -87,9 +99,13 @@ inline constexpr double kLoopedSecondsPerInstruction = 0.6 * kInterpreterSeconds
 // instructions: ~18 s) while looped code builds in under a second at any size.
 inline constexpr std::uint32_t kLoopedAboveInstructionsOnCpu = 400;
 
-// Vertex pass: vertices ~ this many per grid point^(2/3) (a surface's cells), each evaluated
-// 8 times plus the refinement steps.
+// Vertex pass: vertices ~ this many per grid point^(2/3) (a surface's cells) when the active
+// bricks are not known, each evaluated 8 times plus the refinement steps.
 inline constexpr double kVerticesPerSurfacePoint = 10.0;
+// With the active bricks known: vertices ~ this many per active brick and cell of a brick face
+// (16^2 cells): shipped scenes at 64 cells range 0.23 (creature) to 3.0 (tower_L6P8I4), median
+// 1.5 (`blobvk bench S --resolution 64 --backend vk --json`: vertices / vk_phases.active_bricks).
+inline constexpr double kVerticesPerBrickFaceCell = 1.5;
 inline constexpr double kEvaluationsPerVertex = 8.0;
 
 }  // namespace blobvk::vk::costs
