@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <stdexcept>
 #include <vector>
 
@@ -80,8 +81,15 @@ void mpiAbort(const std::string& message) {
   std::exit(1);
 }
 
+int mpiLayerOwner(int z, int ranks) {
+  if (ranks <= 1) return 0;
+  const int period = 1 + 3 * (ranks - 1);
+  const int slot = z % period;
+  return slot == 0 ? 0 : 1 + (slot - 1) % (ranks - 1);
+}
+
 cpu::MeshLayer mpiLayer(const MpiWorld& world, cpu::LayerPolygonizer& layers, int z) {
-  const int owner = z % world.size;
+  const int owner = mpiLayerOwner(z, world.size);
   if (owner == 0) return layers.layer(z);
   MPI_Status status;
   MPI_Probe(owner, z, MPI_COMM_WORLD, &status);
@@ -92,17 +100,46 @@ cpu::MeshLayer mpiLayer(const MpiWorld& world, cpu::LayerPolygonizer& layers, in
   return decode(bytes);
 }
 
-// Blocking sends: rank 0 asks for the layers in order, so a rank's send of layer z is taken as
-// soon as rank 0 has joined layer z - 1, and the copy runs with both ranks inside MPI. (A
-// non-blocking send would only progress when this rank next entered MPI, i.e. after computing
-// its next layer, which serialises the ranks where the transport needs the sender's help.)
+namespace {
+// Layers a rank keeps in flight before it waits for rank 0 to take the oldest: enough to run
+// ahead of rank 0 while it joins and writes, few enough to bound the memory (a layer's message is
+// about 12 MB at 1024^3, 48 MB at 4096^3).
+constexpr std::size_t kLayersInFlight = 4;
+
+struct LayerInFlight {
+  std::vector<char> bytes;
+  MPI_Request request = MPI_REQUEST_NULL;
+};
+}  // namespace
+
+// Non-blocking sends, so that a rank computes its next layer while rank 0 is still joining the
+// previous ones. With shared memory (Open MPI's vader and its single-copy CMA) rank 0 pulls a
+// large message itself once it asks for it; elsewhere the transfer moves on each time this rank
+// enters MPI, i.e. after each layer it computes.
 void mpiServeLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers) {
-  for (int z = world.rank; z < layers.layerCount(); z += world.size) {
-    const std::vector<char> bytes = encode(layers.layer(z));
-    if (bytes.size() > std::size_t(INT_MAX))
+  std::deque<LayerInFlight> inFlight;
+  auto finishOldest = [&inFlight] {
+    MPI_Wait(&inFlight.front().request, MPI_STATUS_IGNORE);
+    inFlight.pop_front();
+  };
+  for (int z = 0; z < layers.layerCount(); ++z) {
+    if (mpiLayerOwner(z, world.size) != world.rank) continue;
+    LayerInFlight sent{encode(layers.layer(z)), MPI_REQUEST_NULL};
+    if (sent.bytes.size() > std::size_t(INT_MAX))
       throw std::length_error("MPI: layer " + std::to_string(z) + " is over 2 GiB; use a smaller --mpu");
-    MPI_Send(bytes.data(), int(bytes.size()), MPI_BYTE, 0, z, MPI_COMM_WORLD);
+    inFlight.push_back(std::move(sent));
+    MPI_Isend(inFlight.back().bytes.data(), int(inFlight.back().bytes.size()), MPI_BYTE, 0, z, MPI_COMM_WORLD,
+              &inFlight.back().request);
+    // Let the earlier sends progress, and free those rank 0 has taken.
+    while (!inFlight.empty()) {
+      int done = 0;
+      MPI_Test(&inFlight.front().request, &done, MPI_STATUS_IGNORE);
+      if (!done) break;
+      inFlight.pop_front();
+    }
+    while (inFlight.size() > kLayersInFlight) finishOldest();
   }
+  while (!inFlight.empty()) finishOldest();
 }
 
 }  // namespace blobvk::app

@@ -12,6 +12,7 @@ MpiWorld mpiStart() {
 }
 void mpiStop() {}
 void mpiAbort(const std::string& message) { throw std::runtime_error(message); }
+int mpiLayerOwner(int, int) { return 0; }
 cpu::MeshLayer mpiLayer(const MpiWorld&, cpu::LayerPolygonizer& layers, int z) { return layers.layer(z); }
 void mpiServeLayers(const MpiWorld&, cpu::LayerPolygonizer&) {}
 
