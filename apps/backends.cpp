@@ -5,6 +5,7 @@
 
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/cpu_simd/streaming_polygonizer.h"
 
 #ifdef BLOBVK_HAVE_VULKAN
 #include "blobvk/vk/extract/multi_device.h"
@@ -147,6 +148,8 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
   if (settings.backend != "vk") throw std::invalid_argument("polygonizeStreamed: the vk backend only, not " + settings.backend);
 #ifdef BLOBVK_HAVE_VULKAN
   if (!settings.devices.empty()) throw std::runtime_error("streamed meshing on the vk backend runs on one device (drop --devices)");
+  if (settings.cpuWorker)
+    throw std::runtime_error("streamed meshing on the vk backend runs on one device (drop --cpu-worker)");
   const auto start = std::chrono::steady_clock::now();
   vk::StandaloneContext& context = sharedContext(settings.device, settings.validation);
   const std::vector<vk::StandaloneContext*> contexts{&context};
@@ -209,12 +212,25 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     const std::uint64_t messagesBefore = validationMessages(contexts);
     const vk::GpuPolygonizeOptions options = gpuOptions(settings);
     vk::GpuStats gpu;
-    if (contexts.size() == 1) {
+    if (contexts.size() == 1 && !settings.cpuWorker) {
       mesh = vk::polygonize(contexts[0]->device(), program, grid, options, &gpu);
     } else {
       std::vector<vk::Device*> devices;
       for (vk::StandaloneContext* c : contexts) devices.push_back(&c->device());
-      mesh = vk::polygonizeOnDevices(devices, program, grid, options, &gpu);
+      // The CPU worker's MPUs are the bricks, so its layers are the batches' brick layers.
+      std::unique_ptr<cpu::LayerPolygonizer> layers;
+      vk::HostBatchWorker host;
+      if (settings.cpuWorker) {
+        cpu::MpuOptions o;
+        o.threads = settings.threads > 0 ? settings.threads : 1;
+        o.refineSteps = settings.refineSteps;
+        o.mpuCells = int(options.brickCells);
+        layers = std::make_unique<cpu::LayerPolygonizer>(program, grid, o);
+        host.run = [&layers](std::uint32_t first, std::uint32_t end) {
+          return cpu::polygonizeLayerRange(*layers, int(first), int(end));
+        };
+      }
+      mesh = vk::polygonizeOnDevices(devices, program, grid, options, &gpu, nullptr, settings.cpuWorker ? &host : nullptr);
     }
     evaluations = double(gpu.fieldEvaluations);
     if (stats) stats->gpu = gpuPhases(gpu);

@@ -36,6 +36,10 @@ struct PolygonizeSettings {
   // (vk::resolveDeviceList). Empty: the one `device`.
   std::string devices;
   int batchesPerDevice = 0;     // vk, several devices: GpuPolygonizeOptions::batchesPerDevice (0: default)
+  // vk: the CPU polygonizer takes batches of brick layers beside the Vulkan devices (the host
+  // worker of vk/extract/multi_device.h), on `threads` threads (0: one, leaving the cores to the
+  // devices' drivers); the bytes are the devices' alone.
+  bool cpuWorker = false;
   bool validation = false;      // vk: Khronos validation layer
   // vk: auto (the cost model picks specialised or stackless per job; default), specialised (the
   // Program compiled into the kernel), stackless (the register code interpreted) or stack (the

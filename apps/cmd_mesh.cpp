@@ -75,6 +75,8 @@ void addMeshCommand(CLI::App& app) {
                   "vk: several Vulkan devices sharing the bricks, same bytes as one: all, or indices/names "
                   "(0,1; a device named twice is opened twice)")
       ->excludes(one);
+  cmd->add_flag("--cpu-worker", a->settings.cpuWorker,
+                "vk: the CPU polygonizer takes bricks beside the Vulkan devices (on --threads threads, default 1), same bytes");
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
   cmd->add_option("--traversal", a->settings.traversal, "vk: auto (default: the cost model picks per job), specialised, stackless or stack")
       ->check(CLI::IsMember(traversalNames()));
@@ -109,6 +111,7 @@ void addMeshCommand(CLI::App& app) {
     for (char& c : format) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (a->ascii && format != "ply") throw UsageError("--ascii is for PLY output");
     if (!a->settings.devices.empty() && a->settings.backend != "vk") throw UsageError("--devices is for the vk backend");
+    if (a->settings.cpuWorker && a->settings.backend != "vk") throw UsageError("--cpu-worker is for the vk backend");
     checkDeviceList(a->settings);
     if (!a->maxMemory.empty()) a->limits.maxMemoryBytes = parseByteSize(a->maxMemory);
     const bool gltf = format == "gltf" || format == "glb";
@@ -130,7 +133,7 @@ void addMeshCommand(CLI::App& app) {
     // (vk with one device: several devices join their batches in memory).
     const std::uint64_t budget = a->limits.maxMemoryBytes ? a->limits.maxMemoryBytes : availableMemoryBytes();
     const std::uint64_t inMemory = estimatePolygonizeBytes(grid, a->settings.backend);
-    const bool streams = a->settings.backend == "cpu" || (a->settings.backend == "vk" && a->settings.devices.empty());
+    const bool streams = a->settings.backend == "cpu" || (a->settings.backend == "vk" && a->settings.devices.empty() && !a->settings.cpuWorker);
     const bool stream = a->stream || launchedByMpi() || (streams && budget != 0 && inMemory > budget);
     if (stream && (simplifyTarget || a->optimize || a->features)) {
       throw UsageError("--features, --simplify and --optimize need the whole mesh in memory; they cannot be combined with streaming"

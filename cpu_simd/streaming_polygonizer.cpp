@@ -255,6 +255,47 @@ void LayerJoiner::emitPending(const MeshLayer* above, std::uint64_t aboveFirst) 
   triangles_ += p.triangles.size();
 }
 
+mesh::TriMesh polygonizeLayerRange(LayerPolygonizer& layers, int first, int end) {
+  if (first < 0 || end > layers.layerCount() || first > end)
+    throw std::invalid_argument("polygonizeLayerRange: layers [" + std::to_string(first) + ", " + std::to_string(end) +
+                                ") are outside the grid's " + std::to_string(layers.layerCount()));
+  std::vector<MeshLayer> own;
+  std::vector<std::uint64_t> firsts;  // each layer's first vertex in the piece, then the count
+  std::uint64_t count = 0;
+  for (int z = first; z < end; ++z) {
+    own.push_back(layers.layer(z));
+    firsts.push_back(count);
+    count += own.back().positions.size();
+  }
+  firsts.push_back(count);
+  if (count > 0xffffffffull) throw std::length_error("polygonizeLayerRange: more than 2^32 vertices in one piece");
+  std::optional<MeshLayer> next;
+  if (!own.empty() && !own.back().above.empty() && end < layers.layerCount()) next = layers.layer(end);
+
+  mesh::TriMesh piece;
+  for (const MeshLayer& l : own) {
+    piece.positions.insert(piece.positions.end(), l.positions.begin(), l.positions.end());
+    piece.normals.insert(piece.normals.end(), l.normals.begin(), l.normals.end());
+    piece.colours.insert(piece.colours.end(), l.colours.begin(), l.colours.end());
+    piece.edgeKeys.insert(piece.edgeKeys.end(), l.keys.begin(), l.keys.end());
+  }
+  for (std::size_t i = 0; i < own.size(); ++i) {
+    const MeshLayer& l = own[i];
+    const std::size_t t0 = piece.triangles.size();
+    const std::uint32_t base = std::uint32_t(firsts[i]);
+    for (auto t : l.triangles) piece.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+    const MeshLayer* above = i + 1 < own.size() ? &own[i + 1] : next ? &*next : nullptr;
+    for (const MeshLayer::AboveCorner& c : l.above) {
+      if (!above) throw std::logic_error("polygonizeLayerRange: the top layer refers to a layer above it");
+      const auto it = std::lower_bound(above->keys.begin(), above->keys.end(), c.key);
+      if (it == above->keys.end() || *it != c.key)
+        throw std::logic_error("polygonizeLayerRange: a triangle refers to an edge the layer above has no vertex for");
+      piece.triangles[t0 + c.slot / 3][c.slot % 3] = std::uint32_t(firsts[i + 1] + std::uint64_t(it - above->keys.begin()));
+    }
+  }
+  return piece;
+}
+
 MpuStats polygonizeMpuStreamed(const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const MpuOptions& options, mesh::MeshSink& sink) {
   const auto start = std::chrono::steady_clock::now();

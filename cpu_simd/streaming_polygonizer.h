@@ -9,6 +9,7 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "blobvk/mesh/mesh_sink.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <array>
 #include <cstdint>
@@ -77,6 +78,13 @@ class LayerJoiner {
   std::uint64_t pendingFirst_ = 0, nextVertex_ = 0, triangles_ = 0;
   std::size_t peakBytes_ = 0;
 };
+
+// The piece of polygonizeMpu's mesh that layers [first, end) own, as one array (a batch of the
+// Vulkan sparse extraction computed on the host, vk/extract/multi_device.h): their vertices in
+// global order, their triangles in cell order with indices counted from the piece's first
+// vertex; corners on the next layer's vertices continue the count past the piece's own (the
+// next piece's first vertices). Computes layer `end` as well when a triangle needs it.
+mesh::TriMesh polygonizeLayerRange(LayerPolygonizer& layers, int first, int end);
 
 // polygonizeMpu's mesh for `grid`, streamed into `sink` layer by layer: concatenated, the vertex
 // runs are its vertices and the triangle runs its triangles. MpuOptions::progress reports

@@ -125,6 +125,10 @@ TEST(Cli, StreamedVulkanMeshFilesEqualTheCpuFiles) {
                              " --resolution 32 --backend vk --devices 0,0 --stream");
   EXPECT_EQ(devices.status, 1) << devices.output;
   EXPECT_NE(devices.output.find("one device"), std::string::npos) << devices.output;
+  const CliRun worker = run("mesh " + scene + " -o " + scratch("vk_worker.ply").string() +
+                            " --resolution 32 --backend vk --cpu-worker --stream");
+  EXPECT_EQ(worker.status, 1) << worker.output;
+  EXPECT_NE(worker.output.find("drop --cpu-worker"), std::string::npos) << worker.output;
 }
 #endif
 

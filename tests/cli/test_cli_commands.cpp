@@ -193,10 +193,16 @@ TEST_F(CliCommands, MeshOnSeveralDevicesWritesTheOneDeviceBytes) {
   EXPECT_EQ(j["gpu"]["devices"], 2);
   EXPECT_GE(j["gpu"]["batches"].get<int>(), 2) << r.out;
   ASSERT_EQ(runCliSplit(base + "-o three.ply --backend vk --devices llvmpipe,0,0 -q", cwd).status, 0);
+  // The CPU polygonizer as one more worker, beside one device and beside two.
+  r = runCliSplit(base + "-o cpuw.ply --backend vk --cpu-worker --validation -q", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  ASSERT_EQ(runCliSplit(base + "-o cpuw2.ply --backend vk --devices 0,0 --cpu-worker -q", cwd).status, 0);
   const std::string one = fileBytes(cwd / "one.ply");
   EXPECT_GT(one.size(), 10000u);
   EXPECT_EQ(fileBytes(cwd / "two.ply"), one);
   EXPECT_EQ(fileBytes(cwd / "three.ply"), one);
+  EXPECT_EQ(fileBytes(cwd / "cpuw.ply"), one);
+  EXPECT_EQ(fileBytes(cwd / "cpuw2.ply"), one);
   EXPECT_EQ(fileBytes(cwd / "cpu.ply"), one);
   for (const auto& [list, problem] : std::vector<std::pair<std::string, std::string>>{
            {"0,nosuchgpu", "entry 'nosuchgpu' matches no Vulkan device (see `blobvk devices`)"},
@@ -208,6 +214,7 @@ TEST_F(CliCommands, MeshOnSeveralDevicesWritesTheOneDeviceBytes) {
     EXPECT_FALSE(fs::exists(cwd / "bad.ply")) << list;
   }
   EXPECT_EQ(runCliSplit(base + "-o bad.ply --devices 0,0", cwd).status, 2);  // the cpu backend has no devices
+  EXPECT_EQ(runCliSplit(base + "-o bad.ply --cpu-worker", cwd).status, 2);   // nor a CPU worker beside them
 }
 
 TEST_F(CliCommands, RenderWritesTheImageAskedFor) {

@@ -5,6 +5,7 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/cpu_simd/streaming_polygonizer.h"
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/extract/multi_device.h"
 #include "blobvk/vk/extract/polygonize.h"
@@ -104,6 +105,47 @@ TEST_F(MultiDeviceTest, SeveralDevicesGiveTheOneDeviceBytes) {
       }
       o.maxBatchBricks = 0;
     }
+  }
+}
+
+// The CPU polygonizer as one more worker beside one or two devices: its pieces (the MPU layers
+// that are the batches' brick layers) join into the one device's bytes, it takes batches of its
+// own, and brick layers with no active brick are skipped by both.
+TEST_F(MultiDeviceTest, TheCpuAsOneMoreWorkerGivesTheOneDeviceBytes) {
+  for (const char* name : {"tower", "dice"}) {
+    const ShippedScene sc = shipped(name, 40);
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Stackless;
+    o.brickCells = 4;
+    const mesh::TriMesh one = vk::polygonize(device(), sc.program, sc.grid, o);
+    cpu::MpuOptions mpu;
+    mpu.threads = 1;
+    mpu.mpuCells = int(o.brickCells);
+    cpu::LayerPolygonizer layers(sc.program, sc.grid, mpu);
+    vk::HostBatchWorker host;
+    host.run = [&layers](std::uint32_t first, std::uint32_t end) {
+      return cpu::polygonizeLayerRange(layers, int(first), int(end));
+    };
+    for (std::size_t n : {1u, 2u}) {
+      for (std::uint32_t batchBricks : {0u, 6u}) {
+        o.maxBatchBricks = batchBricks;
+        vk::GpuStats st;
+        std::vector<vk::GpuStats> shares;
+        const mesh::TriMesh m = vk::polygonizeOnDevices(devices(n), sc.program, sc.grid, o, &st, &shares, &host);
+        const std::string what = std::string(name) + ", " + std::to_string(n) + " devices and the CPU, batches of " +
+                                 (batchBricks ? std::to_string(batchBricks) + " bricks" : "the default");
+        expectSameBytes(m, one, what);
+        ASSERT_EQ(shares.size(), n + 1) << what;
+        std::uint32_t run = 0;
+        for (const vk::GpuStats& share : shares) run += share.batches;
+        EXPECT_EQ(run, st.batches) << what;
+        if (batchBricks) {
+          EXPECT_GE(st.batches, 6u) << what;
+          EXPECT_GT(shares.back().batches, 0u) << what << ": the CPU took no batch";
+        }
+      }
+    }
+    o.maxBatchBricks = 0;
   }
 }
 

@@ -56,7 +56,8 @@ void join(mesh::TriMesh& mesh, const mesh::TriMesh& piece) {
 
 mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtree::Program& program,
                                   const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options,
-                                  GpuStats* stats, std::vector<GpuStats>* perDevice) {
+                                  GpuStats* stats, std::vector<GpuStats>* perDevice,
+                                  const HostBatchWorker* host) {
   if (devices.empty()) throw VulkanError("GPU polygonizer: no device to run on");
   for (std::size_t i = 0; i < devices.size(); ++i) {
     if (!devices[i]) throw VulkanError("GPU polygonizer: device " + std::to_string(i) + " is null");
@@ -67,8 +68,10 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
       }
     }
   }
+  if (host && !host->run) host = nullptr;
   const std::size_t n = devices.size();
-  if (n == 1 || grid.cells.x < 1 || grid.cells.y < 1 || grid.cells.z < 1) {
+  const std::size_t workers = n + (host ? 1 : 0);
+  if (workers == 1 || grid.cells.x < 1 || grid.cells.y < 1 || grid.cells.z < 1) {
     GpuStats one;
     mesh::TriMesh mesh = polygonize(*devices[0], program, grid, options, &one);
     if (stats) *stats = one;
@@ -81,7 +84,7 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
 
   const auto wallStart = Clock::now();
   GpuStats s;
-  std::vector<GpuStats> shares(n);
+  std::vector<GpuStats> shares(workers);
   const BrickGrid bg = brickGridFor(grid, options.brickCells);
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
@@ -104,7 +107,7 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   }
   std::uint64_t ownTarget = ~0ull;
   if (!options.maxBatchBricks) {
-    const std::uint64_t pieces = n * std::max<std::uint32_t>(options.batchesPerDevice, 1);
+    const std::uint64_t pieces = workers * std::max<std::uint32_t>(options.batchesPerDevice, 1);
     ownTarget = std::max<std::uint64_t>(1, (active + pieces - 1) / pieces);
   }
   const std::vector<SparseBatch> batches = planSparseBatches(classified.layerStarts, limit, range, ownTarget);
@@ -123,7 +126,27 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
 
   Queue q;
   q.pieces.resize(batches.size());
-  q.window = 2 * n;
+  q.window = 2 * workers;
+  // Hands out the next batch (or none: all taken, or an error) and stores finished pieces.
+  auto take = [&q, &batches](std::size_t& b) {
+    std::unique_lock lock(q.mutex);
+    q.changed.wait(lock, [&] { return q.error || q.next >= batches.size() || q.next < q.joined + q.window; });
+    if (q.error || q.next >= batches.size()) return false;
+    b = q.next++;
+    return true;
+  };
+  auto give = [&q](std::size_t b, mesh::TriMesh piece) {
+    {
+      std::lock_guard lock(q.mutex);
+      q.pieces[b] = std::move(piece);
+    }
+    q.changed.notify_all();
+  };
+  auto fail = [&q] {
+    std::lock_guard lock(q.mutex);
+    if (!q.error) q.error = std::current_exception();
+    q.changed.notify_all();
+  };
   auto work = [&](std::size_t d) {
     GpuStats& share = shares[d];
     const auto busyStart = Clock::now();
@@ -141,29 +164,31 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
       }
       SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, d ? scan : classified.scan,
                                d ? list : classified.list, maxLoaded, s.batches);
-      for (;;) {
-        std::size_t b = 0;
-        {
-          std::unique_lock lock(q.mutex);
-          q.changed.wait(lock, [&] { return q.error || q.next >= batches.size() || q.next < q.joined + q.window; });
-          if (q.error || q.next >= batches.size()) break;
-          b = q.next++;
-        }
+      for (std::size_t b = 0; take(b);) {
         mesh::TriMesh piece;
         runner.run(batches[b], 0, piece, share);
         ++share.batches;
-        {
-          std::lock_guard lock(q.mutex);
-          q.pieces[b] = std::move(piece);
-        }
-        q.changed.notify_all();
+        give(b, std::move(piece));
       }
       runner.deviceTimes(share);
       share.deviceBytes = tableBytes + runner.sharedBytes() + runner.peakOutputBytes();
     } catch (...) {
-      std::lock_guard lock(q.mutex);
-      if (!q.error) q.error = std::current_exception();
-      q.changed.notify_all();
+      fail();
+    }
+    share.seconds = since(busyStart);
+  };
+  auto hostWork = [&] {
+    GpuStats& share = shares[n];
+    const auto busyStart = Clock::now();
+    try {
+      for (std::size_t b = 0; take(b);) {
+        const SparseBatch& batch = batches[b];
+        mesh::TriMesh piece = host->run(batch.firstLayer, batch.endLayer);
+        ++share.batches;
+        give(b, std::move(piece));
+      }
+    } catch (...) {
+      fail();
     }
     share.seconds = since(busyStart);
   };
@@ -173,6 +198,7 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     std::vector<std::jthread> threads;
     if (!batches.empty()) {
       for (std::size_t d = 0; d < n; ++d) threads.emplace_back(work, d);
+      if (host) threads.emplace_back(hostWork);
     }
     try {
       for (std::size_t b = 0; b < batches.size(); ++b) {
@@ -192,9 +218,7 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
         q.changed.notify_all();
       }
     } catch (...) {
-      std::lock_guard lock(q.mutex);
-      if (!q.error) q.error = std::current_exception();
-      q.changed.notify_all();
+      fail();
     }
   }  // the device threads end here
   if (q.error) std::rethrow_exception(q.error);

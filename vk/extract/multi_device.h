@@ -10,6 +10,7 @@
 #include "blobvk/mesh/trimesh.h"
 #include "blobvk/vk/extract/polygonize.h"
 
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -28,8 +29,20 @@ namespace blobvk::vk {
 // `stats`: the job (field, extract and read-back summed over the devices; submits, evaluations
 // summed; deviceBytes the most any one device held); `perDevice`: each device's own share
 // (batches, submits, its busy seconds, its device bytes).
+//
+// `host` (optional): one more worker beside the devices, on its own thread, taking batches as a
+// device does (e.g. the CPU polygonizer, cpu::polygonizeLayerRange). It is given the brick
+// layers [firstLayer, endLayer) of options.brickCells-cell bricks and returns their piece: their
+// vertices (positions, normals, colours, edge keys) in global order and their triangles with
+// indices counted from the piece's first vertex, corners on the next layer's vertices numbered
+// past its own. It must give the devices' bytes. With a host worker one device is enough;
+// `perDevice` then ends with the host's share.
+struct HostBatchWorker {
+  std::function<mesh::TriMesh(std::uint32_t firstLayer, std::uint32_t endLayer)> run;
+};
 mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtree::Program& program,
                                   const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options = {},
-                                  GpuStats* stats = nullptr, std::vector<GpuStats>* perDevice = nullptr);
+                                  GpuStats* stats = nullptr, std::vector<GpuStats>* perDevice = nullptr,
+                                  const HostBatchWorker* host = nullptr);
 
 }  // namespace blobvk::vk

@@ -98,7 +98,7 @@ std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts
                         " active bricks, over the " + std::to_string(rangeBricks) +
                         " one storage buffer can hold (maxStorageBufferRange): use a smaller grid or bricks");
     }
-    batches.push_back({starts[z], starts[end] - starts[z], loaded(end)});
+    batches.push_back({starts[z], starts[end] - starts[z], loaded(end), z, end});
     z = end;
   }
   return batches;

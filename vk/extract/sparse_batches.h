@@ -26,6 +26,7 @@ struct SparseBatch {
   std::uint32_t activeBase = 0;    // the batch's first active brick (in (bz, by, bx) order)
   std::uint32_t ownActive = 0;     // active bricks whose vertices and triangles it emits
   std::uint32_t loadedActive = 0;  // ... plus the next layer's, whose segments it scans
+  std::uint32_t firstLayer = 0, endLayer = 0;  // the brick layers [first, end) it emits
 };
 
 // Active bricks per batch that fit `device`: its storage-buffer range and a quarter of its
