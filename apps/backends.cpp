@@ -221,12 +221,14 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
       std::unique_ptr<cpu::LayerPolygonizer> layers;
       vk::HostBatchWorker host;
       if (settings.cpuWorker) {
-        cpu::MpuOptions o;
-        o.threads = settings.threads > 0 ? settings.threads : 1;
-        o.refineSteps = settings.refineSteps;
-        o.mpuCells = int(options.brickCells);
-        layers = std::make_unique<cpu::LayerPolygonizer>(program, grid, o);
-        host.run = [&layers](std::uint32_t first, std::uint32_t end) {
+        host.run = [&](std::uint32_t first, std::uint32_t end, std::uint32_t brickCells) {
+          if (!layers) {  // on the worker's thread, once the job's brick size is known
+            cpu::MpuOptions o;
+            o.threads = settings.threads > 0 ? settings.threads : 1;
+            o.refineSteps = settings.refineSteps;
+            o.mpuCells = int(brickCells);
+            layers = std::make_unique<cpu::LayerPolygonizer>(program, grid, o);
+          }
           return cpu::polygonizeLayerRange(*layers, int(first), int(end));
         };
       }

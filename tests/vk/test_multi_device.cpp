@@ -123,7 +123,8 @@ TEST_F(MultiDeviceTest, TheCpuAsOneMoreWorkerGivesTheOneDeviceBytes) {
     mpu.mpuCells = int(o.brickCells);
     cpu::LayerPolygonizer layers(sc.program, sc.grid, mpu);
     vk::HostBatchWorker host;
-    host.run = [&layers](std::uint32_t first, std::uint32_t end) {
+    host.run = [&layers, &o](std::uint32_t first, std::uint32_t end, std::uint32_t brickCells) {
+      EXPECT_EQ(brickCells, o.brickCells);  // its layers are the MPU layers it was built with
       return cpu::polygonizeLayerRange(layers, int(first), int(end));
     };
     for (std::size_t n : {1u, 2u}) {

@@ -16,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <string>
 
@@ -169,6 +170,36 @@ TEST_F(VulkanTest, AGridAwayFromTheModelHasNoActiveBricks) {
   EXPECT_EQ(m.vertexCount(), 0u);
   EXPECT_EQ(stats.activeBricks, 0u);
   EXPECT_EQ(stats.bricks, 27u);
+}
+
+// A layer pair over one storage buffer is classified again with smaller bricks: with a range
+// that two layers of 16³ bricks exceed, the classification comes back in bricks of 8³ whose
+// pairs fit, and the largest pair of the first try was indeed over it (the oracle: its own
+// layer starts). Halving stops at 4 cells, where the batch planner names what does not fit.
+TEST_F(VulkanTest, LayerPairsOverOneStorageBufferTakeSmallerBricks) {
+  const ShippedScene sc = shipped("tower", 96);
+  vk::GpuStats stats;
+  auto largestPair = [](const vk::ClassifiedBricks& c) {
+    std::uint32_t most = 0;
+    const std::size_t layers = c.layerStarts.size() - 1;
+    for (std::size_t z = 0; z < layers; ++z) most = std::max(most, c.layerStarts[std::min(z + 2, layers)] - c.layerStarts[z]);
+    return most;
+  };
+  const auto unlimited = [](const vk::BrickGrid&) { return ~0ull; };
+  const vk::ClassifiedBricks at16 = vk::classifyToFit(device(), sc.program, sc.grid, 16, unlimited, stats);
+  ASSERT_EQ(at16.bricks.log2B, 4u);
+  const std::uint32_t pair16 = largestPair(at16);
+  ASSERT_GT(pair16, 4u);
+  // Room for the pairs of 8³ bricks (8x smaller records), not for those of 16³.
+  const auto range = [pair16](const vk::BrickGrid& b) -> std::uint64_t { return b.log2B >= 4 ? pair16 - 1 : 1000000; };
+  const vk::ClassifiedBricks fitted = vk::classifyToFit(device(), sc.program, sc.grid, 16, range, stats);
+  EXPECT_EQ(fitted.bricks.log2B, 3u);
+  EXPECT_LE(largestPair(fitted), 1000000u);
+  EXPECT_EQ(fitted.layerStarts.back(), stats.activeBricks);
+  // Nothing fits: it stops at bricks of 4³.
+  const vk::ClassifiedBricks smallest =
+      vk::classifyToFit(device(), sc.program, sc.grid, 16, [](const vk::BrickGrid&) { return 1ull; }, stats);
+  EXPECT_EQ(smallest.bricks.log2B, 2u);
 }
 
 }  // namespace

@@ -85,13 +85,19 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   const auto wallStart = Clock::now();
   GpuStats s;
   std::vector<GpuStats> shares(workers);
-  const BrickGrid bg = brickGridFor(grid, options.brickCells);
-  s.brickCells = 1u << bg.log2B;
-  s.bricks = std::uint32_t(bg.count());
   s.devices = std::uint32_t(n);
   Device& first = *devices[0];
+  // Bricks whose layer pairs fit every device's storage-buffer range.
+  const auto rangeBricks = [&devices](const BrickGrid& b) {
+    std::uint64_t range = ~0ull;
+    for (Device* d : devices) range = std::min(range, sparseRangeBricks(*d, b));
+    return range;
+  };
   // One evaluator for every device: the bytes must not depend on which device ran a batch.
-  const ClassifiedBricks classified = classifyAndCompact(first, program, grid, bg, shares[0]);
+  const ClassifiedBricks classified = classifyToFit(first, program, grid, options.brickCells, rangeBricks, shares[0]);
+  const BrickGrid& bg = classified.bricks;
+  s.brickCells = 1u << bg.log2B;
+  s.bricks = std::uint32_t(bg.count());
   const SparseEvaluator evaluator = resolveSparseEvaluator(first, program, grid, options, &classified);
   evaluator.report(s);
   const GpuPolygonizeOptions resolved = evaluator.apply(options);
@@ -183,7 +189,7 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     try {
       for (std::size_t b = 0; take(b);) {
         const SparseBatch& batch = batches[b];
-        mesh::TriMesh piece = host->run(batch.firstLayer, batch.endLayer);
+        mesh::TriMesh piece = host->run(batch.firstLayer, batch.endLayer, 1u << bg.log2B);
         ++share.batches;
         give(b, std::move(piece));
       }

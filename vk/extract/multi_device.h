@@ -32,13 +32,14 @@ namespace blobvk::vk {
 //
 // `host` (optional): one more worker beside the devices, on its own thread, taking batches as a
 // device does (e.g. the CPU polygonizer, cpu::polygonizeLayerRange). It is given the brick
-// layers [firstLayer, endLayer) of options.brickCells-cell bricks and returns their piece: their
+// layers [firstLayer, endLayer) of `brickCells`-cell bricks (options.brickCells, or smaller where
+// a large grid's layer pairs need it, sparse_polygonizer.h) and returns their piece: their
 // vertices (positions, normals, colours, edge keys) in global order and their triangles with
 // indices counted from the piece's first vertex, corners on the next layer's vertices numbered
 // past its own. It must give the devices' bytes. With a host worker one device is enough;
 // `perDevice` then ends with the host's share.
 struct HostBatchWorker {
-  std::function<mesh::TriMesh(std::uint32_t firstLayer, std::uint32_t endLayer)> run;
+  std::function<mesh::TriMesh(std::uint32_t firstLayer, std::uint32_t endLayer, std::uint32_t brickCells)> run;
 };
 mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtree::Program& program,
                                   const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options = {},

@@ -232,15 +232,36 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   return c;
 }
 
+ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                               std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
+                               GpuStats& stats) {
+  constexpr std::uint32_t kSmallestFallbackCells = 4;
+  double classifySeconds = 0.0;
+  for (;;) {
+    ClassifiedBricks c = classifyAndCompact(device, program, grid, brickGridFor(grid, brickCells), stats);
+    classifySeconds += stats.classifySeconds;
+    stats.classifySeconds = classifySeconds;
+    const std::uint64_t range = rangeBricks(c.bricks);
+    const std::size_t layers = c.layerStarts.size() - 1;
+    bool fits = true;
+    for (std::size_t z = 0; z < layers && fits; ++z)
+      fits = c.layerStarts[std::min(z + 2, layers)] - c.layerStarts[z] <= range;
+    if (fits || brickCells <= kSmallestFallbackCells) return c;  // planSparseBatches names what does not fit
+    brickCells /= 2;
+  }
+}
+
 void runSparseExtraction(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const GpuPolygonizeOptions& options, const SparseBatchSink& sink, GpuStats& s) {
-  const BrickGrid bg = brickGridFor(grid, options.brickCells);
+  const auto wallStart = Clock::now();
+  // Submits: one classifies and compacts the bricks (again with smaller bricks where a layer
+  // pair would not fit one storage buffer); then, per batch of whole brick layers, two
+  // (sparse_batches.h). The evaluator is chosen once the active bricks are known.
+  const ClassifiedBricks classified = classifyToFit(
+      device, program, grid, options.brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s);
+  const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
-  const auto wallStart = Clock::now();
-  // Submits: one classifies and compacts the bricks; then, per batch of whole brick layers, two
-  // (sparse_batches.h). The evaluator is chosen once the active bricks are known.
-  const ClassifiedBricks classified = classifyAndCompact(device, program, grid, bg, s);
   const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
   evaluator.report(s);
   const GpuPolygonizeOptions resolved = evaluator.apply(options);

@@ -85,6 +85,16 @@ struct ClassifiedBricks {
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                     const BrickGrid& bricks, GpuStats& stats);
 
+// classifyAndCompact with bricks of `brickCells`, halved (down to 4) while two adjacent brick
+// layers hold more active bricks than `rangeBricks(bricks)` (what one storage buffer holds, the
+// least over the job's devices): a batch loads a layer pair, and a large grid's pair can exceed
+// it (lavapipe's 128 MiB range holds 6,829 bricks of 16³; the tower at 2048³ needs 6,885).
+// Smaller bricks make thinner layers of smaller records. The mesh does not depend on the brick
+// size; the result's `bricks` is the grid used.
+ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                               std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
+                               GpuStats& stats);
+
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);
 
