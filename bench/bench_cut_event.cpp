@@ -16,13 +16,18 @@
 #include "blobvk/cutting/cutter.h"
 #include "blobvk/fem/simulation.h"
 #include "blobvk/fem/tetgen_mesher.h"
+#include "blobvk/cutting/quality.h"
+#include "tests/cutting/random_strokes.h"
 #include "tests/fem/icosphere.h"
 
 #include <benchmark/benchmark.h>
 
 #include <time.h>
 
+#include <array>
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <optional>
 
@@ -63,7 +68,8 @@ void runCutEvents(benchmark::State& state, const mesh::TetMesh& body, const fem:
   std::optional<fem::Simulation> sim;
   int k = strokesPerMesh;
   PhaseClock cut, convert, apply;
-  double splits = 0, newNodes = 0, slots = 0, flipMs = 0;
+  double splits = 0, newNodes = 0, slots = 0, flipMs = 0, flipAttempts = 0, flipsDone = 0;
+  std::array<double, 4> phaseMs{};
   for (auto _ : state) {
     if (k == strokesPerMesh) {
       state.PauseTiming();
@@ -86,6 +92,9 @@ void runCutEvents(benchmark::State& state, const mesh::TetMesh& body, const fem:
     benchmark::DoNotOptimize(sim->mesh().boundaryFaces.data());
     splits += double(event.splitTets);
     flipMs += event.flipSeconds * 1e3;
+    flipAttempts += double(event.flipAttempts);
+    flipsDone += double(event.faceRemovals + event.edgeRemovals);
+    for (std::size_t p = 0; p < phaseMs.size(); ++p) phaseMs[p] += event.phaseSeconds[p] * 1e3;
     newNodes += double(change.newNodes.size());
     slots += double(change.tetSlots.size());
   }
@@ -96,6 +105,14 @@ void runCutEvents(benchmark::State& state, const mesh::TetMesh& body, const fem:
   state.counters["slots_written"] = slots / events;
   state.counters["cut_ms"] = cut.wallMs / events;
   state.counters["flip_ms"] = flipMs / events;  // wall, part of cut_ms
+  state.counters["flip_attempts"] = flipAttempts / events;
+  state.counters["flips"] = flipsDone / events;
+  // The cutter's phases (CutResult::phaseSeconds): candidates, cut edges and nodes, splits and
+  // crack faces, crack opening; the flips are the rest of cut_ms.
+  state.counters["cut_candidates_ms"] = phaseMs[0] / events;
+  state.counters["cut_edges_ms"] = phaseMs[1] / events;
+  state.counters["cut_split_ms"] = phaseMs[2] / events;
+  state.counters["cut_open_ms"] = phaseMs[3] / events;
   state.counters["convert_ms"] = convert.wallMs / events;
   state.counters["fem_ms"] = apply.wallMs / events;
   state.counters["total_ms"] = (cut.wallMs + convert.wallMs + apply.wallMs) / events;
@@ -145,6 +162,83 @@ void BM_CutEventTetgenBall(benchmark::State& state) {
 }
 // Argument: TetGen's -a bound in 1e-6 units; 130 gives ~100k tets.
 BENCHMARK(BM_CutEventTetgenBall)->Arg(130)->Unit(benchmark::kMillisecond)->Iterations(64);
+
+// Item 3 of the quality target: 100 random kinked strokes (tests/cutting/random_strokes.h, seed 16,
+// as the TetgenStrokes test: three blade steps, each re-cutting the previous one, and a pass over
+// the whole stroke, as surgery::SoftBody cuts) through a ~100k-tet TetGen ball, every event
+// applied to the running simulation. One iteration is the 100 strokes on a fresh body.
+// Counters: per event, the mean and largest wall ms (cut + convert + FEM) and the mean of each
+// phase; at the end, the smallest dihedral angle at rest, how many tets are below 5 deg, the
+// rest volume's relative change and whether the topology self-check passes.
+void BM_RandomStrokesTetgenBall(benchmark::State& state) {
+  if (!fem::tetgenAvailable()) {
+    state.SkipWithError("built without TetGen");
+    return;
+  }
+  fem::TetgenOptions options;
+  options.maxVolume = double(state.range(0)) * 1e-6;
+  const mesh::TetMesh ball = fem::tetrahedralize(testing::icosphere(4), options);
+  fem::SimulationSettings settings = bench::cutBlockSettings();
+  settings.fixed = [](const mesh::Double3& p) { return p.y < -0.9; };
+  std::array<double, 5> phaseMs{};  // CutResult::phaseSeconds, then the flips
+  double events = 0, worstMs = 0, minDihedral = 0, volumeChange = 0, selfCheckOk = 0, tetsAfter = 0, below5 = 0;
+  PhaseClock cut, convert, apply;
+  for (auto _ : state) {
+    state.PauseTiming();
+    cutting::Cutter cutter(ball);
+    fem::Simulation sim(ball, settings);
+    const double volume = cutter.topology().totalRestVolume();
+    cutting::test::RandomStrokes strokes(16);
+    state.ResumeTiming();
+    for (int s = 0; s < 100; ++s)
+      for (const auto& swept : strokes.next()) {
+        const double before = cut.wallMs + convert.wallMs + apply.wallMs;
+        const std::size_t nodesBefore = sim.mesh().nodeCount(), tetsBefore = sim.mesh().tetCount();
+        const cutting::CutResult event = cut.time([&] { return cutter.cut(swept); });
+        const fem::TopologyChange change = convert.time(
+            [&] { return surgery::toTopologyChange(event, cutter.topology(), nodesBefore, tetsBefore); });
+        apply.time([&] {
+          sim.applyTopologyChange(change);
+          return 0;
+        });
+        for (std::size_t p = 0; p < 4; ++p) phaseMs[p] += event.phaseSeconds[p] * 1e3;
+        phaseMs[4] += event.flipSeconds * 1e3;
+        worstMs = std::max(worstMs, cut.wallMs + convert.wallMs + apply.wallMs - before);
+        ++events;
+      }
+    state.PauseTiming();
+    const mesh::TetMesh after = cutter.topology().toTetMesh();
+    const cutting::QualityStats quality = cutting::meshQuality(after);
+    minDihedral = quality.minDihedralDeg;
+    below5 = 0;
+    for (const auto& t : after.tets) {
+      const auto& r = after.restPositions;
+      below5 += cutting::minDihedralDeg(r[t[0]], r[t[1]], r[t[2]], r[t[3]]) < 5.0;
+    }
+    tetsAfter = double(after.tets.size());
+    volumeChange = std::fabs(cutter.topology().totalRestVolume() - volume) / volume;
+    selfCheckOk = cutter.topology().selfCheck().ok() ? 1 : 0;
+    state.ResumeTiming();
+  }
+  state.counters["tets"] = double(ball.tets.size());
+  state.counters["tets_after"] = tetsAfter;
+  state.counters["events"] = events / double(state.iterations());
+  state.counters["event_ms"] = (cut.wallMs + convert.wallMs + apply.wallMs) / events;
+  state.counters["worst_event_ms"] = worstMs;
+  state.counters["cut_ms"] = cut.wallMs / events;
+  state.counters["cut_candidates_ms"] = phaseMs[0] / events;
+  state.counters["cut_edges_ms"] = phaseMs[1] / events;
+  state.counters["cut_split_ms"] = phaseMs[2] / events;
+  state.counters["cut_open_ms"] = phaseMs[3] / events;
+  state.counters["flip_ms"] = phaseMs[4] / events;
+  state.counters["convert_ms"] = convert.wallMs / events;
+  state.counters["fem_ms"] = apply.wallMs / events;
+  state.counters["min_dihedral_deg"] = minDihedral;
+  state.counters["tets_below_5deg"] = below5;
+  state.counters["volume_rel_change"] = volumeChange;
+  state.counters["self_check_ok"] = selfCheckOk;
+}
+BENCHMARK(BM_RandomStrokesTetgenBall)->Arg(130)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace
 

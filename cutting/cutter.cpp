@@ -668,6 +668,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
                                            {result.removedTets, result.removedTetNodes, result.addedTets});
     result.faceRemovals = flips.faceRemovals;
     result.edgeRemovals = flips.edgeRemovals;
+    result.flipAttempts = flips.attempts;
     result.flipSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - flipStart).count();
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -63,6 +63,7 @@ struct CutResult {
   std::size_t attachedSlivers = 0;
   // Flips after the opening (local_flips.h): face removals (2-3) and edge removals (n -> 2n-4).
   std::size_t faceRemovals = 0, edgeRemovals = 0;
+  std::size_t flipAttempts = 0;  // written tets below the threshold that a flip was searched for
   double minChildVolumeRatio = 1.0;  // smallest child rest volume / its parent's, this event
   double seconds = 0.0;
   // Wall time of the phases: candidates (spatial hash), cut edges and cut nodes, codes + splits

@@ -91,6 +91,8 @@ double quality(const mesh::TetMesh& m, const Tet& t) {
 
 }  // namespace
 
+double dihedralQuality(Double3 a, Double3 b, Double3 c, Double3 d) { return cosineQuality(a, b, c, d); }
+
 double minDihedralDeg(Double3 a, Double3 b, Double3 c, Double3 d) {
   return std::acos(std::clamp(-cosineQuality(a, b, c, d), -1.0, 1.0)) * (180.0 / 3.14159265358979323846);
 }
@@ -171,19 +173,19 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     for (std::uint32_t v : u)
       if (v != t[0] && v != t[1] && v != t[2] && v != t[3]) e = v;
     if (e == kNone) continue;
-    const double before = std::min(own, quality(m, u));
     // Each new tet is the tet with one of the face's nodes replaced by e: positive exactly when
     // e lies beyond the face on that side (the union is convex there).
     std::array<Tet, 3> made{};
     double worst = 1e300;
     bool valid = !topology.hasEdge(t[std::size_t(i)], e);
-    const double bar = std::max(before, bestQuality) + 1e-9;
+    // bestQuality starts at the tet's own quality, which is at least the neighbour pair's minimum.
+    const double bar = bestQuality + 1e-9;
     for (int k = 0; k < 3 && valid; ++k) {
       made[std::size_t(k)] = t;
       made[std::size_t(k)][std::size_t(f[std::size_t(k)])] = e;
-      valid = positive(m, made[std::size_t(k)]);
-      if (valid) worst = std::min(worst, quality(m, made[std::size_t(k)]));
-      valid = valid && worst > bar;  // no better than the bar: the rest need not be evaluated
+      worst = std::min(worst, quality(m, made[std::size_t(k)]));
+      // No better than the bar: the rest need not be evaluated (the sign only for a candidate).
+      valid = worst > bar && positive(m, made[std::size_t(k)]);
     }
     if (valid) {
       bestQuality = worst;
@@ -208,13 +210,11 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     // Three tets (the 3-2 flip) only when a slot can be given back (see freeableSlot).
     if (n < 3 || n > 7 || (n == 3 && !freeable(region))) continue;
     bool sameRegion = true;
-    double before = 1e300;
     // Cycle: for the tet with other nodes {p, q}, (a, b, p, q) positive means q follows p.
     std::array<std::uint32_t, 7> from{}, to{};
     for (int k = 0; k < n; ++k) {
       const Tet& u = topology.tet(ring_[std::size_t(k)]);
       sameRegion = sameRegion && regionOf(ring_[std::size_t(k)]) == region;
-      before = std::min(before, quality(m, u));
       std::uint32_t p = kNone, q = kNone;
       for (std::uint32_t v : u)
         if (v != a && v != b) (p == kNone ? p : q) = v;
@@ -239,20 +239,29 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
       for (int y = x + 1; y < n; ++y)
         if (cycle[std::size_t(x)] == cycle[std::size_t(y)]) closed = false;
     if (!closed) continue;
-    // Quality of the two cones over each triangle of the polygon (kInvalid: invalid, or no better than
-    // the bar a triangulation must clear, so that the second cone is not evaluated), then the
-    // best triangulation.
-    const double bar = std::max(before, bestQuality) + 1e-9;
-    std::array<std::array<std::array<double, 7>, 7>, 7> cone{};
+    // Quality of the two cones over a triangle of the polygon, evaluated when a triangulation
+    // first needs it and kept (kInvalid: invalid, or no better than the bar every triangulation
+    // must clear). Most triangulations fail on their first bad triangle, so most of the
+    // C(n, 3) cone pairs are never evaluated (evaluating them all was most of the flips' time).
+    // The ring's smallest quality is at most the tet's own, where bestQuality starts: an operation
+    // that beats bestQuality raises the minimum of what it replaces.
+    const double bar = bestQuality + 1e-9;
+    constexpr double kUnknown = 4.0;
+    std::array<std::array<std::array<double, 7>, 7>, 7> cone;  // only i < j < k < n are reset and read
     for (int i = 0; i < n; ++i)
       for (int j = i + 1; j < n; ++j)
-        for (int k = j + 1; k < n; ++k) {
-          const std::uint32_t ri = cycle[std::size_t(i)], rj = cycle[std::size_t(j)], rk = cycle[std::size_t(k)];
-          const Tet below{ri, rj, rk, b}, above{rk, rj, ri, a};
-          double q = positive(m, below) ? quality(m, below) : kInvalid;
-          if (q > bar) q = positive(m, above) ? std::min(q, quality(m, above)) : kInvalid;
-          cone[std::size_t(i)][std::size_t(j)][std::size_t(k)] = q > bar ? q : kInvalid;
-        }
+        for (int k = j + 1; k < n; ++k) cone[std::size_t(i)][std::size_t(j)][std::size_t(k)] = kUnknown;
+    auto coneQuality = [&](int i, int j, int k) {
+      double& q = cone[std::size_t(i)][std::size_t(j)][std::size_t(k)];
+      if (q != kUnknown) return q;
+      const std::uint32_t ri = cycle[std::size_t(i)], rj = cycle[std::size_t(j)], rk = cycle[std::size_t(k)];
+      const Tet below{ri, rj, rk, b}, above{rk, rj, ri, a};
+      // The quality first (it fails more often than the sign), the signs only for a candidate.
+      double value = quality(m, below);
+      if (value > bar) value = std::min(value, quality(m, above));
+      if (value > bar && !(positive(m, below) && positive(m, above))) value = kInvalid;
+      return q = value > bar ? value : kInvalid;
+    };
     // A diagonal that is already an edge elsewhere rules its triangulation out; checked only for
     // a triangulation that would be taken (a few incidence scans instead of one per triangle).
     auto diagonalsFree = [&](const Triangulation& tri) {
@@ -268,7 +277,10 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     if (n == 3 && topology.tetsOfFace(cycle[0], cycle[1], cycle[2])[0] != kNone) continue;
     for (const Triangulation& tri : triangulations(n)) {
       double worst = 1e300;
-      for (const auto& [i, j, k] : tri) worst = std::min(worst, cone[i][j][k]);
+      for (const auto& [i, j, k] : tri) {
+        worst = std::min(worst, coneQuality(i, j, k));
+        if (worst <= chosenQuality) break;
+      }
       if (worst > chosenQuality && diagonalsFree(tri)) chosenQuality = worst, chosen = &tri;
     }
     if (chosen == nullptr) continue;

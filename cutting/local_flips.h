@@ -28,6 +28,8 @@ namespace blobvk::cutting {
 
 // The smallest of the six dihedral angles of the tet (a, b, c, d), in degrees.
 double minDihedralDeg(mesh::Double3 a, mesh::Double3 b, mesh::Double3 c, mesh::Double3 d);
+// -cos of that angle: increases with it, without an acos (the flips' and smoothing's measure).
+double dihedralQuality(mesh::Double3 a, mesh::Double3 b, mesh::Double3 c, mesh::Double3 d);
 
 struct FlipStats {
   std::size_t faceRemovals = 0, edgeRemovals = 0, threeTwo = 0, attempts = 0;  // threeTwo: within edgeRemovals
