@@ -669,6 +669,13 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     result.faceRemovals = flips.faceRemovals;
     result.edgeRemovals = flips.edgeRemovals;
     result.flipAttempts = flips.attempts;
+    if (options_.smoothBelowDeg > 0) {
+      seeds.assign(result.addedTets.begin(), result.addedTets.end());
+      std::sort(seeds.begin(), seeds.end());
+      seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
+      smoothing_.improve(topology_, grid_, seeds, options_.smoothBelowDeg, snapReach_,
+                         {result.removedTets, result.removedTetNodes, result.addedTets}, result.movedNodes);
+    }
     result.flipSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - flipStart).count();
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

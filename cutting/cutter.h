@@ -7,6 +7,7 @@
 #include "blobvk/cutting/blade.h"
 #include "blobvk/cutting/decompose.h"
 #include "blobvk/cutting/local_flips.h"
+#include "blobvk/cutting/node_smoothing.h"
 #include "blobvk/cutting/spatial_grid.h"
 #include "blobvk/cutting/topology.h"
 
@@ -31,6 +32,10 @@ struct CutOptions {
   // After the crack opens, tets the event wrote whose smallest dihedral angle at rest is below
   // this (degrees) are improved by flips (local_flips.h); 0: no flips.
   double improveBelowDeg = 15.0;
+  // After the flips, free nodes of the tets the event wrote that are still below this (degrees)
+  // are moved at rest (node_smoothing.h); the FEM takes the moves as rest-shape changes
+  // (CutResult::movedNodes). 0: no smoothing.
+  double smoothBelowDeg = 0.0;
 };
 
 struct NewNode {
@@ -56,6 +61,9 @@ struct CutResult {
   std::vector<Tet> removedTetNodes;
   std::vector<std::uint32_t> addedTets;
   std::vector<NewNode> newNodes;
+  // Nodes moved at rest after the flips, in order (after newNodes; see MovedNode). Every tet
+  // around a moved node is in addedTets.
+  std::vector<MovedNode> movedNodes;
   std::array<std::size_t, 11> caseCounts{};  // indexed by CutCase
   std::size_t candidateTets = 0, cutEdges = 0, cutNodes = 0, splitTets = 0, separatingFallbacks = 0;
   std::size_t crackFaces = 0, duplicatedNodes = 0;
@@ -92,6 +100,7 @@ class Cutter {
   SpatialGrid grid_;
   DecompositionCache decompositions_;
   LocalFlips flips_;
+  NodeSmoothing smoothing_;
   double meanEdge_ = 1.0;
   // By node: how far from a swept surface the node was when the crack was snapped to it (0: never
   // snapped). A snapped node stays a cut node for every later surface passing as close: without

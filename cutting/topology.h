@@ -77,6 +77,11 @@ class CutTopology {
   const Tet& tet(std::uint32_t slot) const { return mesh_.tets[slot]; }
 
   std::uint32_t addNode(mesh::Double3 position, mesh::Double3 rest);
+  // Moves a node (position and rest position); its tets keep their nodes.
+  void moveNode(std::uint32_t node, mesh::Double3 position, mesh::Double3 rest) {
+    mesh_.positions[node] = position;
+    mesh_.restPositions[node] = rest;
+  }
   // Inserts a tet in a free slot (lowest freed first is not guaranteed) or at the end.
   std::uint32_t addTet(const Tet& nodes, std::uint32_t region = 0);
   // Replaces the content of a live slot in place.

@@ -371,6 +371,42 @@ void Simulation::applyTopologyChange(const TopologyChange& c) {
     if (!any) fail("new node " + std::to_string(oldNodes + k) + " has no source");
     fixedNew[k] = (allFixed || (d.settings.fixed && d.settings.fixed(rest[k]))) ? 1 : 0;
   }
+  // Moved nodes, each from the values just before it (earlier moves and new nodes included).
+  const std::size_t moves = c.movedNodes.size();
+  std::vector<Double3> movedRest(moves), movedPos(moves), movedVel(moves);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> movedIndex;  // (node, its last move), sorted
+  auto lastMove = [&](std::uint32_t v) -> std::ptrdiff_t {
+    const auto it = std::lower_bound(movedIndex.begin(), movedIndex.end(), std::pair{v, 0u});
+    return it != movedIndex.end() && it->first == v ? std::ptrdiff_t(it->second) : -1;
+  };
+  for (std::size_t k = 0; k < moves; ++k) {
+    const NodeMove& mv = c.movedNodes[k];
+    const std::string name = "moved node " + std::to_string(mv.node);
+    if (mv.node >= nodes) fail(name + " does not exist (" + std::to_string(nodes) + " nodes)");
+    Double3 r{}, p{}, v{};
+    bool any = false;
+    for (int i = 0; i < 4; ++i) {
+      const std::uint32_t s = mv.origin.sources[std::size_t(i)];
+      if (s == kNoSource) continue;
+      if (s >= nodes) fail(name + " has source " + std::to_string(s) + " of " + std::to_string(nodes) + " nodes");
+      const double w = mv.origin.weights[std::size_t(i)];
+      if (!std::isfinite(w)) fail(name + " has a non-finite weight");
+      const std::ptrdiff_t j = lastMove(s);
+      const bool isNew = s >= oldNodes;
+      const Double3& sr = j >= 0 ? movedRest[std::size_t(j)] : (isNew ? rest[s - oldNodes] : d.mesh.restPositions[s]);
+      const Double3& sp = j >= 0 ? movedPos[std::size_t(j)] : (isNew ? pos[s - oldNodes] : d.mesh.positions[s]);
+      const Double3& sv = j >= 0 ? movedVel[std::size_t(j)] : (isNew ? vel[s - oldNodes] : d.velocity[s]);
+      r = {r.x + w * sr.x, r.y + w * sr.y, r.z + w * sr.z};
+      p = {p.x + w * sp.x, p.y + w * sp.y, p.z + w * sp.z};
+      v = {v.x + w * sv.x, v.y + w * sv.y, v.z + w * sv.z};
+      any = true;
+    }
+    if (!any) fail(name + " has no source");
+    movedRest[k] = r, movedPos[k] = p, movedVel[k] = v;
+    const auto it = std::lower_bound(movedIndex.begin(), movedIndex.end(), std::pair{mv.node, 0u});
+    if (it != movedIndex.end() && it->first == mv.node) it->second = std::uint32_t(k);
+    else movedIndex.insert(it, {mv.node, std::uint32_t(k)});
+  }
   std::size_t tetCount = d.mesh.tetCount();
   for (std::size_t k = 0; k < c.tetSlots.size(); ++k) {
     const std::uint32_t slot = c.tetSlots[k];
@@ -382,11 +418,27 @@ void Simulation::applyTopologyChange(const TopologyChange& c) {
       if (v >= nodes) fail("tet slot " + std::to_string(slot) + " references node " + std::to_string(v) + " of " + std::to_string(nodes));
     if (t[0] == t[1] || t[0] == t[2] || t[0] == t[3] || t[1] == t[2] || t[1] == t[3] || t[2] == t[3])
       fail("tet slot " + std::to_string(slot) + " repeats a node");
-    auto at = [&](std::uint32_t v) -> const Double3& { return v < oldNodes ? d.mesh.restPositions[v] : rest[v - oldNodes]; };
+    auto at = [&](std::uint32_t v) -> const Double3& {
+      if (const std::ptrdiff_t j = moves ? lastMove(v) : -1; j >= 0) return movedRest[std::size_t(j)];
+      return v < oldNodes ? d.mesh.restPositions[v] : rest[v - oldNodes];
+    };
     const Double3 &a = at(t[0]), &b = at(t[1]), &cc = at(t[2]), &e = at(t[3]);
     const Double3 u{b.x - a.x, b.y - a.y, b.z - a.z}, v{cc.x - a.x, cc.y - a.y, cc.z - a.z}, w{e.x - a.x, e.y - a.y, e.z - a.z};
     const double vol = (u.x * (v.y * w.z - v.z * w.y) - u.y * (v.x * w.z - v.z * w.x) + u.z * (v.x * w.y - v.y * w.x)) / 6.0;
     if (!(vol > 0)) fail("tet slot " + std::to_string(slot) + " has a non-positive rest volume");
+  }
+
+  if (moves) {  // a moved node's tets change their rest shape: each must be rewritten
+    std::vector<std::uint32_t> listed(c.tetSlots.begin(), c.tetSlots.end());
+    std::sort(listed.begin(), listed.end());
+    for (const auto& [node, k] : movedIndex) {
+      if (node >= oldNodes) continue;  // a new node's tets are all new or rewritten
+      const NodeIncidence& incidence = d.elements.incidence();
+      for (const std::uint32_t* e = incidence.begin(node); e != incidence.end(node); ++e)
+        if (!std::binary_search(listed.begin(), listed.end(), NodeIncidence::tetOf(*e)))
+          fail("moved node " + std::to_string(node) + " has tet slot " + std::to_string(NodeIncidence::tetOf(*e)) +
+               " not in the change");
+    }
   }
 
   // Apply: only the touched nodes, slots, incidence rows and boundary faces are visited.
@@ -398,6 +450,12 @@ void Simulation::applyTopologyChange(const TopologyChange& c) {
     d.fixed.push_back(fixedNew[k]);
     d.mass.push_back(0);
     d.nodeMark.push_back(0);
+  }
+  for (std::size_t k = 0; k < moves; ++k) {  // in order: a node moved twice ends at its last move
+    const std::uint32_t v = c.movedNodes[k].node;
+    d.mesh.restPositions[v] = movedRest[k];
+    d.mesh.positions[v] = movedPos[k];
+    d.velocity[v] = movedVel[k];
   }
   // Empty regions mean "all region 0": they are spelled out only once another region appears.
   if (d.mesh.regions.empty() && std::any_of(c.tetRegions.begin(), c.tetRegions.end(), [](std::uint32_t r) { return r != 0; }))
@@ -451,6 +509,12 @@ void Simulation::applyTopologyChange(const TopologyChange& c) {
     d.previousVelocity.push_back(vel[k].x);
     d.previousVelocity.push_back(vel[k].y);
     d.previousVelocity.push_back(vel[k].z);
+  }
+  for (std::size_t k = 0; k < moves; ++k) {  // no history at the new place: the warm start is v
+    const std::size_t v = c.movedNodes[k].node;
+    d.previousVelocity[3 * v] = movedVel[k].x;
+    d.previousVelocity[3 * v + 1] = movedVel[k].y;
+    d.previousVelocity[3 * v + 2] = movedVel[k].z;
   }
   d.contactDepth.resize(nodes, 0);
   d.contactNormal.resize(nodes, {});

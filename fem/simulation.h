@@ -111,8 +111,16 @@ struct NodeOrigin {
 // becomes `tetNodes[k]` with material region `tetRegions[k]` — an existing slot rewritten in
 // place, or the next slot past the current end. A new node is fixed when the fixed selector
 // picks its rest position or all its sources are fixed.
+// `movedNodes` (a cut's node smoothing) change the rest shape: each node's rest position,
+// position and velocity become its origin's weighted sum of the values just before that move
+// (applied after newNodes, in list order); every tet around a moved node must be in tetSlots.
+struct NodeMove {
+  std::uint32_t node = 0;
+  NodeOrigin origin;
+};
 struct TopologyChange {
   std::vector<NodeOrigin> newNodes;
+  std::vector<NodeMove> movedNodes;
   std::vector<std::uint32_t> tetSlots;
   std::vector<std::array<std::uint32_t, 4>> tetNodes;
   std::vector<std::uint32_t> tetRegions;

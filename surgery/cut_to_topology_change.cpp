@@ -26,6 +26,15 @@ fem::TopologyChange toTopologyChange(const cutting::CutResult& event, const cutt
     change.newNodes.push_back(o);
   }
 
+  change.movedNodes.reserve(event.movedNodes.size());
+  for (const cutting::MovedNode& m : event.movedNodes) {
+    fem::NodeMove move;
+    move.node = m.index;
+    move.origin.sources = m.sources;
+    move.origin.weights = m.weights;
+    change.movedNodes.push_back(move);
+  }
+
   // A slot may be written twice in one event (split, then re-pointed at a duplicated node):
   // its final content is what counts.
   std::vector<std::uint32_t> slots = event.addedTets;

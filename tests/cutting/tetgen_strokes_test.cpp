@@ -45,7 +45,16 @@ TEST(TetgenStrokes, HundredRandomStrokesKeepTheBallConformingAndItsVolume) {
     }
     ASSERT_LE(test::relativeDifference(cutter.topology().totalRestVolume(), volume), 1e-12) << "stroke " << stroke;
   }
-  const QualityStats after = meshQuality(cutter.topology().toTetMesh());
+  const mesh::TetMesh body = cutter.topology().toTetMesh();
+  const QualityStats after = meshQuality(body);
+  std::size_t below5 = 0, below1 = 0;
+  for (const Tet& t : body.tets) {
+    const auto& r = body.restPositions;
+    const double angle = minDihedralDeg(r[t[0]], r[t[1]], r[t[2]], r[t[3]]);
+    below5 += angle < 5.0;
+    below1 += angle < 1.0;
+  }
+  std::printf("tets below 5 deg: %zu, below 1 deg: %zu\n", below5, below1);
   std::printf("ball: %zu -> %zu tets, %zu splits, %zu slivers kept attached\n  before: %s\n  after:  %s\n",
               before.tets, after.tets, splits, attached, before.summary().c_str(), after.summary().c_str());
   EXPECT_GE(after.minDihedralDeg, 0.75);

@@ -207,6 +207,70 @@ TEST(TopologyChange, AFlipBetweenOldNodesMatchesAFreshSimulation) {
   EXPECT_NEAR(sim.restVolume(), 0.027, 1e-12);
 }
 
+// A node moved at rest (a cut's node smoothing): its new rest position, position and velocity are
+// the weighted sums of the tet that holds the new place, and the tets around it change their rest
+// shape. Oracles: the sums computed here, and a fresh simulation on the changed mesh and state.
+TEST(TopologyChange, ANodeMovedAtRestMatchesAFreshSimulation) {
+  Simulation sim = runningSimulation();
+  const mesh::TetMesh& m = sim.mesh();
+  // The free interior node nearest (0.1, 0.2, 0.1), moved towards the centroid of its first tet.
+  std::uint32_t node = 0;
+  double best = 1e9;
+  for (std::uint32_t i = 0; i < m.nodeCount(); ++i) {
+    const Double3& p = m.restPositions[i];
+    const double d = std::abs(p.x - 0.1) + std::abs(p.y - 0.2) + std::abs(p.z - 0.1);
+    if (d < best && !sim.fixedMask()[i]) best = d, node = i;
+  }
+  std::vector<std::uint32_t> star;
+  for (std::uint32_t t = 0; t < m.tetCount(); ++t)
+    if (std::find(m.tets[t].begin(), m.tets[t].end(), node) != m.tets[t].end()) star.push_back(t);
+  ASSERT_GE(star.size(), 4u);
+  const auto holder = m.tets[star[0]];
+  NodeMove move;
+  move.node = node;
+  move.origin.sources = holder;
+  for (std::size_t i = 0; i < 4; ++i) move.origin.weights[i] = holder[i] == node ? 0.7 : 0.1;
+  Double3 rest{}, pos{}, vel{};
+  for (std::size_t i = 0; i < 4; ++i) {
+    const double w = move.origin.weights[i];
+    const std::uint32_t v = holder[i];
+    rest = {rest.x + w * m.restPositions[v].x, rest.y + w * m.restPositions[v].y, rest.z + w * m.restPositions[v].z};
+    pos = {pos.x + w * m.positions[v].x, pos.y + w * m.positions[v].y, pos.z + w * m.positions[v].z};
+    vel = {vel.x + w * sim.velocities()[v].x, vel.y + w * sim.velocities()[v].y, vel.z + w * sim.velocities()[v].z};
+  }
+  TopologyChange change;
+  change.movedNodes.push_back(move);
+  for (std::uint32_t t : star) {
+    change.tetSlots.push_back(t);
+    change.tetNodes.push_back(m.tets[t]);
+    change.tetRegions.push_back(m.regions[t]);
+  }
+  // Leaving a tet of the star out is refused (its rest shape would be stale), and changes nothing.
+  TopologyChange partial = change;
+  partial.tetSlots.pop_back(), partial.tetNodes.pop_back(), partial.tetRegions.pop_back();
+  const Double3 restBefore = m.restPositions[node];
+  EXPECT_THROW(sim.applyTopologyChange(partial), std::invalid_argument);
+  EXPECT_EQ(sim.mesh().restPositions[node].x, restBefore.x);
+
+  const std::vector<Double3> forcesBefore = sim.elasticForces();
+  sim.applyTopologyChange(change);
+  EXPECT_EQ(sim.mesh().restPositions[node].x, rest.x);
+  EXPECT_EQ(sim.mesh().restPositions[node].y, rest.y);
+  EXPECT_EQ(sim.mesh().restPositions[node].z, rest.z);
+  EXPECT_EQ(sim.positions()[node].x, pos.x);
+  EXPECT_EQ(sim.velocities()[node].z, vel.z);
+  EXPECT_GT(relativeDifference(sim.elasticForces(), forcesBefore), 1e-6);  // the rest shape did change
+  Simulation fresh = freshCopy(sim);
+  EXPECT_EQ(sim.mesh().boundaryFaces, fresh.mesh().boundaryFaces);
+  const auto &massA = sim.nodeMasses(), &massB = fresh.nodeMasses();
+  for (std::size_t i = 0; i < massA.size(); ++i) EXPECT_NEAR(massA[i], massB[i], 1e-12 * massB[i]) << "node " << i;
+  EXPECT_LT(relativeDifference(sim.elasticForces(), fresh.elasticForces()), 1e-10);
+  sim.step();
+  fresh.step();
+  EXPECT_LT(relativeDifference(sim.positions(), fresh.positions()), 1e-10);
+  EXPECT_NEAR(sim.restVolume(), 0.027, 1e-12);  // the node stayed inside its star
+}
+
 TEST(TopologyChange, InvalidChangesThrowAndLeaveTheSimulationUnchanged) {
   Simulation sim = runningSimulation();
   const mesh::TetMesh before = sim.mesh();

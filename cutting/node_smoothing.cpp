@@ -1,0 +1,187 @@
+#include "blobvk/cutting/node_smoothing.h"
+
+#include "blobvk/cutting/vec.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace blobvk::cutting {
+namespace {
+
+// Positive with the same margin for rounding as the flips ask of a new tet.
+bool positiveAt(const std::vector<Double3>& x, const Tet& t, std::uint32_t node, Double3 at) {
+  auto p = [&](std::uint32_t v) { return v == node ? at : x[v]; };
+  const Double3 a = p(t[0]), b = p(t[1]), c = p(t[2]), d = p(t[3]);
+  const double l = std::max({length(b - a), length(c - a), length(d - a)});
+  return tetVolume(a, b, c, d) > 1e-12 * l * l * l;
+}
+
+double qualityAt(const std::vector<Double3>& x, const Tet& t, std::uint32_t node, Double3 at) {
+  auto p = [&](std::uint32_t v) { return v == node ? at : x[v]; };
+  return dihedralQuality(p(t[0]), p(t[1]), p(t[2]), p(t[3]));
+}
+
+}  // namespace
+
+bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std::vector<double>& onCut, MovedNode& move) {
+  if (node < onCut.size() && onCut[node] > 0) return false;
+  const mesh::TetMesh& m = topology.mesh();
+  const auto incident = topology.tetsOfNode(node);
+  if (incident.size() < 4) return false;
+  star_.assign(incident.begin(), incident.end());
+  const std::uint32_t region = m.regions.empty() ? 0u : m.regions[star_[0]];
+  for (std::uint32_t s : star_)
+    if (!m.regions.empty() && m.regions[s] != region) return false;
+  const auto& rest = m.restPositions;
+  const auto& pos = m.positions;
+  const Double3 from = rest[node];
+  double current = 1e300;
+  std::uint32_t worst = star_[0];
+  Double3 centroid{0, 0, 0};
+  double edge = 0;
+  for (std::uint32_t s : star_) {
+    const Tet& t = topology.tet(s);
+    const double q = dihedralQuality(rest[t[0]], rest[t[1]], rest[t[2]], rest[t[3]]);
+    if (q < current) current = q, worst = s;
+    centroid = centroid + (rest[t[0]] + rest[t[1]] + rest[t[2]] + rest[t[3]]) * 0.25;
+    for (std::uint32_t v : t)
+      if (v != node) edge += length(rest[v] - from);
+  }
+  centroid = centroid * (1.0 / double(star_.size()));
+  edge /= double(3 * star_.size());
+  // Away from the face opposite the node in the worst tet: the direction that opens a sliver.
+  const Tet& w = topology.tet(worst);
+  int local = 0;
+  while (w[std::size_t(local)] != node) ++local;
+  const auto& face = kTetFaces[std::size_t(local)];
+  const Double3 fa = rest[w[std::size_t(face[0])]], fb = rest[w[std::size_t(face[1])]], fc = rest[w[std::size_t(face[2])]];
+  Double3 normal = cross(fb - fa, fc - fa);  // kTetFaces are outward: the node is on the inner side
+  normal = normal * (-1.0 / std::max(length(normal), 1e-300));
+  const std::array<Double3, 6> candidates{lerp(from, centroid, 1.0),       lerp(from, centroid, 0.5),
+                                          lerp(from, centroid, 0.25),      from + normal * (0.3 * edge),
+                                          from + normal * (0.15 * edge),   from + normal * (0.05 * edge)};
+  double bestQuality = current + 1e-9;
+  const Double3* best = nullptr;
+  for (const Double3& to : candidates) {
+    double q = 1e300;
+    for (std::uint32_t s : star_) {
+      q = std::min(q, qualityAt(rest, topology.tet(s), node, to));
+      if (q <= bestQuality) break;
+    }
+    if (q <= bestQuality) continue;
+    bool valid = true;
+    for (std::size_t i = 0; i < star_.size() && valid; ++i) valid = positiveAt(rest, topology.tet(star_[i]), node, to);
+    if (!valid) continue;
+    bestQuality = q;
+    best = &to;
+  }
+  if (best == nullptr) return false;
+  // Interior: every face through the node has a tet on each side, i.e. every edge of the link
+  // (the faces opposite the node) is used by exactly two tets of the star (a conforming mesh
+  // has at most two). Checked only for a node that would move.
+  linkEdges_.clear();
+  for (std::uint32_t s : star_) {
+    const Tet& t = topology.tet(s);
+    std::array<std::uint32_t, 3> o{};
+    std::size_t k = 0;
+    for (std::uint32_t v : t)
+      if (v != node) o[k++] = v;
+    linkEdges_.push_back(edgeKey(o[0], o[1]));
+    linkEdges_.push_back(edgeKey(o[0], o[2]));
+    linkEdges_.push_back(edgeKey(o[1], o[2]));
+  }
+  std::sort(linkEdges_.begin(), linkEdges_.end());
+  for (std::size_t i = 0; i < linkEdges_.size(); i += 2)
+    if (i + 1 >= linkEdges_.size() || linkEdges_[i] != linkEdges_[i + 1] ||
+        (i + 2 < linkEdges_.size() && linkEdges_[i + 2] == linkEdges_[i]))
+      return false;
+  // The tet of the star that holds the new position (the largest smallest barycentric weight):
+  // its weights carry the move to the current positions, as the FEM will apply it.
+  double inside = -1e300;
+  for (std::uint32_t s : star_) {
+    const Tet& t = topology.tet(s);
+    const double volume = tetVolume(rest[t[0]], rest[t[1]], rest[t[2]], rest[t[3]]);
+    std::array<double, 4> b{};
+    b[0] = tetVolume(*best, rest[t[1]], rest[t[2]], rest[t[3]]) / volume;
+    b[1] = tetVolume(rest[t[0]], *best, rest[t[2]], rest[t[3]]) / volume;
+    b[2] = tetVolume(rest[t[0]], rest[t[1]], *best, rest[t[3]]) / volume;
+    b[3] = 1.0 - b[0] - b[1] - b[2];
+    const double least = *std::min_element(b.begin(), b.end());
+    if (least > inside) inside = least, move.sources = t, move.weights = b;
+  }
+  move.index = node;
+  // Rest and current position from the weights, summed in source order (as the FEM sums them).
+  Double3 newRest{0, 0, 0}, newPos{0, 0, 0};
+  for (std::size_t i = 0; i < 4; ++i) {
+    const double wi = move.weights[i];
+    const Double3 r = rest[move.sources[i]], p = pos[move.sources[i]];
+    newRest = {newRest.x + wi * r.x, newRest.y + wi * r.y, newRest.z + wi * r.z};
+    newPos = {newPos.x + wi * p.x, newPos.y + wi * p.y, newPos.z + wi * p.z};
+  }
+  // The weights' rounding moves the point by ~1e-16: check the star again at what is stored.
+  for (std::uint32_t s : star_) {
+    const Tet& t = topology.tet(s);
+    if (!positiveAt(rest, t, node, newRest) || (&rest != &pos && !positiveAt(pos, t, node, newPos))) return false;
+  }
+  // The spatial hash needs a tet again only when the node left the tet's box (positions, as the
+  // hash boxes them): otherwise the new box lies inside the old one, which its listing covers.
+  leftBox_.clear();
+  for (std::uint32_t s : star_) {
+    const Tet& t = topology.tet(s);
+    Double3 lo = pos[t[0]], hi = pos[t[0]];
+    for (std::uint32_t v : t) {
+      lo = {std::min(lo.x, pos[v].x), std::min(lo.y, pos[v].y), std::min(lo.z, pos[v].z)};
+      hi = {std::max(hi.x, pos[v].x), std::max(hi.y, pos[v].y), std::max(hi.z, pos[v].z)};
+    }
+    const bool inside = newPos.x >= lo.x && newPos.y >= lo.y && newPos.z >= lo.z && newPos.x <= hi.x &&
+                        newPos.y <= hi.y && newPos.z <= hi.z;
+    leftBox_.push_back(inside ? 0 : 1);
+  }
+  topology.moveNode(node, newPos, newRest);
+  return true;
+}
+
+std::size_t NodeSmoothing::improve(CutTopology& topology, SpatialGrid& grid, std::span<const std::uint32_t> seeds,
+                                   double belowDeg, const std::vector<double>& onCut, FlipChangeSet change,
+                                   std::vector<MovedNode>& moved) {
+  if (listed_.size() < topology.slotCount()) listed_.resize(topology.slotCount() + topology.slotCount() / 2, 0);
+  for (std::uint32_t s : change.addedTets) listed_[s] = 1;
+  const double bar = -std::cos(belowDeg * (3.14159265358979323846 / 180.0));
+  std::size_t moves = 0;
+  const auto& rest = topology.mesh().restPositions;
+  if (tried_.size() < rest.size()) tried_.resize(rest.size() + rest.size() / 2, 0);
+  for (std::uint32_t slot : seeds) {
+    if (slot >= topology.slotCount() || !topology.alive(slot)) continue;
+    const Tet t = topology.tet(slot);
+    // Only a node no cut surface holds can move; most nodes of a bad child are cut points.
+    bool any = false;
+    for (std::uint32_t node : t) any = any || node >= onCut.size() || onCut[node] <= 0;
+    if (!any) continue;
+    for (std::uint32_t node : t) {
+      if ((node < onCut.size() && onCut[node] > 0) || tried_[node]) continue;
+      if (dihedralQuality(rest[t[0]], rest[t[1]], rest[t[2]], rest[t[3]]) >= bar) break;
+      tried_[node] = 1;
+      triedNodes_.push_back(node);
+      MovedNode move;
+      if (!tryNode(topology, node, onCut, move)) continue;
+      ++moves;
+      moved.push_back(move);
+      for (std::size_t i = 0; i < star_.size(); ++i) {
+        const std::uint32_t s = star_[i];
+        if (!listed_[s]) {
+          listed_[s] = 1;
+          change.removedTets.push_back(s);
+          change.removedTetNodes.push_back(topology.tet(s));
+          change.addedTets.push_back(s);
+        }
+        if (leftBox_[i]) grid.insert(topology, s);
+      }
+    }
+  }
+  for (std::uint32_t s : change.addedTets) listed_[s] = 0;
+  for (std::uint32_t n : triedNodes_) tried_[n] = 0;
+  triedNodes_.clear();
+  return moves;
+}
+
+}  // namespace blobvk::cutting

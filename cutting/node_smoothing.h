@@ -1,0 +1,58 @@
+// Node smoothing at rest after a cut event's flips: a tet the event wrote that is still below the
+// threshold gets its free nodes moved, one at a time, to where the smallest dihedral angle of the
+// tets around the node is largest among a few candidates (towards the centroid of its star, and
+// away from the face opposite it in the worst tet). Flips cannot reach a tet whose bad angle needs
+// a node moved; this can, without adding or removing a tet.
+// A node is free when the crack never touched it (it lies on no cut surface: moving it would move
+// the crack), no face around it is on the boundary (crack faces included: the shape and parts are
+// kept), and all its tets have one region (each region keeps its volume: the union of the star is
+// unchanged, only the node inside it moves). A move is taken only when every tet around the node
+// stays positive at rest and in the current positions and the star's smallest angle rises.
+// The FEM takes a move as a change of the rest shape of the node's tets (fem::TopologyChange::
+// movedNodes): the node's new rest position is a barycentric combination of the tet that held it,
+// so its position and velocity in a deformed body follow from the same weights.
+// Deterministic: seeds in slot order, nodes in tet order.
+#pragma once
+
+#include "blobvk/cutting/local_flips.h"
+#include "blobvk/cutting/spatial_grid.h"
+#include "blobvk/cutting/topology.h"
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace blobvk::cutting {
+
+// A node moved at rest: its new rest position (and current position) is sum(weights[i] *
+// value(sources[i])), the values as they were just before this move (sources: the nodes of the
+// tet that contained the new rest position, the moved node possibly among them).
+struct MovedNode {
+  std::uint32_t index = 0;
+  std::array<std::uint32_t, 4> sources{};
+  std::array<double, 4> weights{};
+};
+
+class NodeSmoothing {
+ public:
+  // Tries the free nodes of the tets of `seeds` (sorted slots) below `belowDeg`. `onCut[n] > 0`
+  // marks a node on a cut surface (the cutter's snap reach), never moved. Every tet around a moved
+  // node is appended to the change set (listed as removed with its unchanged nodes when the event
+  // had not written it) and registered in the grid; each move is appended to `moved`, in order.
+  // Returns the number of moves.
+  std::size_t improve(CutTopology& topology, SpatialGrid& grid, std::span<const std::uint32_t> seeds, double belowDeg,
+                      const std::vector<double>& onCut, FlipChangeSet change, std::vector<MovedNode>& moved);
+
+ private:
+  bool tryNode(CutTopology& topology, std::uint32_t node, const std::vector<double>& onCut, MovedNode& move);
+
+  std::vector<std::uint8_t> listed_;  // by slot: in the change set's addedTets
+  std::vector<std::uint8_t> tried_;   // by node: tried in this call (a node is tried once)
+  std::vector<std::uint32_t> triedNodes_;
+  std::vector<std::uint32_t> star_;
+  std::vector<std::uint64_t> linkEdges_;
+  std::vector<std::uint8_t> leftBox_;  // by star position: the move took the node out of the tet's box
+};
+
+}  // namespace blobvk::cutting
