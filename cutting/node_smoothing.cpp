@@ -95,6 +95,15 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
     if (i + 1 >= linkEdges_.size() || linkEdges_[i] != linkEdges_[i + 1] ||
         (i + 2 < linkEdges_.size() && linkEdges_[i + 2] == linkEdges_[i]))
       return false;
+  // One sphere, not several touching at the node (V - E + F = 2): only then is the union of the
+  // star a ball around the node that the move keeps.
+  linkNodes_.clear();
+  for (std::uint32_t s : star_)
+    for (std::uint32_t v : topology.tet(s))
+      if (v != node) linkNodes_.push_back(v);
+  std::sort(linkNodes_.begin(), linkNodes_.end());
+  const std::size_t vertices = std::size_t(std::unique(linkNodes_.begin(), linkNodes_.end()) - linkNodes_.begin());
+  if (vertices + star_.size() != linkEdges_.size() / 2 + 2) return false;
   // The tet of the star that holds the new position (the largest smallest barycentric weight):
   // its weights carry the move to the current positions, as the FEM will apply it.
   double inside = -1e300;

@@ -52,6 +52,7 @@ class NodeSmoothing {
   std::vector<std::uint32_t> triedNodes_;
   std::vector<std::uint32_t> star_;
   std::vector<std::uint64_t> linkEdges_;
+  std::vector<std::uint32_t> linkNodes_;
   std::vector<std::uint8_t> leftBox_;  // by star position: the move took the node out of the tet's box
 };
 
