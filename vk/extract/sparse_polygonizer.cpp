@@ -110,7 +110,8 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
   const std::uint64_t perBrick = R * R * R * 4   // field
                                  + R * R * 24    // inside and edge masks (+ first vertex), vertex segments
                                  + B * B * 4     // triangle segments
-                                 + 32;           // neighbours
+                                 + 32 + 16       // neighbours, segment record
+                                 + 4;            // place in the field tiles' order
   const std::uint64_t scan = (scanScratchWords(bricks.count() + 1) + scanScratchWords(activeBricks * R * R) +
                               scanScratchWords(activeBricks * B * B)) * 4;
   // Outputs, and where each vertex and triangle comes from (8 bytes each).
