@@ -1,7 +1,8 @@
 // Sparse GPU marching cubes over bricks of B^3 cells (docs/vulkan.md, "Sparse extraction"):
 //  1. brick_classify: a conservative interval of the field over each brick's grid points (the
 //     CPU's early-discard bound, cpu_simd/field_bounds.cpp, run on the device); bricks whose
-//     samples provably lie on one side of the iso value are dropped;
+//     samples provably lie on one side of the iso value are dropped; large grids run coarser
+//     levels (bricks of 2B, 4B, ...) first, and a brick whose parent was dropped is dropped;
 //  2. an exclusive scan of the flags and brick_compact: the active bricks in (bz, by, bx) order;
 //  3. brick_field: the field at the (B+1)^3 points of each active brick only, one lane per row
 //     of points, and the row's inside bits packed in one word; brick_neighbours: each brick's
