@@ -9,11 +9,19 @@ layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 #include "program_masks.glsl"
 
 layout(std430, set = 0, binding = 5) writeonly buffer ActiveFlags { uint activeFlags[]; };
+// With pc.parents.w = 1: the flags of a first pass over bricks of twice the size (2 x 2 x 2 of
+// these each). A brick inside a dropped parent is dropped without its own bound: the parent's box
+// holds its box, so its samples are on the parent's one side. On llvmpipe a vector of lanes whose
+// parents are all dropped leaves the interval loop after one pass; where most of the grid is
+// dropped (random128: 80 % of its bricks of 8 cells lie in dropped bricks of 16), the two passes
+// cost less than one.
+layout(std430, set = 0, binding = 6) readonly buffer ParentFlags { uint parentFlags[]; };
 
 layout(push_constant) uniform Push {
   vec4 originCell;          // grid origin, cell size
   uvec4 cells;              // cells per axis, w = log2(B)
   uvec4 bricks;             // bricks per axis, w = code length
+  uvec4 parents;            // parent bricks per axis, w = 1: use parentFlags
 } pc;
 
 const float INF = 1.0 / 0.0;  // +infinity
@@ -218,6 +226,14 @@ void main() {
   uvec3 b = gl_GlobalInvocationID;
   if (any(greaterThanEqual(b, pc.bricks.xyz))) return;
   uint brick = (b.z * pc.bricks.y + b.y) * pc.bricks.x + b.x;
+  if (brick == 0u) activeFlags[pc.bricks.x * pc.bricks.y * pc.bricks.z] = 0u;
+  if (pc.parents.w != 0u) {
+    uvec3 q = b >> 1u;
+    if (parentFlags[(q.z * pc.parents.y + q.y) * pc.parents.x + q.x] == 0u) {
+      activeFlags[brick] = 0u;
+      return;
+    }
+  }
   uint B = 1u << pc.cells.w;
   uvec3 first = b * B, last = min(first + B, pc.cells.xyz);
   Box box = Box(pc.originCell.xyz + pc.originCell.w * vec3(first), pc.originCell.xyz + pc.originCell.w * vec3(last));
@@ -227,7 +243,6 @@ void main() {
   float margin = 1e-3 * max(1.0, max(abs(f.x), abs(f.y)));
   bool uniformSide = !gaveUp && (f.y < ISO_VALUE - margin || f.x >= ISO_VALUE + margin);
   activeFlags[brick] = uniformSide ? 0u : 1u;
-  if (brick == 0u) activeFlags[pc.bricks.x * pc.bricks.y * pc.bricks.z] = 0u;
 }
 
 #endif

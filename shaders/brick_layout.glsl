@@ -12,7 +12,7 @@
 // Rows of points (fixed y, z) of an active brick are *segments*; the global order of vertices
 // (by edge key: point z, then y, then x) is the order of segments
 //   [bz][local z][by][local y][k-th active brick of brick row (bz, by)],
-// so a segment's position in that order (segmentPosition) and one scan of the segments' vertex
+// so a segment's position in that order (segmentOf) and one scan of the segments' vertex
 // counts give every vertex its global index. Triangles (cell order) likewise with rows of cells.
 #ifndef BLOBVK_BRICK_LAYOUT_GLSL
 #define BLOBVK_BRICK_LAYOUT_GLSL
@@ -43,18 +43,32 @@ layout(std140, set = 0, binding = CASES_BINDING) uniform Cases { uvec4 cases[256
 uint caseEdge(uvec4 entry, uint j) { return j < 8u ? (entry.y >> (4u * j)) & 15u : (entry.z >> (4u * (j - 8u))) & 15u; }
 #endif
 
+// Where brick a's rows go in the segment order, as the per-row kernels read it in one load
+// (brick_neighbours.comp writes it per brick of a batch): x = the brick's packed coordinates,
+// y / z = the position of its row (0, 0) of points / of cells, counted from the batch's first
+// segment, w = the active bricks in its slice (bz) | those in its row of bricks (bz, by) << 21.
+// Row (rowY, rowZ) is then at base + rowZ * rows * slice + rowY * row (segmentOf): the bricks of
+// a slice before this one's row come first at each local z, then those of its row at each local y.
+uint segmentOf(uvec4 s, uint base, uint rows, uint rowY, uint rowZ) {
+  return base + rowZ * rows * (s.w & 0x1fffffu) + rowY * (s.w >> 21);
+}
+
 #ifdef BRICK_SCAN_BINDING
 layout(std430, set = 0, binding = BRICK_SCAN_BINDING) readonly buffer BrickScan { uint brickScan[]; };
 
-// Position of brick-local row (rowY, rowZ) of active brick `a` at brick coordinates b in the
-// global segment order, for `rows` local rows per axis (R for point rows, B for cell rows).
-uint segmentPosition(uint a, uvec3 b, uvec3 bricks, uint rowY, uint rowZ, uint rows) {
+// segmentOf's record of active brick `a` (global number) at brick coordinates b, for a batch whose
+// first active brick is activeBase; `coords` is the brick's packed coordinates. Unsigned
+// arithmetic wraps, the positions it gives are those of the whole order minus the batch's start.
+uvec4 brickSegments(uint a, uint coords, uvec3 b, uvec3 bricks, uint activeBase, uint log2B) {
+  uint B = 1u << log2B, R = B + 1u;
   uint slice = b.z * bricks.y * bricks.x;
   uint row = (b.z * bricks.y + b.y) * bricks.x;
   uint sliceStart = brickScan[slice], sliceCount = brickScan[slice + bricks.y * bricks.x] - sliceStart;
   uint rowStart = brickScan[row], rowCount = brickScan[row + bricks.x] - rowStart;
-  return rows * rows * sliceStart + rowZ * rows * sliceCount + rows * (rowStart - sliceStart) + rowY * rowCount +
-         (a - rowStart);
+  uint inRow = a - rowStart, beforeRow = rowStart - sliceStart;
+  uint pointBase = R * R * sliceStart + R * beforeRow + inRow - activeBase * R * R;
+  uint cellBase = B * B * sliceStart + B * beforeRow + inRow - activeBase * B * B;
+  return uvec4(coords, pointBase, cellBase, sliceCount | (rowCount << 21));
 }
 #endif
 

@@ -1,29 +1,27 @@
 #version 450
 // Sparse extraction, pass 5: per row of points of an active brick (brick_layout.glsl), one
-// invocation finds, from the inside masks of brick_masks.comp, the crossing upper edges of the
+// invocation finds, from the inside masks of brick_field.comp, the crossing upper edges of the
 // points the row owns (bit x of edges.x, .y, .z: the +x, +y, +z edge of point x) and stores the
 // row's vertex count at its segment position; for local y, z < B, the triangle count of the row
 // of cells likewise. Invocation x is the row (y + z * R), y + z * (groups in y) the active brick
 // of the batch (vk/extract/sparse_batches.cpp: bricks run in batches of whole brick layers;
-// `bricks` and every per-brick array hold the batch's, segment positions are the batch's share of
-// the global order). edges.w is left for brick_sources.comp (the row's first vertex).
+// every per-brick array holds the batch's, segment positions are the batch's share of the global
+// order: `segments`, brick_layout.glsl's segmentOf). edges.w is left for brick_sources.comp (the row's first vertex).
 #extension GL_GOOGLE_include_directive : require
 #include "program_layout.h"
 #include "common.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Masks { uint masks[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Bricks { uint bricks[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Segments { uvec4 segments[]; };  // brick_neighbours.comp
 layout(std430, set = 0, binding = 3) writeonly buffer Edges { uvec4 edges[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer VertexSegments { uint vertexSegments[]; };
 layout(std430, set = 0, binding = 5) writeonly buffer TriangleSegments { uint triangleSegments[]; };
 #define CASES_BINDING 2
-#define BRICK_SCAN_BINDING 6
 #include "brick_layout.glsl"
 
 layout(push_constant) uniform Push {
   uvec4 cells;   // cells per axis, w = log2(B)
   uvec4 bricks;  // bricks per axis, w = active bricks of this batch
-  uint activeBase;  // the batch's first active brick: brick a here is brick activeBase + a globally
 } pc;
 
 void main() {
@@ -32,7 +30,8 @@ void main() {
   uint a = gl_GlobalInvocationID.y + gl_GlobalInvocationID.z * gl_NumWorkGroups.y;
   if (r >= R * R || a >= pc.bricks.w) return;
   uint lz = divideSmall(r, R), ly = r - lz * R;
-  uvec3 b = unpackBrick(bricks[a]);
+  uvec4 seg = segments[a];
+  uvec3 b = unpackBrick(seg.x);
   uvec3 g0 = b << pc.cells.w;
   uint gy = g0.y + ly, gz = g0.z + lz;
   uint row = a * R * R + r;
@@ -51,7 +50,7 @@ void main() {
     e.z = gz < pc.cells.z ? (m ^ mz) & owned : 0u;
   }
   edges[row].xyz = e;
-  uint s = segmentPosition(pc.activeBase + a, b, pc.bricks.xyz, ly, lz, R) - pc.activeBase * R * R;
+  uint s = segmentOf(seg, seg.y, R, ly, lz);
   vertexSegments[s] = bitCount(e.x) + bitCount(e.y) + bitCount(e.z);
   if (ly < B && lz < B) {
     uint triangles = 0u;
@@ -62,7 +61,7 @@ void main() {
         triangles += cases[config].x;
       }
     }
-    uint t = segmentPosition(pc.activeBase + a, b, pc.bricks.xyz, ly, lz, B) - pc.activeBase * B * B;
+    uint t = segmentOf(seg, seg.z, B, ly, lz);
     triangleSegments[t] = triangles;
   }
 }

@@ -12,7 +12,7 @@
 #include "common.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Masks { uint masks[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Bricks { uint bricks[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Segments { uvec4 segments[]; };  // brick_neighbours.comp
 layout(std430, set = 0, binding = 3) buffer Edges { uvec4 edges[]; };
 layout(std430, set = 0, binding = 4) readonly buffer VertexSegments { uint vertexSegments[]; };      // scanned
 layout(std430, set = 0, binding = 5) readonly buffer TriangleSegments { uint triangleSegments[]; };  // scanned
@@ -21,13 +21,11 @@ layout(std430, set = 0, binding = 5) readonly buffer TriangleSegments { uint tri
 layout(std430, set = 0, binding = 6) writeonly buffer VertexSources { uvec2 vertexSources[]; };
 layout(std430, set = 0, binding = 7) writeonly buffer TriangleSources { uvec2 triangleSources[]; };
 #define CASES_BINDING 2
-#define BRICK_SCAN_BINDING 8
 #include "brick_layout.glsl"
 
 layout(push_constant) uniform Push {
   uvec4 cells;      // cells per axis, w = log2(B)
   uvec4 bricks;     // bricks per axis, w = bricks of this batch (those it emits and the next layer's)
-  uint activeBase;  // the batch's first active brick
   uint ownActive;   // bricks the batch emits
 } pc;
 
@@ -37,9 +35,10 @@ void main() {
   uint a = gl_GlobalInvocationID.y + gl_GlobalInvocationID.z * gl_NumWorkGroups.y;
   if (r >= R * R || a >= pc.bricks.w) return;
   uint lz = divideSmall(r, R), ly = r - lz * R;
-  uvec3 b = unpackBrick(bricks[a]);
+  uvec4 seg = segments[a];
+  uvec3 b = unpackBrick(seg.x);
   uint row = a * R * R + r;
-  uint v = vertexSegments[segmentPosition(pc.activeBase + a, b, pc.bricks.xyz, ly, lz, R) - pc.activeBase * R * R];
+  uint v = vertexSegments[segmentOf(seg, seg.y, R, ly, lz)];
   edges[row].w = v;
   if (a >= pc.ownActive) return;  // the next layer's rows: only their first vertex, for this batch's triangles
   uvec3 e = edges[row].xyz;
@@ -51,7 +50,7 @@ void main() {
   uvec3 g0 = b << pc.cells.w;
   if (ly >= B || lz >= B || g0.y + ly >= pc.cells.y || g0.z + lz >= pc.cells.z) return;
   uint m = masks[row], my = masks[row + 1u], mz = masks[row + R], myz = masks[row + R + 1u];
-  uint t = triangleSegments[segmentPosition(pc.activeBase + a, b, pc.bricks.xyz, ly, lz, B) - pc.activeBase * B * B];
+  uint t = triangleSegments[segmentOf(seg, seg.z, B, ly, lz)];
   // Cells whose corners are not all inside or all outside (configurations 0 and 255 have no
   // triangle): bit x of `inside` / `outside` is set when the cell's corners x and x + 1 of all four
   // rows are inside / outside.

@@ -2,7 +2,9 @@
 
 #include "blobvk/vk/device/device_timer.h"
 #include "blobvk/vk/device/error.h"
+#include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/gpu_program.h"
+#include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/host_copy.h"
 #include "blobvk/vk/extract/scan.h"
@@ -37,7 +39,8 @@ std::uint64_t perBrickBytes(const BrickGrid& bricks) {
   return R * R * R * 4   // field samples
          + R * R * 24      // inside masks, edge masks and first vertex, vertex segments
          + B * B * 4       // triangle segments
-         + 32;             // the brick's neighbours
+         + 32 + 16         // the brick's neighbours and its segment record
+         + 4;              // its place in the field tiles' order
 }
 
 // Device memory a batch of bricks may take: a quarter of the largest device-local heap.
@@ -118,9 +121,19 @@ struct SparseBatchRunner::State {
   UploadBatch uploads;  // the program and case table ride in the first batch's submit
   GpuProgram gpu;
   std::uint64_t bytes = 0, peakOutputBytes = 0;
-  Buffer batchBricks, field, cases, masks, edges, vertexSegments, triangleSegments, neighbours, segmentScratch, counts;
+  Buffer batchBricks, field, cases, masks, edges, vertexSegments, triangleSegments, neighbours, segments, segmentScratch,
+      counts, fieldOrder;
   std::uint64_t vertexScratch = 0;
-  KernelPtr fieldKernel, vertexKernel;
+  std::uint32_t fieldGroupSize = 0;  // brick_field's work group: one brick's rows of points
+  // The field pass per tile of bricks, each kernel pruned to its tile (brick_tiles.h); one tile
+  // with the program's kernel when the evaluator is not specialised or pruning gains too little.
+  // The vertex pass stays one kernel: vertex kernels with the generated gradient pruned per tile
+  // took tens of seconds to build on lavapipe (random128 at 256 cells: 89 s of start-up against
+  // 4 s) for a fraction of a second per run.
+  std::vector<BrickTile> tiles;
+  std::vector<KernelPtr> fieldKernels;
+  KernelPtr vertexKernel;
+  std::vector<std::uint32_t> batchPacked;  // host copy of a batch's brick list (tiles only)
   DeviceTimer timer;
   std::uint32_t runs = 0, maxBatches = 0;
 
@@ -143,15 +156,39 @@ struct SparseBatchRunner::State {
     vertexSegments = make(maxRows * 4, "vertex segments");
     triangleSegments = make(maxCellRows * 4, "triangle segments");
     neighbours = make(std::uint64_t(maxLoaded) * 32, "brick neighbours");
+    segments = make(std::uint64_t(maxLoaded) * 16, "brick segment records");
     vertexScratch = scanScratchWords(maxRows);
     segmentScratch = make((vertexScratch + scanScratchWords(maxCellRows) + 1) * 4, "segment scan scratch");
-    counts = device.createBuffer(16, MemoryUse::Readback);
-    fieldKernel = evaluatorKernel(device, gpu, "brick_field", o.workgroupSize, traversal);
+
+    // One lane per row of points: a work group holds a brick's R^2 rows rounded up to a vector of 8
+    // (llvmpipe runs an idle vector through the whole evaluator), within the device's limits.
+    const auto& limits = device.info().limits;
+    fieldGroupSize = std::min<std::uint32_t>({std::uint32_t(R * R + 7) / 8 * 8, limits.maxComputeWorkGroupSize[0],
+                                              limits.maxComputeWorkGroupInvocations});
+    fieldOrder = make(std::uint64_t(maxLoaded) * 4, "field tile order");
     // Without samples to take (no refinement; normals from the gradient), the kernel without the
     // sample loop, whose field evaluator llvmpipe would run once per vertex anyway.
     const bool samples = o.refineSteps > 0 || traversal == Traversal::StackBased;
-    vertexKernel = evaluatorKernel(device, gpu, samples ? "brick_vertices" : "brick_vertices_direct", o.workgroupSize,
-                                   traversal);
+    const char* vertexShader = samples ? "brick_vertices" : "brick_vertices_direct";
+    if (traversal == Traversal::Specialised && o.maxFieldTiles > 1) tiles = planBrickTiles(program, g, bg, o.maxFieldTiles);
+    if (tiles.size() <= 1) {
+      tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
+      fieldKernels.push_back(evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal));
+    } else {
+      const std::uint64_t print = gpu.fingerprint ? gpu.fingerprint : programFingerprint(program);
+      for (const BrickTile& t : tiles) {
+        // A program too large to specialise whole may still fit once pruned to a tile.
+        if (!specialiseTile(program, t.region, gpu.codegen.loops)) {
+          fieldKernels.push_back(evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal));
+          continue;
+        }
+        CodegenOptions c = gpu.codegen;
+        c.region = t.region;
+        fieldKernels.push_back(specialisedKernel(device, program, print, c, "brick_field", fieldGroupSize));
+      }
+    }
+    vertexKernel = evaluatorKernel(device, gpu, vertexShader, o.workgroupSize, traversal);
+    counts = device.createBuffer(16, MemoryUse::Readback);
   }
 };
 
@@ -205,13 +242,27 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const std::uint64_t triangleSegmentCount = std::uint64_t(loaded) * B * B;
   const std::uint32_t rowGroups = (R * R + wg - 1) / wg;
   s.fieldEvaluations += std::uint64_t(loaded) * P;
+  s.fieldTiles = std::uint32_t(st.tiles.size());
+  // The batch's bricks grouped by field tile (the identity with one tile), uploaded for brick_field.
+  BrickTileOrder tileOrder;
+  if (st.tiles.size() > 1) {
+    st.batchPacked.resize(loaded);
+    device.download(st.brickList, st.batchPacked.data(), 4ull * loaded, 4ull * batch.activeBase);
+    tileOrder = orderBricksByTile(st.tiles, st.batchPacked);
+  } else {
+    tileOrder.order.resize(loaded);
+    for (std::uint32_t a = 0; a < loaded; ++a) tileOrder.order[a] = a;
+    tileOrder.starts = {0, loaded};
+  }
+  device.upload(st.fieldOrder, tileOrder.order.data(), 4ull * loaded);
   auto submit = [&](const std::function<void(Recorder&)>& record) {
     device.run(record);
     ++s.submits;
   };
 
-  // 3-5: the field at the batch's points; inside masks per row of points, crossing edges and
-  // counts per row; the two scans; the counts of the layers the batch emits.
+  // 3-5: the field at the batch's points and the inside masks per row of points; each brick's
+  // neighbours and segment record; crossing edges and counts per row; the two scans; the counts
+  // of the layers the batch emits.
   auto t0 = Clock::now();
   submit([&](Recorder& rec) {
     if (run == 0) st.timer.reset(rec);
@@ -219,34 +270,30 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     st.timer.mark(rec, mark);
     rec.copy(st.brickList, 4ull * batch.activeBase, st.batchBricks, 0, 4ull * loaded);
     rec.computeBarrier();
-    {
+    for (std::size_t t = 0; t < st.tiles.size(); ++t) {
+      const std::uint32_t first = tileOrder.starts[t], count = tileOrder.starts[t + 1] - first;
+      if (count == 0) continue;
       struct {
         float originCell[4];
-        std::uint32_t log2B, activeBricks, codeLength;
-      } push{{originCell[0], originCell[1], originCell[2], originCell[3]}, bg.log2B, loaded, gpu.codeLength};
-      const BufferRange bind[7] = {pb[0], pb[1], pb[2], pb[3], pb[4], st.batchBricks, st.field};
-      rec.dispatch(*st.fieldKernel, bind, &push, sizeof(push), (P + wg - 1) / wg, bgroups.y, bgroups.z);
+        std::uint32_t log2B, activeBricks, codeLength, orderBase;
+      } push{{originCell[0], originCell[1], originCell[2], originCell[3]}, bg.log2B, count, gpu.codeLength, first};
+      const BufferRange bind[9] = {pb[0], pb[1], pb[2], pb[3], pb[4], st.batchBricks, st.field, st.masks, st.fieldOrder};
+      const std::uint32_t groups = (R * R + st.fieldGroupSize - 1) / st.fieldGroupSize;
+      const BrickGroups tg = brickGroups(count);
+      rec.dispatch(*st.fieldKernels[t], bind, &push, sizeof(push), groups, tg.y, tg.z);
+    }
+    {
+      const std::uint32_t push[6] = {bg.x, bg.y, bg.z, loaded, batch.activeBase, bg.log2B};
+      const BufferRange bind[4] = {st.batchBricks, st.neighbours, st.segments, st.brickScan};
+      const Groups g = groupsFor(loaded, wg);
+      rec.dispatch(*device.kernel("brick_neighbours", wgSpec), bind, push, sizeof(push), g.x, g.y);
     }
     rec.computeBarrier();
     st.timer.mark(rec, mark + 1);
     {
-      const std::uint32_t push[2] = {bg.log2B, loaded};
-      const BufferRange bind[2] = {st.field, st.masks};
-      rec.dispatch(*device.kernel("brick_masks", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
-    }
-    rec.computeBarrier();
-    {
-      const std::uint32_t push[9] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded,
-                                     batch.activeBase};
-      const BufferRange bind[7] = {st.masks,          st.batchBricks,      st.cases,    st.edges,
-                                   st.vertexSegments, st.triangleSegments, st.brickScan};
+      const std::uint32_t push[8] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded};
+      const BufferRange bind[6] = {st.masks, st.segments, st.cases, st.edges, st.vertexSegments, st.triangleSegments};
       rec.dispatch(*device.kernel("brick_rows", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
-    }
-    {
-      const std::uint32_t push[5] = {bg.x, bg.y, bg.z, loaded, batch.activeBase};
-      const BufferRange bind[3] = {st.batchBricks, st.neighbours, st.brickScan};
-      const Groups g = groupsFor(loaded, wg);
-      rec.dispatch(*device.kernel("brick_neighbours", wgSpec), bind, push, sizeof(push), g.x, g.y);
     }
     rec.computeBarrier();
     st.timer.mark(rec, mark + 2);
@@ -316,10 +363,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     rec.computeBarrier();
     st.timer.mark(rec, mark + 4);
     if (vertices || triangles) {
-      const std::uint32_t push[10] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded,
-                                      batch.activeBase, batch.ownActive};
-      const BufferRange bind[9] = {st.masks,           st.batchBricks,  st.cases,        st.edges,    st.vertexSegments,
-                                   st.triangleSegments, vertexSources, triangleSources, st.brickScan};
+      const std::uint32_t push[9] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded, batch.ownActive};
+      const BufferRange bind[8] = {st.masks,           st.segments,   st.cases,       st.edges, st.vertexSegments,
+                                   st.triangleSegments, vertexSources, triangleSources};
       rec.dispatch(*device.kernel("brick_sources", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
     }
     rec.computeBarrier();

@@ -46,27 +46,71 @@ ClassifyUniforms classifyUniforms(Device& device, const blobtree::Program& progr
   return u;
 }
 
-// brick_classify over every brick of the grid, into flags[0 .. bricks] (the last word 0).
-void recordClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
-                    const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags) {
+// One brick_classify dispatch over the bricks of `bg` into flags[0 .. bricks] (the last word
+// 0); with `parents` (flags of bricks twice the size), bricks in dropped parents are dropped.
+void dispatchClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
+                      const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags,
+                      const BrickGrid* parentGrid, const Buffer& parents) {
   const auto pb = gpu.bindings();
   struct {
     float originCell[4];
-    std::uint32_t cells[4], bricks[4];
+    std::uint32_t cells[4], bricks[4], parents[4];
   } push{{grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize},
          {std::uint32_t(grid.cells.x), std::uint32_t(grid.cells.y), std::uint32_t(grid.cells.z), bg.log2B},
-         {bg.x, bg.y, bg.z, gpu.codeLength}};
+         {bg.x, bg.y, bg.z, gpu.codeLength},
+         {parentGrid ? parentGrid->x : 0, parentGrid ? parentGrid->y : 0, parentGrid ? parentGrid->z : 0,
+          parentGrid ? 1u : 0u}};
   const bool uniform = !uniforms.buffers.empty();
-  const BufferRange bind[6] = {uniform ? BufferRange(uniforms.buffers[0]) : pb[0],
+  const BufferRange bind[7] = {uniform ? BufferRange(uniforms.buffers[0]) : pb[0],
                                uniform ? BufferRange(uniforms.buffers[1]) : pb[1],
                                uniform ? BufferRange(uniforms.buffers[2]) : pb[2],
                                uniform ? BufferRange(uniforms.buffers[3]) : pb[3],
                                uniform ? BufferRange(uniforms.buffers[4]) : pb[4],
-                               flags};
+                               flags,
+                               parents};
   // Constants 3-5: the program's opcode, primitive and warp masks (the others are not used).
   const auto specs = gpu.specs(64, Traversal::Stackless);
   rec.dispatch(*rec.device().kernel(uniform ? "brick_classify_uniform" : "brick_classify", specs), bind, &push,
                sizeof(push), (bg.x + 3) / 4, (bg.y + 3) / 4, (bg.z + 3) / 4);
+}
+
+// A grid of at least this many bricks gets a pass over bricks twice the size first (and so on:
+// at most kMaxParentLevels coarser passes); below it a coarser pass would not pay.
+constexpr std::uint64_t kParentPassBricks = 512;
+constexpr std::size_t kMaxParentLevels = 3;
+
+// The coarser levels' grids and flags, parent of the classified grid first.
+struct ClassifyParents {
+  std::vector<BrickGrid> grids;
+  std::vector<Buffer> flags;
+  Buffer none;  // bound where a pass has no parent
+};
+ClassifyParents classifyParents(Device& device, const BrickGrid& bg, std::uint64_t& bytes) {
+  ClassifyParents p;
+  BrickGrid g = bg;
+  while (g.count() >= kParentPassBricks && p.grids.size() < kMaxParentLevels) {
+    g = {g.log2B + 1, (g.x + 1) / 2, (g.y + 1) / 2, (g.z + 1) / 2};
+    p.grids.push_back(g);
+    p.flags.push_back(makeSparseBuffer(device, (g.count() + 1) * 4, "parent brick flags", bytes));
+  }
+  p.none = makeSparseBuffer(device, 16, "parent brick flags", bytes);
+  return p;
+}
+
+// brick_classify over every brick of the grid, into flags[0 .. bricks] (the last word 0): the
+// coarsest level first, each finer one skipping the bricks its parents dropped.
+void recordClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
+                    const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags,
+                    const ClassifyParents& parents) {
+  for (std::size_t i = parents.grids.size(); i-- > 0;) {
+    const bool top = i + 1 == parents.grids.size();
+    dispatchClassify(rec, gpu, uniforms, grid, parents.grids[i], parents.flags[i], top ? nullptr : &parents.grids[i + 1],
+                     top ? parents.none : parents.flags[i + 1]);
+    rec.computeBarrier();
+  }
+  const bool any = !parents.grids.empty();
+  dispatchClassify(rec, gpu, uniforms, grid, bg, flags, any ? &parents.grids[0] : nullptr,
+                   any ? parents.flags[0] : parents.none);
 }
 
 }  // namespace
@@ -78,8 +122,10 @@ std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Progra
   const GpuProgram gpu = uploadProgram(device, program, Traversal::Stackless);
   const ClassifyUniforms uniforms = uniformRecords ? classifyUniforms(device, program) : ClassifyUniforms{};
   Buffer flags = device.createBuffer((bg.count() + 1) * 4);
+  std::uint64_t bytes = 0;
+  const ClassifyParents parents = classifyParents(device, bg, bytes);
   device.run([&](Recorder& rec) {
-    recordClassify(rec, gpu, uniforms, grid, bg, flags);
+    recordClassify(rec, gpu, uniforms, grid, bg, flags, parents);
     rec.hostBarrier();
   });
   std::vector<std::uint32_t> out(bg.count());
@@ -110,12 +156,14 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
   const std::uint64_t perBrick = R * R * R * 4   // field
                                  + R * R * 24    // inside and edge masks (+ first vertex), vertex segments
                                  + B * B * 4     // triangle segments
-                                 + 32;           // neighbours
+                                 + 32 + 16       // neighbours, segment record
+                                 + 4;            // place in the field tiles' order
   const std::uint64_t scan = (scanScratchWords(bricks.count() + 1) + scanScratchWords(activeBricks * R * R) +
                               scanScratchWords(activeBricks * B * B)) * 4;
   // Outputs, and where each vertex and triangle comes from (8 bytes each).
   const std::uint64_t outputs = vertices * (12 + 8 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * (12 + 8);
-  return (bricks.count() + 1) * 8 + activeBricks * perBrick + scan + outputs + 256 * 4 * 4;
+  const std::uint64_t parentFlags = (bricks.count() / 7 + 8) * 4;  // the classification's coarser passes
+  return (bricks.count() + 1) * 8 + parentFlags + activeBricks * perBrick + scan + outputs + 256 * 4 * 4;
 }
 
 namespace {
@@ -203,10 +251,11 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   Buffer scratch = makeSparseBuffer(device, (scanScratchWords(brickCount + 1) + 1) * 4, "scan scratch", c.bytes);
   Buffer totals = makeSparseBuffer(device, 16, "totals", c.bytes);
   Buffer layerStarts = device.createBuffer((layers + 1) * 4ull, MemoryUse::Readback);
+  const ClassifyParents parents = classifyParents(device, bg, c.bytes);
   device.run([&](Recorder& rec) {
     timer.reset(rec);
     timer.mark(rec, 0);
-    recordClassify(rec, gpu, uniforms, grid, bg, c.scan);
+    recordClassify(rec, gpu, uniforms, grid, bg, c.scan, parents);
     rec.computeBarrier();
     recordExclusiveScan(rec, c.scan.handle(), 0, std::uint32_t(brickCount + 1), scratch.handle(), 0, totals.handle(), 0);
     rec.computeBarrier();

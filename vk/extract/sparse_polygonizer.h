@@ -1,16 +1,18 @@
 // Sparse GPU marching cubes over bricks of B^3 cells (docs/vulkan.md, "Sparse extraction"):
 //  1. brick_classify: a conservative interval of the field over each brick's grid points (the
 //     CPU's early-discard bound, cpu_simd/field_bounds.cpp, run on the device); bricks whose
-//     samples provably lie on one side of the iso value are dropped;
+//     samples provably lie on one side of the iso value are dropped; large grids run coarser
+//     levels (bricks of 2B, 4B, ...) first, and a brick whose parent was dropped is dropped;
 //  2. an exclusive scan of the flags and brick_compact: the active bricks in (bz, by, bx) order;
-//  3. brick_field: the field at the (B+1)^3 points of each active brick only;
-//  4. brick_masks: the inside bits of each row of points packed in one word;
-//  5. brick_rows: crossing edges (three bit masks) and vertex counts per row of points, triangle
+//  3. brick_field: the field at the (B+1)^3 points of each active brick only, one lane per row
+//     of points, and the row's inside bits packed in one word; brick_neighbours: each brick's
+//     upper neighbours and where its rows go in the global order (one record per brick);
+//  4. brick_rows: crossing edges (three bit masks) and vertex counts per row of points, triangle
 //     counts per row of cells, each at its position in the global order
 //     (shaders/brick_layout.glsl), two scans;
-//  6. brick_sources, per row: the row's first vertex, and where each of its vertices and
-//     triangles comes from (brick_neighbours gives each brick its upper neighbours);
-//  7. brick_vertices and brick_triangles, one lane per vertex and per triangle, no search.
+//  5. brick_sources, per row: the row's first vertex, and where each of its vertices and
+//     triangles comes from;
+//  6. brick_vertices and brick_triangles, one lane per vertex and per triangle, no search.
 // Device memory follows the active bricks: besides 8 bytes per brick of the grid, each active
 // brick holds one float per point of its (B+1)^3, 6 words per row of points, 1 per row of cells. The mesh equals
 // cpu::polygonizeReference index by index (vertices in global edge-key order, triangles in cell

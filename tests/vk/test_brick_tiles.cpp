@@ -1,0 +1,115 @@
+// The sparse field pass's tiles of bricks (vk/extract/brick_tiles.h): the plan covers every brick
+// exactly once with a region holding all its points, the batch order groups bricks by tile, and
+// meshes evaluated with kernels pruned per tile are the CPU reference's and, byte for byte, those
+// of one unpruned kernel.
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/extract/brick_tiles.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/sparse_polygonizer.h"
+#include "reference_checks.h"
+#include "shipped_scenes.h"
+#include "vk_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <numeric>
+#include <string>
+#include <vector>
+
+namespace blobvk::testing {
+namespace {
+
+bool regionHolds(const vk::PointRegion& r, const glm::vec3& p) {
+  for (int i = 0; i < 3; ++i)
+    if (p[i] < r.lo[i] || p[i] > r.hi[i]) return false;
+  return true;
+}
+
+std::uint32_t packBrick(std::uint32_t x, std::uint32_t y, std::uint32_t z) { return x | (y << 10) | (z << 20); }
+
+TEST(BrickTiles, CoverEveryBrickOnceWithRegionsHoldingTheirPoints) {
+  for (const char* name : {"tower", "random128"}) {
+    for (std::uint32_t brickCells : {4u, 16u}) {
+      const ShippedScene sc = shipped(name, 100);
+      const vk::BrickGrid bg = vk::brickGridFor(sc.grid, brickCells);
+      const auto tiles = vk::planBrickTiles(sc.program, sc.grid, bg, 8);
+      const std::string what = std::string(name) + " B=" + std::to_string(brickCells);
+      ASSERT_GT(tiles.size(), 1u) << what << ": pruning should pay on this scene";
+      ASSERT_LE(tiles.size(), 8u) << what;
+      const std::uint32_t whole = vk::prunedEvaluationCost(sc.program, {});
+      std::uint32_t cheaper = 0;
+      for (const auto& t : tiles) cheaper += vk::prunedEvaluationCost(sc.program, t.region) < whole ? 1u : 0u;
+      EXPECT_GT(cheaper, 0u) << what;
+      std::vector<std::uint32_t> packed;
+      for (std::uint32_t z = 0; z < bg.z; ++z)
+        for (std::uint32_t y = 0; y < bg.y; ++y)
+          for (std::uint32_t x = 0; x < bg.x; ++x) {
+            std::uint32_t holders = 0;
+            for (const auto& t : tiles) {
+              if (x < t.first[0] || x > t.last[0] || y < t.first[1] || y > t.last[1] || z < t.first[2] || z > t.last[2])
+                continue;
+              ++holders;
+              // The corners of every point the field kernel evaluates for the brick (past the grid's end too).
+              for (std::uint32_t c = 0; c < 8; ++c) {
+                const glm::vec3 p = sc.grid.point(int((x + (c & 1)) * brickCells), int((y + ((c >> 1) & 1)) * brickCells),
+                                                  int((z + (c >> 2)) * brickCells));
+                EXPECT_TRUE(regionHolds(t.region, p)) << what << " brick " << x << "," << y << "," << z;
+              }
+            }
+            EXPECT_EQ(holders, 1u) << what << " brick " << x << "," << y << "," << z;
+            if ((x + y + z) % 3 == 0) packed.push_back(packBrick(x, y, z));  // a sparse batch
+          }
+      const vk::BrickTileOrder order = vk::orderBricksByTile(tiles, packed);
+      ASSERT_EQ(order.starts.size(), tiles.size() + 1);
+      ASSERT_EQ(order.starts.back(), packed.size());
+      std::vector<std::uint32_t> sorted = order.order;
+      std::sort(sorted.begin(), sorted.end());
+      std::vector<std::uint32_t> identity(packed.size());
+      std::iota(identity.begin(), identity.end(), 0u);
+      EXPECT_EQ(sorted, identity) << what << ": the order is a permutation of the batch";
+      for (std::size_t t = 0; t < tiles.size(); ++t)
+        for (std::uint32_t i = order.starts[t]; i < order.starts[t + 1]; ++i) {
+          const std::uint32_t p = packed[order.order[i]];
+          const std::uint32_t b[3] = {p & 1023u, (p >> 10) & 1023u, p >> 20};
+          for (int k = 0; k < 3; ++k) EXPECT_TRUE(b[k] >= tiles[t].first[k] && b[k] <= tiles[t].last[k]) << what;
+          if (i > order.starts[t]) {
+            EXPECT_LT(order.order[i - 1], order.order[i]) << what;
+          }
+        }
+    }
+  }
+}
+
+// Kernels pruned per tile give the reference mesh and the bytes of one whole-program kernel, in
+// one batch and in batches of a few bricks (each batch orders its own bricks by tile).
+TEST_F(VulkanTest, FieldTilesGiveTheBytesOfOneKernel) {
+  for (const char* name : {"tower", "random128"}) {
+    const ShippedScene sc = shipped(name, 48);
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Specialised;
+    o.brickCells = 8;
+    o.maxFieldTiles = 1;
+    vk::GpuStats oneStats;
+    const auto one = vk::polygonize(device(), sc.program, sc.grid, o, &oneStats);
+    EXPECT_EQ(oneStats.fieldTiles, 1u) << name;
+    expectSameMeshAsReference(one, cpu::polygonizeReference(sc.program, sc.grid), 1e-4f * sc.grid.cellSize, name);
+    o.maxFieldTiles = 8;
+    for (std::uint32_t batchBricks : {0u, 9u}) {
+      o.maxBatchBricks = batchBricks;
+      vk::GpuStats st;
+      const auto m = vk::polygonize(device(), sc.program, sc.grid, o, &st);
+      const std::string what = std::string(name) + ", batches of " + std::to_string(batchBricks) + " bricks";
+      EXPECT_GT(st.fieldTiles, 1u) << what;
+      EXPECT_TRUE(sameBytes(m.positions, one.positions)) << what;
+      EXPECT_TRUE(sameBytes(m.normals, one.normals)) << what;
+      EXPECT_TRUE(sameBytes(m.colours, one.colours)) << what;
+      EXPECT_TRUE(sameBytes(m.edgeKeys, one.edgeKeys)) << what;
+      EXPECT_TRUE(sameBytes(m.triangles, one.triangles)) << what;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace blobvk::testing
