@@ -131,7 +131,8 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.submits, gpu.batches, gpu.deviceTimed, gpu.devices,
           gpu.traversal == vk::Traversal::Auto ? std::string() : std::string(vk::traversalName(gpu.traversal)),
           gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds,
-          gpu.edgesSeconds, gpu.scansSeconds, gpu.sourcesSeconds, gpu.verticesSeconds, gpu.trianglesSeconds};
+          gpu.edgesSeconds, gpu.scansSeconds, gpu.sourcesSeconds, gpu.verticesSeconds, gpu.trianglesSeconds,
+          gpu.fieldTiles};
 }
 
 void checkValidation(const std::vector<vk::StandaloneContext*>& contexts, std::uint64_t messagesBefore) {

@@ -112,6 +112,8 @@ void addMeshCommand(CLI::App& app) {
     if (a->ascii && format != "ply") throw UsageError("--ascii is for PLY output");
     if (!a->settings.devices.empty() && a->settings.backend != "vk") throw UsageError("--devices is for the vk backend");
     if (a->settings.cpuWorker && a->settings.backend != "vk") throw UsageError("--cpu-worker is for the vk backend");
+    if (a->settings.cpuWorker && a->settings.tiledVertices)
+      throw UsageError("--cpu-worker shares the sparse extraction's batches; --tiled-vertices has none");
     checkDeviceList(a->settings);
     if (!a->maxMemory.empty()) a->limits.maxMemoryBytes = parseByteSize(a->maxMemory);
     const bool gltf = format == "gltf" || format == "glb";

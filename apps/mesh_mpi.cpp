@@ -83,9 +83,8 @@ void mpiAbort(const std::string& message) {
 
 int mpiLayerOwner(int z, int ranks) {
   if (ranks <= 1) return 0;
-  const int period = 1 + 3 * (ranks - 1);
-  const int slot = z % period;
-  return slot == 0 ? 0 : 1 + (slot - 1) % (ranks - 1);
+  if (ranks >= 3) return 1 + z % (ranks - 1);  // rank 0's joining is a full share already
+  return z % 4 == 0 ? 0 : 1;
 }
 
 cpu::MeshLayer mpiLayer(const MpiWorld& world, cpu::LayerPolygonizer& layers, int z) {
@@ -110,14 +109,8 @@ struct LayerInFlight {
   std::vector<char> bytes;
   MPI_Request request = MPI_REQUEST_NULL;
 };
-}  // namespace
 
-// Non-blocking sends, so that a rank computes its next layer while rank 0 is still joining the
-// previous ones. With shared memory (Open MPI's vader and its single-copy CMA) rank 0 pulls a
-// large message itself once it asks for it; elsewhere the transfer moves on each time this rank
-// enters MPI, i.e. after each layer it computes.
-void mpiServeLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers) {
-  std::deque<LayerInFlight> inFlight;
+void serveLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers, std::deque<LayerInFlight>& inFlight) {
   auto finishOldest = [&inFlight] {
     MPI_Wait(&inFlight.front().request, MPI_STATUS_IGNORE);
     inFlight.pop_front();
@@ -141,5 +134,19 @@ void mpiServeLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers) {
   }
   while (!inFlight.empty()) finishOldest();
 }
+}  // namespace
 
+// Non-blocking sends, so that a rank computes its next layer while rank 0 is still joining the
+// previous ones. With shared memory (Open MPI's vader and its single-copy CMA) rank 0 pulls a
+// large message itself once it asks for it; elsewhere the transfer moves on each time this rank
+// enters MPI, i.e. after each layer it computes.
+void mpiServeLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers) {
+  std::deque<LayerInFlight> inFlight;
+  try {
+    serveLayers(world, layers, inFlight);
+  } catch (const std::exception& e) {
+    // Abort while the buffers of the sends in flight still exist: rank 0 may be reading them.
+    mpiAbort(e.what());
+  }
+}
 }  // namespace blobvk::app

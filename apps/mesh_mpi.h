@@ -28,9 +28,9 @@ void mpiStop();  // MPI_Finalize, when started
 
 // The rank that computes layer z of a job on `ranks` ranks. Rank 0 also joins and writes every
 // layer, which costs about half as much as computing them all (1024^3 tower_L6P8I4, one thread:
-// 8.5 s computing, about 4 s joining, writing and spooling), so it owns a smaller share: one
-// layer in every 1 + 3 (N - 1), the others round-robin over ranks 1..N-1 (2 ranks: a quarter
-// and three quarters). Who computes a layer never changes its bytes.
+// 8.5 s computing, about 4 s joining, writing and spooling), so it owns a smaller share: with 2
+// ranks one layer in 4, with 3 or more none (its joining alone is about a share), the others
+// round-robin over ranks 1..N-1. Who computes a layer never changes its bytes.
 int mpiLayerOwner(int z, int ranks);
 
 // Rank 0: layer z, computed here or received from the rank that owns it. Layers must be asked

@@ -175,7 +175,7 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     const bool built = wholeFits ? isBuilt("vertices", &c) : isBuilt("vertices", nullptr);
     const bool generated = gradient && wholeFits && !whole.looped;
     const double copies = generated ? kGradientVertexKernelCopies : kVertexKernelCopies;
-    const double memoryCopies = generated ? kGradientVertexKernelMemoryCopies : kVertexKernelCopies;
+    const double memoryCopies = generated ? kGradientVertexKernelMemoryCopies : kVertexKernelMemoryCopies;
     v.build = built ? 0.0 : wholeFits ? kernelSeconds(whole, copies) : kInterpreterKernelSeconds;
     v.megabytes = wholeFits && !built ? buildMegabytes(whole.size * memoryCopies) : 0.0;
     v.run = (wholeFits ? evaluationSeconds(whole, meanBranchCost, wholeCost)

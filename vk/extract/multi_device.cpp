@@ -69,6 +69,15 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     }
   }
   if (host && !host->run) host = nullptr;
+  // The host's pieces resolve their last layer's corners from its own run of the next layer, a
+  // device's from its own: the indices agree only where both compute the same floats, which the
+  // CPU and lavapipe do (docs/vulkan.md) and a GPU does not promise.
+  if (host) {
+    for (Device* d : devices)
+      if (d && d->info().type != VK_PHYSICAL_DEVICE_TYPE_CPU)
+        throw VulkanError("GPU polygonizer: the CPU worker joins CPU-type devices only (lavapipe), not " +
+                          std::string(d->info().name));
+  }
   const std::size_t n = devices.size();
   const std::size_t workers = n + (host ? 1 : 0);
   if (workers == 1 || grid.cells.x < 1 || grid.cells.y < 1 || grid.cells.z < 1) {
@@ -113,7 +122,10 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   }
   std::uint64_t ownTarget = ~0ull;
   if (!options.maxBatchBricks) {
-    const std::uint64_t pieces = workers * std::max<std::uint32_t>(options.batchesPerDevice, 1);
+    // With the CPU beside the devices the workers' speeds differ: at least 4 batches each, so that
+    // the faster ones take more.
+    const std::uint32_t perWorker = std::max<std::uint32_t>(options.batchesPerDevice, host ? 4 : 1);
+    const std::uint64_t pieces = workers * perWorker;
     ownTarget = std::max<std::uint64_t>(1, (active + pieces - 1) / pieces);
   }
   const std::vector<SparseBatch> batches = planSparseBatches(classified.layerStarts, limit, range, ownTarget);

@@ -36,8 +36,10 @@ namespace blobvk::vk {
 // a large grid's layer pairs need it, sparse_polygonizer.h) and returns their piece: their
 // vertices (positions, normals, colours, edge keys) in global order and their triangles with
 // indices counted from the piece's first vertex, corners on the next layer's vertices numbered
-// past its own. It must give the devices' bytes. With a host worker one device is enough;
-// `perDevice` then ends with the host's share.
+// past its own. It must give the devices' bytes, so every device must be CPU-type (lavapipe:
+// its floats are the CPU's; throws VulkanError otherwise). With a host worker one device is
+// enough, each worker gets at least 4 batches (their speeds differ), and `perDevice` ends with
+// the host's share.
 struct HostBatchWorker {
   std::function<mesh::TriMesh(std::uint32_t firstLayer, std::uint32_t endLayer, std::uint32_t brickCells)> run;
 };

@@ -65,6 +65,9 @@ struct SparseEvaluator {
   std::optional<CodegenOptions> codegen;  // empty: options.codegen was empty and not needed
   // On CPU drivers, the model's estimate for `traversal` (< 0: none; GpuStats reports them).
   double modelBuildSeconds = -1.0, modelRunSeconds = -1.0;
+  // On CPU drivers, false where the field tiles' extra kernels (brick_tiles.h) would take longer
+  // to build than they save over the job's active bricks: the field is then one kernel.
+  bool fieldTiles = true;
   void report(GpuStats& stats) const;
   // `options` with this evaluator; its codegen points into this object, which must outlive it.
   GpuPolygonizeOptions apply(const GpuPolygonizeOptions& options) const;
@@ -87,7 +90,8 @@ struct ClassifiedBricks {
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                     const BrickGrid& bricks, GpuStats& stats);
 
-// classifyAndCompact with bricks of `brickCells`, halved (down to 4) while two adjacent brick
+// classifyAndCompact with bricks of `brickCells`, halved (down to 4, and while the smaller grid's
+// brick flags still fit one storage buffer of `device`) while two adjacent brick
 // layers hold more active bricks than `rangeBricks(bricks)` (what one storage buffer holds, the
 // least over the job's devices): a batch loads a layer pair, and a large grid's pair can exceed
 // it (lavapipe's 128 MiB range holds 6,829 bricks of 16³; the tower at 2048³ needs 6,885).
