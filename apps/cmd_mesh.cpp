@@ -34,7 +34,8 @@ namespace {
 // The vk backend's figures in `mesh --json` (in memory and streamed alike).
 nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
   return {{"batches", gpu.batches}, {"active_bricks", gpu.activeBricks}, {"device_bytes", gpu.deviceBytes},
-          {"devices", gpu.devices}, {"evaluator", gpu.evaluator}, {"generated_gradient", gpu.vertexGradient}};
+          {"devices", gpu.devices}, {"evaluator", gpu.evaluator}, {"generated_gradient", gpu.vertexGradient},
+          {"brick_cells", gpu.brickCells}, {"field_tiles", gpu.fieldTiles}};
 }
 }  // namespace
 
