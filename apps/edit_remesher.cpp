@@ -51,9 +51,10 @@ class VkRemesher final : public EditRemesher {
     report.fields = {{"classify_ms", st.msClassify},      {"extract_ms", st.msExtract},
                      {"splice_ms", st.msSplice},          {"layers_rerun", st.layersRerun},
                      {"first_layer", st.firstLayer},      {"layers", st.layers},
+                     {"bricks_rerun", st.bricksRerun},    {"bricks", st.bricks},
                      {"active_bricks_rerun", st.gpu.activeBricks}, {"submits", st.gpu.submits},
-                     {"evaluator", st.layersRerun ? vk::traversalName(st.gpu.traversal) : "none"}};
-    report.note = std::to_string(st.layersRerun) + " of " + std::to_string(st.layers) + " brick layers";
+                     {"evaluator", st.bricksRerun ? vk::traversalName(st.gpu.traversal) : "none"}};
+    report.note = std::to_string(st.bricksRerun) + " of " + std::to_string(st.bricks) + " bricks";
     return m;
   }
   // The session's options (the evaluator resolved once), so the bytes must agree.

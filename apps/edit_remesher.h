@@ -25,7 +25,7 @@ struct RemeshReport {
   double ms = 0.0;         // the whole re-mesh
   bool full = false;       // the whole grid was re-meshed
   nlohmann::json fields;   // backend-specific timings and counts for the --json row
-  std::string note;        // "12 of 2890 MPUs" / "2 of 16 brick layers"
+  std::string note;        // "12 of 2890 MPUs" / "18 of 4913 bricks"
 };
 
 class EditRemesher {

@@ -3,9 +3,10 @@
 // at 256 cells, against edit size (a capital point, a pillar's cylinder, a whole pillar, a
 // storey) and brick size (the argument: 16, the default, or 8: thinner layers, more bricks to
 // classify). Each iteration moves the node by +-0.3 (about one cell) and re-meshes. Counters per
-// edit: ms_apply (recompile, region), ms_classify (every brick, one submit), ms_extract (the
-// re-run layers: program upload, field, extraction, read-back), ms_splice, layers_rerun of
-// layers; full_ms: a full vk::polygonize of the same scene with the same (default) options, its
+// edit: ms_apply (recompile, region), ms_classify (the re-run box's bricks, one submit),
+// ms_extract (the box's active bricks: program upload, field, extraction, read-back), ms_splice
+// (row by row), bricks_rerun of bricks (the box), active_bricks_rerun; full_ms: a full
+// vk::polygonize of the same scene with the same (default) options, its
 // kernels already built, in the same process; fraction_of_full: edit latency / full_ms. Each
 // run's evaluator is the cost model's choice for its bricks (IncrementalExtractor). Bytes: tests/vk/test_incremental_extract.cpp.
 //   LP_NUM_THREADS=2 bench_edit_vk --benchmark_counters_tabular=true
@@ -93,7 +94,7 @@ void edit(benchmark::State& state, EditKind kind) {
 
   const blobtree::NodePath path = pathOf(kind);
   const blobtree::Transform home = tree.node(path).transform;
-  double apply = 0, classify = 0, extract = 0, splice = 0, total = 0, layers = 0, bricks = 0, gridLayers = 0;
+  double apply = 0, classify = 0, extract = 0, splice = 0, total = 0, boxBricks = 0, bricks = 0, gridBricks = 0;
   std::int64_t n = 0;
   for (auto _ : state) {
     const auto t0 = Clock::now();
@@ -106,7 +107,7 @@ void edit(benchmark::State& state, EditKind kind) {
     benchmark::DoNotOptimize(m.positions.data());
     total += msSince(t0);
     classify += st.msClassify, extract += st.msExtract, splice += st.msSplice;
-    layers += double(st.layersRerun), bricks += double(st.gpu.activeBricks), gridLayers = double(st.layers);
+    boxBricks += double(st.bricksRerun), bricks += double(st.gpu.activeBricks), gridBricks = double(st.bricks);
     ++n;
   }
   const double k = n ? 1.0 / double(n) : 0.0;
@@ -114,8 +115,8 @@ void edit(benchmark::State& state, EditKind kind) {
   state.counters["ms_classify"] = classify * k;
   state.counters["ms_extract"] = extract * k;
   state.counters["ms_splice"] = splice * k;
-  state.counters["layers_rerun"] = layers * k;
-  state.counters["layers"] = gridLayers;
+  state.counters["bricks_rerun"] = boxBricks * k;
+  state.counters["bricks"] = gridBricks;
   state.counters["active_bricks_rerun"] = bricks * k;
   state.counters["triangles"] = double(inc.mesh().triangleCount());
   state.counters["full_ms"] = full;

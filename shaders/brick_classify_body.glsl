@@ -22,6 +22,9 @@ layout(push_constant) uniform Push {
   uvec4 cells;              // cells per axis, w = log2(B)
   uvec4 bricks;             // bricks per axis, w = code length
   uvec4 parents;            // parent bricks per axis, w = 1: use parentFlags
+  // The bricks classified: [first, end) per axis (the whole grid, or an edit's box of bricks,
+  // vk/extract/incremental_extract.cpp); the host leaves the others' flags at 0.
+  uvec4 first, end;
 } pc;
 
 const float INF = 1.0 / 0.0;  // +infinity
@@ -223,8 +226,8 @@ vec2 fieldBounds(Box query, out bool gaveUp) {
 }
 
 void main() {
-  uvec3 b = gl_GlobalInvocationID;
-  if (any(greaterThanEqual(b, pc.bricks.xyz))) return;
+  uvec3 b = gl_GlobalInvocationID + pc.first.xyz;
+  if (any(greaterThanEqual(b, pc.end.xyz))) return;
   uint brick = (b.z * pc.bricks.y + b.y) * pc.bricks.x + b.x;
   if (brick == 0u) activeFlags[pc.bricks.x * pc.bricks.y * pc.bricks.z] = 0u;
   if (pc.parents.w != 0u) {

@@ -21,57 +21,72 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 #include <string>
 #include <utility>
 
 namespace blobvk::testing {
 namespace {
 
-// The per-layer split assumes a triangle's cell is the least point layer of its corners' edges,
-// i.e. no triangle of the table has all three corners on its cell's top face (z = 1, x/y edges).
-TEST(IncrementalExtractLayout, NoMarchingCubesTriangleLiesInTheTopFace) {
+// The row splice finds a triangle's cell as the least point of its corners' edges per axis
+// (vk/extract/row_splice.cpp), i.e. no triangle of the table has all three corners on one upper
+// face of its cell (x = 1, y = 1 or z = 1, on edges along the other two axes).
+TEST(IncrementalExtractLayout, NoMarchingCubesTriangleLiesInAnUpperFace) {
   int checked = 0;
   for (const mesh::McCase& c : mesh::marchingCubesCases())
     for (int t = 0; t < c.triangleCount; ++t) {
-      int onTop = 0;
-      for (int v = 0; v < 3; ++v) {
-        const int e = c.edges[3 * t + v];
-        onTop += mesh::mcEdgeAxis(e) != 2 && mesh::mcEdgeStart(e)[2] == 1;
+      for (int axis = 0; axis < 3; ++axis) {
+        int onFace = 0;
+        for (int v = 0; v < 3; ++v) {
+          const int e = c.edges[3 * t + v];
+          onFace += mesh::mcEdgeAxis(e) != axis && mesh::mcEdgeStart(e)[axis] == 1;
+        }
+        EXPECT_LT(onFace, 3) << "axis " << axis;
       }
-      EXPECT_LT(onTop, 3);
       ++checked;
     }
   EXPECT_GT(checked, 500);  // every case was looked at (the table has 820 triangles)
 }
 
-// The layers an edit forces, on 4 layers of 16 cells: those holding the points, edges and cells
-// the region reaches, and the one below when a vertex of its top point layer's neighbour (the
-// first point layer of the next) may change; nothing for a region beside or below the grid.
-TEST(IncrementalExtractLayout, LayersReachedByARegion) {
+// The bricks an edit forces, on 4 x 4 x 4 bricks of 16 cells: per axis those owning a point whose
+// edges (vertex, refinement, normal samples) or holding a cell the region reaches; nothing for a
+// region beside or below the grid.
+TEST(IncrementalExtractLayout, BricksReachedByARegion) {
   blobtree::GridSpec grid;
   grid.origin = {0, 0, 0};
   grid.cellSize = 1.0f;
   grid.cells = {64, 64, 64};
-  const auto layers = [&](double zLo, double zHi, double x = 10, float normalStep = 1e-4f) {
+  const vk::BrickGrid bricks = vk::brickGridFor(grid, 16);
+  using P = std::pair<std::uint32_t, std::uint32_t>;
+  const auto reached = [&](double zLo, double zHi, double x = 10, float normalStep = 1e-4f) {
     blobtree::Region r;
     r.grow({x, 10, zLo}, {x + 1, 11, zHi});
-    const vk::LayerRange l = vk::layersReached(grid, 16, 4, r, normalStep);
-    return std::pair<std::uint32_t, std::uint32_t>{l.first, l.end};
+    const vk::BrickBox b = vk::bricksReached(grid, bricks, r, normalStep);
+    if (!b.empty()) {  // x, y in [10, 11]: edges from points 9 .. 11 (4 .. 16 with normal samples 5 away)
+      const P xy = normalStep < 1.0f ? P(0, 1) : P(0, 2);
+      EXPECT_EQ(P(b.first[0], b.end[0]), xy);
+      EXPECT_EQ(P(b.first[1], b.end[1]), xy);
+    }
+    return b.empty() ? P(0, 0) : P(b.first[2], b.end[2]);
   };
-  using P = std::pair<std::uint32_t, std::uint32_t>;
-  EXPECT_EQ(layers(36.5, 37.5), P(2, 3));
-  EXPECT_EQ(layers(33.5, 34.0), P(2, 3));  // edges from point 32 (layer 2's first) keep their vertices
-  EXPECT_EQ(layers(33.0, 34.0), P(1, 3));  // point 33 changes the z edge from 32: layer 1 names it
-  EXPECT_EQ(layers(46.0, 47.9), P(2, 3));
-  EXPECT_EQ(layers(46.0, 48.0), P(2, 4));  // point 48 is layer 3's
-  EXPECT_EQ(layers(36.5, 37.5, 10, 5.0f), P(1, 3));  // normal samples 5 cells away
-  EXPECT_EQ(layers(36.5, 37.5, 200), P(0, 0));  // beside the grid in x
-  EXPECT_EQ(layers(-50, -40), P(0, 0));          // below it
-  EXPECT_EQ(layers(60, 500), P(3, 4));       // past the top
+  EXPECT_EQ(reached(36.5, 37.5), P(2, 3));
+  EXPECT_EQ(reached(33.5, 34.0), P(2, 3));
+  EXPECT_EQ(reached(33.0, 34.0), P(2, 3));  // point 33 changes the z edge from 32, layer 2's own
+  EXPECT_EQ(reached(32.5, 34.0), P(2, 3));
+  EXPECT_EQ(reached(32.0, 34.0), P(1, 3));  // point 32 changes the z edge from 31 and cell 31: layer 1's
+  EXPECT_EQ(reached(46.0, 47.9), P(2, 3));
+  EXPECT_EQ(reached(46.0, 48.0), P(2, 4));  // point 48 is layer 3's
+  EXPECT_EQ(reached(36.5, 37.5, 10, 5.0f), P(1, 3));  // normal samples 5 cells away
+  EXPECT_EQ(reached(36.5, 37.5, 200), P(0, 0));  // beside the grid in x
+  EXPECT_EQ(reached(-50, -40), P(0, 0));          // below it
+  EXPECT_EQ(reached(60, 500), P(3, 4));           // past the top
+  blobtree::Region x;  // the grid's last point (64) belongs to the last brick
+  x.grow({64.0, 0.0, 0.0}, {70.0, 1.0, 1.0});
+  const vk::BrickBox bx = vk::bricksReached(grid, bricks, x, 1e-4f);
+  EXPECT_EQ(P(bx.first[0], bx.end[0]), P(3, 4));
   blobtree::Region all;
   all.grow(glm::dvec3(-1e30), glm::dvec3(1e30));
-  const vk::LayerRange l = vk::layersReached(grid, 16, 4, all, 1e-4f);
-  EXPECT_EQ(P(l.first, l.end), P(0, 4));
+  EXPECT_EQ(vk::bricksReached(grid, bricks, all, 1e-4f).count(), bricks.count());
 }
 
 struct Case {
@@ -203,6 +218,63 @@ TEST_F(IncrementalExtract, ChangesAtTheRegionsEdgesAreKept) {
   }
   EXPECT_EQ(partial, 2 * 16);
   EXPECT_EQ(changed, 2 * 16);  // every nudge reached the caps' vertices
+}
+
+// A vertex count that changes exactly on a brick boundary at the region's edge, along each axis
+// and on both sides: the margin of bricksReached has no slack to lose. A small point (support 2)
+// moves from deep inside a large sphere to where its box's low (high) face lies half a cell before
+// (after) grid point g, the first point of brick m along the axis; the large sphere's field at g
+// is 0.46, the small point adds 0.084 there and nothing a cell further out, so g turns inside and
+// the edge from g - 1 (brick m - 1's, low side) or from g (brick m's, high side) gains or loses
+// its crossing. A box of bricks one point narrower on either side leaves that vertex stale.
+TEST_F(IncrementalExtract, CountChangesOnTheRegionsBoundaryBrick) {
+  const auto point = [](glm::dvec3 c, double support) {
+    blobtree::Primitive p;
+    p.a = c;
+    p.support = support;
+    return blobtree::Node{p, "", {}, {}};
+  };
+  blobtree::GridSpec grid;
+  grid.origin = {-16.0f, -16.0f, -16.0f};
+  grid.cellSize = 1.0f;
+  grid.cells = {32, 32, 32};
+  vk::GpuPolygonizeOptions options;
+  options.brickCells = 4;
+  options.traversal = vk::Traversal::Stackless;
+  const double bigR = 10.0, r = 2.0;
+  const double bigD = bigR * std::sqrt(1.0 - std::cbrt(0.46));  // the large sphere's field is 0.46 at g
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side : {-1, +1}) {
+      glm::ivec3 g(14, 14, 14);
+      g[axis] = 16;  // the first point of brick 4 along the axis
+      const glm::dvec3 gp = glm::dvec3(grid.origin) + glm::dvec3(g);
+      glm::dvec3 out(0.0);
+      out[axis] = side;  // from g away from the sphere's centre, the way the small point pushes
+      const glm::dvec3 bigCentre = gp - bigD * out;
+      const glm::dvec3 target = gp - (r - 0.5) * out;  // its box's face half a cell past g
+      blobtree::EditableTree tree(
+          blobtree::Node{blobtree::Operator{}, "", {}, {point(bigCentre, bigR), point(bigCentre, r)}});
+      vk::IncrementalExtractor inc(device(), grid, options);
+      const mesh::TriMesh before = inc.reset(tree.program());
+      blobtree::Transform t;
+      t.translate = target - bigCentre;
+      const blobtree::Region region = tree.apply({{1}, blobtree::SetTransform{t}});
+      vk::IncrementalGpuStats st;
+      const mesh::TriMesh& got = inc.update(tree.program(), region, &st);
+      const std::string what = "axis " + std::to_string(axis) + " side " + std::to_string(side);
+      expectSameMeshBytes(got, vk::polygonize(device(), tree.program(), grid, inc.options()), what);
+      EXPECT_FALSE(st.full) << what;
+      // The boundary brick is in the box: m - 1 on the low side (the face before g), m on the high.
+      EXPECT_EQ(side < 0 ? st.box.first[axis] : st.box.end[axis] - 1, side < 0 ? 3u : 4u) << what;
+      // The edge the test is about gained or lost its vertex: one starting at g - 1 (low side) or
+      // g (high side) along the axis, at g's other coordinates.
+      std::set<std::uint64_t> a(before.edgeKeys.begin(), before.edgeKeys.end()), b(got.edgeKeys.begin(), got.edgeKeys.end());
+      glm::ivec3 e = g;
+      e[axis] += side < 0 ? -1 : 0;
+      const std::uint64_t key = grid.edgeKey(e.x, e.y, e.z, axis);
+      EXPECT_NE(a.count(key), b.count(key)) << what << ": the edge at the boundary brick kept its crossing";
+      if (HasFailure()) return;
+    }
 }
 
 TEST_F(IncrementalExtract, EmptyRegionKeepsTheMeshAndUpdateNeedsAReset) {

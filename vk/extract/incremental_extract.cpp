@@ -1,20 +1,24 @@
 // IncrementalExtractor (see incremental_extract.h).
 //
-// Why whole brick layers: within a layer the sparse path orders vertices by global edge key and
-// triangles by cell, interleaving the layer's bricks row by row, so the smallest contiguous
-// piece of the output that one batch produces is a run of whole layers. A batch emitting layers
-// [first, end) loads layer `end` too (the triangles of its last layer name vertices there), so
-// given the vertex base of layer `first` in the kept mesh, its triangles come out with their
-// final indices.
+// Why a box of bricks, spliced row by row: the sparse path orders vertices by global edge key and
+// triangles by cell, so a brick's output is spread over its rows, each contiguous with the rows of
+// its neighbours along x. The re-run classifies only the box (classifyAndCompact's `only`: the
+// bricks outside count as inactive), so the batches number and run the box's active bricks alone
+// and give its vertices in key order and its triangles in cell order. The triangles' corners on
+// the box's upper faces belong to vertices of bricks outside it, which the run does not load, so
+// its triangles come back as edge keys (brick_triangle_keys.comp) and row_splice.cpp finds every
+// corner's index in the spliced mesh.
 //
-// Why the bricks are classified again over the whole grid: the batch runner reads the active
-// bricks' global numbering (the scanned flags) to find a brick's neighbours, and
-// classifyAndCompact covers the grid. Narrowing it to the re-run layers needs brick_classify to
-// take a first layer; it is a sixth of an edit of tower_L6P8I4 at 256 (docs/performance.md).
+// Which neighbours' vertices a brick's triangles use: a cell's corners are the upper edges of its
+// 8 corner points, so a brick's triangles name vertices of its own points and of the points on
+// its upper faces, owned by its +x, +y, +z neighbours (brick_layout.glsl). Hence a brick kept
+// beside or below the box may name vertices the box re-emits: the splice finds them by key (the
+// kept cell's edges still cross), and the box need not grow by a brick on its low sides.
 #include "blobvk/vk/extract/incremental_extract.h"
 
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/extract/row_splice.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
@@ -38,51 +42,33 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 
 std::int64_t floorDiv(std::int64_t a, std::int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
-// Replaces v[from, to) by `with`, moving the tail in place; returns the elements moved.
-template <class T>
-std::uint64_t replaceRange(std::vector<T>& v, std::size_t from, std::size_t to, const std::vector<T>& with) {
-  static_assert(std::is_trivially_copyable_v<T>);
-  const std::size_t tail = v.size() - to, newTo = from + with.size();
-  if (newTo > to) v.resize(v.size() + (newTo - to));
-  if (tail && newTo != to) std::memmove(v.data() + newTo, v.data() + to, tail * sizeof(T));
-  if (newTo < to) v.resize(v.size() - (to - newTo));
-  if (!with.empty()) std::memcpy(v.data() + from, with.data(), with.size() * sizeof(T));
-  return newTo != to ? tail : 0;
-}
-
 }  // namespace
 
-LayerRange layersReached(const blobtree::GridSpec& grid, std::uint32_t brickCells, std::uint32_t layers,
-                         const blobtree::Region& region, float normalStep) {
-  LayerRange r;
-  if (region.empty() || layers == 0) return r;
-  if (region.everything()) return {0, layers};
+BrickBox bricksReached(const blobtree::GridSpec& grid, const BrickGrid& bricks, const blobtree::Region& region,
+                       float normalStep) {
+  BrickBox box;
+  if (region.empty() || bricks.count() == 0) return box;
+  if (region.everything()) return wholeGrid(bricks);
   // In grid units along an axis, with the region at [lo, hi]: a grid point k may change when
   // lo <= k <= hi; the vertex of an edge starting at k (its refinement runs along the edge, its
   // normal samples `s` = normalStep away) when k + 1 + s >= lo and k - s <= hi; a cell starting at
-  // k when its corner k + 1 or k may change. So every changed vertex or cell starts at k in
+  // k when one of its corners k, k + 1 may change. So every changed vertex or cell starts at k in
   // [ceil(lo - 1 - s), floor(hi + s)]; `e` covers the float rounding of the sample positions.
-  const auto reach = [&](int axis) {
-    const double o = grid.origin[axis], h = grid.cellSize, n = grid.cells[axis];
-    const double e = 1e-3 + 1e-6 * (std::abs(o) + h * n) / h;
+  // Point k is owned by brick k / B (the grid's last point by the last brick), cell k lies in it.
+  const std::int64_t B = std::int64_t(1) << bricks.log2B;
+  const std::int64_t n[3] = {bricks.x, bricks.y, bricks.z};
+  for (int axis = 0; axis < 3; ++axis) {
+    const double o = grid.origin[axis], h = grid.cellSize, c = grid.cells[axis];
+    const double e = 1e-3 + 1e-6 * (std::abs(o) + h * c) / h;
     const double s = double(normalStep) / h + e;
-    const double lo = std::clamp((region.lo[axis] - o) / h, -4.0 - n, 2.0 * n + 4.0);
-    const double hi = std::clamp((region.hi[axis] - o) / h, -4.0 - n, 2.0 * n + 4.0);
-    return std::pair<std::int64_t, std::int64_t>{std::int64_t(std::ceil(lo - 1.0 - s)), std::int64_t(std::floor(hi + s))};
-  };
-  for (int axis = 0; axis < 2; ++axis) {  // a region beside the grid changes nothing in it
-    const auto [kMin, kMax] = reach(axis);
-    if (kMax < 0 || kMin > grid.cells[axis]) return r;
+    const double lo = std::clamp((region.lo[axis] - o) / h, -4.0 - c, 2.0 * c + 4.0);
+    const double hi = std::clamp((region.hi[axis] - o) / h, -4.0 - c, 2.0 * c + 4.0);
+    const std::int64_t kMin = std::int64_t(std::ceil(lo - 1.0 - s)), kMax = std::int64_t(std::floor(hi + s));
+    if (kMax < 0 || kMin > grid.cells[axis]) return BrickBox{};  // beside the grid: nothing in it changes
+    box.first[axis] = std::uint32_t(std::clamp<std::int64_t>(floorDiv(kMin, B), 0, n[axis] - 1));
+    box.end[axis] = std::uint32_t(std::clamp<std::int64_t>(floorDiv(kMax, B), 0, n[axis] - 1) + 1);
   }
-  const auto [kMin, kMax] = reach(2);
-  // Layers before `first` keep their triangles and the numbers of the vertices they name (those
-  // of point layer first * B, the first of layer `first`) when every change starts after that
-  // point layer: first * B < kMin. Layers from `end` on keep everything when kMax < end * B.
-  const std::int64_t B = brickCells, L = layers;
-  r.first = std::uint32_t(std::clamp<std::int64_t>(floorDiv(kMin - 1, B), 0, L));
-  r.end = std::uint32_t(std::clamp<std::int64_t>(floorDiv(kMax, B) + 1, 0, L));
-  if (r.end < r.first) r.end = r.first;
-  return r;
+  return box;
 }
 
 struct IncrementalExtractor::State {
@@ -93,8 +79,6 @@ struct IncrementalExtractor::State {
   BrickGrid bricks;
   bool ready = false;
   mesh::TriMesh mesh;
-  // First vertex and first triangle of each brick layer, plus the totals (layers + 1 entries).
-  std::vector<std::uint32_t> vertexStarts, triangleStarts;
 
   State(Device& d, const blobtree::GridSpec& g, const GpuPolygonizeOptions& o) : device(d), grid(g), options(o) {
     if (!o.sparse || o.tiledVertexPass) {
@@ -107,40 +91,18 @@ struct IncrementalExtractor::State {
     bricks = brickGridFor(grid, options.brickCells);
   }
 
-  std::uint32_t layerOfPoint(std::uint64_t k) const {
-    return std::min<std::uint32_t>(std::uint32_t(k >> bricks.log2B), bricks.z - 1);
-  }
-  // The point layer (z) of a vertex, from its edge key (grid.edgeKey).
-  std::uint64_t pointZ(std::uint64_t key) const {
-    const auto p = grid.points();
-    return key / 3 / (std::uint64_t(p.x) * std::uint64_t(p.y));
-  }
-
-  // Per-layer starts from the mesh itself: vertices by their edge key's point layer; triangles
-  // (in cell order) by their cell's layer. A triangle's cell z is the least point layer of its
-  // corners: its z edges start there, and a marching-cubes triangle never has all three corners
-  // on the cell's top face (it would lie in that face; tests/vk checks the table).
-  void scanStarts() {
-    const std::uint32_t layers = bricks.z;
-    vertexStarts.assign(layers + 1, 0);
-    triangleStarts.assign(layers + 1, 0);
-    const auto& keys = mesh.edgeKeys;
-    const auto& tris = mesh.triangles;
-    const std::uint64_t B = 1ull << bricks.log2B;
-    auto cellZ = [&](const std::array<std::uint32_t, 3>& t) {
-      return std::min({pointZ(keys[t[0]]), pointZ(keys[t[1]]), pointZ(keys[t[2]])});
-    };
-    for (std::uint32_t z = 1; z < layers; ++z) {
-      const std::uint64_t k = z * B;
-      vertexStarts[z] = std::uint32_t(std::partition_point(keys.begin(), keys.end(), [&](std::uint64_t key) {
-                                        return pointZ(key) < k;
-                                      }) - keys.begin());
-      triangleStarts[z] = std::uint32_t(std::partition_point(tris.begin(), tris.end(), [&](const auto& t) {
-                                          return cellZ(t) < k;
-                                        }) - tris.begin());
+  // The box's points and cells, whose rows the re-run gives (row_splice.h): a brick owns its
+  // points but those on its upper faces, unless it is the grid's last on that axis.
+  RowBox rowsOf(const BrickBox& box) const {
+    RowBox r;
+    const std::uint32_t B = 1u << bricks.log2B, n[3] = {bricks.x, bricks.y, bricks.z};
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::uint32_t c = std::uint32_t(grid.cells[axis]);
+      r.pointFirst[axis] = r.cellFirst[axis] = box.first[axis] * B;
+      r.pointEnd[axis] = box.end[axis] == n[axis] ? c + 1 : box.end[axis] * B;
+      r.cellEnd[axis] = std::min(box.end[axis] * B, c);
     }
-    vertexStarts[layers] = std::uint32_t(keys.size());
-    triangleStarts[layers] = std::uint32_t(tris.size());
+    return r;
   }
 
   // The evaluator for one run over the active bricks [a0, a1): the session's, or for Auto the cost
@@ -177,45 +139,30 @@ struct IncrementalExtractor::State {
     return resolved;
   }
 
-  // Classifies the grid and extracts layers [first, end) into `piece`, its triangles numbered
-  // from `vertexBase`.
-  void extract(const blobtree::Program& program, std::uint32_t first, std::uint32_t end, std::uint32_t vertexBase,
-               mesh::TriMesh& piece, IncrementalGpuStats& st) {
+  // Classifies the bricks (all, or only `box`'s) and extracts the active ones into `piece`, in the
+  // whole-grid batches' order. With `cornerKeys`, the triangles come back there as edge keys.
+  void extract(const blobtree::Program& program, const BrickBox* box, mesh::TriMesh& piece,
+               std::vector<std::uint64_t>* cornerKeys, IncrementalGpuStats& st) {
     GpuStats& s = st.gpu;
     s.brickCells = 1u << bricks.log2B;
     s.bricks = std::uint32_t(bricks.count());
     auto t0 = Clock::now();
-    const ClassifiedBricks classified = classifyAndCompact(device, program, grid, bricks, s);
+    const ClassifiedBricks classified = classifyAndCompact(device, program, grid, bricks, s, box);
     st.msClassify = msSince(t0);
     t0 = Clock::now();
-    const std::vector<std::uint32_t>& starts = classified.layerStarts;
-    const std::uint64_t range = sparseRangeBricks(device, bricks);
-    std::vector<SparseBatch> batches =
-        planSparseBatches(std::span(starts).subspan(first, end - first + 1),
-                          sparseBatchLimit(device, bricks, options.maxBatchBricks), range);
-    // The plan saw layers [first, end) only; the last batch also loads layer `end` (whose vertex
-    // numbers its last layer's triangles use), as a batch inside a whole-grid plan would.
-    if (!batches.empty()) {
-      SparseBatch& last = batches.back();
-      last.loadedActive = starts[std::min<std::uint32_t>(end + 1, bricks.z)] - last.activeBase;
-      if (last.loadedActive > range) {
-        throw VulkanError("GPU polygonizer: two brick layers hold " + std::to_string(last.loadedActive) +
-                          " active bricks, over the " + std::to_string(range) +
-                          " one storage buffer can hold (maxStorageBufferRange): use a smaller grid or bricks");
-      }
-    }
-    s.activeBricks = starts[end] - starts[first];
+    const std::vector<SparseBatch> batches = planSparseBatches(
+        classified.layerStarts, sparseBatchLimit(device, bricks, options.maxBatchBricks), sparseRangeBricks(device, bricks));
     s.batches = std::uint32_t(batches.size());
     std::uint64_t bytes = classified.bytes;
     if (!batches.empty()) {
       std::uint32_t maxLoaded = 0;
       for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
       std::optional<CodegenOptions> chosen;
-      const GpuPolygonizeOptions resolved = evaluatorFor(
-          program, classified, starts[first], starts[std::min<std::uint32_t>(end + 1, bricks.z)], chosen, s);
+      const GpuPolygonizeOptions resolved =
+          evaluatorFor(program, classified, 0, classified.layerStarts.back(), chosen, s);
       SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bricks, classified.scan,
                                classified.list, maxLoaded, s.batches);
-      for (const SparseBatch& b : batches) runner.run(b, vertexBase + piece.positions.size(), piece, s);
+      for (const SparseBatch& b : batches) runner.run(b, piece.positions.size(), piece, s, cornerKeys);
       runner.deviceTimes(s);
       bytes += runner.sharedBytes() + runner.peakOutputBytes();
     }
@@ -240,17 +187,13 @@ const mesh::TriMesh& IncrementalExtractor::reset(const blobtree::Program& progra
   IncrementalGpuStats local;
   IncrementalGpuStats& st = stats ? *stats : local;
   st = IncrementalGpuStats{};
-  st.layers = s.bricks.z;
-  st.layersRerun = s.bricks.z;
+  st.layers = st.layersRerun = s.bricks.z;
+  st.bricks = st.bricksRerun = std::uint32_t(s.bricks.count());
+  st.box = wholeGrid(s.bricks);
   st.full = true;
   s.ready = false;
   s.mesh = mesh::TriMesh{};
-  if (s.grid.cells.x >= 1 && s.grid.cells.y >= 1 && s.grid.cells.z >= 1) {
-    s.extract(program, 0, s.bricks.z, 0, s.mesh, st);
-  }
-  auto t0 = Clock::now();
-  s.scanStarts();
-  st.msSplice = msSince(t0);
+  if (s.grid.cells.x >= 1 && s.grid.cells.y >= 1 && s.grid.cells.z >= 1) s.extract(program, nullptr, s.mesh, nullptr, st);
   s.ready = true;
   st.msTotal = msSince(tStart);
   st.gpu.seconds = st.msTotal / 1000.0;
@@ -266,42 +209,38 @@ const mesh::TriMesh& IncrementalExtractor::update(const blobtree::Program& progr
   IncrementalGpuStats& st = stats ? *stats : local;
   st = IncrementalGpuStats{};
   st.layers = s.bricks.z;
+  st.bricks = std::uint32_t(s.bricks.count());
   if (s.grid.cells.x < 1 || s.grid.cells.y < 1 || s.grid.cells.z < 1) return s.mesh;
-  const LayerRange r = layersReached(s.grid, 1u << s.bricks.log2B, s.bricks.z, region, s.options.normalStep);
-  if (r.first == r.end) {
+  const BrickBox box = bricksReached(s.grid, s.bricks, region, s.options.normalStep);
+  if (box.empty()) {
     st.msTotal = msSince(tStart);
     return s.mesh;
   }
-  if (r.first == 0 && r.end == s.bricks.z) {
+  if (box.count() == s.bricks.count()) {
     reset(program, &st);
     st.msTotal = msSince(tStart);
     return s.mesh;
   }
-  st.firstLayer = r.first;
-  st.layersRerun = r.end - r.first;
+  st.box = box;
+  st.firstLayer = box.first[2];
+  st.layersRerun = box.end[2] - box.first[2];
+  st.bricksRerun = std::uint32_t(box.count());
 
   mesh::TriMesh piece;
-  const std::uint32_t v0 = s.vertexStarts[r.first], v1 = s.vertexStarts[r.end];
-  const std::uint32_t t0 = s.triangleStarts[r.first], t1 = s.triangleStarts[r.end];
-  s.extract(program, r.first, r.end, v0, piece, st);
+  std::vector<std::uint64_t> cornerKeys;
+  s.extract(program, &box, piece, &cornerKeys, st);
 
   const auto tSplice = Clock::now();
-  mesh::TriMesh& m = s.mesh;
-  if (std::uint64_t(m.positions.size()) - (v1 - v0) + piece.positions.size() > 0xffffffffull) {
-    throw VulkanError("GPU polygonizer: the mesh has more than 2^32 vertices (32-bit indices): use a smaller grid");
+  RowSpliceStats rs;
+  try {
+    spliceRows(s.mesh, {std::uint32_t(s.grid.cells.x), std::uint32_t(s.grid.cells.y), std::uint32_t(s.grid.cells.z)},
+               s.rowsOf(box), piece, cornerKeys, &rs);
+  } catch (const std::length_error& e) {
+    throw VulkanError(e.what());
   }
-  st.verticesMoved = replaceRange(m.positions, v0, v1, piece.positions);
-  replaceRange(m.edgeKeys, v0, v1, piece.edgeKeys);
-  if (s.options.normals) replaceRange(m.normals, v0, v1, piece.normals);
-  if (s.options.colours) replaceRange(m.colours, v0, v1, piece.colours);
-  st.trianglesMoved = replaceRange(m.triangles, t0, t1, piece.triangles);
-  // Triangles after the piece name vertices after it, which moved by the change in count.
-  const std::uint32_t delta = std::uint32_t(piece.positions.size()) - (v1 - v0);  // modulo 2^32
-  if (delta) {
-    for (std::size_t t = t0 + piece.triangles.size(); t < m.triangles.size(); ++t)
-      for (std::uint32_t& v : m.triangles[t]) v += delta;
-  }
-  s.scanStarts();
+  st.verticesMoved = rs.verticesMoved;
+  st.trianglesMoved = rs.trianglesMoved;
+  st.cornersByKey = rs.cornersByKey;
   st.msSplice = msSince(tSplice);
   st.msTotal = msSince(tStart);
   st.gpu.seconds = st.msTotal / 1000.0;

@@ -1,12 +1,11 @@
-// Re-meshing on Vulkan after an edit (blobtree/edit.h): the sparse extraction's output is laid
-// out by brick layers (docs/vulkan.md, "Sparse extraction"): the vertices of a run of brick
-// layers are one contiguous run of the mesh (global edge-key order) and so are their triangles
-// (cell order). An update re-classifies the bricks, re-runs only the brick layers the edit's
-// region can reach through the sparse batch runner (sparse_batches.h) and splices their piece
-// into the previous mesh: the vertices and triangles after it move by the change in count, and
-// the triangles after it shift their corners by the change in vertex count. The mesh after
-// every update is byte-identical to vk::polygonize of the edited Program on the same grid with
-// the same evaluator (tests/vk/test_incremental_extract.cpp).
+// Re-meshing on Vulkan after an edit (blobtree/edit.h): an update classifies and re-runs only the
+// box of bricks whose grid points, edges (their vertices, refinement and normal samples) or
+// cells the edit's region can reach, through the sparse batch runner (sparse_batches.h) with every
+// brick outside the box inactive, and splices the box's rows into the previous mesh
+// (row_splice.h): in global order the vertices of the box's points on one point row are one
+// contiguous run of the mesh, and so are the triangles of its cells on one cell row. The mesh
+// after every update is byte-identical to vk::polygonize of the edited Program on the same grid
+// with the same evaluator (tests/vk/test_incremental_extract.cpp).
 //
 // The grid is fixed for the session, as for cpu::IncrementalPolygonizer.
 #pragma once
@@ -16,6 +15,7 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/mesh/trimesh.h"
 #include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/sparse_polygonizer.h"
 
 #include <cstdint>
 #include <memory>
@@ -24,12 +24,16 @@ namespace blobvk::vk {
 
 struct IncrementalGpuStats {
   std::uint32_t layers = 0;       // brick layers (z) of the grid
-  std::uint32_t layersRerun = 0;  // brick layers extracted again
+  std::uint32_t layersRerun = 0;  // brick layers the re-run box spans
   std::uint32_t firstLayer = 0;   // the first of them
-  bool full = false;              // the region reached every layer: the whole grid was re-meshed
+  std::uint32_t bricks = 0;       // bricks of the grid
+  std::uint32_t bricksRerun = 0;  // bricks of the re-run box (classified again; the active ones re-run)
+  BrickBox box;                   // the re-run box
+  bool full = false;              // the region reached every brick: the whole grid was re-meshed
   std::uint64_t verticesMoved = 0, trianglesMoved = 0;  // kept elements moved by the splice
-  // Wall-clock per phase (ms): the bricks' classification (whole grid, one submit), the re-run
-  // layers' batches (program upload, field, extraction, read-back), the splice.
+  std::uint64_t cornersByKey = 0;  // kept triangles' corners on the box's rows, found again by key
+  // Wall-clock per phase (ms): the box's classification (one submit), its batches (program
+  // upload, field, extraction, read-back), the splice.
   double msClassify = 0, msExtract = 0, msSplice = 0, msTotal = 0;
   GpuStats gpu;  // the re-run's own counters (batches, submits, active bricks, device times)
 };
@@ -52,8 +56,8 @@ class IncrementalExtractor {
   const mesh::TriMesh& reset(const blobtree::Program& program, IncrementalGpuStats* stats = nullptr);
 
   // `program` differs from the previous one only inside `region` (EditableTree::apply's
-  // answer). Re-runs the brick layers whose points, edges, normal samples or cells the region
-  // can reach, and splices. Throws std::logic_error before the first reset.
+  // answer). Re-runs the bricks whose points, edges, normal samples or cells the region can
+  // reach (bricksReached), and splices. Throws std::logic_error before the first reset.
   const mesh::TriMesh& update(const blobtree::Program& program, const blobtree::Region& region,
                               IncrementalGpuStats* stats = nullptr);
 
@@ -67,15 +71,12 @@ class IncrementalExtractor {
   std::unique_ptr<State> state_;
 };
 
-// The brick layers [first, end) an edit's region forces to be extracted again on a grid of
-// `layers` layers of `brickCells` cells: every layer holding a grid point, an edge (its vertex,
-// refinement and normal samples, `normalStep` away) or a cell the region reaches, and the layer
-// below, whose first point layer's vertex numbers the previous layer's triangles use. Empty
-// (first == end) when the region misses the grid.
-struct LayerRange {
-  std::uint32_t first = 0, end = 0;
-};
-LayerRange layersReached(const blobtree::GridSpec& grid, std::uint32_t brickCells, std::uint32_t layers,
-                         const blobtree::Region& region, float normalStep);
+// The box of bricks an edit's region forces to be extracted again: per axis, every brick owning
+// a grid point whose edges (their vertices, refinement and normal samples, `normalStep` away)
+// the region reaches, or holding a cell one of whose corners it reaches. Every other brick keeps
+// its cells' configurations and its points' vertices bit for bit (row_splice.h says why that
+// is enough). Empty when the region misses the grid; the whole grid for a region of everything.
+BrickBox bricksReached(const blobtree::GridSpec& grid, const BrickGrid& bricks, const blobtree::Region& region,
+                       float normalStep);
 
 }  // namespace blobvk::vk

@@ -223,7 +223,8 @@ bool SparseBatchRunner::deviceTimes(GpuStats& s) {
   return true;
 }
 
-void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, mesh::TriMesh& mesh, GpuStats& s) {
+void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, mesh::TriMesh& mesh, GpuStats& s,
+                            std::vector<std::uint64_t>* cornerKeys) {
   State& st = *state_;
   if (st.runs >= st.maxBatches) throw VulkanError("GPU polygonizer: more batches run than the runner was made for");
   Device& device = st.device;
@@ -328,7 +329,8 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   Buffer normals = make(options.normals ? std::uint64_t(vertices) * 12 : 16, "vertex normals");
   Buffer colours = make(options.colours ? std::uint64_t(vertices) * 12 : 16, "vertex colours");
   Buffer keys = make(std::uint64_t(vertices) * 8, "edge keys");
-  Buffer indices = make(std::uint64_t(triangles) * 12, "triangle indices");
+  const std::uint64_t cornerBytes = cornerKeys ? 24 : 12;  // per triangle: three indices or three edge keys
+  Buffer indices = make(std::uint64_t(triangles) * cornerBytes, "triangle indices");
   Buffer vertexSources = make(std::uint64_t(vertices) * 8, "vertex sources");
   Buffer triangleSources = make(std::uint64_t(triangles) * 8, "triangle sources");
   // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
@@ -348,7 +350,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   };
   std::vector<Output> outputs{{&positions, vertices * 12ull, append(mesh.positions, vertices)},
                               {&keys, vertices * 8ull, append(mesh.edgeKeys, vertices)},
-                              {&indices, triangles * 12ull, append(mesh.triangles, triangles)}};
+                              {&indices, triangles * cornerBytes,
+                               cornerKeys ? std::function<void(const void*)>(append(*cornerKeys, 3ull * triangles))
+                                          : std::function<void(const void*)>(append(mesh.triangles, triangles))}};
   if (options.normals) outputs.push_back({&normals, vertices * 12ull, append(mesh.normals, vertices)});
   if (options.colours) outputs.push_back({&colours, vertices * 12ull, append(mesh.colours, vertices)});
   std::uint64_t stagingBytes = 0;
@@ -391,7 +395,13 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       rec.dispatch(*st.vertexKernel, bind, &push, sizeof(push), g.x, g.y);
     }
     st.timer.mark(rec, mark + 6);
-    if (triangles) {
+    if (triangles && cornerKeys) {
+      const std::uint32_t push[4] = {bg.log2B, triangles, std::uint32_t(st.grid.cells.x + 1),
+                                     std::uint32_t(st.grid.cells.y + 1)};
+      const BufferRange bind[4] = {st.cases, st.batchBricks, triangleSources, indices};
+      const Groups g = groupsFor(triangles, wg);
+      rec.dispatch(*device.kernel("brick_triangle_keys", wgSpec), bind, &push, sizeof(push), g.x, g.y);
+    } else if (triangles) {
       const std::uint32_t push[3] = {bg.log2B, triangles, std::uint32_t(vertexBase)};
       const BufferRange bind[5] = {st.cases, st.edges, st.neighbours, triangleSources, indices};
       const Groups g = groupsFor(triangles, wg);

@@ -62,8 +62,11 @@ class SparseBatchRunner {
 
   // Two submits: appends the batch's vertices (positions, normals, colours, edge keys) and its
   // triangles, indices offset by `vertexBase`, to `out`. Adds to the stats' field evaluations,
-  // submits and wall-time phases. At most `maxBatches` calls.
-  void run(const SparseBatch& batch, std::uint64_t vertexBase, mesh::TriMesh& out, GpuStats& stats);
+  // submits and wall-time phases. At most `maxBatches` calls. With `cornerKeys`, the triangles'
+  // corners are appended there as edge keys (three per triangle, out.triangles untouched): for a
+  // run whose bricks' upper neighbours are not loaded (an edit's box of bricks).
+  void run(const SparseBatch& batch, std::uint64_t vertexBase, mesh::TriMesh& out, GpuStats& stats,
+           std::vector<std::uint64_t>* cornerKeys = nullptr);
   // Device time of the batches run (when the queue has timestamps): replaces the stats' field
   // and extract seconds with it and adds the read-back copies; returns false without timestamps.
   bool deviceTimes(GpuStats& stats);

@@ -49,20 +49,24 @@ ClassifyUniforms classifyUniforms(Device& device, const blobtree::Program& progr
   return u;
 }
 
-// One brick_classify dispatch over the bricks of `bg` into flags[0 .. bricks] (the last word
-// 0); with `parents` (flags of bricks twice the size), bricks in dropped parents are dropped.
+// One brick_classify dispatch over the bricks of `box` (of `bg`) into their words of
+// flags[0 .. bricks] (the last word 0 when the box holds brick 0; the caller zeroes the flags
+// otherwise); with `parents` (flags of bricks twice the size), bricks in dropped parents are dropped.
 void dispatchClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
                       const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags,
-                      const BrickGrid* parentGrid, const Buffer& parents) {
+                      const BrickGrid* parentGrid, const Buffer& parents, const BrickBox& box) {
+  if (box.empty()) return;
   const auto pb = gpu.bindings();
   struct {
     float originCell[4];
-    std::uint32_t cells[4], bricks[4], parents[4];
+    std::uint32_t cells[4], bricks[4], parents[4], first[4], end[4];
   } push{{grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize},
          {std::uint32_t(grid.cells.x), std::uint32_t(grid.cells.y), std::uint32_t(grid.cells.z), bg.log2B},
          {bg.x, bg.y, bg.z, gpu.codeLength},
          {parentGrid ? parentGrid->x : 0, parentGrid ? parentGrid->y : 0, parentGrid ? parentGrid->z : 0,
-          parentGrid ? 1u : 0u}};
+          parentGrid ? 1u : 0u},
+         {box.first[0], box.first[1], box.first[2], 0},
+         {box.end[0], box.end[1], box.end[2], 0}};
   const bool uniform = !uniforms.buffers.empty();
   const BufferRange bind[7] = {uniform ? BufferRange(uniforms.buffers[0]) : pb[0],
                                uniform ? BufferRange(uniforms.buffers[1]) : pb[1],
@@ -74,7 +78,8 @@ void dispatchClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUnifor
   // Constants 3-5: the program's opcode, primitive and warp masks (the others are not used).
   const auto specs = gpu.specs(64, Traversal::Stackless);
   rec.dispatch(*rec.device().kernel(uniform ? "brick_classify_uniform" : "brick_classify", specs), bind, &push,
-               sizeof(push), (bg.x + 3) / 4, (bg.y + 3) / 4, (bg.z + 3) / 4);
+               sizeof(push), (box.end[0] - box.first[0] + 3) / 4, (box.end[1] - box.first[1] + 3) / 4,
+               (box.end[2] - box.first[2] + 3) / 4);
 }
 
 // A grid of at least this many bricks gets a pass over bricks twice the size first (and so on:
@@ -101,19 +106,24 @@ ClassifyParents classifyParents(Device& device, const BrickGrid& bg, std::uint64
 }
 
 // brick_classify over every brick of the grid, into flags[0 .. bricks] (the last word 0): the
-// coarsest level first, each finer one skipping the bricks its parents dropped.
+// coarsest level first, each finer one skipping the bricks its parents dropped. With `only`, the
+// bricks of that box alone, in one pass (an edit's few bricks: a coarser pass would not pay).
 void recordClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
                     const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags,
-                    const ClassifyParents& parents) {
+                    const ClassifyParents& parents, const BrickBox* only = nullptr) {
+  if (only) {
+    dispatchClassify(rec, gpu, uniforms, grid, bg, flags, nullptr, parents.none, *only);
+    return;
+  }
   for (std::size_t i = parents.grids.size(); i-- > 0;) {
     const bool top = i + 1 == parents.grids.size();
     dispatchClassify(rec, gpu, uniforms, grid, parents.grids[i], parents.flags[i], top ? nullptr : &parents.grids[i + 1],
-                     top ? parents.none : parents.flags[i + 1]);
+                     top ? parents.none : parents.flags[i + 1], wholeGrid(parents.grids[i]));
     rec.computeBarrier();
   }
   const bool any = !parents.grids.empty();
   dispatchClassify(rec, gpu, uniforms, grid, bg, flags, any ? &parents.grids[0] : nullptr,
-                   any ? parents.flags[0] : parents.none);
+                   any ? parents.flags[0] : parents.none, wholeGrid(bg));
 }
 
 }  // namespace
@@ -152,6 +162,8 @@ BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells)
   }
   return b;
 }
+
+BrickBox wholeGrid(const BrickGrid& bricks) { return {{0, 0, 0}, {bricks.x, bricks.y, bricks.z}}; }
 
 std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBricks, std::uint64_t vertices,
                                 std::uint64_t triangles, bool normals, bool colours) {
@@ -267,7 +279,7 @@ GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options)
 }
 
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                    const BrickGrid& bg, GpuStats& s) {
+                                    const BrickGrid& bg, GpuStats& s, const BrickBox* only) {
   ClassifiedBricks c;
   c.bricks = bg;
   // The classification interprets the register code (whatever evaluator the batches use).
@@ -283,11 +295,16 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   Buffer scratch = makeSparseBuffer(device, (scanScratchWords(brickCount + 1) + 1) * 4, "scan scratch", c.bytes);
   Buffer totals = makeSparseBuffer(device, 16, "totals", c.bytes);
   Buffer layerStarts = device.createBuffer((layers + 1) * 4ull, MemoryUse::Readback);
-  const ClassifyParents parents = classifyParents(device, bg, c.bytes);
+  const ClassifyParents parents = only ? ClassifyParents{{}, {}, makeSparseBuffer(device, 16, "parent brick flags", c.bytes)}
+                                       : classifyParents(device, bg, c.bytes);
   device.run([&](Recorder& rec) {
     timer.reset(rec);
     timer.mark(rec, 0);
-    recordClassify(rec, gpu, uniforms, grid, bg, c.scan, parents);
+    if (only) {  // the bricks outside the box stay inactive
+      rec.fill(c.scan, 0);
+      rec.computeBarrier();
+    }
+    recordClassify(rec, gpu, uniforms, grid, bg, c.scan, parents, only);
     rec.computeBarrier();
     recordExclusiveScan(rec, c.scan.handle(), 0, std::uint32_t(brickCount + 1), scratch.handle(), 0, totals.handle(), 0);
     rec.computeBarrier();

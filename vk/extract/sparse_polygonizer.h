@@ -25,6 +25,7 @@
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/extract/polygonize.h"
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -39,6 +40,16 @@ struct BrickGrid {
   std::uint64_t count() const { return std::uint64_t(x) * y * z; }
 };
 BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells);
+
+// A box of bricks: [first, end) per axis (x, y, z).
+struct BrickBox {
+  std::array<std::uint32_t, 3> first{0, 0, 0}, end{0, 0, 0};
+  bool empty() const { return end[0] <= first[0] || end[1] <= first[1] || end[2] <= first[2]; }
+  std::uint64_t count() const {
+    return empty() ? 0 : std::uint64_t(end[0] - first[0]) * (end[1] - first[1]) * (end[2] - first[2]);
+  }
+};
+BrickBox wholeGrid(const BrickGrid& bricks);
 
 // Device bytes the sparse path allocates for `activeBricks` active bricks producing `vertices`
 // and `triangles` (the output buffers included), for --max-memory style estimates.
@@ -81,6 +92,9 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
 // on the device for the batches; layerStarts[z] is the number of the first active brick of brick
 // layer z (layerStarts[bricks.z]: the active count). Sets the stats' activeBricks,
 // classifySeconds (device time where the queue has timestamps, deviceTimed) and counts the submit.
+// With `only`, the bricks outside that box are not classified and count as inactive: the batches
+// then run (and number) the box's active bricks alone, in the same global order (the incremental
+// re-run of an edit's bricks, incremental_extract.h).
 struct ClassifiedBricks {
   BrickGrid bricks;
   Buffer scan, list;
@@ -88,7 +102,7 @@ struct ClassifiedBricks {
   std::uint64_t bytes = 0;  // device memory of the classification's buffers
 };
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                    const BrickGrid& bricks, GpuStats& stats);
+                                    const BrickGrid& bricks, GpuStats& stats, const BrickBox* only = nullptr);
 
 // classifyAndCompact with bricks of `brickCells`, halved (down to 4, and while the smaller grid's
 // brick flags still fit one storage buffer of `device`) while two adjacent brick
