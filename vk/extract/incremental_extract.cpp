@@ -194,6 +194,8 @@ const mesh::TriMesh& IncrementalExtractor::reset(const blobtree::Program& progra
   s.ready = false;
   s.mesh = mesh::TriMesh{};
   if (s.grid.cells.x >= 1 && s.grid.cells.y >= 1 && s.grid.cells.z >= 1) s.extract(program, nullptr, s.mesh, nullptr, st);
+  st.verticesChanged = {0, s.mesh.positions.size()};
+  st.trianglesChanged = {0, s.mesh.triangles.size()};
   s.ready = true;
   st.msTotal = msSince(tStart);
   st.gpu.seconds = st.msTotal / 1000.0;
@@ -241,6 +243,8 @@ const mesh::TriMesh& IncrementalExtractor::update(const blobtree::Program& progr
   st.verticesMoved = rs.verticesMoved;
   st.trianglesMoved = rs.trianglesMoved;
   st.cornersByKey = rs.cornersByKey;
+  st.verticesChanged = rs.vertices;
+  st.trianglesChanged = rs.triangles;
   st.msSplice = msSince(tSplice);
   st.msTotal = msSince(tStart);
   st.gpu.seconds = st.msTotal / 1000.0;

@@ -15,6 +15,7 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/mesh/trimesh.h"
 #include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/row_splice.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
 #include <cstdint>
@@ -32,6 +33,9 @@ struct IncrementalGpuStats {
   bool full = false;              // the region reached every brick: the whole grid was re-meshed
   std::uint64_t verticesMoved = 0, trianglesMoved = 0;  // kept elements moved by the splice
   std::uint64_t cornersByKey = 0;  // kept triangles' corners on the box's rows, found again by key
+  // The vertices and triangles whose bytes may differ from the mesh before (all after a reset):
+  // what a copy of the mesh elsewhere must rewrite (vk/render/incremental_draw.h).
+  ChangedRange verticesChanged, trianglesChanged;
   // Wall-clock per phase (ms): the box's classification (one submit), its batches (program
   // upload, field, extraction, read-back), the splice.
   double msClassify = 0, msExtract = 0, msSplice = 0, msTotal = 0;

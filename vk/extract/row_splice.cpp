@@ -204,15 +204,31 @@ void spliceRows(mesh::TriMesh& m, const std::array<std::uint32_t, 3>& cells, con
       corner = std::uint32_t(vp.newFrom[j] + std::uint64_t(at - (pk + s.pieceFrom)));
       ++byKey;
     };
-    const auto remapRange = [&](std::uint64_t from, std::uint64_t to) {
-      for (std::uint64_t t = from; t < to; ++t)
+    // The kept triangles whose corners changed, by their new index.
+    std::uint64_t changedFrom = ~0ull, changedTo = 0;
+    const auto remapRange = [&](std::uint64_t from, std::uint64_t to, std::int64_t shift) {
+      for (std::uint64_t t = from; t < to; ++t) {
+        const std::array<std::uint32_t, 3> was = m.triangles[t];
         for (std::uint32_t& c : m.triangles[t]) remap(c);
+        if (m.triangles[t] != was) {
+          changedFrom = std::min(changedFrom, std::uint64_t(std::int64_t(t) + shift));
+          changedTo = std::max(changedTo, std::uint64_t(std::int64_t(t) + shift) + 1);
+        }
+      }
     };
-    remapRange(0, tp.segments.front().oldFrom);
+    remapRange(0, tp.segments.front().oldFrom, 0);
     for (std::size_t i = 0; i < tp.segments.size(); ++i)
-      remapRange(tp.segments[i].oldTo, i + 1 < tp.segments.size() ? tp.segments[i + 1].oldFrom : tp.oldSize);
+      remapRange(tp.segments[i].oldTo, i + 1 < tp.segments.size() ? tp.segments[i + 1].oldFrom : tp.oldSize,
+                 tp.deltaAfter[i]);
     st.cornersByKey = byKey;
+    // Triangles: the rows written, the runs moved (all after the first row when sizes changed),
+    // and the kept triangles whose corners changed.
+    st.triangles.from = std::min(changedFrom, tp.newFrom.front());
+    st.triangles.to = tp.deltaAfter.back() != 0 ? tp.newSize
+                                                 : std::max(changedTo, tp.newFrom.back() + tp.segments.back().count);
   }
+  st.vertices.from = vp.newFrom.front();
+  st.vertices.to = vp.deltaAfter.back() != 0 ? vp.newSize : vp.newFrom.back() + vp.segments.back().count;
 
   // 4. The vertices.
   st.verticesMoved = applyPlan(vp, m.positions, piece.positions.data());

@@ -27,10 +27,17 @@ struct RowBox {
   std::array<std::uint32_t, 3> pointFirst{}, pointEnd{}, cellFirst{}, cellEnd{};
 };
 
+// The elements [from, to) of the spliced mesh whose bytes may differ from the kept mesh's at the
+// same index (a copy of the mesh elsewhere, e.g. on the device, needs only these rewritten).
+struct ChangedRange {
+  std::uint64_t from = 0, to = 0;
+};
+
 struct RowSpliceStats {
   std::uint64_t vertexRows = 0, triangleRows = 0;       // rows replaced
   std::uint64_t verticesMoved = 0, trianglesMoved = 0;  // kept elements moved in place
   std::uint64_t cornersByKey = 0;  // kept triangles' corners found again by key
+  ChangedRange vertices, triangles;
 };
 
 // `mesh`: the kept mesh (sorted edge keys, triangles in cell order) on a grid of `cells` cells.
