@@ -1,21 +1,34 @@
-// drag_edit: what an interactive modeller does with blobvk on the CPU. It loads a scene, picks a
-// primitive, and drags it around a circle, one small move per frame; each frame applies the move
-// as an edit (blobtree::EditableTree) and re-meshes only what the move touched
-// (cpu::IncrementalPolygonizer). A real host would draw the mesh; this one prints the frame
-// latency and, with --check, compares every frame's mesh with a full re-mesh of the same grid.
+// drag_edit: what an interactive modeller does with blobvk. It loads a scene, picks a primitive,
+// and drags it around a circle, one small move per frame; each frame applies the move as an edit
+// (blobtree::EditableTree) and re-meshes only what the move touched: on the CPU
+// (cpu::IncrementalPolygonizer, per MPU) or, with --backend vk, on Vulkan
+// (vk::IncrementalExtractor, per box of bricks) with the mesh's draw buffers patched in place on
+// the device each frame (vk::IncrementalDrawBuffers), as an engine would draw them. It prints
+// the frame latency and, with --check, compares every frame's mesh with a full re-mesh of the
+// same grid (and, on vk, the device buffers with that mesh).
 //
-//   drag_edit SCENE [--node ID | --path 0,3,1] [--frames N] [--radius R] [--resolution N] [--check]
+//   drag_edit SCENE [--node ID | --path 0,3,1] [--frames N] [--radius R] [--resolution N]
+//             [--backend cpu|vk] [--check]
 #include "blobvk/blobtree/edit.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/incremental_polygonizer.h"
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
+#ifdef BLOBVK_DRAG_EDIT_VK
+#include "blobvk/vk/device/standalone.h"
+#include "blobvk/vk/extract/incremental_extract.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/render/incremental_draw.h"
+#endif
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
+#include <optional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -45,15 +58,115 @@ blobtree::NodePath parsePath(const std::string& text) {
   return path;
 }
 
+// What re-meshes each frame: reset once, then update per edit; `matchesFull` re-meshes the whole
+// grid and compares (the --check oracle).
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual std::size_t reset(const blobtree::Program& program) = 0;  // triangles
+  // Triangles after the edit; `note` says what was re-run.
+  virtual std::size_t update(const blobtree::Program& program, const blobtree::Region& region, std::string& note) = 0;
+  virtual bool matchesFull(const blobtree::Program& program) = 0;
+};
+
+class CpuBackend : public Backend {
+ public:
+  explicit CpuBackend(const blobtree::GridSpec& grid) : grid_(grid), mesher_(grid) {}
+  std::size_t reset(const blobtree::Program& program) override { return mesher_.reset(program).triangleCount(); }
+  std::size_t update(const blobtree::Program& program, const blobtree::Region& region, std::string& note) override {
+    cpu::IncrementalStats st;
+    const std::size_t triangles = mesher_.update(program, region, &st).triangleCount();
+    note = std::to_string(st.mpusRerun) + " of " + std::to_string(st.mpus) + " MPUs re-run";
+    return triangles;
+  }
+  bool matchesFull(const blobtree::Program& program) override {
+    return mesher_.mesh() == cpu::polygonizeMpu(program, grid_);
+  }
+
+ private:
+  blobtree::GridSpec grid_;
+  cpu::IncrementalPolygonizer mesher_;
+};
+
+#ifdef BLOBVK_DRAG_EDIT_VK
+// The mesh stays where an engine draws it: after each edit, only the changed ranges of the
+// device's vertex and index buffers are rewritten and the indirect draw command's count with them.
+class VkBackend : public Backend {
+ public:
+  explicit VkBackend(const blobtree::GridSpec& grid)
+      : context_(std::make_unique<vk::StandaloneContext>()), grid_(grid), mesher_(std::in_place, context_->device(), grid),
+        draw_(std::in_place, context_->device()) {}
+  ~VkBackend() override {
+    draw_.reset();
+    mesher_.reset();
+    context_.reset();  // before the driver's exit handlers (docs/vulkan.md)
+  }
+  std::size_t reset(const blobtree::Program& program) override {
+    vk::IncrementalGpuStats st;
+    const mesh::TriMesh& m = mesher_->reset(program, &st);
+    patch(m, st);
+    return m.triangleCount();
+  }
+  std::size_t update(const blobtree::Program& program, const blobtree::Region& region, std::string& note) override {
+    vk::IncrementalGpuStats st;
+    const mesh::TriMesh& m = mesher_->update(program, region, &st);
+    const vk::DrawPatchStats ps = patch(m, st);
+    note = std::to_string(st.bricksRerun) + " of " + std::to_string(st.bricks) + " bricks re-run, " +
+           (ps.inPlace ? "buffers patched in place (" : "new buffers (") + std::to_string(ps.bytesCopied >> 10) + " KiB)";
+    return m.triangleCount();
+  }
+  bool matchesFull(const blobtree::Program& program) override {
+    vk::Device& device = context_->device();
+    const mesh::TriMesh full = vk::polygonize(device, program, grid_, mesher_->options());
+    if (!(mesher_->mesh() == full)) return false;
+    const auto holds = [&](const vk::Buffer& b, const void* want, std::size_t bytes) {
+      std::vector<char> got(bytes);
+      if (bytes) device.download(b, got.data(), bytes);
+      return bytes == 0 || std::memcmp(got.data(), want, bytes) == 0;
+    };
+    std::uint32_t command[5] = {};
+    device.download(draw_->drawCommand(), command, sizeof(command));
+    return holds(draw_->positions(), full.positions.data(), full.positions.size() * 12) &&
+           holds(draw_->normals(), full.normals.data(), full.normals.size() * 12) &&
+           holds(draw_->indices(), full.triangles.data(), full.triangles.size() * 12) &&
+           command[0] == 3 * full.triangleCount();
+  }
+
+ private:
+  vk::DrawPatchStats patch(const mesh::TriMesh& m, const vk::IncrementalGpuStats& st) {
+    vk::DrawPatchStats ps;
+    context_->device().run([&](vk::Recorder& rec) {
+      ps = draw_->record(rec, m, st.verticesChanged, st.trianglesChanged);
+      rec.hostBarrier();
+    });
+    return ps;
+  }
+  std::unique_ptr<vk::StandaloneContext> context_;
+  blobtree::GridSpec grid_;
+  std::optional<vk::IncrementalExtractor> mesher_;
+  std::optional<vk::IncrementalDrawBuffers> draw_;
+};
+#endif
+
+std::unique_ptr<Backend> makeBackend(const std::string& name, const blobtree::GridSpec& grid) {
+  if (name == "cpu") return std::make_unique<CpuBackend>(grid);
+#ifdef BLOBVK_DRAG_EDIT_VK
+  if (name == "vk") return std::make_unique<VkBackend>(grid);
+  throw std::invalid_argument("--backend: expected cpu or vk, not '" + name + "'");
+#else
+  throw std::invalid_argument("--backend: expected cpu (this build has no Vulkan), not '" + name + "'");
+#endif
+}
+
 }  // namespace
 
 int main(int argc, char** argv) try {
   if (argc < 2) {
     std::fprintf(stderr, "usage: drag_edit SCENE [--node ID | --path 0,3,1] [--frames N] [--radius R] "
-                         "[--resolution N] [--check]\n");
+                         "[--resolution N] [--backend cpu|vk] [--check]\n");
     return 2;
   }
-  std::string node, pathText;
+  std::string node, pathText, backendName = "cpu";
   int frames = 24, resolution = 128;
   double radius = -1.0;
   bool check = false;
@@ -68,6 +181,7 @@ int main(int argc, char** argv) try {
     else if (arg == "--frames") frames = std::stoi(value());
     else if (arg == "--radius") radius = std::stod(value());
     else if (arg == "--resolution") resolution = std::stoi(value());
+    else if (arg == "--backend") backendName = value();
     else if (arg == "--check") check = true;
     else throw std::invalid_argument("unknown option " + arg);
   }
@@ -89,9 +203,9 @@ int main(int argc, char** argv) try {
   request.resolution = resolution;
   const blobtree::GridSpec grid = blobtree::chooseGrid(tree.program(), scene.grid, request);
   if (radius < 0.0) radius = 2.0 * double(grid.cellSize);
-  cpu::IncrementalPolygonizer mesher(grid);
+  const std::unique_ptr<Backend> mesher = makeBackend(backendName, grid);
   auto t0 = std::chrono::steady_clock::now();
-  std::size_t triangles = mesher.reset(tree.program()).triangleCount();
+  std::size_t triangles = mesher->reset(tree.program());
   const double fullMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::printf("%s: node %s, %d x %d x %d cells, full mesh %.1f ms, %zu triangles\n", argv[1],
               blobtree::toString(path).c_str(), grid.cells.x, grid.cells.y, grid.cells.z, fullMs, triangles);
@@ -104,17 +218,15 @@ int main(int argc, char** argv) try {
     t.translate += radius * glm::dvec3(std::sin(angle), 0.5 * (1.0 - std::cos(angle)), 0.0);
     t0 = std::chrono::steady_clock::now();
     const blobtree::Region region = tree.apply({path, blobtree::SetTransform{t}});
-    cpu::IncrementalStats st;
-    const mesh::TriMesh& m = mesher.update(tree.program(), region, &st);
+    std::string note;
+    triangles = mesher->update(tree.program(), region, note);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     worst = std::max(worst, ms), sum += ms;
-    if (check && !(m == cpu::polygonizeMpu(tree.program(), grid))) {
+    if (check && !mesher->matchesFull(tree.program())) {
       std::fprintf(stderr, "drag_edit: frame %d differs from a full re-mesh\n", frame);
       return 1;
     }
-    triangles = m.triangleCount();
-    std::printf("frame %2d: %.2f ms (%zu of %zu MPUs re-run), %zu triangles\n", frame, ms, st.mpusRerun, st.mpus,
-                triangles);
+    std::printf("frame %2d: %.2f ms (%s), %zu triangles\n", frame, ms, note.c_str(), triangles);
   }
   std::printf("%d frames: mean %.2f ms, worst %.2f ms, full re-mesh %.1f ms%s\n", frames, sum / frames, worst, fullMs,
               check ? "; every frame equal to a full re-mesh" : "");
