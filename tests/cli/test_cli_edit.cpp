@@ -101,7 +101,7 @@ TEST_F(CliEdit, EveryFrameEqualsAFullMeshOfTheEditedScene) {
   expectFramesEqualFullMeshes(cwd, "f", e, report);
 }
 
-// --backend vk re-runs brick layers on lavapipe under validation; its frames are the CPU's full
+// --backend vk re-runs boxes of bricks on lavapipe under validation; its frames are the CPU's full
 // meshes byte for byte (lavapipe computes random128's field as the CPU does).
 TEST_F(CliEdit, VulkanBackendFramesEqualFullMeshesOfTheEditedScene) {
 #ifndef BLOBVK_HAVE_VULKAN
@@ -121,6 +121,8 @@ TEST_F(CliEdit, VulkanBackendFramesEqualFullMeshesOfTheEditedScene) {
   EXPECT_FALSE(first["full_remesh"].get<bool>());
   EXPECT_GT(first["layers_rerun"].get<int>(), 0);
   EXPECT_LT(first["layers_rerun"].get<int>(), first["layers"].get<int>());
+  EXPECT_GT(first["bricks_rerun"].get<int>(), 0);
+  EXPECT_LT(first["bricks_rerun"].get<int>(), first["bricks"].get<int>());
   EXPECT_TRUE(first["evaluator"] == "stackless" || first["evaluator"] == "specialised") << first["evaluator"];
   for (const char* key : {"remesh_ms", "classify_ms", "extract_ms", "splice_ms", "apply_ms"})
     EXPECT_GT(first[key].get<double>(), 0.0) << key;
