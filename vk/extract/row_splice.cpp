@@ -11,6 +11,10 @@
 // The segments' new bytes are written last, into the gaps the runs leave.
 #include "blobvk/vk/extract/row_splice.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
@@ -182,8 +186,13 @@ void spliceRows(mesh::TriMesh& m, const std::array<std::uint32_t, 3>& cells, con
   {
     const std::uint64_t first = vp.segments.front().oldFrom, last = vp.segments.back().oldTo;
     const std::int64_t total = vp.deltaAfter.back();
-    std::uint64_t byKey = 0;
-    const auto remap = [&](std::uint32_t& corner) {
+    // Per task (the tail of a 2 M-triangle mesh is a few million corners): corners found by key,
+    // and the kept triangles whose corners changed, by their new index.
+    struct Tally {
+      std::uint64_t byKey = 0, changedFrom = ~0ull, changedTo = 0;
+    };
+    tbb::combinable<Tally> tallies;
+    const auto remap = [&](std::uint32_t& corner, Tally& tally) {
       const std::uint64_t i = corner;
       if (i < first) return;
       if (i >= last) {
@@ -202,24 +211,31 @@ void spliceRows(mesh::TriMesh& m, const std::array<std::uint32_t, 3>& cells, con
       const std::uint64_t* at = std::lower_bound(pk + s.pieceFrom, pk + s.pieceFrom + s.count, key);
       if (at == pk + s.pieceFrom + s.count || *at != key) broken("a kept triangle names a vertex the re-run lost");
       corner = std::uint32_t(vp.newFrom[j] + std::uint64_t(at - (pk + s.pieceFrom)));
-      ++byKey;
+      ++tally.byKey;
     };
-    // The kept triangles whose corners changed, by their new index.
-    std::uint64_t changedFrom = ~0ull, changedTo = 0;
     const auto remapRange = [&](std::uint64_t from, std::uint64_t to, std::int64_t shift) {
-      for (std::uint64_t t = from; t < to; ++t) {
-        const std::array<std::uint32_t, 3> was = m.triangles[t];
-        for (std::uint32_t& c : m.triangles[t]) remap(c);
-        if (m.triangles[t] != was) {
-          changedFrom = std::min(changedFrom, std::uint64_t(std::int64_t(t) + shift));
-          changedTo = std::max(changedTo, std::uint64_t(std::int64_t(t) + shift) + 1);
-        }
-      }
+      tbb::parallel_for(tbb::blocked_range<std::uint64_t>(from, to, 1 << 16),
+                        [&](const tbb::blocked_range<std::uint64_t>& r) {
+                          Tally& tally = tallies.local();
+                          for (std::uint64_t t = r.begin(); t != r.end(); ++t) {
+                            const std::array<std::uint32_t, 3> was = m.triangles[t];
+                            for (std::uint32_t& c : m.triangles[t]) remap(c, tally);
+                            if (m.triangles[t] != was) {
+                              const std::uint64_t now = std::uint64_t(std::int64_t(t) + shift);
+                              tally.changedFrom = std::min(tally.changedFrom, now);
+                              tally.changedTo = std::max(tally.changedTo, now + 1);
+                            }
+                          }
+                        });
     };
     remapRange(0, tp.segments.front().oldFrom, 0);
     for (std::size_t i = 0; i < tp.segments.size(); ++i)
       remapRange(tp.segments[i].oldTo, i + 1 < tp.segments.size() ? tp.segments[i + 1].oldFrom : tp.oldSize,
                  tp.deltaAfter[i]);
+    const Tally all = tallies.combine([](const Tally& a, const Tally& b) {
+      return Tally{a.byKey + b.byKey, std::min(a.changedFrom, b.changedFrom), std::max(a.changedTo, b.changedTo)};
+    });
+    const std::uint64_t byKey = all.byKey, changedFrom = all.changedFrom, changedTo = all.changedTo;
     st.cornersByKey = byKey;
     // Triangles: the rows written, the runs moved (all after the first row when sizes changed),
     // and the kept triangles whose corners changed.
