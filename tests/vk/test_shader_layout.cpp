@@ -9,6 +9,7 @@
 #include "models.h"
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/extract/incremental_extract.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 #include "blobvk/vk/render/raycast.h"
@@ -113,6 +114,20 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
   vk::GpuPolygonizeOptions stackless;  // the sparse vertex kernel without the sample loop
   stackless.traversal = vk::Traversal::Stackless;
   EXPECT_GT(vk::polygonize(dev, program, grid, stackless).triangleCount(), 0u);
+  {  // An edit's re-run gives its triangles' corners as edge keys (brick_triangle_keys).
+    vk::GpuPolygonizeOptions small = stackless;
+    small.brickCells = 4;
+    vk::IncrementalExtractor inc(dev, grid, small);
+    const mesh::TriMesh& all = inc.reset(program);
+    ASSERT_GT(all.triangleCount(), 0u);
+    const mesh::Float3 p = all.positions[all.triangles[0][0]];
+    blobtree::Region near;
+    near.grow({p.x, p.y, p.z}, {p.x, p.y, p.z});
+    const std::size_t triangles = all.triangleCount();
+    vk::IncrementalGpuStats st;
+    EXPECT_EQ(inc.update(program, near, &st).triangleCount(), triangles);
+    EXPECT_FALSE(st.full);
+  }
   // The classification with the records in storage buffers (the default reads them as uniforms).
   EXPECT_FALSE(vk::classifyBricks(dev, program, grid, 8, false).empty());
   stackBased.sparse = false;  // the dense pipeline's kernels
