@@ -115,11 +115,9 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   s.classifySeconds = shares[0].classifySeconds;
   s.deviceTimed = shares[0].deviceTimed;
 
-  std::uint64_t limit = ~0ull, range = ~0ull;
-  for (Device* d : devices) {
-    limit = std::min(limit, sparseBatchLimit(*d, bg, options.maxBatchBricks));
-    range = std::min(range, sparseRangeBricks(*d, bg));
-  }
+  const std::uint64_t range = rangeBricks(bg);
+  std::uint64_t limit = ~0ull;
+  for (Device* d : devices) limit = std::min(limit, sparseBatchLimit(*d, bg, options.maxBatchBricks));
   std::uint64_t ownTarget = ~0ull;
   if (!options.maxBatchBricks) {
     // With the CPU beside the devices the workers' speeds differ: at least 4 batches each, so that
