@@ -1,16 +1,20 @@
-// MPI ranks for streamed meshing (see mesh_mpi.h). A layer travels as one message of bytes
-// tagged with its index: a small header of counts, then the arrays as they lie in memory (the
-// ranks run the same binary on hosts of one byte order).
+// MPI ranks for streamed meshing (see mesh_mpi.h). A layer travels as messages tagged with its
+// index, in a fixed order: its counts, then each non-empty array straight from the vector that
+// holds it (no packing: with shared memory Open MPI copies a large contiguous message once, from
+// the sender's memory into the receiver's). The ranks run the same binary on hosts of one byte
+// order.
 #include "mesh_mpi.h"
 
 #include <mpi.h>
 
+#include <array>
+#include <chrono>
 #include <climits>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
-#include <deque>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 namespace blobvk::app {
@@ -18,44 +22,66 @@ namespace {
 
 bool started = false;
 
-template <class T>
-void put(std::vector<char>& out, const std::vector<T>& v) {
-  const char* p = reinterpret_cast<const char*>(v.data());
-  out.insert(out.end(), p, p + v.size() * sizeof(T));
+// The arrays of a layer in the order they travel; the counts say which are empty.
+template <class Layer, class Visit>
+void forEachArray(Layer& l, Visit&& visit) {
+  visit(l.positions), visit(l.normals), visit(l.colours), visit(l.keys), visit(l.triangles), visit(l.above);
+}
+
+std::array<std::uint64_t, 6> countsOf(const cpu::MeshLayer& l) {
+  return {std::uint64_t(l.z), l.positions.size(), l.normals.size(), l.colours.size(), l.triangles.size(), l.above.size()};
 }
 
 template <class T>
-void take(const char*& p, const char* end, std::vector<T>& v, std::uint64_t n) {
-  if (std::uint64_t(end - p) < n * sizeof(T)) throw std::runtime_error("MPI: a layer message is shorter than its counts");
-  v.resize(n);
-  std::memcpy(v.data(), p, n * sizeof(T));
-  p += n * sizeof(T);
+int byteCount(const std::vector<T>& v, int z) {
+  if (v.size() * sizeof(T) > std::size_t(INT_MAX))
+    throw std::length_error("MPI: an array of layer " + std::to_string(z) + " is over 2 GiB; use a smaller --mpu");
+  return int(v.size() * sizeof(T));
 }
 
-std::vector<char> encode(const cpu::MeshLayer& l) {
-  const std::uint64_t head[6] = {std::uint64_t(l.z), l.positions.size(), l.normals.size(), l.colours.size(),
-                                 l.triangles.size(), l.above.size()};
-  std::vector<char> out(reinterpret_cast<const char*>(head), reinterpret_cast<const char*>(head) + sizeof head);
-  put(out, l.positions), put(out, l.normals), put(out, l.colours), put(out, l.keys);
-  put(out, l.triangles), put(out, l.above);
-  return out;
-}
-
-cpu::MeshLayer decode(const std::vector<char>& bytes) {
-  std::uint64_t head[6];
-  if (bytes.size() < sizeof head) throw std::runtime_error("MPI: a layer message without its header");
-  std::memcpy(head, bytes.data(), sizeof head);
-  const char* p = bytes.data() + sizeof head;
-  const char* end = bytes.data() + bytes.size();
+cpu::MeshLayer receiveLayer(int owner, int z) {
+  std::array<std::uint64_t, 6> n{};
+  MPI_Recv(n.data(), int(n.size()), MPI_UINT64_T, owner, z, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  const std::uint64_t vertices = n[1];
+  if (n[0] != std::uint64_t(z) || (n[2] != 0 && n[2] != vertices) || (n[3] != 0 && n[3] != vertices))
+    throw std::runtime_error("MPI: rank " + std::to_string(owner) + " sent inconsistent counts for layer " + std::to_string(z));
   cpu::MeshLayer l;
-  l.z = int(head[0]);
-  take(p, end, l.positions, head[1]), take(p, end, l.normals, head[2]), take(p, end, l.colours, head[3]);
-  take(p, end, l.keys, head[1]), take(p, end, l.triangles, head[4]), take(p, end, l.above, head[5]);
-  if (p != end) throw std::runtime_error("MPI: a layer message is longer than its counts");
+  l.z = z;
+  l.positions.resize(vertices), l.normals.resize(n[2]), l.colours.resize(n[3]), l.keys.resize(vertices);
+  l.triangles.resize(n[4]), l.above.resize(n[5]);
+  forEachArray(l, [&](auto& v) {
+    if (!v.empty()) MPI_Recv(v.data(), byteCount(v, z), MPI_BYTE, owner, z, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  });
   return l;
 }
 
+// Waits until `done()` is true, testing it at most every millisecond and sleeping in between.
+// MPI's blocking calls spin, which on a machine with more processes than cores (mpirun
+// --oversubscribe, or other work beside the job) takes the CPU from the rank being waited for.
+// A layer takes tenths of a second to compute, so a millisecond of latency costs nothing.
+template <class Done>
+void waitSleeping(Done&& done) {
+  auto pause = std::chrono::microseconds(50);
+  while (!done()) {
+    std::this_thread::sleep_for(pause);
+    pause = std::min(pause * 2, std::chrono::microseconds(1000));
+  }
+}
+
+double parseRootShare(const char* text) {
+  char* end = nullptr;
+  const double v = std::strtod(text, &end);
+  if (end == text || *end != '\0' || !(v >= 0.0 && v <= 1.0))
+    throw std::runtime_error(std::string("BLOBVK_MPI_ROOT_SHARE: expected a number from 0 to 1, got '") + text + "'");
+  return v;
+}
+
 }  // namespace
+
+double mpiRootShare(int ranks) {
+  if (const char* text = std::getenv("BLOBVK_MPI_ROOT_SHARE"); text && *text) return parseRootShare(text);
+  return ranks == 2 ? 0.4 : 0.0;
+}
 
 MpiWorld mpiStart() {
   if (!started) {
@@ -66,6 +92,16 @@ MpiWorld mpiStart() {
   MpiWorld w;
   MPI_Comm_rank(MPI_COMM_WORLD, &w.rank);
   MPI_Comm_size(MPI_COMM_WORLD, &w.size);
+  // Rank 0 decides the split and tells the others, so that ranks started with different
+  // environments still agree on who computes what.
+  if (w.rank == 0) {
+    try {
+      w.rootShare = mpiRootShare(w.size);
+    } catch (const std::exception& e) {
+      mpiAbort(e.what());
+    }
+  }
+  MPI_Bcast(&w.rootShare, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
   return w;
 }
 
@@ -81,55 +117,101 @@ void mpiAbort(const std::string& message) {
   std::exit(1);
 }
 
-int mpiLayerOwner(int z, int ranks) {
+int mpiLayerOwner(int z, int ranks, double rootShare) {
   if (ranks <= 1) return 0;
-  if (ranks >= 3) return 1 + z % (ranks - 1);  // rank 0's joining is a full share already
-  return z % 4 == 0 ? 0 : 1;
+  // Rank 0 owns z when the running count floor(z * share) steps up there: its layers are spread
+  // evenly, floor(z * share) of them lie below z, and the rest go round the other ranks.
+  const auto rootBelow = [rootShare](int k) { return std::int64_t(std::floor(double(k) * rootShare)); };
+  if (rootBelow(z + 1) > rootBelow(z)) return 0;
+  return 1 + int((std::int64_t(z) - rootBelow(z)) % (ranks - 1));
 }
 
-cpu::MeshLayer mpiLayer(const MpiWorld& world, cpu::LayerPolygonizer& layers, int z) {
-  const int owner = mpiLayerOwner(z, world.size);
-  if (owner == 0) return layers.layer(z);
-  MPI_Status status;
-  MPI_Probe(owner, z, MPI_COMM_WORLD, &status);
-  int count = 0;
-  MPI_Get_count(&status, MPI_BYTE, &count);
-  std::vector<char> bytes(std::size_t(count > 0 ? count : 0));
-  MPI_Recv(bytes.data(), count, MPI_BYTE, owner, z, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-  return decode(bytes);
+MpiRootLayers::MpiRootLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers)
+    : world_(world), layers_(layers), share_(world.rootShare) {}
+
+namespace {
+// Own layers rank 0 may hold computed ahead of the join: enough to fill the waits for the next
+// received layer, few enough to bound the memory (a layer is about 12 MB at 1024^3).
+constexpr std::size_t kLayersAhead = 2;
+}  // namespace
+
+bool MpiRootLayers::computeAhead(int z) {
+  if (ahead_.size() >= kLayersAhead) return false;
+  for (int n = std::max(z, computedUpTo_) + 1; n < layers_.layerCount(); ++n)
+    if (owner(n) == 0) {
+      ahead_.emplace_back(n, layers_.layer(n));
+      computedUpTo_ = n;
+      return true;
+    }
+  return false;
+}
+
+cpu::MeshLayer MpiRootLayers::take(int z) {
+  if (owner(z) == 0) {
+    if (!ahead_.empty() && ahead_.front().first == z) {
+      cpu::MeshLayer l = std::move(ahead_.front().second);
+      ahead_.pop_front();
+      return l;
+    }
+    computedUpTo_ = z;
+    return layers_.layer(z);
+  }
+  // Compute own layers while this one is on its way; take it as soon as its counts are here.
+  const auto arrived = [this, z] {
+    int flag = 0;
+    MPI_Iprobe(owner(z), z, MPI_COMM_WORLD, &flag, MPI_STATUS_IGNORE);
+    return flag != 0;
+  };
+  while (!arrived())
+    if (!computeAhead(z)) {
+      waitSleeping(arrived);
+      break;
+    }
+  return receiveLayer(owner(z), z);
 }
 
 namespace {
 // Layers a rank keeps in flight before it waits for rank 0 to take the oldest: enough to run
-// ahead of rank 0 while it joins and writes, few enough to bound the memory (a layer's message is
-// about 12 MB at 1024^3, 48 MB at 4096^3).
+// ahead of rank 0 while it joins and writes, few enough to bound the memory (a layer is about
+// 12 MB at 1024^3, 48 MB at 4096^3).
 constexpr std::size_t kLayersInFlight = 4;
 
 struct LayerInFlight {
-  std::vector<char> bytes;
-  MPI_Request request = MPI_REQUEST_NULL;
+  cpu::MeshLayer layer;
+  std::array<std::uint64_t, 6> counts{};
+  std::vector<MPI_Request> requests;
 };
+
+void send(LayerInFlight& f) {
+  const int z = f.layer.z;
+  f.counts = countsOf(f.layer);
+  std::vector<std::pair<void*, int>> parts;
+  forEachArray(f.layer, [&](auto& v) {
+    if (!v.empty()) parts.emplace_back(v.data(), byteCount(v, z));
+  });
+  f.requests.assign(parts.size() + 1, MPI_REQUEST_NULL);
+  MPI_Isend(f.counts.data(), int(f.counts.size()), MPI_UINT64_T, 0, z, MPI_COMM_WORLD, &f.requests[0]);
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    MPI_Isend(parts[i].first, parts[i].second, MPI_BYTE, 0, z, MPI_COMM_WORLD, &f.requests[i + 1]);
+}
+
+bool sent(LayerInFlight& f) {
+  int done = 0;
+  MPI_Testall(int(f.requests.size()), f.requests.data(), &done, MPI_STATUSES_IGNORE);
+  return done != 0;
+}
 
 void serveLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers, std::deque<LayerInFlight>& inFlight) {
   auto finishOldest = [&inFlight] {
-    MPI_Wait(&inFlight.front().request, MPI_STATUS_IGNORE);
+    waitSleeping([&inFlight] { return sent(inFlight.front()); });
     inFlight.pop_front();
   };
   for (int z = 0; z < layers.layerCount(); ++z) {
-    if (mpiLayerOwner(z, world.size) != world.rank) continue;
-    LayerInFlight sent{encode(layers.layer(z)), MPI_REQUEST_NULL};
-    if (sent.bytes.size() > std::size_t(INT_MAX))
-      throw std::length_error("MPI: layer " + std::to_string(z) + " is over 2 GiB; use a smaller --mpu");
-    inFlight.push_back(std::move(sent));
-    MPI_Isend(inFlight.back().bytes.data(), int(inFlight.back().bytes.size()), MPI_BYTE, 0, z, MPI_COMM_WORLD,
-              &inFlight.back().request);
+    if (mpiLayerOwner(z, world.size, world.rootShare) != world.rank) continue;
+    inFlight.push_back(LayerInFlight{layers.layer(z), {}, {}});
+    send(inFlight.back());
     // Let the earlier sends progress, and free those rank 0 has taken.
-    while (!inFlight.empty()) {
-      int done = 0;
-      MPI_Test(&inFlight.front().request, &done, MPI_STATUS_IGNORE);
-      if (!done) break;
-      inFlight.pop_front();
-    }
+    while (!inFlight.empty() && sent(inFlight.front())) inFlight.pop_front();
     while (inFlight.size() > kLayersInFlight) finishOldest();
   }
   while (!inFlight.empty()) finishOldest();

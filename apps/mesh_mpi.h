@@ -1,14 +1,18 @@
 // `mpirun -n N blobvk mesh ...`: the streamed job's layers shared out over MPI ranks. Each
 // layer has a fixed owner (mpiLayerOwner); a rank computes its layers in order and sends each to
 // rank 0 as soon as it is done, without waiting for rank 0 to take it (a few layers in flight);
-// rank 0 computes its own, receives the others in layer order and joins them into the file
-// exactly as one process would. No scheduler of our own: the split is fixed by the layer index
-// and MPI carries the bytes. Built when CMake finds MPI.
+// rank 0 takes the layers in order, its own or received, and joins them into the file exactly as
+// one process would. While the next layer has not arrived, rank 0 computes its own next layers
+// ahead instead of waiting. No scheduler of our own: who computes a layer is fixed by its index,
+// MPI carries the bytes, and who computes a layer never changes its bytes. Built when CMake
+// finds MPI.
 #pragma once
 
 #include "blobvk/cpu_simd/streaming_polygonizer.h"
 
+#include <deque>
 #include <string>
+#include <utility>
 
 namespace blobvk::app {
 
@@ -18,24 +22,45 @@ bool launchedByMpi();
 
 struct MpiWorld {
   int rank = 0, size = 1;
+  double rootShare = 0.0;  // mpiRootShare(size), as rank 0 read it (sent to every rank)
 };
 
-// MPI_Init (once) and the world's rank and size. Throws in a build without MPI.
+// MPI_Init (once), the world's rank and size, and rank 0's share of the layers. Throws in a
+// build without MPI.
 MpiWorld mpiStart();
 void mpiStop();  // MPI_Finalize, when started
 // Ends every rank after an error on one (MPI_Abort), with the message on this rank's stderr.
 [[noreturn]] void mpiAbort(const std::string& message);
 
-// The rank that computes layer z of a job on `ranks` ranks. Rank 0 also joins and writes every
-// layer, which costs about half as much as computing them all (1024^3 tower_L6P8I4, one thread:
-// 8.5 s computing, about 4 s joining, writing and spooling), so it owns a smaller share: with 2
-// ranks one layer in 4, with 3 or more none (its joining alone is about a share), the others
-// round-robin over ranks 1..N-1. Who computes a layer never changes its bytes.
-int mpiLayerOwner(int z, int ranks);
+// The fraction of the layers rank 0 computes besides joining and writing all of them. Joining
+// and writing cost about a fifth of computing (1024^3 tower_L6P8I4, one thread), so with 2 ranks
+// rank 0 takes a little under half (0.4); with 3 or more, none (its joining is about a share
+// when the others' shares are a third or less). BLOBVK_MPI_ROOT_SHARE (0 to 1) overrides it, for
+// clusters where rank 0's host or disk differs from the others'; only rank 0's environment counts.
+// Throws std::runtime_error naming the variable for a value that is not a number from 0 to 1.
+double mpiRootShare(int ranks);
 
-// Rank 0: layer z, computed here or received from the rank that owns it. Layers must be asked
-// for in order 0, 1, 2, ...
-cpu::MeshLayer mpiLayer(const MpiWorld& world, cpu::LayerPolygonizer& layers, int z);
+// The rank that computes layer z on `ranks` ranks when rank 0 takes `rootShare` of the layers:
+// rank 0's layers spread evenly over z, the others round-robin over ranks 1..N-1.
+int mpiLayerOwner(int z, int ranks, double rootShare);
+
+// Rank 0's side: the layers in order 0, 1, 2, ..., computed here or received.
+class MpiRootLayers {
+ public:
+  MpiRootLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers);
+  cpu::MeshLayer take(int z);  // z must be the previous call's z + 1 (0 first)
+
+ private:
+  int owner(int z) const { return mpiLayerOwner(z, world_.size, share_); }
+  bool computeAhead(int z);  // computes rank 0's next own layer after z, if it may; false if not
+
+  MpiWorld world_;
+  cpu::LayerPolygonizer& layers_;
+  double share_;
+  std::deque<std::pair<int, cpu::MeshLayer>> ahead_;  // own layers computed early, ascending z
+  int computedUpTo_ = -1;                             // highest own layer computed so far
+};
+
 // Ranks > 0: computes this rank's layers and sends them to rank 0; returns when all are sent.
 void mpiServeLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers);
 

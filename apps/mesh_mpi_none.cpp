@@ -12,8 +12,12 @@ MpiWorld mpiStart() {
 }
 void mpiStop() {}
 void mpiAbort(const std::string& message) { throw std::runtime_error(message); }
-int mpiLayerOwner(int, int) { return 0; }
-cpu::MeshLayer mpiLayer(const MpiWorld&, cpu::LayerPolygonizer& layers, int z) { return layers.layer(z); }
+double mpiRootShare(int) { return 1.0; }
+int mpiLayerOwner(int, int, double) { return 0; }
+MpiRootLayers::MpiRootLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers)
+    : world_(world), layers_(layers), share_(1.0) {}
+cpu::MeshLayer MpiRootLayers::take(int z) { return layers_.layer(z); }
+bool MpiRootLayers::computeAhead(int) { return false; }
 void mpiServeLayers(const MpiWorld&, cpu::LayerPolygonizer&) {}
 
 }  // namespace blobvk::app

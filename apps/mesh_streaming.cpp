@@ -154,8 +154,9 @@ StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree
     {
       Progress progress("mesh", layers.layerCount());
       cpu::LayerJoiner join(output.tee);
+      MpiRootLayers source(world, layers);  // one process: every layer computed here, in order
       for (int z = 0; z < layers.layerCount(); ++z) {
-        join.push(mpi ? mpiLayer(world, layers, z) : layers.layer(z));
+        join.push(source.take(z));
         progress.update(z + 1);
       }
       join.finish();

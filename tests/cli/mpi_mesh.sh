@@ -21,4 +21,18 @@ for ext in ply obj; do
     if [ $n -gt 1 ]; then grep -q "$n MPI ranks" "$dir/log" || { cat "$dir/log"; echo "not $n ranks"; exit 1; }; fi
   done
 done
-echo "1, 2 and 4 ranks: identical files"
+# Rank 0's share of the layers, from none to all: the same bytes whoever computes a layer.
+for share in 0 0.7 1; do
+  BLOBVK_MPI_ROOT_SHARE=$share "$mpiexec" $root --oversubscribe -n 2 "$blobvk" mesh "$scene" $grid --threads 1 \
+    -o "$dir/s.ply" -q >"$dir/log" 2>&1 || { cat "$dir/log"; echo "share $share failed"; exit 1; }
+  cmp "$dir/one.ply" "$dir/s.ply" || { echo "share $share: ply differs from one process"; exit 1; }
+done
+# A share that is not a number from 0 to 1 stops every rank with one line naming the variable.
+if BLOBVK_MPI_ROOT_SHARE=1.5 "$mpiexec" $root --oversubscribe -n 2 "$blobvk" mesh "$scene" $grid --threads 1 \
+     -o "$dir/bad.ply" -q >"$dir/log" 2>&1; then
+  cat "$dir/log"; echo "share 1.5 was accepted"; exit 1
+fi
+grep -q "blobvk: error: BLOBVK_MPI_ROOT_SHARE: expected a number from 0 to 1, got '1.5'" "$dir/log" ||
+  { cat "$dir/log"; echo "no clear line for a bad share"; exit 1; }
+[ ! -e "$dir/bad.ply" ] || { echo "a bad share left a file"; exit 1; }
+echo "1, 2 and 4 ranks, rank 0 shares 0 to 1: identical files"
