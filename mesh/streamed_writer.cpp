@@ -70,7 +70,40 @@ int makeTemporary(const std::string& dir, const std::string& stem, std::string& 
 
 std::uint8_t colourByte(float c) {  // ply.cpp's toByte
   const float clamped = std::isnan(c) ? 0.0f : std::clamp(c, 0.0f, 1.0f);
-  return std::uint8_t(std::lround(clamped * 255.0f));
+  // lround without the library call: the float is below 256 with 24 significant bits, so adding
+  // a half in double is exact and truncation rounds half away from zero as lround does.
+  return std::uint8_t(double(clamped * 255.0f) + 0.5);
+}
+
+// Binary PLY vertex records written in place: position, normal, colour bytes (the per-value
+// appends cost about as much as computing the layer's vertices on the rank that writes).
+void encodeBinaryPlyVertices(std::string& out, std::span<const Float3> positions, std::span<const Float3> normals,
+                             std::span<const Float3> colours, bool wantNormals, bool wantColours) {
+  const std::size_t stride = 12 + (wantNormals ? 12 : 0) + (wantColours ? 3 : 0);
+  out.resize(positions.size() * stride);
+  char* w = out.data();
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    std::memcpy(w, &positions[i], 12);
+    w += 12;
+    if (wantNormals) {
+      std::memcpy(w, &normals[i], 12);
+      w += 12;
+    }
+    if (wantColours) {
+      const Float3& c = colours[i];
+      *w++ = char(colourByte(c.x)), *w++ = char(colourByte(c.y)), *w++ = char(colourByte(c.z));
+    }
+  }
+}
+
+void encodeBinaryPlyTriangles(std::string& out, std::span<const std::array<std::uint32_t, 3>> triangles) {
+  out.resize(triangles.size() * 13);
+  char* w = out.data();
+  for (const auto& t : triangles) {
+    *w++ = 3;
+    std::memcpy(w, t.data(), 12);
+    w += 12;
+  }
 }
 
 void appendTriple(std::string& out, const Float3& v) {  // obj.cpp's " x y z"
@@ -97,8 +130,17 @@ class StreamedMeshFile::Spool {
   Spool& operator=(const Spool&) = delete;
 
   void append(const std::string& bytes) {
-    buffer_ += bytes;
-    if (buffer_.size() >= (4u << 20)) flush();
+    if (buffer_.size() + bytes.size() < kBuffer) {
+      buffer_ += bytes;
+      return;
+    }
+    flush();
+    if (bytes.size() >= kBuffer) {  // a layer's worth: straight to the file, not through the buffer
+      writeAll(fd_, bytes.data(), bytes.size(), what_);
+      size_ += bytes.size();
+    } else {
+      buffer_ = bytes;
+    }
   }
   void flush() {
     writeAll(fd_, buffer_.data(), buffer_.size(), what_);
@@ -109,6 +151,7 @@ class StreamedMeshFile::Spool {
   std::uint64_t size() const { return size_; }
 
  private:
+  static constexpr std::size_t kBuffer = 4u << 20;
   std::string what_;
   int fd_ = -1;
   std::string buffer_;
@@ -142,33 +185,27 @@ void StreamedMeshFile::vertices(std::span<const Float3> positions, std::span<con
   const std::string& f = options_.format;
   if (f == "stl") return;  // STL stores triangle corners only
   text_.clear();
-  if (f == "ply") {
-    const bool binary = !options_.asciiPly;
+  if (f == "ply" && !options_.asciiPly) {
+    encodeBinaryPlyVertices(text_, positions, normals, colours, wantNormals, wantColours);
+    sections_[0]->append(text_);
+    return;
+  }
+  if (f == "ply") {  // ascii
     for (std::size_t i = 0; i < positions.size(); ++i) {
       float values[6];
       int n = 0;
       values[n++] = positions[i].x, values[n++] = positions[i].y, values[n++] = positions[i].z;
       if (wantNormals) values[n++] = normals[i].x, values[n++] = normals[i].y, values[n++] = normals[i].z;
       for (int k = 0; k < n; ++k) {
-        if (binary) {
-          detail::appendRaw(text_, values[k]);
-        } else {
-          if (k) text_ += ' ';
-          detail::appendFloat(text_, values[k]);
-        }
+        if (k) text_ += ' ';
+        detail::appendFloat(text_, values[k]);
       }
-      if (wantColours) {
-        const std::uint8_t rgb[3] = {colourByte(colours[i].x), colourByte(colours[i].y), colourByte(colours[i].z)};
-        for (std::uint8_t b : rgb) {
-          if (binary) {
-            detail::appendRaw(text_, b);
-          } else {
-            text_ += ' ';
-            detail::appendUint(text_, b);
-          }
+      if (wantColours)
+        for (std::uint8_t b : {colourByte(colours[i].x), colourByte(colours[i].y), colourByte(colours[i].z)}) {
+          text_ += ' ';
+          detail::appendUint(text_, b);
         }
-      }
-      if (!binary) text_ += '\n';
+      text_ += '\n';
     }
     sections_[0]->append(text_);
     return;
@@ -197,19 +234,17 @@ void StreamedMeshFile::triangles(std::span<const std::array<std::uint32_t, 3>> t
   triangles_ += triangles.size();
   const std::string& f = options_.format;
   text_.clear();
-  if (f == "ply") {
+  if (f == "ply" && !options_.asciiPly) {
+    encodeBinaryPlyTriangles(text_, triangles);
+    sections_[1]->append(text_);
+  } else if (f == "ply") {  // ascii
     for (const auto& t : triangles) {
-      if (!options_.asciiPly) {
-        detail::appendRaw(text_, std::uint8_t(3));
-        for (std::uint32_t v : t) detail::appendRaw(text_, std::int32_t(v));
-      } else {
-        text_ += '3';
-        for (std::uint32_t v : t) {
-          text_ += ' ';
-          detail::appendUint(text_, v);
-        }
-        text_ += '\n';
+      text_ += '3';
+      for (std::uint32_t v : t) {
+        text_ += ' ';
+        detail::appendUint(text_, v);
       }
+      text_ += '\n';
     }
     sections_[1]->append(text_);
   } else if (f == "obj") {
