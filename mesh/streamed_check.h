@@ -30,10 +30,13 @@ class StreamedMeshCheck final : public MeshSink {
     bool operator<(const HalfEdge& o) const { return key != o.key ? key < o.key : forward < o.forward; }
   };
   void settle(std::uint64_t limit);  // judges the edges whose lower vertex is below limit
+  void judge(std::size_t uses, bool sameDirection);
   std::uint32_t find(std::uint32_t x);
 
   MeshReport report_;
   std::vector<HalfEdge> open_;
+  std::vector<std::uint32_t> bucketEnd_;  // settle's counting sort by lower vertex ...
+  std::vector<std::uint64_t> byLower_;    // ... of (higher vertex << 1 | forward) words
   std::vector<std::uint32_t> parent_;  // union-find over vertices
   std::vector<bool> referenced_;
 };

@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include <unistd.h>
 
 #include <cstring>
@@ -196,6 +198,58 @@ TEST(StreamedCheck, FindsMisorientedAndNonManifoldEdges) {
   const mesh::MeshReport got = check.finish(), want = mesh::checkMesh(m);
   EXPECT_EQ(got.summary(), want.summary());
   EXPECT_EQ(got.nonManifoldEdges, 1u);
+}
+
+// Random triangle soups over blocks of vertices, streamed as the polygonizer streams them: run k
+// uses blocks k and k + 1 (window: block k, then k + 1). Duplicated, flipped, degenerate and fan
+// triangles (a vertex of valence ~60: a large bucket of the check's sort), and runs whose lower
+// vertices spread thin (the check's plain-sort path), all judged as checkMesh judges them.
+TEST(StreamedCheck, MatchesCheckMeshOnRandomSoupsStreamedInRuns) {
+  for (std::uint32_t seed = 1; seed <= 20; ++seed) {
+    std::mt19937 rng(seed);
+    // Small dense runs, large dense runs, and few triangles over many vertices (spread thin).
+    const std::uint32_t blocks = 4 + seed % 3, perBlock = seed % 3 == 0 ? 40 : seed % 3 == 1 ? 3000 : 20000;
+    const std::uint32_t perRun = perBlock == 20000 ? 100 : perBlock;
+    std::vector<mesh::Float3> p(std::size_t(blocks) * perBlock);
+    std::uniform_real_distribution<float> coord(-1.0f, 1.0f);
+    for (auto& v : p) v = {coord(rng), coord(rng), coord(rng)};
+    mesh::TriMesh m;
+    m.positions = p;
+    std::vector<std::vector<std::array<std::uint32_t, 3>>> runs(blocks);
+    for (std::uint32_t k = 0; k < blocks; ++k) {
+      const std::uint32_t lo = k * perBlock, span = (k + 1 < blocks ? 2 : 1) * perBlock;
+      std::uniform_int_distribution<std::uint32_t> pick(lo, lo + span - 1);
+      auto& run = runs[k];
+      for (std::uint32_t i = 0; i < perRun; ++i) {
+        std::array<std::uint32_t, 3> t{pick(rng), pick(rng), pick(rng)};
+        run.push_back(t);
+        if (i % 7 == 0) run.push_back({t[1], t[0], t[2]});  // the same edges, flipped
+        if (i % 11 == 0) run.push_back(t);                   // a duplicate
+        if (i % 13 == 0) run.push_back({t[0], t[0], t[1]});  // degenerate
+      }
+      for (std::uint32_t i = 0; i < 60; ++i) run.push_back({lo, pick(rng), pick(rng)});  // a fan at lo
+      m.triangles.insert(m.triangles.end(), run.begin(), run.end());
+    }
+    mesh::StreamedMeshCheck check;
+    check.vertices(std::span(p).subspan(0, perBlock), {}, {});
+    for (std::uint32_t k = 0; k < blocks; ++k) {
+      if (k + 1 < blocks) check.vertices(std::span(p).subspan(std::size_t(k + 1) * perBlock, perBlock), {}, {});
+      mesh::VertexWindow w;
+      w.first = std::uint64_t(k) * perBlock;
+      w.a = std::span(p).subspan(std::size_t(k) * perBlock, perBlock);
+      if (k + 1 < blocks) w.b = std::span(p).subspan(std::size_t(k + 1) * perBlock, perBlock);
+      check.triangles(runs[k], w);
+    }
+    const mesh::MeshReport got = check.finish(), want = mesh::checkMesh(m);
+    EXPECT_EQ(got.edges, want.edges) << "seed " << seed;
+    EXPECT_EQ(got.boundaryEdges, want.boundaryEdges) << "seed " << seed;
+    EXPECT_EQ(got.nonManifoldEdges, want.nonManifoldEdges) << "seed " << seed;
+    EXPECT_EQ(got.misorientedEdges, want.misorientedEdges) << "seed " << seed;
+    EXPECT_EQ(got.degenerateTriangles, want.degenerateTriangles) << "seed " << seed;
+    EXPECT_EQ(got.unreferencedVertices, want.unreferencedVertices) << "seed " << seed;
+    EXPECT_EQ(got.eulerCharacteristic, want.eulerCharacteristic) << "seed " << seed;
+    EXPECT_GT(got.nonManifoldEdges + got.misorientedEdges, 0u) << "seed " << seed;
+  }
 }
 
 TEST(StreamedWriter, UnknownFormatAndUnwritableDirectoryAreClearErrors) {
