@@ -78,12 +78,13 @@ double parseRootShare(const char* text) {
 
 }  // namespace
 
-double mpiRootShare(int ranks) {
+double mpiRootShare(int ranks, bool rootChecks) {
   if (const char* text = std::getenv("BLOBVK_MPI_ROOT_SHARE"); text && *text) return parseRootShare(text);
-  return ranks == 2 ? 0.4 : 0.0;
+  if (ranks != 2) return 0.0;
+  return rootChecks ? 0.3 : 0.4;
 }
 
-MpiWorld mpiStart() {
+MpiWorld mpiStart(bool rootChecks) {
   if (!started) {
     int provided = 0;
     MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
@@ -96,7 +97,7 @@ MpiWorld mpiStart() {
   // environments still agree on who computes what.
   if (w.rank == 0) {
     try {
-      w.rootShare = mpiRootShare(w.size);
+      w.rootShare = mpiRootShare(w.size, rootChecks);
     } catch (const std::exception& e) {
       mpiAbort(e.what());
     }

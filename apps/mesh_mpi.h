@@ -22,23 +22,25 @@ bool launchedByMpi();
 
 struct MpiWorld {
   int rank = 0, size = 1;
-  double rootShare = 0.0;  // mpiRootShare(size), as rank 0 read it (sent to every rank)
+  double rootShare = 0.0;  // mpiRootShare, as rank 0 decided it (sent to every rank)
 };
 
-// MPI_Init (once), the world's rank and size, and rank 0's share of the layers. Throws in a
-// build without MPI.
-MpiWorld mpiStart();
+// MPI_Init (once), the world's rank and size, and rank 0's share of the layers
+// (mpiRootShare). Throws in a build without MPI.
+MpiWorld mpiStart(bool rootChecks);
 void mpiStop();  // MPI_Finalize, when started
 // Ends every rank after an error on one (MPI_Abort), with the message on this rank's stderr.
 [[noreturn]] void mpiAbort(const std::string& message);
 
-// The fraction of the layers rank 0 computes besides joining and writing all of them. Joining
-// and writing cost about a fifth of computing (1024^3 tower_L6P8I4, one thread), so with 2 ranks
-// rank 0 takes a little under half (0.4); with 3 or more, none (its joining is about a share
-// when the others' shares are a third or less). BLOBVK_MPI_ROOT_SHARE (0 to 1) overrides it, for
-// clusters where rank 0's host or disk differs from the others'; only rank 0's environment counts.
-// Throws std::runtime_error naming the variable for a value that is not a number from 0 to 1.
-double mpiRootShare(int ranks);
+// The fraction of the layers rank 0 computes besides joining and writing all of them (and,
+// when `rootChecks`, checking the mesh as it is written). Joining and writing cost about a fifth
+// of computing, the streamed check about as much again (tower_L6P8I4 at 1024^3, one thread), so
+// with 2 ranks rank 0 takes 0.4 of the layers, 0.3 when it checks; with 3 or more, none (its
+// joining is about a share when the others' shares are a third or less).
+// BLOBVK_MPI_ROOT_SHARE (0 to 1) overrides it, for clusters where rank 0's host or disk differs
+// from the others'; only rank 0's environment counts. Throws std::runtime_error naming the
+// variable for a value that is not a number from 0 to 1.
+double mpiRootShare(int ranks, bool rootChecks);
 
 // The rank that computes layer z on `ranks` ranks when rank 0 takes `rootShare` of the layers:
 // rank 0's layers spread evenly over z, the others round-robin over ranks 1..N-1.

@@ -6,13 +6,13 @@
 
 namespace blobvk::app {
 
-MpiWorld mpiStart() {
+MpiWorld mpiStart(bool) {
   throw std::runtime_error("started by an MPI launcher, but this blobvk was built without MPI "
                            "(install libopenmpi-dev, reconfigure and rebuild)");
 }
 void mpiStop() {}
 void mpiAbort(const std::string& message) { throw std::runtime_error(message); }
-double mpiRootShare(int) { return 1.0; }
+double mpiRootShare(int, bool) { return 1.0; }
 int mpiLayerOwner(int, int, double) { return 0; }
 MpiRootLayers::MpiRootLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers)
     : world_(world), layers_(layers), share_(1.0) {}

@@ -139,7 +139,7 @@ StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree
   if (settings.mpuSize > 0) options.mpuCells = settings.mpuSize;
 
   const bool mpi = launchedByMpi();
-  const MpiWorld world = mpi ? mpiStart() : MpiWorld{};
+  const MpiWorld world = mpi ? mpiStart(check) : MpiWorld{};
   StreamedMeshResult result;
   result.ranks = world.size;
   try {
