@@ -12,6 +12,7 @@
 // (R^2 rounded up to a vector of 8: few idle lanes, which llvmpipe would run through the whole
 // evaluator). The same point formula as GridSpec::point: origin + h * (i, j, k).
 #extension GL_GOOGLE_include_directive : require
+#define EVALUATOR_FIELD_ONLY  // calls evaluateField alone (eval_program.glsl)
 #define PROGRAM_SET 0
 #define PROGRAM_BINDING 0
 #include "eval_program.glsl"

@@ -6,4 +6,5 @@
 // JIT time. The same vertices, bit for bit (the loop takes no sample then).
 #extension GL_GOOGLE_include_directive : require
 #define EDGE_VERTEX_NO_SAMPLES
+#define EVALUATOR_GRADIENT_ONLY  // no samples, no stack traversal: evaluateGradient alone (eval_program.glsl)
 #include "brick_vertices_body.glsl"

@@ -118,6 +118,7 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
     normals[v + 1u] = nrm.y;
     normals[v + 2u] = nrm.z;
   }
+#ifndef EVALUATOR_GRADIENT_ONLY  // kernels without the stack-based traversal (brick_vertices_direct.comp)
   if (STACK_TRAVERSAL && (pc.attributes & 2u) != 0u) {
     vec3 colour;
     evaluateFieldColour(p, pc.codeLength, colour);
@@ -125,6 +126,7 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
     colours[v + 1u] = colour.y;
     colours[v + 2u] = colour.z;
   }
+#endif
 }
 
 #endif

@@ -3,7 +3,10 @@
 //
 // The includer defines PROGRAM_SET (descriptor set, usually 0) and PROGRAM_BINDING (first of five
 // consecutive bindings: code, primitives, matrices, boxes, warps), then includes this file before
-// any other code (it enables GL_KHR_shader_subgroup_vote).
+// any other code (it enables GL_KHR_shader_subgroup_vote). A kernel that calls only evaluateField
+// defines EVALUATOR_FIELD_ONLY first, one that calls only evaluateGradient EVALUATOR_GRADIENT_ONLY:
+// the generated evaluator (vk/eval/program_codegen.cpp) then leaves the other functions out, which
+// glslang would otherwise keep and the driver compile (this interpreter ignores both).
 //
 // Specialization constants (vk::GpuProgram::specs() fills them from the Program; the defaults are
 // correct for every program, only slower):

@@ -6,6 +6,7 @@
 // specialised evaluator each tile has its own pipeline, pruned to the tile (vk/eval/field_tiles.h).
 // Work groups: shaders/grid_dispatch.glsl.
 #extension GL_GOOGLE_include_directive : require
+#define EVALUATOR_FIELD_ONLY  // calls evaluateField alone (eval_program.glsl)
 #define PROGRAM_SET 0
 #define PROGRAM_BINDING 0
 #include "eval_program.glsl"

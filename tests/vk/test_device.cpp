@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <thread>
 #include <vector>
 
 namespace blobvk::testing {
@@ -114,6 +115,54 @@ TEST_F(DeviceTest, SynchronisationValidationReportsAMissingBarrier) {
   writeThenRead(false);
   EXPECT_GE(ctx.validationMessages(), 1u);
   EXPECT_EQ(ctx.lastValidationMessageId().rfind("SYNC-HAZARD-", 0), 0u) << ctx.lastValidationMessageId();
+}
+
+// A pass builds its slowest kernel on a thread of its own while it builds the others
+// (vk/extract/sparse_batches.cpp): kernels asked for from several threads at once come back as
+// one pipeline per name, cached once, and run.
+TEST_F(DeviceTest, KernelsBuiltOnSeveralThreadsAtOnceAreKeptOnce) {
+  vk::StandaloneOptions options;
+  options.validation = true;
+  options.pipelineCache = "off";
+  if (const char* d = std::getenv("BLOBVK_TEST_DEVICE")) options.device = d;
+  vk::StandaloneContext ctx(options);
+  vk::Device& dev = ctx.device();
+  const std::size_t before = dev.cachedKernels();
+  constexpr int kThreads = 4;
+  const std::uint32_t spec[1] = {64};
+  std::vector<vk::KernelPtr> reduce(kThreads), apply(kThreads);
+  {
+    std::vector<std::jthread> threads;
+    for (int t = 0; t < kThreads; ++t)
+      threads.emplace_back([&, t] {
+        reduce[t] = dev.kernel("scan_reduce", spec);
+        apply[t] = dev.kernel("scan_apply", spec);
+      });
+  }
+  for (int t = 0; t < kThreads; ++t) {
+    ASSERT_TRUE(reduce[t] && apply[t]);
+    EXPECT_EQ(reduce[t], reduce[0]);
+    EXPECT_EQ(apply[t], apply[0]);
+  }
+  EXPECT_NE(reduce[0], apply[0]);
+  EXPECT_EQ(dev.cachedKernels(), before + 2);
+  // The cached pipelines work: a scan of ones gives each element its index.
+  const std::vector<std::uint32_t> ones(256, 1u);
+  vk::Buffer values = dev.createBuffer(ones.size() * 4), sums = dev.createBuffer(64), totals = dev.createBuffer(16);
+  dev.upload(values, ones.data(), ones.size() * 4);
+  const std::uint32_t reducePush[3] = {0u, std::uint32_t(ones.size()), 0u};
+  const std::uint32_t applyPush[5] = {0u, std::uint32_t(ones.size()), 0u, 1u, ~0u};
+  const vk::BufferRange reduceBind[2] = {values, sums}, applyBind[3] = {values, sums, totals};
+  dev.run([&](vk::Recorder& rec) {
+    rec.dispatch(*dev.kernel("scan_reduce", spec), reduceBind, reducePush, sizeof(reducePush), 1);
+    rec.computeBarrier();
+    rec.dispatch(*dev.kernel("scan_apply", spec), applyBind, applyPush, sizeof(applyPush), 1);
+    rec.hostBarrier();
+  });
+  std::vector<std::uint32_t> back(ones.size());
+  dev.download(values, back.data(), back.size() * 4);
+  EXPECT_EQ(back[70], 64u + 6u);  // as SynchronisationValidationReportsAMissingBarrier's scan
+  EXPECT_EQ(ctx.validationMessages(), 0u) << ctx.lastValidationMessageId();
 }
 
 }  // namespace

@@ -60,6 +60,54 @@ TEST(SpecialisedGradient, VertexKernelsOfSpecialisedCodeInterpretNothing) {
   }
 }
 
+// The functions the SPIR-V names (OpName), e.g. "evaluateField(vf3;u1;".
+std::vector<std::string> functionNames(std::span<const std::uint32_t> words) {
+  constexpr std::uint32_t kOpName = 5;
+  std::vector<std::string> names;
+  for (std::size_t i = 5; i < words.size();) {
+    const std::uint32_t count = words[i] >> 16, op = words[i] & 0xffffu;
+    if (count == 0 || i + count > words.size()) break;
+    if (op == kOpName && count > 2) {
+      const char* text = reinterpret_cast<const char*>(&words[i + 2]);
+      const std::string name(text, strnlen(text, (count - 2) * 4));
+      if (name.find('(') != std::string::npos) names.push_back(name);
+    }
+    i += count;
+  }
+  return names;
+}
+
+bool namesFunction(const std::vector<std::string>& names, const std::string& function) {
+  return std::any_of(names.begin(), names.end(), [&](const std::string& n) { return n.rfind(function + "(", 0) == 0; });
+}
+
+// lavapipe translates every function of a module, called or not (glslang keeps them with its
+// optimiser off), so generated kernels hold only what they call: a field kernel the field, the
+// direct vertex kernel the gradient, with one formula per primitive type (no type switch).
+TEST(SpecialisedGradient, GeneratedKernelsHoldOnlyTheFunctionsTheyCall) {
+  for (const auto& model : testModels()) {
+    const auto program = blobtree::compile(model.root);
+    const std::string glsl = vk::generateSpecialisedEvaluator(program, vk::defaultCodegenOptions(true));
+    if (glsl.find("BLOBVK_GENERATED_GRADIENT") == std::string::npos) continue;  // looped code
+    for (const char* shader : {"brick_field.comp", "field_grid.comp"}) {
+      const auto names = functionNames(vk::compileComputeShader(shader, {{"eval_program.glsl", glsl}}));
+      EXPECT_TRUE(namesFunction(names, "evaluateField")) << model.name << " " << shader;
+      EXPECT_FALSE(namesFunction(names, "evaluateFieldColour")) << model.name << " " << shader;
+      EXPECT_FALSE(namesFunction(names, "evaluateGradient")) << model.name << " " << shader;
+    }
+    const auto direct = functionNames(vk::compileComputeShader("brick_vertices_direct.comp", {{"eval_program.glsl", glsl}}));
+    EXPECT_TRUE(namesFunction(direct, "evaluateGradient")) << model.name;
+    EXPECT_FALSE(namesFunction(direct, "evaluateField")) << model.name;
+    EXPECT_FALSE(namesFunction(direct, "evaluateFieldColour")) << model.name;
+    EXPECT_FALSE(namesFunction(direct, "primitiveGradientOf")) << model.name;  // the switch over every type
+    for (const auto& prim : program.primitives)
+      EXPECT_TRUE(namesFunction(direct, "primitiveGradientOfType" + std::to_string(prim.meta.x))) << model.name;
+    // The vertex kernel with samples still evaluates the field (the check can fail).
+    const auto samples = functionNames(vk::compileComputeShader("brick_vertices.comp", {{"eval_program.glsl", glsl}}));
+    EXPECT_TRUE(namesFunction(samples, "evaluateField")) << model.name;
+  }
+}
+
 // The cost model weighs the generated gradient's larger vertex kernel: the shipped tower at 256
 // cells on lavapipe, meshed 4 times (a benchmark), takes it (its interpreted gradient was most of
 // the mesh's time); a program whose unrolled vertex kernel would break the build's memory bound

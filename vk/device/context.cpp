@@ -239,6 +239,7 @@ std::string kernelKey(const std::string& name, std::span<const std::uint32_t> sp
 }  // namespace
 
 KernelPtr Device::touch(const std::string& key) {
+  std::lock_guard lock(kernelMutex_);
   auto it = kernels_.find(key);
   if (it == kernels_.end()) return nullptr;
   kernelLru_.splice(kernelLru_.begin(), kernelLru_, it->second);  // most recently used
@@ -323,6 +324,9 @@ KernelPtr Device::createKernel(const std::string& key, const std::string& shader
   d_.vkDestroyShaderModule(host_.device, module, nullptr);
   check(r, ("vkCreateComputePipelines(" + shader + ")").c_str());
 
+  std::lock_guard lock(kernelMutex_);
+  // Another thread may have built the same kernel meanwhile: keep the first (ours dies here).
+  if (auto it = kernels_.find(key); it != kernels_.end()) return it->second->second;
   if (std::find(shadersUsed_.begin(), shadersUsed_.end(), layoutOf) == shadersUsed_.end()) {
     shadersUsed_.push_back(layoutOf);
   }

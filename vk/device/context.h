@@ -10,6 +10,7 @@
 #include <functional>
 #include <list>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <unordered_map>
@@ -131,6 +132,9 @@ class Device {
   void setForceStaging(bool on) { forceStaging_ = on; }
   bool forceStaging() const { return forceStaging_; }
 
+  // Kernels may be built on several threads at once (a pass builds its slowest kernel in the
+  // background while the device runs the kernels before it): the cache is locked, the pipeline
+  // creation is not, and a kernel two threads built at once is kept once.
   // Cached compute pipeline for an embedded shader with specialization constants
   // (constant_id i = specs[i]; constant 0 is the workgroup size by convention). Its layout is
   // the shader's reflected one (vk/device/shader_layout.h).
@@ -143,9 +147,16 @@ class Device {
   // A cached pipeline, or null (lets callers skip generating code that is already built).
   KernelPtr findKernel(const std::string& name, std::span<const std::uint32_t> specs);
   // Pipelines in the cache, and how many it has evicted since creation.
-  std::size_t cachedKernels() const { return kernelLru_.size(); }
-  std::uint64_t evictedKernels() const { return evictedKernels_; }
-  // The names of the embedded shaders that kernels were built from (tests of coverage).
+  std::size_t cachedKernels() const {
+    std::lock_guard lock(kernelMutex_);
+    return kernelLru_.size();
+  }
+  std::uint64_t evictedKernels() const {
+    std::lock_guard lock(kernelMutex_);
+    return evictedKernels_;
+  }
+  // The names of the embedded shaders that kernels were built from (tests of coverage; read it
+  // while no kernel is being built).
   const std::vector<std::string>& shadersUsed() const { return shadersUsed_; }
 
   // Records with `record`, submits to the host queue and waits on blobvk's own fence (never on
@@ -189,7 +200,8 @@ class Device {
   bool fencePending_ = false;  // submitted and not yet seen signalled (an error path)
   bool forceStaging_ = false;
   double timestampPeriod_ = 0.0;
-  // The pipeline cache: most recently used first.
+  // The pipeline cache: most recently used first; kernelMutex_ guards it and shadersUsed_.
+  mutable std::mutex kernelMutex_;
   std::uint32_t kernelCapacity_ = 256;
   std::list<std::pair<std::string, KernelPtr>> kernelLru_;
   std::unordered_map<std::string, std::list<std::pair<std::string, KernelPtr>>::iterator> kernels_;

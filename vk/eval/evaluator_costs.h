@@ -49,6 +49,9 @@ inline constexpr double kVertexKernelMemoryCopies = 2.5;
 // grows like 4 field copies, its memory like 6.5 (`blobvk --pipeline-cache off mesh S
 // --resolution 64 --backend vk --traversal specialised` against the interpreted gradient, peak
 // RSS: L2P8G1 +80 MB, L3P8G1 +128 MB, tower +177 MB, random128 +220 MB).
+// (Fitted while the generated kernels still carried their uncalled functions and the gradient a
+// switch over every primitive type at each primitive; tower's vertex kernel now creates in about
+// a fifth less time, so this over-estimates, on the side of the interpreted gradient.)
 inline constexpr double kGradientVertexKernelCopies = 4.0;
 inline constexpr double kGradientVertexKernelMemoryCopies = 6.5;
 // The interpreted gradient at a vertex costs about this many interpreter evaluations of the field

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -38,6 +39,14 @@ class GradientGenerator {
 
   std::string function() {
     out_ += "#define BLOBVK_GENERATED_GRADIENT 1\n#include \"eval_gradient_formulas.glsl\"\n\n";
+    // One gradient function per primitive type, its type a constant: the driver's compiler then
+    // sees one formula at each primitive, not every type's (eval_gradient_primitive_body.glsl).
+    std::set<std::uint32_t> types;
+    for (const auto& prim : p_.primitives) types.insert(prim.meta.x);
+    for (std::uint32_t t : types)
+      out_ += "precise float " + primitiveGradientName(t) +
+              "(vec3 p, vec4 p0, vec4 p1, vec4 p2, out vec3 grad) {\n  const uint type = " + std::to_string(t) +
+              "u;\n#include \"eval_gradient_primitive_body.glsl\"\n}\n\n";
     // Record values are literals, except zeros: NIR folds x * 0.0 into 0.0 and y + 0.0 into y
     // (the shader does not ask to preserve signed zeros), and where the other terms are -0 the
     // sum then turns from +0 into -0, a sign the normal keeps. The interpreter's zeros come from
@@ -92,6 +101,8 @@ class GradientGenerator {
     return codegen::lit(v);
   }
   static std::string v3(const layout::vec4& v) { return "vec3(" + num(v.x) + ", " + num(v.y) + ", " + num(v.z) + ")"; }
+  static std::string primitiveGradientName(std::uint32_t type) { return "primitiveGradientOfType" + std::to_string(type); }
+
   static std::string v4(const layout::vec4& v) {
     return "vec4(" + num(v.x) + ", " + num(v.y) + ", " + num(v.z) + ", " + num(v.w) + ")";
   }
@@ -111,7 +122,7 @@ class GradientGenerator {
     const std::string at = matrix ? "toLocalRows(" + rows(matrix) + ", " + point(z) + ")" : point(z);
     const std::string d = named('r', dst), g = named('g', dst);
     line(depth, "{ precise vec3 gl;");
-    line(depth + 1, d + " = primitiveGradientOf(" + std::to_string(prim.meta.x) + "u, " + at + ", " + v4(prim.p0) + ", " +
+    line(depth + 1, d + " = " + primitiveGradientName(prim.meta.x) + "(" + at + ", " + v4(prim.p0) + ", " +
                         v4(prim.p1) + ", " + v4(prim.p2) + ", gl);");
     if (matrix) line(depth + 1, "gl = transposeTimesRows(" + rows(matrix) + ", gl);");
     // Register 0 is p itself: its gradient is not multiplied by the identity (that would turn -0 into +0).

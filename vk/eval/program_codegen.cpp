@@ -357,11 +357,16 @@ Generated generate(const blobtree::Program& program, const CodegenOptions& optio
     g.glsl = generateLoopedEvaluators(program, *shapes, looped, &g.emitted);
   } else {
     g.emitted = prunedInstructionCount(program, options.region);
-    // The gradient for the vertex kernels' normals, unrolled with the field (kernels that do not
-    // call it lose it to glslang's removal of uncalled functions).
-    g.glsl = codeDeclaration(program) + Generator(program, options, false).function() +
-             Generator(program, options, true).function() +
-             (options.gradient ? generateSpecialisedGradient(program, options, kCodeArray) : std::string());
+    // The field, the colour and the gradient for the vertex kernels' normals, unrolled. glslang
+    // (optimiser off) keeps uncalled functions in the SPIR-V and lavapipe translates every one, so
+    // a kernel that needs only some says so (shaders/eval_program.glsl: EVALUATOR_FIELD_ONLY,
+    // EVALUATOR_GRADIENT_ONLY) and the others are not compiled: a field tile's kernel held the
+    // whole colour evaluator and the gradient beside its field, the vertex kernel both evaluators.
+    g.glsl = codeDeclaration(program) + "#ifndef EVALUATOR_GRADIENT_ONLY\n" + Generator(program, options, false).function() +
+             "#ifndef EVALUATOR_FIELD_ONLY\n" + Generator(program, options, true).function() + "#endif\n#endif\n" +
+             (options.gradient ? "#ifndef EVALUATOR_FIELD_ONLY\n" + generateSpecialisedGradient(program, options, kCodeArray) +
+                                     "#endif\n"
+                               : std::string());
   }
   return g;
 }

@@ -14,6 +14,7 @@
 #include <bit>
 #include <chrono>
 #include <functional>
+#include <future>
 #include <string>
 #include <type_traits>
 
@@ -132,7 +133,17 @@ struct SparseBatchRunner::State {
   // 4 s) for a fraction of a second per run.
   std::vector<BrickTile> tiles;
   std::vector<KernelPtr> fieldKernels;
+  // The vertex kernel, built on a thread of its own while the field kernels are built and the
+  // first batch's field pass runs: with specialised code it is the slowest kernel to build by far
+  // (tower: the whole program's field, gradient and colour spelled out; lavapipe translates and
+  // optimises it in vkCreateComputePipelines, 1-1.5 s), and nothing needs it before the batch's
+  // second submit. Declared after everything the build reads, so that it is joined first.
   KernelPtr vertexKernel;
+  std::future<KernelPtr> vertexKernelBuild;
+  const KernelPtr& vertices() {
+    if (vertexKernelBuild.valid()) vertexKernel = vertexKernelBuild.get();  // rethrows a failed build
+    return vertexKernel;
+  }
   std::vector<std::uint32_t> batchPacked;  // host copy of a batch's brick list (tiles only)
   DeviceTimer timer;
   std::uint32_t runs = 0, maxBatches = 0;
@@ -170,6 +181,13 @@ struct SparseBatchRunner::State {
     // sample loop, whose field evaluator llvmpipe would run once per vertex anyway.
     const bool samples = o.refineSteps > 0 || traversal == Traversal::StackBased;
     const char* vertexShader = samples ? "brick_vertices" : "brick_vertices_direct";
+    if (traversal == Traversal::Specialised) {
+      vertexKernelBuild = std::async(std::launch::async, [this, vertexShader, wg = o.workgroupSize, traversal] {
+        return evaluatorKernel(device, gpu, vertexShader, wg, traversal);
+      });
+    } else {  // the embedded interpreter: its pipeline is quick to create
+      vertexKernel = evaluatorKernel(device, gpu, vertexShader, o.workgroupSize, traversal);
+    }
     if (traversal == Traversal::Specialised && o.maxFieldTiles > 1) tiles = planBrickTiles(program, g, bg, o.maxFieldTiles);
     if (tiles.size() <= 1) {
       tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
@@ -187,7 +205,6 @@ struct SparseBatchRunner::State {
         fieldKernels.push_back(specialisedKernel(device, program, print, c, "brick_field", fieldGroupSize));
       }
     }
-    vertexKernel = evaluatorKernel(device, gpu, vertexShader, o.workgroupSize, traversal);
     counts = device.createBuffer(16, MemoryUse::Readback);
   }
 };
@@ -363,6 +380,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   }
   Buffer staging = stagingBytes ? device.createBuffer(stagingBytes, MemoryUse::Readback) : Buffer{};
   st.peakOutputBytes = std::max(st.peakOutputBytes, outBytes);
+  const KernelPtr& vertexKernel = st.vertices();
   submit([&](Recorder& rec) {
     rec.computeBarrier();
     st.timer.mark(rec, mark + 4);
@@ -392,7 +410,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       const BufferRange bind[12] = {pb[0],    pb[1],          pb[2],         pb[3],     pb[4],   st.field,
                                     st.batchBricks, vertexSources, positions, normals, colours, keys};
       const Groups g = groupsFor(vertices, wg);
-      rec.dispatch(*st.vertexKernel, bind, &push, sizeof(push), g.x, g.y);
+      rec.dispatch(*vertexKernel, bind, &push, sizeof(push), g.x, g.y);
     }
     st.timer.mark(rec, mark + 6);
     if (triangles && cornerKeys) {
