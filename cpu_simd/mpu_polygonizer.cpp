@@ -36,6 +36,7 @@
 #include <atomic>
 #include <array>
 #include <chrono>
+#include <cstring>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -70,13 +71,14 @@ struct Scratch {
   std::vector<std::uint8_t> inside;
   std::vector<detail::RowBits> rows;  // per point row (k, j): inside flags as bits
   std::vector<std::uint32_t> vertexId;  // per (local point * 3 + axis); valid for crossing edges
-  std::vector<std::uint32_t> edgePoint;
+  std::vector<detail::RowBits> cross;   // per owned point row: crossing edges of axes 0, 1, 2
   std::vector<std::uint8_t> edgeAxis;
   std::vector<float> t, lo, hi, flo, fhi, f, px, py, pz, nx, ny, nz, cr, cg, cb;
   std::vector<int> kept, active;
+  std::vector<std::array<std::uint32_t, 3>> tris;  // one MPU's triangles, before their copy
   std::vector<std::uint32_t> localToGlobal;
-  std::vector<std::uint8_t> need;      // sparse field cache: points of unclassified sub-blocks
-  std::vector<std::uint32_t> gather;   // evaluated point -> local point index
+  // Sparse field cache, per point row: points of unclassified leaves, points classified inside.
+  std::vector<detail::RowBits> needRows, classRows;
   struct Block {
     glm::ivec3 c0, c1;  // local cell range
   };
@@ -98,18 +100,12 @@ struct Context {
   int D;
   glm::ivec3 mpus;     // MPUs per axis
   glm::ivec3 points;   // grid points per axis
-  std::vector<std::uint32_t> vertexRows;    // [(k * points.y + j) * mpus.x + a]
-  std::vector<std::uint32_t> triangleRows;  // [(k * cells.y + j) * mpus.x + a]
   std::vector<std::unique_ptr<MpuResult>> results;
+  // After the scan: the global index of the first vertex of each owned point row and of the
+  // first triangle of each cell row, per MPU with a result (rows from `rowAt[m]`).
+  std::vector<std::uint32_t> vertexBase, triangleBase;
+  std::vector<std::size_t> vertexRowAt, triangleRowAt;
 
-  std::size_t vertexRow(int k, int j, int a) const {
-    return (std::size_t(k) * std::size_t(points.y) + std::size_t(j)) * std::size_t(mpus.x) +
-           std::size_t(a);
-  }
-  std::size_t triangleRow(int k, int j, int a) const {
-    return (std::size_t(k) * std::size_t(grid.cells.y) + std::size_t(j)) * std::size_t(mpus.x) +
-           std::size_t(a);
-  }
   std::uint64_t blocks(std::size_t n) const { return (n + std::size_t(width) - 1) / std::size_t(width); }
 };
 
@@ -231,9 +227,9 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
   const std::size_t sx = 1, sy = std::size_t(pts.x), sz = std::size_t(pts.x) * std::size_t(pts.y);
   const std::size_t N = sz * std::size_t(pts.z);
   s.x.resize(N), s.y.resize(N), s.z.resize(N), s.field.resize(N);
-  s.inside.resize(N + 16);  // packRow reads up to 15 bytes past a row
+  if (s.inside.size() < N + 16) s.inside.resize(N + 16);  // packRow reads up to 15 bytes past a row
   if (s.f.size() < N) s.f.resize(N);
-  float cx[65], cy[65], cz[65];  // the grid's own coordinate expression, per axis
+  float cx[66], cy[66], cz[66];  // the grid's own coordinate expression, per axis (+1 spare)
   for (int i = 0; i < pts.x; ++i) cx[i] = grid.point(lo.x + i, 0, 0).x;
   for (int j = 0; j < pts.y; ++j) cy[j] = grid.point(0, lo.y + j, 0).y;
   for (int k = 0; k < pts.z; ++k) cz[k] = grid.point(0, 0, lo.z + k).z;
@@ -245,7 +241,11 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
     // without evaluating them, the others are cut again, and the points of the leaves left
     // unclassified are evaluated. Every grid edge lies in some leaf or classified block and a
     // classified one has no crossing edge, so every field value a vertex needs is evaluated.
-    s.need.assign(N, 0);
+    // Per point row: the points to evaluate (bits of unclassified leaves) and the points that a
+    // classified block puts inside. Word operations per block row, no per-point writes.
+    const std::size_t rowCount = std::size_t(pts.y) * std::size_t(pts.z);
+    s.needRows.assign(rowCount, 0);
+    s.classRows.assign(rowCount, 0);
     using Block = Scratch::Block;
     s.blockBounds.reset(*fieldProgram, glm::dvec3(cx[0], cy[0], cz[0]),
                         glm::dvec3(cx[cellsHere.x], cy[cellsHere.y], cz[cellsHere.z]));
@@ -297,51 +297,51 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
           continue;
         }
         if (side >= 0) ++st.subBlocksClassified;
+        if (side == 0) continue;  // outside: its points' bits stay clear
+        // Field values are read on crossing edges only: for a classified block the side is enough.
+        detail::RowBits* target = side < 0 ? s.needRows.data() : s.classRows.data();
+        const detail::RowBits span = detail::lowBits(c1.x + 1) & ~detail::lowBits(c0.x);
         for (int k = c0.z; k <= c1.z; ++k)
-          for (int j = c0.y; j <= c1.y; ++j) {
-            const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
-            if (side < 0) {
-              std::fill(s.need.begin() + std::ptrdiff_t(row) + c0.x,
-                        s.need.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(1));
-            } else {  // field values are read on crossing edges only: the side is enough here
-              std::fill(s.inside.begin() + std::ptrdiff_t(row) + c0.x,
-                        s.inside.begin() + std::ptrdiff_t(row) + c1.x + 1, std::uint8_t(side));
-            }
-          }
+          for (int j = c0.y; j <= c1.y; ++j) target[std::size_t(k) * std::size_t(pts.y) + std::size_t(j)] |= span;
       }
       root = false;
       std::swap(s.blocks, s.nextBlocks);
     }
-    // Compaction without branches (need is about half ones): every point is written, the
-    // count advances by its flag. Restrict: the byte arrays may alias anything otherwise.
+    // The points to evaluate, row by row: y and z are the row's, x walks the row's set bits.
     std::size_t n = 0;
-    s.gather.resize(N);
     {
       float* __restrict px = s.x.data();
       float* __restrict py = s.y.data();
       float* __restrict pz = s.z.data();
-      std::uint32_t* __restrict gather = s.gather.data();
-      const std::uint8_t* __restrict need = s.need.data();
       for (int k = 0; k < pts.z; ++k)
         for (int j = 0; j < pts.y; ++j) {
-          const std::size_t row = std::size_t(k) * sz + std::size_t(j) * sy;
-          for (int i = 0; i < pts.x; ++i) {
-            px[n] = cx[i], py[n] = cy[j], pz[n] = cz[k];
-            gather[n] = std::uint32_t(row + std::size_t(i));
-            n += need[row + std::size_t(i)];
-          }
+          const detail::RowBits need = s.needRows[std::size_t(k) * std::size_t(pts.y) + std::size_t(j)];
+          if (!need) continue;
+          const std::size_t c = std::size_t(detail::popCount(need));
+          std::fill(py + n, py + n + c, cy[j]);
+          std::fill(pz + n, pz + n + c, cz[k]);
+          detail::forEachBit(need, [&](int i) { px[n++] = cx[i]; });
         }
     }
     evaluateFieldBatch(*fieldProgram, s.x.data(), s.y.data(), s.z.data(), s.f.data(), n,
                        ctx.level);
+    // Back into the cache in the same order; a point's evaluated side wins over a classified
+    // block's (they agree: the bound is conservative).
+    s.rows.resize(rowCount);
     {
       const float* __restrict f = s.f.data();
-      const std::uint32_t* __restrict gather = s.gather.data();
       float* __restrict field = s.field.data();
-      std::uint8_t* __restrict inside = s.inside.data();
-      for (std::size_t e = 0; e < n; ++e) {
-        field[gather[e]] = f[e];
-        inside[gather[e]] = f[e] >= iso ? 1 : 0;
+      std::size_t e = 0;
+      for (std::size_t row = 0; row < rowCount; ++row) {
+        const detail::RowBits need = s.needRows[row];
+        std::uint64_t in[2] = {0, 0};
+        float* fieldRow = field + row * sy;
+        detail::forEachBit(need, [&](int i) {
+          fieldRow[i] = f[e];
+          in[i >> 6] |= std::uint64_t(f[e] >= iso) << (i & 63);
+          ++e;
+        });
+        s.rows[row] = (s.classRows[row] & ~need) | detail::RowBits(in[0]) | (detail::RowBits(in[1]) << 64);
       }
     }
     st.grid += n;
@@ -359,16 +359,18 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
     const float* __restrict field = s.field.data();
     std::uint8_t* __restrict inside = s.inside.data();
     for (std::size_t p2 = 0; p2 < N; ++p2) inside[p2] = field[p2] >= iso ? 1 : 0;
+    // Inside flags as one bit mask per point row.
+    const std::size_t rowCount = std::size_t(pts.y) * std::size_t(pts.z);
+    s.rows.resize(rowCount);
+    for (std::size_t row = 0; row < rowCount; ++row) s.rows[row] = detail::packRow(s.inside.data() + row * sy, pts.x);
   }
-  // Inside flags as one bit mask per point row: crossing edges and mixed cells of a row are
-  // then a few word operations, and only their set bits are visited below.
+  // From here on the inside flags are the row bit masks: crossing edges and mixed cells of a
+  // row are a few word operations, and only their set bits are visited below.
   const std::size_t rowCount = std::size_t(pts.y) * std::size_t(pts.z);
-  s.rows.resize(rowCount);
   const detail::RowBits fullRow = detail::lowBits(pts.x);
   bool anyInside = false, allInside = true;
   for (std::size_t row = 0; row < rowCount; ++row) {
-    const detail::RowBits bits = detail::packRow(s.inside.data() + row * sy, pts.x);
-    s.rows[row] = bits;
+    const detail::RowBits bits = s.rows[row];
     anyInside |= bits != 0;
     allInside &= bits == fullRow;
   }
@@ -390,85 +392,108 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
   t0 = Clock::now();
   auto r = std::make_unique<MpuResult>();
   r->mpu = mi, r->lo = lo, r->pts = pts, r->owned = owned;
-  s.vertexId.resize(N * 3);
-  s.edgePoint.clear(), s.edgeAxis.clear();
-  r->vertexRowStart.resize(std::size_t(owned.y) * std::size_t(owned.z) + 1);
+  if (s.vertexId.size() < N * 3) s.vertexId.resize(N * 3);
+  const std::size_t ownedRows = std::size_t(owned.y) * std::size_t(owned.z);
+  r->vertexRowStart.resize(ownedRows + 1);
   const std::size_t strides[3] = {sx, sy, sz};
   const detail::RowBits ownedMask = detail::lowBits(owned.x);
   const detail::RowBits xEdgeMask = detail::lowBits(std::min(owned.x, pts.x - 1));
-  for (int k = 0; k < owned.z; ++k) {
+  // Crossing edges per owned row and axis: edge (i, axis) crosses when its two end points
+  // differ; i < owned.x, and an x edge also needs i + 1 < pts.x. Counted first, so every
+  // array below is sized once and written in place.
+  s.cross.resize(ownedRows * 3);
+  std::size_t nv = 0;
+  for (int k = 0; k < owned.z; ++k)
     for (int j = 0; j < owned.y; ++j) {
       const std::size_t row = std::size_t(k) * std::size_t(owned.y) + std::size_t(j);
-      const std::uint32_t rowBegin = std::uint32_t(s.edgePoint.size());
-      r->vertexRowStart[row] = rowBegin;
-      const std::size_t base = std::size_t(k) * sz + std::size_t(j) * sy;
       const detail::RowBits here = rowBits(j, k);
-      // Edge (i, axis) crosses when its two end points differ; i < owned.x, and an x edge
-      // also needs i + 1 < pts.x.
-      const detail::RowBits cross[3] = {
-          (here ^ (here >> 1)) & xEdgeMask,
-          j + 1 < pts.y ? (here ^ rowBits(j + 1, k)) & ownedMask : detail::RowBits(0),
-          k + 1 < pts.z ? (here ^ rowBits(j, k + 1)) & ownedMask : detail::RowBits(0)};
-      detail::forEachBit(cross[0] | cross[1] | cross[2], [&](int i) {
-        const std::size_t p = base + std::size_t(i);
-        for (int axis = 0; axis < 3; ++axis) {
-          if (!((cross[axis] >> i) & 1u)) continue;
-          s.vertexId[p * 3 + std::size_t(axis)] = std::uint32_t(s.edgePoint.size());
-          s.edgePoint.push_back(std::uint32_t(p));
-          s.edgeAxis.push_back(std::uint8_t(axis));
-        }
-      });
-      if (!ctx.vertexRows.empty())
-        ctx.vertexRows[ctx.vertexRow(lo.z + k, lo.y + j, mi.x)] = std::uint32_t(s.edgePoint.size()) - rowBegin;
+      detail::RowBits* cross = &s.cross[row * 3];
+      cross[0] = (here ^ (here >> 1)) & xEdgeMask;
+      cross[1] = j + 1 < pts.y ? (here ^ rowBits(j + 1, k)) & ownedMask : detail::RowBits(0);
+      cross[2] = k + 1 < pts.z ? (here ^ rowBits(j, k + 1)) & ownedMask : detail::RowBits(0);
+      r->vertexRowStart[row] = std::uint32_t(nv);
+      nv += std::size_t(detail::popCount(cross[0]) + detail::popCount(cross[1]) + detail::popCount(cross[2]));
+    }
+  r->vertexRowStart.back() = std::uint32_t(nv);
+  if (s.t.size() < nv)
+    for (auto* v : {&s.t, &s.lo, &s.hi, &s.flo, &s.fhi, &s.px, &s.py, &s.pz, &s.nx, &s.ny,
+                    &s.nz, &s.cr, &s.cg, &s.cb})
+      v->resize(nv);
+  if (s.f.size() < nv) s.f.resize(nv);
+  if (s.edgeAxis.size() < nv) s.edgeAxis.resize(nv), s.kept.resize(nv), s.active.resize(nv);
+  r->keys.resize(nv);
+  r->positions.resize(nv);
+  // Refinement needs each edge's start point and length; without it the position is final here.
+  const bool refine = ctx.options.refineSteps > 0;
+  float* ax = s.nx.data();  // start points and lengths borrow the normal buffers
+  float* ay = s.ny.data();
+  float* az = s.nz.data();
+  float* length = s.cr.data();
+  {
+    std::uint32_t* __restrict vertexId = s.vertexId.data();
+    const float* __restrict field = s.field.data();
+    std::uint64_t* __restrict keys = r->keys.data();
+    mesh::Float3* __restrict positions = r->positions.data();
+    float* __restrict px = s.px.data();
+    float* __restrict py = s.py.data();
+    float* __restrict pz = s.pz.data();
+    float* __restrict tt = s.t.data();
+    std::uint8_t* __restrict edgeAxis = s.edgeAxis.data();
+    std::uint32_t e = 0;
+    for (int k = 0; k < owned.z; ++k) {
+      const float lz = cz[k + 1 < pts.z ? k + 1 : k] - cz[k];
+      for (int j = 0; j < owned.y; ++j) {
+        const std::size_t row = std::size_t(k) * std::size_t(owned.y) + std::size_t(j);
+        const std::size_t base = std::size_t(k) * sz + std::size_t(j) * sy;
+        const detail::RowBits* cross = &s.cross[row * 3];
+        // Edge keys of this row: pointIndex * 3 + axis, the point index growing by 1 along x.
+        const std::uint64_t rowKey = grid.edgeKey(lo.x, lo.y + j, lo.z + k, 0);
+        const float ly = cy[j + 1 < pts.y ? j + 1 : j] - cy[j];
+        detail::forEachBit(cross[0] | cross[1] | cross[2], [&](int i) {
+          const std::size_t p = base + std::size_t(i);
+          const float fa = field[p];
+          for (int axis = 0; axis < 3; ++axis) {
+            if (!detail::bitAt(cross[axis], i)) continue;
+            vertexId[p * 3 + std::size_t(axis)] = e;
+            edgeAxis[e] = std::uint8_t(axis);
+            // Positions: the reference's expression, a[axis] + t * (b[axis] - a[axis]).
+            const float len = axis == 0 ? cx[i + 1] - cx[i] : axis == 1 ? ly : lz;
+            const float fb = field[p + strides[axis]];
+            const float t = (iso - fa) / (fb - fa);
+            float q[3] = {cx[i], cy[j], cz[k]};
+            if (refine) {
+              ax[e] = q[0], ay[e] = q[1], az[e] = q[2], length[e] = len, tt[e] = t;
+              s.lo[e] = 0.0f, s.hi[e] = 1.0f, s.flo[e] = fa, s.fhi[e] = fb, s.active[e] = 1;
+            }
+            q[axis] = q[axis] + t * len;
+            positions[e] = {q[0], q[1], q[2]};
+            px[e] = q[0], py[e] = q[1], pz[e] = q[2];
+            keys[e] = rowKey + 3u * std::uint64_t(i) + std::uint64_t(axis);
+            ++e;
+          }
+        });
+      }
     }
   }
-  const std::size_t nv = s.edgePoint.size();
-  r->vertexRowStart.back() = std::uint32_t(nv);
-
-  // Positions: the reference's expression, a[axis] + t * (b[axis] - a[axis]).
-  for (auto* v : {&s.t, &s.lo, &s.hi, &s.flo, &s.fhi, &s.f, &s.px, &s.py, &s.pz, &s.nx, &s.ny,
-                  &s.nz, &s.cr, &s.cg, &s.cb})
-    v->resize(nv);
-  s.kept.resize(nv), s.active.resize(nv);
-  std::vector<float>& ax = s.nx;  // start points and lengths borrow the normal buffers
-  std::vector<float>& ay = s.ny;
-  std::vector<float>& az = s.nz;
-  std::vector<float>& length = s.cr;
-  r->keys.resize(nv);
-  for (std::size_t e = 0; e < nv; ++e) {
-    const std::size_t p = s.edgePoint[e];
-    const int axis = s.edgeAxis[e];
-    const int i = int(p % sy), j = int((p / sy) % std::size_t(pts.y)), k = int(p / sz);
-    ax[e] = cx[i], ay[e] = cy[j], az[e] = cz[k];
-    const float* c = axis == 0 ? cx : axis == 1 ? cy : cz;
-    const int idx = axis == 0 ? i : axis == 1 ? j : k;
-    length[e] = c[idx + 1] - c[idx];
-    const float fa = s.field[p], fb = s.field[p + strides[axis]];
-    s.t[e] = (iso - fa) / (fb - fa);
-    s.lo[e] = 0.0f, s.hi[e] = 1.0f, s.flo[e] = fa, s.fhi[e] = fb, s.active[e] = 1;
-    r->keys[e] = grid.edgeKey(lo.x + i, lo.y + j, lo.z + k, axis);
-  }
-  if (ctx.options.refineSteps > 0) refineEdges(ctx, *fieldProgram, s, nv, ax.data(), ay.data(), az.data(), length.data(), st);
-  r->positions.resize(nv);
-  for (std::size_t e = 0; e < nv; ++e) {
-    float q[3] = {ax[e], ay[e], az[e]};
-    const int axis = s.edgeAxis[e];
-    q[axis] = q[axis] + s.t[e] * length[e];
-    r->positions[e] = {q[0], q[1], q[2]};
-    s.px[e] = q[0], s.py[e] = q[1], s.pz[e] = q[2];
+  if (refine) {
+    refineEdges(ctx, *fieldProgram, s, nv, ax, ay, az, length, st);
+    for (std::size_t e = 0; e < nv; ++e) {
+      float q[3] = {ax[e], ay[e], az[e]};
+      const int axis = s.edgeAxis[e];
+      q[axis] = q[axis] + s.t[e] * length[e];
+      r->positions[e] = {q[0], q[1], q[2]};
+      s.px[e] = q[0], s.py[e] = q[1], s.pz[e] = q[2];
+    }
   }
   // Low-face rank tables for the neighbours below.
   const auto rankOf = [&](int i, int j, int k) {
     std::array<std::uint8_t, 3> ranks{kNoRank, kNoRank, kNoRank};
     const std::size_t p = std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
-    const std::uint32_t rowBegin =
-        r->vertexRowStart[std::size_t(k) * std::size_t(owned.y) + std::size_t(j)];
-    const std::uint8_t in = s.inside[p];
-    const bool cross[3] = {i + 1 < pts.x && s.inside[p + sx] != in,
-                           j + 1 < pts.y && s.inside[p + sy] != in,
-                           k + 1 < pts.z && s.inside[p + sz] != in};
+    const std::uint32_t rowBegin = r->vertexRowStart[std::size_t(k) * std::size_t(owned.y) + std::size_t(j)];
+    const detail::RowBits* cross = &s.cross[(std::size_t(k) * std::size_t(owned.y) + std::size_t(j)) * 3];
     for (int axis = 0; axis < 3; ++axis)
-      if (cross[axis]) ranks[std::size_t(axis)] = std::uint8_t(s.vertexId[p * 3 + std::size_t(axis)] - rowBegin);
+      if (detail::bitAt(cross[axis], i))
+        ranks[std::size_t(axis)] = std::uint8_t(s.vertexId[p * 3 + std::size_t(axis)] - rowBegin);
     return ranks;
   };
   r->faceX.resize(std::size_t(owned.y) * std::size_t(owned.z));
@@ -513,48 +538,59 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
   const int ncx = pts.x - 1, ncy = pts.y - 1, ncz = pts.z - 1;
   const detail::RowBits cellMask = detail::lowBits(ncx);
   r->triangleRowStart.resize(std::size_t(ncy) * std::size_t(ncz) + 1);
+  // Per marching-cubes edge: its vertex id's offset from the cell's first point in vertexId.
+  std::ptrdiff_t edgeOffset[12];
+  for (int e = 0; e < 12; ++e) {
+    const std::array<int, 3> d = mesh::mcEdgeStart(e);
+    edgeOffset[e] = std::ptrdiff_t((std::size_t(d[2]) * sz + std::size_t(d[1]) * sy + std::size_t(d[0])) * 3 +
+                                   std::size_t(mesh::mcEdgeAxis(e)));
+  }
+  std::size_t nt = 0;
+  const std::uint32_t* vertexId = s.vertexId.data();
   for (int k = 0; k < ncz; ++k) {
     for (int j = 0; j < ncy; ++j) {
-      const std::uint32_t rowBegin = std::uint32_t(r->triangles.size());
-      r->triangleRowStart[std::size_t(k * ncy + j)] = rowBegin;
-      const std::uint8_t* r00 = s.inside.data() + std::size_t(k) * sz + std::size_t(j) * sy;
-      const std::uint8_t* r10 = r00 + sy;
-      const std::uint8_t* r01 = r00 + sz;
-      const std::uint8_t* r11 = r01 + sy;
+      r->triangleRowStart[std::size_t(k * ncy + j)] = std::uint32_t(nt);
+      const detail::RowBits b00 = rowBits(j, k), b10 = rowBits(j + 1, k), b01 = rowBits(j, k + 1),
+                            b11 = rowBits(j + 1, k + 1);
       // Mixed cells (case neither 0 nor 255): some corner is inside and some is not.
-      const detail::RowBits any4 = rowBits(j, k) | rowBits(j + 1, k) | rowBits(j, k + 1) |
-                                   rowBits(j + 1, k + 1);
-      const detail::RowBits all4 = rowBits(j, k) & rowBits(j + 1, k) & rowBits(j, k + 1) &
-                                   rowBits(j + 1, k + 1);
+      const detail::RowBits any4 = b00 | b10 | b01 | b11;
+      const detail::RowBits all4 = b00 & b10 & b01 & b11;
       const detail::RowBits mixed = (any4 | (any4 >> 1)) & ~(all4 & (all4 >> 1)) & cellMask;
+      if (!mixed) continue;
+      if (s.tris.size() < nt + 5 * 64) s.tris.resize(nt + 5 * 64 + s.tris.size());  // a row: <= 64 cells of <= 5
+      std::array<std::uint32_t, 3>* __restrict tris = s.tris.data();
+      // A cell whose far corners are owned here needs no neighbour's vertex.
+      const int ownedCells = j + 1 < owned.y && k + 1 < owned.z ? owned.x - 1 : 0;
+      const std::size_t rowPoint = std::size_t(k) * sz + std::size_t(j) * sy;
       detail::forEachBit(mixed, [&](int i) {
         // Corner c at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1) sets bit c.
-        const int config = r00[i] | (r00[i + 1] << 1) | (r10[i] << 2) | (r10[i + 1] << 3) |
-                           (r01[i] << 4) | (r01[i + 1] << 5) | (r11[i] << 6) | (r11[i + 1] << 7);
-        const mesh::McCase& mc = cases[std::size_t(config)];
-        for (int t = 0; t < mc.triangleCount; ++t) {
-          std::array<std::uint32_t, 3> tri{};
+        const unsigned config = (unsigned(b00 >> i) & 3u) | (unsigned(b10 >> i) & 3u) << 2 |
+                                (unsigned(b01 >> i) & 3u) << 4 | (unsigned(b11 >> i) & 3u) << 6;
+        const mesh::McCase& mc = cases[config];
+        const int count = mc.triangleCount;
+        if (i < ownedCells) {
+          const std::uint32_t* cell = vertexId + (rowPoint + std::size_t(i)) * 3;
+          for (int t = 0; t < count; ++t, ++nt)
+            for (int v = 0; v < 3; ++v) tris[nt][std::size_t(v)] = cell[edgeOffset[mc.edges[std::size_t(t * 3 + v)]]];
+          return;
+        }
+        for (int t = 0; t < count; ++t, ++nt) {
           for (int v = 0; v < 3; ++v) {
             const int e = mc.edges[std::size_t(t * 3 + v)];
             const std::array<int, 3> st3 = mesh::mcEdgeStart(e);
             const int axis = mesh::mcEdgeAxis(e);
             const int x = i + st3[0], y = j + st3[1], z = k + st3[2];
-            if (x < owned.x && y < owned.y && z < owned.z) {
-              tri[std::size_t(v)] =
-                  s.vertexId[(std::size_t(z) * sz + std::size_t(y) * sy + std::size_t(x)) * 3 +
-                             std::size_t(axis)];
-            } else {
-              tri[std::size_t(v)] = encodeDeferred(x, y, z, axis);
-            }
+            tris[nt][std::size_t(v)] =
+                x < owned.x && y < owned.y && z < owned.z
+                    ? vertexId[(std::size_t(z) * sz + std::size_t(y) * sy + std::size_t(x)) * 3 + std::size_t(axis)]
+                    : encodeDeferred(x, y, z, axis);
           }
-          r->triangles.push_back(tri);
         }
       });
-      if (!ctx.triangleRows.empty())
-        ctx.triangleRows[ctx.triangleRow(lo.z + k, lo.y + j, mi.x)] = std::uint32_t(r->triangles.size()) - rowBegin;
     }
   }
-  r->triangleRowStart.back() = std::uint32_t(r->triangles.size());
+  r->triangleRowStart.back() = std::uint32_t(nt);
+  r->triangles.assign(s.tris.begin(), s.tris.begin() + std::ptrdiff_t(nt));
   st.cells += msSince(t0);
   return r;
 }
@@ -605,63 +641,118 @@ void processGroup(Context& ctx, int g, Scratch& s, ThreadStats& st) {
       }
 }
 
+// Global index of the vertex a deferred corner names: its owner's row base plus its rank.
 std::uint32_t resolveDeferred(const Context& ctx, const MpuResult& r, std::uint32_t code) {
-  return detail::resolveDeferred(ctx.mpus, ctx.points.y, ctx.results, ctx.vertexRows.data(), r, code);
+  const detail::DeferredTarget d = detail::findDeferred(ctx.mpus, ctx.results, r, code);
+  return ctx.vertexBase[ctx.vertexRowAt[d.mpu] + d.row] + d.rank;
 }
 
-void scatterMpu(const Context& ctx, const MpuResult& r, mesh::TriMesh& out, Scratch& s) {
+// Copies one MPU's vertices and triangles to their places (runs of rows, memcpy'd), with
+// triangle corners made global.
+void scatterMpu(const Context& ctx, std::size_t m, mesh::TriMesh& out, Scratch& s) {
+  const MpuResult& r = *ctx.results[m];
   const glm::ivec3 owned = r.owned;
   s.localToGlobal.resize(r.positions.size());
-  for (int k = 0; k < owned.z; ++k) {
-    for (int j = 0; j < owned.y; ++j) {
-      const std::size_t row = std::size_t(k) * std::size_t(owned.y) + std::size_t(j);
-      const std::uint32_t begin = r.vertexRowStart[row], end = r.vertexRowStart[row + 1];
-      const std::uint32_t base = ctx.vertexRows[ctx.vertexRow(r.lo.z + k, r.lo.y + j, r.mpu.x)];
-      for (std::uint32_t v = begin; v < end; ++v) {
-        const std::uint32_t g = base + (v - begin);
-        s.localToGlobal[v] = g;
-        out.positions[g] = r.positions[v];
-        out.edgeKeys[g] = r.keys[v];
-        if (!r.normals.empty()) out.normals[g] = r.normals[v];
-        if (!r.colours.empty()) out.colours[g] = r.colours[v];
-      }
-    }
+  const std::uint32_t* vertexBase = ctx.vertexBase.data() + ctx.vertexRowAt[m];
+  const std::size_t vertexRows = std::size_t(owned.y) * std::size_t(owned.z);
+  for (std::size_t row = 0; row < vertexRows; ++row) {
+    const std::uint32_t begin = r.vertexRowStart[row], end = r.vertexRowStart[row + 1];
+    if (begin == end) continue;
+    const std::uint32_t g = vertexBase[row];
+    const std::size_t n = end - begin;
+    std::memcpy(&out.positions[g], &r.positions[begin], n * sizeof(mesh::Float3));
+    std::memcpy(&out.edgeKeys[g], &r.keys[begin], n * sizeof(std::uint64_t));
+    if (!r.normals.empty()) std::memcpy(&out.normals[g], &r.normals[begin], n * sizeof(mesh::Float3));
+    if (!r.colours.empty()) std::memcpy(&out.colours[g], &r.colours[begin], n * sizeof(mesh::Float3));
+    for (std::uint32_t v = begin; v < end; ++v) s.localToGlobal[v] = g + (v - begin);
   }
-  const int ncy = r.pts.y - 1, ncz = r.pts.z - 1;
-  for (int k = 0; k < ncz; ++k) {
-    for (int j = 0; j < ncy; ++j) {
-      const std::size_t row = std::size_t(k * ncy + j);
-      const std::uint32_t begin = r.triangleRowStart[row], end = r.triangleRowStart[row + 1];
-      const std::uint32_t base = ctx.triangleRows[ctx.triangleRow(r.lo.z + k, r.lo.y + j, r.mpu.x)];
-      for (std::uint32_t t = begin; t < end; ++t) {
-        std::array<std::uint32_t, 3> tri = r.triangles[t];
-        for (auto& v : tri) v = (v & kDeferred) ? resolveDeferred(ctx, r, v) : s.localToGlobal[v];
-        out.triangles[base + (t - begin)] = tri;
+  const std::uint32_t* triangleBase = ctx.triangleBase.data() + ctx.triangleRowAt[m];
+  const std::size_t triangleRows = std::size_t(r.pts.y - 1) * std::size_t(r.pts.z - 1);
+  const std::uint32_t* localToGlobal = s.localToGlobal.data();
+  for (std::size_t row = 0; row < triangleRows; ++row) {
+    const std::uint32_t begin = r.triangleRowStart[row], end = r.triangleRowStart[row + 1];
+    std::array<std::uint32_t, 3>* dst = out.triangles.data() + triangleBase[row];
+    for (std::uint32_t t = begin; t < end; ++t, ++dst) {
+      const std::array<std::uint32_t, 3>& tri = r.triangles[t];
+      if (((tri[0] | tri[1] | tri[2]) & kDeferred) == 0) {
+        *dst = {localToGlobal[tri[0]], localToGlobal[tri[1]], localToGlobal[tri[2]]};
+        continue;
       }
+      for (int v = 0; v < 3; ++v)
+        (*dst)[std::size_t(v)] = (tri[std::size_t(v)] & kDeferred) ? resolveDeferred(ctx, r, tri[std::size_t(v)])
+                                                                  : localToGlobal[tri[std::size_t(v)]];
     }
   }
 }
 
-std::uint64_t exclusiveScan(std::vector<std::uint32_t>& counts) {
-  std::uint64_t sum = 0;
-  for (auto& c : counts) {
-    const std::uint32_t n = c;
-    c = std::uint32_t(sum);
-    sum += n;
+// The scan over (row, MPU column) in global order, visiting only MPUs with a result: rows of
+// points by z then y, and in each row the MPU columns by x, which is the global edge-key order of
+// vertices (and the cell order of triangles). An MPU without a result has no rows to place.
+void scanRows(Context& ctx, std::uint64_t& nv, std::uint64_t& nt) {
+  const glm::ivec3 mpus = ctx.mpus;
+  // Per (MPU row y, MPU layer z): its MPUs with a result, by x.
+  std::vector<std::vector<std::uint32_t>> columns(std::size_t(mpus.y) * std::size_t(mpus.z));
+  std::size_t vertexRows = 0, triangleRows = 0;
+  ctx.vertexRowAt.assign(ctx.results.size(), 0);
+  ctx.triangleRowAt.assign(ctx.results.size(), 0);
+  for (std::size_t m = 0; m < ctx.results.size(); ++m) {
+    const MpuResult* r = ctx.results[m].get();
+    if (!r) continue;
+    columns[std::size_t(r->mpu.z) * std::size_t(mpus.y) + std::size_t(r->mpu.y)].push_back(std::uint32_t(m));
+    ctx.vertexRowAt[m] = vertexRows, ctx.triangleRowAt[m] = triangleRows;
+    vertexRows += std::size_t(r->owned.y) * std::size_t(r->owned.z);
+    triangleRows += std::size_t(r->pts.y - 1) * std::size_t(r->pts.z - 1);
   }
-  return sum;
+  ctx.vertexBase.resize(vertexRows);
+  ctx.triangleBase.resize(triangleRows);
+  // Rows an MPU layer (row) spans along z (y): points it owns, or cells.
+  const int D = ctx.D;
+  const auto ownedPoints = [&](int a, int axis) {
+    return a == mpus[axis] - 1 ? ctx.grid.cells[axis] - a * D + 1 : D;
+  };
+  const auto cellRows = [&](int a, int axis) { return std::min(D, ctx.grid.cells[axis] - a * D); };
+  std::uint64_t vSum = 0, tSum = 0;
+  for (int mz = 0; mz < mpus.z; ++mz) {
+    for (int k = 0; k < ownedPoints(mz, 2); ++k)
+      for (int my = 0; my < mpus.y; ++my) {
+        const auto& list = columns[std::size_t(mz) * std::size_t(mpus.y) + std::size_t(my)];
+        if (list.empty()) continue;
+        const int rows = ownedPoints(my, 1);
+        for (int j = 0; j < rows; ++j)
+          for (std::uint32_t m : list) {
+            const MpuResult& r = *ctx.results[m];
+            const std::size_t row = std::size_t(k) * std::size_t(rows) + std::size_t(j);
+            ctx.vertexBase[ctx.vertexRowAt[m] + row] = std::uint32_t(vSum);
+            vSum += r.vertexRowStart[row + 1] - r.vertexRowStart[row];
+          }
+      }
+    for (int k = 0; k < cellRows(mz, 2); ++k)
+      for (int my = 0; my < mpus.y; ++my) {
+        const auto& list = columns[std::size_t(mz) * std::size_t(mpus.y) + std::size_t(my)];
+        if (list.empty()) continue;
+        const int rows = cellRows(my, 1);
+        for (int j = 0; j < rows; ++j)
+          for (std::uint32_t m : list) {
+            const MpuResult& r = *ctx.results[m];
+            const std::size_t row = std::size_t(k) * std::size_t(rows) + std::size_t(j);
+            ctx.triangleBase[ctx.triangleRowAt[m] + row] = std::uint32_t(tSum);
+            tSum += r.triangleRowStart[row + 1] - r.triangleRowStart[row];
+          }
+      }
+  }
+  nv = vSum, nt = tSum;
 }
 
 }  // namespace
 
 namespace detail {
 
-// Global index of an edge owned by a neighbour above (x, y or z past the owned range).
-std::uint32_t resolveDeferred(const glm::ivec3& mpus, int pointsY, const MpuResults& results,
-                              const std::uint32_t* vertexRows, const MpuResult& r, std::uint32_t code) {
+// The owner of an edge referenced by a deferred corner (x, y or z past the owned range), the
+// owner's point row holding it and its rank there.
+DeferredTarget findDeferred(const glm::ivec3& mpus, const MpuResults& results, const MpuResult& r,
+                            std::uint32_t code) {
   int q[3] = {int(code & 127u), int((code >> 7) & 127u), int((code >> 14) & 127u)};
   const int axis = int((code >> 21) & 3u);
-  const glm::ivec3 g = r.lo + glm::ivec3(q[0], q[1], q[2]);
   glm::ivec3 owner = r.mpu;
   for (int a = 0; a < 3; ++a) {
     if (q[a] >= r.owned[a]) {
@@ -682,8 +773,16 @@ std::uint32_t resolveDeferred(const glm::ivec3& mpus, int pointsY, const MpuResu
   }
   if (rank == kNoRank)
     throw std::logic_error("polygonizeMpu: a triangle refers to an edge its owner has no vertex for");
-  return vertexRows[(std::size_t(g.z) * std::size_t(pointsY) + std::size_t(g.y)) * std::size_t(mpus.x) +
-                    std::size_t(owner.x)] + rank;
+  return {std::size_t(m), std::size_t(q[2]) * std::size_t(o->owned.y) + std::size_t(q[1]), rank};
+}
+
+std::uint32_t resolveDeferred(const glm::ivec3& mpus, int pointsY, const MpuResults& results,
+                              const std::uint32_t* vertexRows, const MpuResult& r, std::uint32_t code) {
+  const DeferredTarget d = findDeferred(mpus, results, r, code);
+  const MpuResult& o = *results[d.mpu];
+  const std::size_t gz = std::size_t(o.lo.z) + d.row / std::size_t(o.owned.y);
+  const std::size_t gy = std::size_t(o.lo.y) + d.row % std::size_t(o.owned.y);
+  return vertexRows[(gz * std::size_t(pointsY) + gy) * std::size_t(mpus.x) + std::size_t(o.mpu.x)] + d.rank;
 }
 
 void repolygonizeMpus(const blobtree::Program& program, const blobtree::GridSpec& grid,
@@ -693,7 +792,7 @@ void repolygonizeMpus(const blobtree::Program& program, const blobtree::GridSpec
   const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
   const int D = options.mpuCells;
   Context ctx{program, grid, options, level, simdWidth(level), D,
-              (grid.cells + D - 1) / D, grid.points(), {}, {}, std::move(results)};
+              (grid.cells + D - 1) / D, grid.points(), std::move(results), {}, {}, {}, {}};
   tbb::task_arena arena(threads);
   tbb::combinable<ThreadStats> perThread;
   tbb::combinable<Scratch> scratch;
@@ -754,10 +853,8 @@ mesh::TriMesh detail::polygonizeMpuKeeping(const blobtree::Program& program, con
 
   const int D = options.mpuCells;
   Context ctx{program, grid, options, level, simdWidth(level), D,
-              (grid.cells + D - 1) / D, grid.points(), {}, {}, {}};
+              (grid.cells + D - 1) / D, grid.points(), {}, {}, {}, {}, {}};
   const std::size_t mpuCount = std::size_t(ctx.mpus.x) * std::size_t(ctx.mpus.y) * std::size_t(ctx.mpus.z);
-  ctx.vertexRows.assign(std::size_t(ctx.points.y) * std::size_t(ctx.points.z) * std::size_t(ctx.mpus.x), 0u);
-  ctx.triangleRows.assign(std::size_t(grid.cells.y) * std::size_t(grid.cells.z) * std::size_t(ctx.mpus.x), 0u);
   ctx.results.resize(mpuCount);
   st.mpus = mpuCount;
   st.msSetup = msSince(tStart);
@@ -782,8 +879,8 @@ mesh::TriMesh detail::polygonizeMpuKeeping(const blobtree::Program& program, con
   st.msMpus = msSince(t0);
 
   t0 = Clock::now();
-  const std::uint64_t nv = exclusiveScan(ctx.vertexRows);
-  const std::uint64_t nt = exclusiveScan(ctx.triangleRows);
+  std::uint64_t nv = 0, nt = 0;
+  scanRows(ctx, nv, nt);
   if (nv >= std::uint64_t(kDeferred))
     throw std::length_error("polygonizeMpu: more than 2^31 vertices");
   st.msPrefix = msSince(t0);
@@ -798,7 +895,7 @@ mesh::TriMesh detail::polygonizeMpuKeeping(const blobtree::Program& program, con
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mpuCount, 1), [&](const auto& range) {
       Scratch& s = scratch.local();
       for (std::size_t m = range.begin(); m != range.end(); ++m)
-        if (ctx.results[m]) scatterMpu(ctx, *ctx.results[m], mesh, s);
+        if (ctx.results[m]) scatterMpu(ctx, m, mesh, s);
     });
   });
   st.msScatter = msSince(t0);

@@ -48,6 +48,15 @@ void repolygonizeMpus(const blobtree::Program& program, const blobtree::GridSpec
                       const MpuOptions& options, const std::vector<std::uint32_t>& which,
                       MpuResults& results, MpuStats* stats);
 
+// Where a deferred triangle corner of `r` points: the owning MPU (index into results), the
+// owner's point row ((k - lo.z) * owned.y + (j - lo.y)) and the rank of the edge in that row.
+struct DeferredTarget {
+  std::size_t mpu = 0, row = 0;
+  std::uint32_t rank = 0;
+};
+DeferredTarget findDeferred(const glm::ivec3& mpus, const MpuResults& results, const MpuResult& r,
+                            std::uint32_t code);
+
 // Global index of the vertex a deferred triangle corner of `r` names, given every MPU's result
 // and the scanned vertex row starts ([(k * points.y + j) * mpus.x + column]).
 std::uint32_t resolveDeferred(const glm::ivec3& mpus, int pointsY, const MpuResults& results,

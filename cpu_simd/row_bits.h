@@ -38,6 +38,13 @@ inline RowBits packRow(const std::uint8_t* flags, int n) {
 #endif
 }
 
+inline int popCount(RowBits bits) {
+  return std::popcount(std::uint64_t(bits)) + std::popcount(std::uint64_t(bits >> 64));
+}
+
+// Bit i of a row (i < 128).
+inline unsigned bitAt(RowBits bits, int i) { return unsigned(bits >> i) & 1u; }
+
 // Calls f(i) for every set bit i, lowest first.
 template <class F>
 inline void forEachBit(RowBits bits, F&& f) {
