@@ -38,9 +38,15 @@ inline RowBits packRow(const std::uint8_t* flags, int n) {
 #endif
 }
 
-inline int popCount(RowBits bits) {
-  return std::popcount(std::uint64_t(bits)) + std::popcount(std::uint64_t(bits >> 64));
+// Set bits of a row. Written out (SWAR) because the portable build has no POPCNT instruction and
+// std::popcount becomes a libgcc call there, which showed up in profiles.
+inline int popCount64(std::uint64_t x) {
+  x = x - ((x >> 1) & 0x5555555555555555ull);
+  x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
+  x = (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0full;
+  return int((x * 0x0101010101010101ull) >> 56);
 }
+inline int popCount(RowBits bits) { return popCount64(std::uint64_t(bits)) + popCount64(std::uint64_t(bits >> 64)); }
 
 // Bit i of a row (i < 128).
 inline unsigned bitAt(RowBits bits, int i) { return unsigned(bits >> i) & 1u; }
