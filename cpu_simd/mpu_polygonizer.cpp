@@ -27,6 +27,7 @@
 #include <tbb/combinable.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include <glm/common.hpp>
@@ -37,6 +38,7 @@
 #include <array>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -688,7 +690,7 @@ void scatterMpu(const Context& ctx, std::size_t m, mesh::TriMesh& out, Scratch& 
 // The scan over (row, MPU column) in global order, visiting only MPUs with a result: rows of
 // points by z then y, and in each row the MPU columns by x, which is the global edge-key order of
 // vertices (and the cell order of triangles). An MPU without a result has no rows to place.
-void scanRows(Context& ctx, std::uint64_t& nv, std::uint64_t& nt) {
+void scanRows(Context& ctx) {
   const glm::ivec3 mpus = ctx.mpus;
   // Per (MPU row y, MPU layer z): its MPUs with a result, by x.
   std::vector<std::vector<std::uint32_t>> columns(std::size_t(mpus.y) * std::size_t(mpus.z));
@@ -740,7 +742,6 @@ void scanRows(Context& ctx, std::uint64_t& nv, std::uint64_t& nt) {
           }
       }
   }
-  nv = vSum, nt = tSum;
 }
 
 }  // namespace
@@ -878,19 +879,26 @@ mesh::TriMesh detail::polygonizeMpuKeeping(const blobtree::Program& program, con
   });
   st.msMpus = msSince(t0);
 
+  // The serial scan and the output's allocation run side by side: the allocation is mostly the
+  // kernel's page faults and zeroing, paid once per array, and the arrays are independent.
   t0 = Clock::now();
   std::uint64_t nv = 0, nt = 0;
-  scanRows(ctx, nv, nt);
+  for (const auto& r : ctx.results)
+    if (r) nv += r->positions.size(), nt += r->triangles.size();
   if (nv >= std::uint64_t(kDeferred))
     throw std::length_error("polygonizeMpu: more than 2^31 vertices");
+  if (nt > std::numeric_limits<std::uint32_t>::max())
+    throw std::length_error("polygonizeMpu: more than 2^32 triangles");
+  arena.execute([&] {
+    tbb::parallel_invoke([&] { scanRows(ctx); }, [&] { mesh.positions.resize(nv); },
+                         [&] { mesh.edgeKeys.resize(nv); },
+                         [&] { if (options.normals) mesh.normals.resize(nv); },
+                         [&] { if (options.colours) mesh.colours.resize(nv); },
+                         [&] { mesh.triangles.resize(nt); });
+  });
   st.msPrefix = msSince(t0);
 
   t0 = Clock::now();
-  mesh.positions.resize(nv);
-  mesh.edgeKeys.resize(nv);
-  if (options.normals) mesh.normals.resize(nv);
-  if (options.colours) mesh.colours.resize(nv);
-  mesh.triangles.resize(nt);
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mpuCount, 1), [&](const auto& range) {
       Scratch& s = scratch.local();
