@@ -37,6 +37,7 @@
 #include <atomic>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <memory>
@@ -78,6 +79,12 @@ struct Scratch {
   std::vector<float> t, lo, hi, flo, fhi, f, px, py, pz, nx, ny, nz, cr, cg, cb;
   std::vector<int> kept, active;
   std::vector<std::array<std::uint32_t, 3>> tris;  // one MPU's triangles, before their copy
+  struct CaseOffsets {
+    std::uint8_t corners = 0;         // 3 per triangle
+    std::int32_t offset[15] = {};     // corner -> offset in vertexId from the cell's first point
+  };
+  std::vector<CaseOffsets> caseOffsets;  // per marching-cubes case, for caseStrides
+  std::size_t caseSy = 0, caseSz = 0;    // the field cache's strides the table was built for
   std::vector<std::uint32_t> localToGlobal;
   // Sparse field cache, per point row: points of unclassified leaves, points classified inside.
   std::vector<detail::RowBits> needRows, classRows;
@@ -522,9 +529,15 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
     st.blocks += ctx.blocks(nv);
     if (ctx.options.normals) {
       r->normals.resize(nv);
+      // blobtree::outwardNormal's operations, inline: -g / |g| with |g| = sqrt((x*x + y*y) + z*z).
+      const float* __restrict gx = s.nx.data();
+      const float* __restrict gy = s.ny.data();
+      const float* __restrict gz = s.nz.data();
+      mesh::Float3* __restrict normals = r->normals.data();
       for (std::size_t e = 0; e < nv; ++e) {
-        const glm::vec3 n = blobtree::outwardNormal({s.nx[e], s.ny[e], s.nz[e]});
-        r->normals[e] = {n.x, n.y, n.z};
+        const float x = gx[e], y = gy[e], z = gz[e];
+        const float len = std::sqrt(x * x + y * y + z * z);
+        normals[e] = len > 0.0f ? mesh::Float3{-x / len, -y / len, -z / len} : mesh::Float3{0.0f, 0.0f, 1.0f};
       }
     }
     if (colours) {
@@ -540,13 +553,23 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
   const int ncx = pts.x - 1, ncy = pts.y - 1, ncz = pts.z - 1;
   const detail::RowBits cellMask = detail::lowBits(ncx);
   r->triangleRowStart.resize(std::size_t(ncy) * std::size_t(ncz) + 1);
-  // Per marching-cubes edge: its vertex id's offset from the cell's first point in vertexId.
-  std::ptrdiff_t edgeOffset[12];
-  for (int e = 0; e < 12; ++e) {
-    const std::array<int, 3> d = mesh::mcEdgeStart(e);
-    edgeOffset[e] = std::ptrdiff_t((std::size_t(d[2]) * sz + std::size_t(d[1]) * sy + std::size_t(d[0])) * 3 +
-                                   std::size_t(mesh::mcEdgeAxis(e)));
+  // Per case: its triangles' corners as offsets from the cell's first point in vertexId (built
+  // once per field-cache shape, which is the same for nearly every MPU).
+  if (s.caseSy != sy || s.caseSz != sz) {
+    s.caseSy = sy, s.caseSz = sz;
+    s.caseOffsets.resize(256);
+    for (std::size_t c = 0; c < 256; ++c) {
+      const mesh::McCase& mc = cases[c];
+      s.caseOffsets[c].corners = std::uint8_t(mc.triangleCount * 3);
+      for (int v = 0; v < mc.triangleCount * 3; ++v) {
+        const int e = mc.edges[std::size_t(v)];
+        const std::array<int, 3> d = mesh::mcEdgeStart(e);
+        s.caseOffsets[c].offset[std::size_t(v)] = std::int32_t(
+            (std::size_t(d[2]) * sz + std::size_t(d[1]) * sy + std::size_t(d[0])) * 3 + std::size_t(mesh::mcEdgeAxis(e)));
+      }
+    }
   }
+  const Scratch::CaseOffsets* caseOffsets = s.caseOffsets.data();
   std::size_t nt = 0;
   const std::uint32_t* vertexId = s.vertexId.data();
   for (int k = 0; k < ncz; ++k) {
@@ -568,14 +591,15 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
         // Corner c at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1) sets bit c.
         const unsigned config = (unsigned(b00 >> i) & 3u) | (unsigned(b10 >> i) & 3u) << 2 |
                                 (unsigned(b01 >> i) & 3u) << 4 | (unsigned(b11 >> i) & 3u) << 6;
-        const mesh::McCase& mc = cases[config];
-        const int count = mc.triangleCount;
         if (i < ownedCells) {
           const std::uint32_t* cell = vertexId + (rowPoint + std::size_t(i)) * 3;
-          for (int t = 0; t < count; ++t, ++nt)
-            for (int v = 0; v < 3; ++v) tris[nt][std::size_t(v)] = cell[edgeOffset[mc.edges[std::size_t(t * 3 + v)]]];
+          const Scratch::CaseOffsets& co = caseOffsets[config];
+          for (int v = 0; v < co.corners; v += 3, ++nt)
+            tris[nt] = {cell[co.offset[v]], cell[co.offset[v + 1]], cell[co.offset[v + 2]]};
           return;
         }
+        const mesh::McCase& mc = cases[config];
+        const int count = mc.triangleCount;
         for (int t = 0; t < count; ++t, ++nt) {
           for (int v = 0; v < 3; ++v) {
             const int e = mc.edges[std::size_t(t * 3 + v)];
