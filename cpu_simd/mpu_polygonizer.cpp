@@ -448,6 +448,12 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
     float* __restrict pz = s.pz.data();
     float* __restrict tt = s.t.data();
     std::uint8_t* __restrict edgeAxis = s.edgeAxis.data();
+    // Low-face rank tables for the neighbours below (rank: the vertex's place in its row),
+    // filled as the vertices of points with i, j or k == 0 are made.
+    const std::array<std::uint8_t, 3> none{kNoRank, kNoRank, kNoRank};
+    r->faceX.assign(std::size_t(owned.y) * std::size_t(owned.z), none);
+    r->faceY.assign(std::size_t(owned.x) * std::size_t(owned.z), none);
+    r->faceZ.assign(std::size_t(owned.x) * std::size_t(owned.y), none);
     std::uint32_t e = 0;
     for (int k = 0; k < owned.z; ++k) {
       const float lz = cz[k + 1 < pts.z ? k + 1 : k] - cz[k];
@@ -458,11 +464,19 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
         // Edge keys of this row: pointIndex * 3 + axis, the point index growing by 1 along x.
         const std::uint64_t rowKey = grid.edgeKey(lo.x, lo.y + j, lo.z + k, 0);
         const float ly = cy[j + 1 < pts.y ? j + 1 : j] - cy[j];
+        const std::uint32_t rowBegin = e;
+        std::array<std::uint8_t, 3>& faceX = r->faceX[row];
+        std::array<std::uint8_t, 3>* faceY = j == 0 ? &r->faceY[std::size_t(k) * std::size_t(owned.x)] : nullptr;
+        std::array<std::uint8_t, 3>* faceZ = k == 0 ? &r->faceZ[std::size_t(j) * std::size_t(owned.x)] : nullptr;
         detail::forEachBit(cross[0] | cross[1] | cross[2], [&](int i) {
           const std::size_t p = base + std::size_t(i);
           const float fa = field[p];
           for (int axis = 0; axis < 3; ++axis) {
             if (!detail::bitAt(cross[axis], i)) continue;
+            const std::uint8_t rank = std::uint8_t(e - rowBegin);
+            if (i == 0) faceX[std::size_t(axis)] = rank;
+            if (faceY) faceY[i][std::size_t(axis)] = rank;
+            if (faceZ) faceZ[i][std::size_t(axis)] = rank;
             vertexId[p * 3 + std::size_t(axis)] = e;
             edgeAxis[e] = std::uint8_t(axis);
             // Positions: the reference's expression, a[axis] + t * (b[axis] - a[axis]).
@@ -494,26 +508,6 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
       s.px[e] = q[0], s.py[e] = q[1], s.pz[e] = q[2];
     }
   }
-  // Low-face rank tables for the neighbours below.
-  const auto rankOf = [&](int i, int j, int k) {
-    std::array<std::uint8_t, 3> ranks{kNoRank, kNoRank, kNoRank};
-    const std::size_t p = std::size_t(k) * sz + std::size_t(j) * sy + std::size_t(i);
-    const std::uint32_t rowBegin = r->vertexRowStart[std::size_t(k) * std::size_t(owned.y) + std::size_t(j)];
-    const detail::RowBits* cross = &s.cross[(std::size_t(k) * std::size_t(owned.y) + std::size_t(j)) * 3];
-    for (int axis = 0; axis < 3; ++axis)
-      if (detail::bitAt(cross[axis], i))
-        ranks[std::size_t(axis)] = std::uint8_t(s.vertexId[p * 3 + std::size_t(axis)] - rowBegin);
-    return ranks;
-  };
-  r->faceX.resize(std::size_t(owned.y) * std::size_t(owned.z));
-  r->faceY.resize(std::size_t(owned.x) * std::size_t(owned.z));
-  r->faceZ.resize(std::size_t(owned.x) * std::size_t(owned.y));
-  for (int k = 0; k < owned.z; ++k)
-    for (int j = 0; j < owned.y; ++j) r->faceX[std::size_t(k * owned.y + j)] = rankOf(0, j, k);
-  for (int k = 0; k < owned.z; ++k)
-    for (int i = 0; i < owned.x; ++i) r->faceY[std::size_t(k * owned.x + i)] = rankOf(i, 0, k);
-  for (int j = 0; j < owned.y; ++j)
-    for (int i = 0; i < owned.x; ++i) r->faceZ[std::size_t(j * owned.x + i)] = rankOf(i, j, 0);
   st.vertices += msSince(t0);
 
   // ---- attributes in SIMD batches: one analytic-gradient pass gives normal and colour ----
