@@ -9,6 +9,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace blobvk::cpu {
 namespace {
@@ -95,6 +98,36 @@ TEST(MpuPolygonizer, EqualsReferenceOnEveryModel) {
         expectSameMesh(m, ref, c.cellSize);
         EXPECT_EQ(st.triangles, ref.triangleCount());
         EXPECT_EQ(st.mpus, st.discardedEmpty + st.discardedFull + st.empty + st.full + st.crossed);
+      }
+    }
+  }
+}
+
+// MPUs whose point rows pass 64 bits, so the inside and crossing masks use both words: with
+// 64 cells along x and D = 64 one MPU owns rows of 65 points (crossing edges at bit 64); with 70
+// cells, D = 63 and 64 split the rows between two MPUs. Also the whole-mesh defaults (24 cells,
+// leaves of 3). Deferred corners cross MPU faces in every direction.
+TEST(MpuPolygonizer, WideMpusAndWholeMeshDefaultsEqualReference) {
+  const std::vector<std::pair<std::string, blobtree::Node>> models = {
+      {"tower", testmodels::tower()}, {"random_blobs", testmodels::randomBlobs(128)}, {"thin_shell", testmodels::thinShell()}};
+  for (const auto& [name, node] : models) {
+    const blobtree::Program program = blobtree::compile(node);
+    ASSERT_TRUE(program.bounds.finite());
+    for (int cellsX : {64, 70}) {
+      SCOPED_TRACE(name + " cells.x=" + std::to_string(cellsX));
+      const float cellSize = (program.bounds.hi.x - program.bounds.lo.x) / float(cellsX - 2);
+      blobtree::GridSpec grid = gridAround(program, cellSize);
+      grid.cells.x = cellsX;  // the same grid for both polygonizers, whatever it cuts off
+      const mesh::TriMesh ref = polygonizeReference(program, grid);
+      ASSERT_GT(ref.triangleCount(), 1000u);
+      for (const auto& [D, subBlock] : {std::pair{63, 3}, std::pair{64, 0}, std::pair{64, 4},
+                                        std::pair{kWholeMeshMpuCells, kWholeMeshSubBlockCells}}) {
+        SCOPED_TRACE("D=" + std::to_string(D) + " subBlock=" + std::to_string(subBlock));
+        MpuOptions o;
+        o.mpuCells = D;
+        o.subBlockCells = subBlock;
+        o.threads = 2;
+        expectSameMesh(polygonizeMpu(program, grid, o), ref, cellSize);
       }
     }
   }
