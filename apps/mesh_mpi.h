@@ -33,10 +33,10 @@ void mpiStop();  // MPI_Finalize, when started
 [[noreturn]] void mpiAbort(const std::string& message);
 
 // The fraction of the layers rank 0 computes besides joining and writing all of them (and,
-// when `rootChecks`, checking the mesh as it is written). Joining and writing cost about a fifth
-// of computing, the streamed check about as much again (tower_L6P8I4 at 1024^3, one thread), so
-// with 2 ranks rank 0 takes 0.4 of the layers, 0.3 when it checks; with 3 or more, none (its
-// joining is about a share when the others' shares are a third or less).
+// when `rootChecks`, checking the mesh as it is written). Joining and writing cost about a tenth
+// of computing, the streamed check about a fifth (tower_L6P8I4 at 1024^3, one thread; CPU
+// profiles), so with 2 ranks rank 0 takes 0.45 of the layers, 0.35 when it checks; with 3 or
+// more, none (its joining is about a share when the others' shares are a third or less).
 // BLOBVK_MPI_ROOT_SHARE (0 to 1) overrides it, for clusters where rank 0's host or disk differs
 // from the others'; only rank 0's environment counts. Throws std::runtime_error naming the
 // variable for a value that is not a number from 0 to 1.
