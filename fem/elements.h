@@ -19,6 +19,7 @@
 namespace blobvk::fem {
 
 struct BlockSystem;
+class SystemMatrix;
 
 struct ElasticPassResult {
   double energy = 0;                 // sum V (mu eps:eps + lambda/2 tr(eps)^2), eps = sym(R^T F) - I
@@ -62,7 +63,13 @@ class ElementSet {
   // buildBlockPattern for the current tets): values overwritten.
   void assembleSystem(BlockSystem& system, const double* nodeScale, double stiffnessScale) const;
 
+  // The same system into the solver's block-sparse matrix (its pattern built for the current
+  // tets): off-diagonal blocks in float, diagonal blocks derived from them (system_matrix.h).
+  void assembleMatrix(SystemMatrix& matrix, const double* nodeScale, double stiffnessScale) const;
+
  private:
+  void assembleMatrixRows(std::size_t begin, std::size_t end, SystemMatrix& matrix, const double* nodeScale,
+                          double stiffnessScale) const;
   void reserve(std::size_t tets);
   // The per-tet halves of computeForces and applySystem over tets [begin, end).
   void tetPass(std::size_t begin, std::size_t end, const std::vector<mesh::Double3>& x, int maxIterations,

@@ -124,6 +124,9 @@ bool SystemPreconditioner::factorize(const BlockSystem& system, const std::vecto
   return d.cholesky.info() == Eigen::Success;
 }
 
+PreconditionerKind SystemPreconditioner::kind() const { return impl_->kind; }
+const std::vector<double>& SystemPreconditioner::inverse() const { return impl_->inverse; }
+
 void SystemPreconditioner::apply(const double* r, double* z) const {
   const Impl& d = *impl_;
   const std::vector<unsigned char>& freeDof = *d.freeDof;

@@ -28,6 +28,9 @@ class SystemPreconditioner {
   bool factorize(const BlockSystem& system, const std::vector<unsigned char>& freeDof, bool patternChanged);
   // z = P^-1 r over 3 * nodes values (fixed DOFs: z = 0).
   void apply(const double* r, double* z) const;
+  // The kind last set up, and for Jacobi / block-Jacobi P^-1 (3 / 9 values per node).
+  PreconditionerKind kind() const;
+  const std::vector<double>& inverse() const;
 
  private:
   struct Impl;

@@ -1,11 +1,13 @@
 #include "blobvk/fem/simulation.h"
 
+#include "blobvk/fem/block_pcg.h"
 #include "blobvk/fem/block_system.h"
 #include "blobvk/fem/boundary_faces.h"
 #include "blobvk/fem/elements.h"
 #include "blobvk/fem/pcg.h"
 #include "blobvk/fem/preconditioner.h"
 #include "blobvk/fem/reserve_touched.h"
+#include "blobvk/fem/system_matrix.h"
 #include "blobvk/fem/tet_utils.h"
 
 #include <algorithm>
@@ -39,6 +41,11 @@ struct Simulation::Impl {
   // nodeScale = (1 + h alpha) m per node, diagonalBlocks = A's 3x3 node blocks (6 per node:
   // xx, yy, zz, xy, xz, yz) for the (block-)Jacobi preconditioners.
   std::vector<double> nodeScale, diagonalBlocks;
+  // A itself, assembled once per step for CG's products; its pattern is rebuilt at the step
+  // after a topology change (matrixPatternDirty).
+  SystemMatrix matrix;
+  bool matrixPatternDirty = true;
+  BlockPcgScratch pcgScratch;
   // The incomplete Cholesky preconditioner: A assembled as blocks, its factor, and when to
   // rebuild it (patternDirty: the mesh changed; factorDirty: the fixed set changed).
   BlockSystem blockSystem;
@@ -222,13 +229,6 @@ void Simulation::Impl::addToolContacts(double h) {
       const double nv[3] = {nn.x, nn.y, nn.z};
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) block.block[a * 3 + b] = kh2 * nv[a] * nv[b];
-      double* diagonal = diagonalBlocks.data() + 6 * i;  // xx, yy, zz, xy, xz, yz
-      diagonal[0] += block.block[0];
-      diagonal[1] += block.block[4];
-      diagonal[2] += block.block[8];
-      diagonal[3] += block.block[1];
-      diagonal[4] += block.block[2];
-      diagonal[5] += block.block[5];
       ++report.nodesInContact;
       report.force.x += f * nn.x;
       report.force.y += f * nn.y;
@@ -267,17 +267,15 @@ void Simulation::step() {
 
   // A = (1 + h alpha) M + (h beta + h^2) K~ ; b = M v + h (f_elastic + f_gravity + f_contact).
   // rotationsMs: the per-tet pass (rotations, stresses, rotated gradients); assemblyMs: the
-  // per-node gather of forces and of A's diagonal, plus mass terms and gravity. No matrix.
+  // per-node gather of forces, mass terms and gravity, and the assembly of A (system_matrix.h).
   auto t = Clock::now();
   const ElasticPassResult pass = d.elements.computeForces(d.mesh.positions, d.settings.rotationMaxIterations, d.force.data(),
-                                                          d.diagonalBlocks.data());
+                                                          nullptr);
   stats.rotationIterationsPerTet = double(pass.rotationIterations) / double(d.elements.size());
   stats.rotationsMs = d.elements.lastTetPassMs();
   const auto& g = d.settings.gravity;
   for (std::size_t i = 0; i < n; ++i) {
     d.nodeScale[i] = massScale * d.mass[i];
-    double* block = d.diagonalBlocks.data() + 6 * i;  // K's diagonal block on entry
-    for (std::size_t c = 0; c < 6; ++c) block[c] = (c < 3 ? d.nodeScale[i] : 0.0) + stiffnessScale * block[c];
     d.force[3 * i] += d.mass[i] * g.x;
     d.force[3 * i + 1] += d.mass[i] * g.y;
     d.force[3 * i + 2] += d.mass[i] * g.z;
@@ -290,6 +288,29 @@ void Simulation::step() {
   stats.contactMs = msSince(t);
 
   t = Clock::now();
+  if (d.matrixPatternDirty) {
+    d.matrix.buildPattern(d.elements.incidence(), d.mesh.tets);
+    d.matrixPatternDirty = false;
+  }
+  d.elements.assembleMatrix(d.matrix, d.nodeScale.data(), stiffnessScale);
+  for (const auto& c : d.contactBlocks) {
+    double* block = d.matrix.diagonal(c.node);
+    for (int k = 0; k < 9; ++k) block[k] += c.block[k];
+  }
+  // The (block-)Jacobi preconditioners read A's diagonal blocks as xx, yy, zz, xy, xz, yz.
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* a = d.matrix.diagonal(i);
+    double* block = d.diagonalBlocks.data() + 6 * i;
+    block[0] = a[0];
+    block[1] = a[4];
+    block[2] = a[8];
+    block[3] = a[1];
+    block[4] = a[2];
+    block[5] = a[5];
+  }
+  stats.assemblyMs += msSince(t);
+
+  t = Clock::now();
   for (std::size_t i = 0; i < n; ++i) {
     const auto& v = d.velocity[i];
     const double vv[3] = {v.x, v.y, v.z};
@@ -300,21 +321,21 @@ void Simulation::step() {
       d.solution[3 * i + c] = d.fixed[i] ? 0.0 : 2 * vv[c] - d.previousVelocity[3 * i + c];
     }
   }
-  const LinearOperator A = [&d, stiffnessScale](const double* x, double* y) {
-    d.elements.applySystem(x, y, d.nodeScale.data(), stiffnessScale);
-    for (const auto& c : d.contactBlocks) {
-      const double* xi = x + 3 * std::size_t(c.node);
-      double* yi = y + 3 * std::size_t(c.node);
-      for (int a = 0; a < 3; ++a) yi[a] += c.block[a * 3] * xi[0] + c.block[a * 3 + 1] * xi[1] + c.block[a * 3 + 2] * xi[2];
-    }
-  };
+  const LinearOperator A = [&d](const double* x, double* y) { d.matrix.multiply(x, y); };
   stats.solveMs = msSince(t);
   t = Clock::now();
   stats.preconditionerRebuilt = d.preparePreconditioner(stiffnessScale);
   stats.preconditionerMs = msSince(t);
   t = Clock::now();
-  const PreconditionerOperator P = [&d](const double* r, double* z) { d.preconditioner.apply(r, z); };
-  const PcgResult cg = solvePcg(A, P, d.rhs, d.freeDof, d.solution, d.settings.cgMaxIterations, d.settings.cgTolerance);
+  PcgResult cg;
+  if (d.preconditioner.kind() == PreconditionerKind::IncompleteCholesky) {
+    const PreconditionerOperator P = [&d](const double* r, double* z) { d.preconditioner.apply(r, z); };
+    cg = solvePcg(A, P, d.rhs, d.freeDof, d.solution, d.settings.cgMaxIterations, d.settings.cgTolerance);
+  } else {  // (block-)Jacobi: the fused solver
+    const int stride = d.preconditioner.kind() == PreconditionerKind::BlockJacobi ? 9 : 3;
+    cg = solveBlockPcg(d.matrix, d.preconditioner.inverse(), stride, d.rhs, d.freeDof, d.solution, d.settings.cgMaxIterations,
+                       d.settings.cgTolerance, d.pcgScratch);
+  }
   stats.cgIterations = cg.iterations;
   stats.cgRelativeResidual = cg.relativeResidual;
   stats.cgConverged = cg.converged;
@@ -503,6 +524,7 @@ void Simulation::applyTopologyChange(const TopologyChange& c) {
   d.nodeScale.resize(nodes, 0);
   d.diagonalBlocks.resize(6 * nodes, 0);
   d.patternDirty = true;  // the preconditioner's pattern is rebuilt at the next step
+  d.matrixPatternDirty = true;
   d.rhs.resize(3 * nodes, 0);
   d.solution.resize(3 * nodes, 0);
   for (std::size_t k = 0; k < c.newNodes.size(); ++k) {  // no history: the warm start is v
