@@ -41,10 +41,11 @@ struct Simulation::Impl {
   // nodeScale = (1 + h alpha) m per node, diagonalBlocks = A's 3x3 node blocks (6 per node:
   // xx, yy, zz, xy, xz, yz) for the (block-)Jacobi preconditioners.
   std::vector<double> nodeScale, diagonalBlocks;
-  // A itself, assembled once per step for CG's products; its pattern is rebuilt at the step
-  // after a topology change (matrixPatternDirty).
+  // A itself, assembled once per step for CG's products. Its pattern is built at the first
+  // step; a topology change lists the rows it changes (matrixRows), updated at the next step.
   SystemMatrix matrix;
   bool matrixPatternDirty = true;
+  std::vector<std::uint32_t> matrixRows;
   BlockPcgScratch pcgScratch;
   // The incomplete Cholesky preconditioner: A assembled as blocks, its factor, and when to
   // rebuild it (patternDirty: the mesh changed; factorDirty: the fixed set changed).
@@ -291,7 +292,12 @@ void Simulation::step() {
   if (d.matrixPatternDirty) {
     d.matrix.buildPattern(d.elements.incidence(), d.mesh.tets);
     d.matrixPatternDirty = false;
+  } else if (!d.matrixRows.empty()) {
+    std::sort(d.matrixRows.begin(), d.matrixRows.end());
+    d.matrixRows.erase(std::unique(d.matrixRows.begin(), d.matrixRows.end()), d.matrixRows.end());
+    d.matrix.updateRows(d.elements.incidence(), d.mesh.tets, d.matrixRows);
   }
+  d.matrixRows.clear();
   d.elements.assembleMatrix(d.matrix, d.nodeScale.data(), stiffnessScale);
   for (const auto& c : d.contactBlocks) {
     double* block = d.matrix.diagonal(c.node);
@@ -524,7 +530,12 @@ void Simulation::applyTopologyChange(const TopologyChange& c) {
   d.nodeScale.resize(nodes, 0);
   d.diagonalBlocks.resize(6 * nodes, 0);
   d.patternDirty = true;  // the preconditioner's pattern is rebuilt at the next step
-  d.matrixPatternDirty = true;
+  // The solver matrix's rows of the nodes whose tets changed (new nodes included) are rebuilt
+  // at the next step; the other rows keep their pattern.
+  if (!d.matrixPatternDirty) {
+    d.matrixRows.insert(d.matrixRows.end(), d.touchedNodes.begin(), d.touchedNodes.end());
+    for (std::size_t v = oldNodes; v < nodes; ++v) d.matrixRows.push_back(std::uint32_t(v));
+  }
   d.rhs.resize(3 * nodes, 0);
   d.solution.resize(3 * nodes, 0);
   for (std::size_t k = 0; k < c.newNodes.size(); ++k) {  // no history: the warm start is v

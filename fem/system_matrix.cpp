@@ -4,6 +4,7 @@
 #include "blobvk/fem/node_incidence.h"
 
 #include <algorithm>
+#include <numeric>
 #include <stdexcept>
 
 #include <tbb/parallel_for.h>
@@ -14,54 +15,102 @@ namespace {
 constexpr std::size_t kRowGrain = 256;
 
 template <class Body>
-void forRows(std::size_t n, const Body& body) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kRowGrain), [&](const tbb::blocked_range<std::size_t>& r) {
+void forEach(std::size_t n, std::size_t grain, const Body& body) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) body(i);
   });
 }
 }  // namespace
 
-void SystemMatrix::buildPattern(const NodeIncidence& incidence, const std::vector<std::array<std::uint32_t, 4>>& tets) {
-  const std::size_t n = incidence.nodeCount();
-  // Each row's neighbours are at most 3 per incident tet: rows are sorted and deduplicated in
-  // place at that bound, in parallel, then packed (no per-row allocation: a vector per row cost
-  // ~35 ms at 100k tets, which the first step after every cut would pay).
-  std::vector<std::uint32_t> bound(n + 1, 0), length(n, 0);
-  for (std::size_t r = 0; r < n; ++r) bound[r + 1] = bound[r] + 3 * incidence.count(r);
-  std::vector<std::uint32_t> scratch(bound[n]);
-  forRows(n, [&](std::size_t r) {
-    std::uint32_t* out = scratch.data() + bound[r];
+void SystemMatrix::sortedRows(const NodeIncidence& incidence, const std::vector<std::array<std::uint32_t, 4>>& tets,
+                              const std::vector<std::uint32_t>& rows, std::vector<std::uint32_t>& bound,
+                              std::vector<std::uint32_t>& length, std::vector<std::uint32_t>& scratch) {
+  // A row has at most 3 neighbours per incident tet: each is sorted and deduplicated in place at
+  // that bound, in parallel (no per-row allocation: a vector per row cost ~35 ms at 100k tets).
+  bound.assign(rows.size() + 1, 0);
+  for (std::size_t k = 0; k < rows.size(); ++k) bound[k + 1] = bound[k] + 3 * incidence.count(rows[k]);
+  scratch.resize(bound.back());
+  length.resize(rows.size());
+  forEach(rows.size(), kRowGrain, [&](std::size_t k) {
+    const std::uint32_t r = rows[k];
+    std::uint32_t* out = scratch.data() + bound[k];
     std::uint32_t* end = out;
     for (const std::uint32_t* q = incidence.begin(r); q != incidence.end(r); ++q)
       for (std::uint32_t v : tets[NodeIncidence::tetOf(*q)])
         if (v != r) *end++ = v;
     std::sort(out, end);
-    length[r] = std::uint32_t(std::unique(out, end) - out);
+    length[k] = std::uint32_t(std::unique(out, end) - out);
   });
-  rowStart_.assign(n + 1, 0);
+}
+
+void SystemMatrix::computeSlots(const NodeIncidence& incidence, const std::vector<std::array<std::uint32_t, 4>>& tets,
+                                std::size_t node) {
+  const auto first = column_.begin() + rowStart_[node], last = first + rowLength_[node];
+  for (const std::uint32_t* q = incidence.begin(node); q != incidence.end(node); ++q) {
+    const std::uint32_t e = NodeIncidence::tetOf(*q);
+    const int a = NodeIncidence::cornerOf(*q);
+    for (int b = 0; b < 4; ++b)
+      tetSlots_[e][std::size_t(4 * a + b)] =
+          a == b ? 0 : std::uint16_t(std::lower_bound(first, last, tets[e][std::size_t(b)]) - first);
+  }
+}
+
+void SystemMatrix::moveRowToEnd(std::size_t node, std::uint32_t length) {
+  rowStart_[node] = std::uint32_t(column_.size());
+  rowCapacity_[node] = std::max<std::uint32_t>(4, 2 * length);
+  column_.resize(column_.size() + rowCapacity_[node]);
+  offDiagonal_.resize(9 * column_.size());
+}
+
+void SystemMatrix::buildPattern(const NodeIncidence& incidence, const std::vector<std::array<std::uint32_t, 4>>& tets) {
+  const std::size_t n = incidence.nodeCount();
+  std::vector<std::uint32_t> rows(n), bound, length, scratch;
+  std::iota(rows.begin(), rows.end(), 0u);
+  sortedRows(incidence, tets, rows, bound, length, scratch);
+  rowStart_.resize(n);
+  rowLength_ = length;
+  rowCapacity_.resize(n);
+  std::uint32_t total = 0;
   longestRow_ = 0;
   for (std::size_t r = 0; r < n; ++r) {
-    rowStart_[r + 1] = rowStart_[r] + length[r];
+    rowStart_[r] = total;
+    rowCapacity_[r] = length[r] + length[r] / 2 + 2;  // spare room for cuts
+    total += rowCapacity_[r];
     longestRow_ = std::max<std::size_t>(longestRow_, length[r]);
   }
   if (longestRow_ > 0xFFFF) throw std::length_error("system matrix: a node has more than 65535 neighbours");
-  column_.resize(rowStart_[n]);
-  forRows(n, [&](std::size_t r) { std::copy_n(scratch.data() + bound[r], length[r], column_.data() + rowStart_[r]); });
+  column_.assign(total, 0);
+  column_.reserve(total + total / 2);  // moved rows, without reallocating soon
+  offDiagonal_.assign(9 * std::size_t(total), 0.0f);
+  offDiagonal_.reserve(9 * column_.capacity());
+  forEach(n, kRowGrain, [&](std::size_t r) { std::copy_n(scratch.data() + bound[r], length[r], column_.data() + rowStart_[r]); });
   tetSlots_.resize(tets.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tets.size(), 1024), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t e = range.begin(); e != range.end(); ++e) {
-      const auto& t = tets[e];
-      for (int a = 0; a < 4; ++a) {
-        const auto first = column_.begin() + rowStart_[t[std::size_t(a)]];
-        const auto last = column_.begin() + rowStart_[t[std::size_t(a)] + 1];
-        for (int b = 0; b < 4; ++b)
-          tetSlots_[e][std::size_t(4 * a + b)] =
-              a == b ? 0 : std::uint16_t(std::lower_bound(first, last, t[std::size_t(b)]) - first);
-      }
-    }
+  forEach(n, kRowGrain, [&](std::size_t r) { computeSlots(incidence, tets, r); });
+  diagonal_.assign(9 * n, 0.0);
+}
+
+void SystemMatrix::updateRows(const NodeIncidence& incidence, const std::vector<std::array<std::uint32_t, 4>>& tets,
+                              const std::vector<std::uint32_t>& rows) {
+  const std::size_t n = incidence.nodeCount();
+  std::vector<std::uint32_t> bound, length, scratch;
+  sortedRows(incidence, tets, rows, bound, length, scratch);
+  rowStart_.resize(n, 0);
+  rowLength_.resize(n, 0);
+  rowCapacity_.resize(n, 0);
+  diagonal_.resize(9 * n, 0.0);
+  for (std::size_t k = 0; k < rows.size(); ++k) {  // serial: moved rows take storage in order
+    const std::uint32_t r = rows[k];
+    if (length[k] > rowCapacity_[r]) moveRowToEnd(r, length[k]);
+    rowLength_[r] = length[k];
+    longestRow_ = std::max<std::size_t>(longestRow_, length[k]);
+  }
+  if (longestRow_ > 0xFFFF) throw std::length_error("system matrix: a node has more than 65535 neighbours");
+  forEach(rows.size(), 64, [&](std::size_t k) {
+    std::copy_n(scratch.data() + bound[k], length[k], column_.data() + rowStart_[rows[k]]);
   });
-  offDiagonal_.resize(9 * column_.size());
-  diagonal_.resize(9 * n);
+  tetSlots_.resize(tets.size());
+  // Each (tet, corner) belongs to one row: rows write disjoint slots.
+  forEach(rows.size(), 64, [&](std::size_t k) { computeSlots(incidence, tets, rows[k]); });
 }
 
 BLOBVK_FEM_KERNEL void SystemMatrix::multiplyRows(std::size_t begin, std::size_t end, const double* p, double* y) const {
@@ -71,7 +120,8 @@ BLOBVK_FEM_KERNEL void SystemMatrix::multiplyRows(std::size_t begin, std::size_t
     double y0 = d[0] * pr[0] + d[1] * pr[1] + d[2] * pr[2];
     double y1 = d[3] * pr[0] + d[4] * pr[1] + d[5] * pr[2];
     double y2 = d[6] * pr[0] + d[7] * pr[1] + d[8] * pr[2];
-    for (std::uint32_t k = rowStart_[r]; k != rowStart_[r + 1]; ++k) {
+    const std::uint32_t first = rowStart_[r], last = first + rowLength_[r];
+    for (std::uint32_t k = first; k != last; ++k) {
       const float* b = offDiagonal_.data() + 9 * std::size_t(k);
       const double* pc = p + 3 * std::size_t(column_[k]);
       y0 += double(b[0]) * pc[0] + double(b[1]) * pc[1] + double(b[2]) * pc[2];

@@ -20,10 +20,16 @@ class NodeIncidence;
 class SystemMatrix {
  public:
   // The pattern of the current tets: per node, its neighbours (nodes sharing a tet) sorted,
-  // and per tet corner pair (a, b) the index of t[b] in row t[a]. Values are left unset.
+  // and per tet corner pair (a, b) the index of t[b] in row t[a]. Values are left unset. Rows
+  // get spare room (half their length) for later edits.
   void buildPattern(const NodeIncidence& incidence, const std::vector<std::array<std::uint32_t, 4>>& tets);
+  // After a topology change: rebuilds only the given rows (sorted, unique; every node whose
+  // incident tets changed, new nodes included) and the slots of the tet corners in them. A row
+  // that outgrows its room moves to the end of the storage with twice the room (as
+  // NodeIncidence's rows do). Rows of other nodes, and their slots, are unchanged by the change.
+  void updateRows(const NodeIncidence& incidence, const std::vector<std::array<std::uint32_t, 4>>& tets,
+                  const std::vector<std::uint32_t>& rows);
   std::size_t nodeCount() const { return diagonal_.size() / 9; }
-  std::size_t offDiagonalBlockCount() const { return column_.size(); }
 
   // y = A p (3 values per node); multiplyRows: rows [begin, end) only.
   void multiply(const double* p, double* y) const;
@@ -31,7 +37,7 @@ class SystemMatrix {
 
   // Storage the assembly writes (ElementSet::assembleMatrix) and contact adds to.
   std::uint32_t rowBegin(std::size_t node) const { return rowStart_[node]; }
-  std::uint32_t rowEnd(std::size_t node) const { return rowStart_[node + 1]; }
+  std::uint32_t rowEnd(std::size_t node) const { return rowStart_[node] + rowLength_[node]; }
   std::uint32_t column(std::uint32_t k) const { return column_[k]; }
   // Block index, within row t[a] (from rowBegin), of column t[b]; a != b.
   std::uint16_t slot(std::size_t tet, int a, int b) const { return tetSlots_[tet][std::size_t(4 * a + b)]; }
@@ -42,7 +48,17 @@ class SystemMatrix {
   std::size_t longestRow() const { return longestRow_; }
 
  private:
-  std::vector<std::uint32_t> rowStart_, column_;
+  // The sorted neighbours of rows[k], written at bound[k] in scratch; their count in length[k].
+  static void sortedRows(const NodeIncidence& incidence, const std::vector<std::array<std::uint32_t, 4>>& tets,
+                         const std::vector<std::uint32_t>& rows, std::vector<std::uint32_t>& bound,
+                         std::vector<std::uint32_t>& length, std::vector<std::uint32_t>& scratch);
+  // The slots of every (tet, corner) of node's incidence row, from its (final) row.
+  void computeSlots(const NodeIncidence& incidence, const std::vector<std::array<std::uint32_t, 4>>& tets,
+                    std::size_t node);
+  // Storage for a row of `length` at the end, with twice the room.
+  void moveRowToEnd(std::size_t node, std::uint32_t length);
+
+  std::vector<std::uint32_t> rowStart_, rowLength_, rowCapacity_, column_;
   std::vector<std::array<std::uint16_t, 16>> tetSlots_;
   std::vector<float> offDiagonal_;  // 9 per block, row-major
   std::vector<double> diagonal_;    // 9 per node, row-major
