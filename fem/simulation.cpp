@@ -292,10 +292,12 @@ void Simulation::step() {
   if (d.matrixPatternDirty) {
     d.matrix.buildPattern(d.elements.incidence(), d.mesh.tets);
     d.matrixPatternDirty = false;
+    stats.matrixPatternMs = msSince(t);
   } else if (!d.matrixRows.empty()) {
     std::sort(d.matrixRows.begin(), d.matrixRows.end());
     d.matrixRows.erase(std::unique(d.matrixRows.begin(), d.matrixRows.end()), d.matrixRows.end());
     d.matrix.updateRows(d.elements.incidence(), d.mesh.tets, d.matrixRows);
+    stats.matrixPatternMs = msSince(t);
   }
   d.matrixRows.clear();
   d.elements.assembleMatrix(d.matrix, d.nodeScale.data(), stiffnessScale);

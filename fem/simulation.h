@@ -67,13 +67,15 @@ struct SimulationSettings {
   double cutRoom = 0.0;
 };
 
-// Per-phase wall times of the last step. The stiffness is applied matrix-free, so "rotations" is
-// the fused per-tet pass (rotations, stresses, forces and diagonal per corner) and "assembly"
-// the per-node gather of forces and of the preconditioner diagonal (plus mass and gravity terms).
-// "preconditionerMs" is the preconditioner's set-up (assembly and factorization on the steps
-// that rebuild it); "solveMs" the CG iterations and the update, without the set-up.
+// Per-phase wall times of the last step. "rotations" is the fused per-tet pass (rotations,
+// stresses, forces per corner); "assembly" the per-node gather of forces, mass and gravity
+// terms and the assembly of the system matrix, including "matrixPatternMs": building its
+// pattern (first step) or rebuilding the rows a topology change touched (the step after it).
+// "preconditionerMs" is the preconditioner's set-up (factorization on the steps that rebuild
+// it); "solveMs" the CG iterations and the update, without the set-up.
 struct StepStats {
   double rotationsMs = 0, assemblyMs = 0, contactMs = 0, preconditionerMs = 0, solveMs = 0, totalMs = 0;
+  double matrixPatternMs = 0;
   int cgIterations = 0;
   double cgRelativeResidual = 0;  // |b - A v| / |b| over free DOFs at the end of the solve
   bool cgConverged = true;        // the tolerance was met (false: stopped at cgMaxIterations)
