@@ -2,7 +2,9 @@
 // 1e-3) on voxel box meshes of ~1k, 10k and 100k tets pressed by a moving sphere, with a
 // per-phase breakdown as counters (ms per step): rotations, assembly, contact, solve.
 #include "bench/cut_settings.h"
+#include "blobvk/fem/elements.h"
 #include "blobvk/fem/simulation.h"
+#include "blobvk/fem/system_matrix.h"
 #include "blobvk/fem/voxel_mesher.h"
 #include "tests/fem/cut_changes.h"  // the same cut-like change builder the topology tests use
 
@@ -10,6 +12,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <cmath>
 #include <optional>
 
 namespace {
@@ -110,6 +113,36 @@ BENCHMARK(BM_FemStepConverged)
     ->Args({19, 20, 45, 2})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(30);
+
+// One product with the implicit system, the core of a CG iteration, on a bent block (arg 3: 0
+// matrix-free, per tet then a per-node gather, double; 1 the assembled matrix of
+// system_matrix.h, float off-diagonal blocks; 2 assembling that matrix, once per step).
+void BM_FemSystemProduct(benchmark::State& state) {
+  const mesh::TetMesh m = box(int(state.range(0)), int(state.range(1)), int(state.range(2)));
+  fem::ElementSet elements;
+  elements.build(m, {fem::Material{1e5, 0.45, 1000}});
+  std::vector<mesh::Double3> x = m.restPositions;
+  for (auto& p : x) {
+    const double a = 0.5 * p.y, c = std::cos(a), s = std::sin(a);
+    p = {c * p.x - s * p.y, s * p.x + c * p.y, 1.01 * p.z};
+  }
+  const std::size_t n = m.nodeCount();
+  std::vector<double> force(3 * n), nodeScale(n, 1e-3), p(3 * n), y(3 * n);
+  for (std::size_t i = 0; i < p.size(); ++i) p[i] = std::sin(0.37 * double(i));
+  elements.computeForces(x, 30, force.data(), nullptr);
+  fem::SystemMatrix matrix;
+  matrix.buildPattern(elements.incidence(), m.tets);
+  elements.assembleMatrix(matrix, nodeScale.data(), 2.8e-4);
+  const long mode = state.range(3);
+  for (auto _ : state) {
+    if (mode == 0) elements.applySystem(p.data(), y.data(), nodeScale.data(), 2.8e-4);
+    if (mode == 1) matrix.multiply(p.data(), y.data());
+    if (mode == 2) elements.assembleMatrix(matrix, nodeScale.data(), 2.8e-4);
+    benchmark::DoNotOptimize(y.data());
+  }
+  state.counters["tets"] = double(m.tetCount());
+}
+BENCHMARK(BM_FemSystemProduct)->ArgsProduct({{12}, {12}, {12}, {0, 1, 2}})->ArgsProduct({{19}, {20}, {45}, {0, 1, 2}})->Unit(benchmark::kMillisecond);
 
 // A cut-like change on the 100k-tet block: every edge crossing the plane y = 0.155 inside a
 // 9 x 9-cell window is split at the plane (as a scalpel sweep's intersection points would be),
