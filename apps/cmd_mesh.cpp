@@ -57,7 +57,7 @@ void addMeshCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("mesh", "Polygonize a scene into a mesh (.ply, .obj, .stl, .gltf, .glb)");
   cmd->footer(
       "Under mpirun -n N (cpu backend, streamed): the layers are shared over the ranks and rank 0 writes the "
-      "one-process file. Rank 0 computes a share of the layers besides joining them (with 2 ranks 0.45, 0.35 "
+      "one-process file. Rank 0 computes a share of the layers besides joining them (with 2 ranks 0.45, 0.25 "
       "when it checks the mesh; none with 3 or more); BLOBVK_MPI_ROOT_SHARE=0..1 sets it.");
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
   cmd->add_option("-o,--output", a->out, "Output mesh (.ply, .obj, .stl, .gltf, .glb; - for standard output)")->required();

@@ -81,7 +81,7 @@ double parseRootShare(const char* text) {
 double mpiRootShare(int ranks, bool rootChecks) {
   if (const char* text = std::getenv("BLOBVK_MPI_ROOT_SHARE"); text && *text) return parseRootShare(text);
   if (ranks != 2) return 0.0;
-  return rootChecks ? 0.35 : 0.45;
+  return rootChecks ? 0.25 : 0.45;
 }
 
 MpiWorld mpiStart(bool rootChecks) {

@@ -35,7 +35,7 @@ void mpiStop();  // MPI_Finalize, when started
 // The fraction of the layers rank 0 computes besides joining and writing all of them (and,
 // when `rootChecks`, checking the mesh as it is written). Joining and writing cost about a tenth
 // of computing, the streamed check about a fifth (tower_L6P8I4 at 1024^3, one thread; CPU
-// profiles), so with 2 ranks rank 0 takes 0.45 of the layers, 0.35 when it checks; with 3 or
+// profiles), so with 2 ranks rank 0 takes 0.45 of the layers, 0.25 when it checks; with 3 or
 // more, none (its joining is about a share when the others' shares are a third or less).
 // BLOBVK_MPI_ROOT_SHARE (0 to 1) overrides it, for clusters where rank 0's host or disk differs
 // from the others'; only rank 0's environment counts. Throws std::runtime_error naming the

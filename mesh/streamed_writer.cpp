@@ -9,13 +9,17 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
 
 namespace blobvk::mesh {
 namespace {
@@ -52,6 +56,65 @@ void copyAll(int in, int out, std::uint64_t length, const std::string& what) {
     writeAll(out, buffer.data(), std::size_t(n), what);
     offset += n;
   }
+}
+
+// Copies `length` bytes of `in` from inOffset to `out` at outOffset, leaving both file positions
+// alone (so that several threads can fill one file): in the kernel where it can, else through a
+// buffer.
+void copyRange(int in, std::uint64_t inOffset, int out, std::uint64_t outOffset, std::uint64_t length,
+               const std::string& what) {
+  off_t from = off_t(inOffset), to = off_t(outOffset);
+  const off_t end = off_t(inOffset + length);
+  while (from < end) {
+    const std::size_t chunk = std::size_t(std::min<std::uint64_t>(std::uint64_t(end - from), 1u << 30));
+    const ssize_t n = ::copy_file_range(in, &from, out, &to, chunk, 0);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+  }
+  std::vector<char> buffer(1 << 20);
+  while (from < end) {
+    const ssize_t n = ::pread(in, buffer.data(), std::min<std::uint64_t>(buffer.size(), std::uint64_t(end - from)), from);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) throw std::runtime_error(what + ": cannot copy a spooled section: " + reason());
+    for (ssize_t done = 0; done < n;) {
+      const ssize_t w = ::pwrite(out, buffer.data() + done, std::size_t(n - done), to);
+      if (w < 0 && errno == EINTR) continue;
+      if (w <= 0) throw std::runtime_error(what + ": write error: " + reason());
+      done += w, to += w;
+    }
+    from += n;
+  }
+}
+
+// One piece of a section to copy into the output at its place.
+struct CopyPiece {
+  int in;
+  std::uint64_t from, to, length;
+};
+
+// The sections' pieces copied into `out` on a few threads: the copy is the writer's serial tail
+// (about 0.9 s for a 778 MB mesh on tmpfs, one thread), when every layer is done and the cores
+// that computed them are idle.
+void copyPieces(const std::vector<CopyPiece>& pieces, int out, const std::string& what) {
+  const unsigned threads = std::min<unsigned>(std::max(1u, std::thread::hardware_concurrency()), 4u);
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr failure;
+  std::mutex failureMutex;
+  const auto work = [&] {
+    for (std::size_t i; (i = next++) < pieces.size();) {
+      try {
+        copyRange(pieces[i].in, pieces[i].from, out, pieces[i].to, pieces[i].length, what);
+      } catch (...) {
+        std::lock_guard lock(failureMutex);
+        if (!failure) failure = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> helpers;
+  for (unsigned t = 1; t < threads && t < pieces.size(); ++t) helpers.emplace_back(work);
+  work();
+  for (auto& h : helpers) h.join();
+  if (failure) std::rethrow_exception(failure);
 }
 
 std::string directoryOf(const std::string& path) {
@@ -319,7 +382,16 @@ std::uint64_t StreamedMeshFile::finish() {
   int fd = makeTemporary(directoryOf(path_), ".blobvk-out-", name);
   try {
     writeAll(fd, head.data(), head.size(), path_);
-    for (auto& s : sections_) copyAll(s->fd(), fd, s->size(), path_);
+    // Each section in pieces, copied to its place in the file.
+    const std::uint64_t kPiece = std::max<std::uint64_t>(1, options_.copyPieceBytes);
+    std::vector<CopyPiece> pieces;
+    std::uint64_t at = head.size();
+    for (auto& s : sections_) {
+      for (std::uint64_t from = 0; from < s->size(); from += kPiece)
+        pieces.push_back({s->fd(), from, at + from, std::min(kPiece, s->size() - from)});
+      at += s->size();
+    }
+    copyPieces(pieces, fd, path_);
     // mkstemp makes 0600; give the file the mode an ordinary create would (0666 less umask).
     const mode_t mask = ::umask(0);
     ::umask(mask);

@@ -22,6 +22,8 @@ struct StreamedFileOptions {
   bool colours = true;         // ... colours
   // Where spooled sections go; empty: beside the output (or $TMPDIR, /tmp for standard output).
   std::string spoolDirectory;
+  // finish() copies the sections into the file in pieces of this many bytes, on a few threads.
+  std::uint64_t copyPieceBytes = 64u << 20;
 };
 
 class StreamedMeshFile final : public MeshSink {
