@@ -89,6 +89,16 @@ class ElementSet {
   std::vector<double> stepLambda_;  // lambda stiffened under compression, set by the tet pass (rotation.h)
   std::vector<std::array<double, 4>> quaternion_;         // warm start of the rotation extraction
   std::vector<std::array<double, 9>> rotatedGradients_;   // h_i = R grad N_i, i = 1..3 (h_0 = -sum)
+  // The four corners' rotated gradients of tet e: h_1..h_3 as stored, h_0 = -(h_1 + h_2 + h_3).
+  void cornerGradients(std::size_t e, double h[4][3]) const {
+    const double* g = rotatedGradients_[e].data();
+    for (int c = 0; c < 3; ++c) {
+      h[1][c] = g[c];
+      h[2][c] = g[3 + c];
+      h[3][c] = g[6 + c];
+      h[0][c] = -(h[1][c] + h[2][c] + h[3][c]);
+    }
+  }
   std::vector<std::array<double, 12>> tetVectors_;       // per-tet, per-corner results to gather
   std::vector<std::array<double, 24>> tetDiagonal_;      // per-corner diagonal block of K (6 each)
   std::vector<double> tetEnergy_;

@@ -22,14 +22,8 @@ BLOBVK_FEM_KERNEL void ElementSet::assembleMatrixRows(std::size_t begin, std::si
     for (const std::uint32_t* q = incidence_.begin(r); q != incidence_.end(r); ++q) {
       const std::uint32_t e = NodeIncidence::tetOf(*q);
       const int a = NodeIncidence::cornerOf(*q);
-      const double* g = rotatedGradients_[e].data();
       double h[4][3];
-      for (int c = 0; c < 3; ++c) {
-        h[1][c] = g[c];
-        h[2][c] = g[3 + c];
-        h[3][c] = g[6 + c];
-        h[0][c] = -(h[1][c] + h[2][c] + h[3][c]);
-      }
+      cornerGradients(e, h);
       const double sm = scale * volume_[e] * mu_[e], sl = scale * volume_[e] * stepLambda_[e];
       const double* hi = h[a];
       const double smi[3] = {sm * hi[0], sm * hi[1], sm * hi[2]}, sli[3] = {sl * hi[0], sl * hi[1], sl * hi[2]};
