@@ -128,7 +128,7 @@ int mpiLayerOwner(int z, int ranks, double rootShare) {
 }
 
 MpiRootLayers::MpiRootLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers)
-    : world_(world), layers_(layers), share_(world.rootShare) {}
+    : world_(world), layers_(layers) {}
 
 namespace {
 // Own layers rank 0 may hold computed ahead of the join: enough to fill the waits for the next

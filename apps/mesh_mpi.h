@@ -53,12 +53,11 @@ class MpiRootLayers {
   cpu::MeshLayer take(int z);  // z must be the previous call's z + 1 (0 first)
 
  private:
-  int owner(int z) const { return mpiLayerOwner(z, world_.size, share_); }
+  int owner(int z) const { return mpiLayerOwner(z, world_.size, world_.rootShare); }
   bool computeAhead(int z);  // computes rank 0's next own layer after z, if it may; false if not
 
   MpiWorld world_;
   cpu::LayerPolygonizer& layers_;
-  double share_;
   std::deque<std::pair<int, cpu::MeshLayer>> ahead_;  // own layers computed early, ascending z
   int computedUpTo_ = -1;                             // highest own layer computed so far
 };
