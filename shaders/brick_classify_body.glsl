@@ -22,8 +22,10 @@ layout(push_constant) uniform Push {
   uvec4 cells;              // cells per axis, w = log2(B)
   uvec4 bricks;             // bricks per axis, w = code length
   uvec4 parents;            // parent bricks per axis, w = 1: use parentFlags
-  // The bricks classified: [first, end) per axis (the whole grid, or an edit's box of bricks,
-  // vk/extract/incremental_extract.cpp); the host leaves the others' flags at 0.
+  // The bricks classified: [first, end) per axis (the whole grid, a window of brick layers, or an
+  // edit's box of bricks, vk/extract/incremental_extract.cpp); the host leaves the others' flags
+  // at 0. first.w: the brick (linear index) whose flag is activeFlags[0]; end.w: the flags' last
+  // word (0, so that an exclusive scan ends with the active count), written by brick first.w.
   uvec4 first, end;
 } pc;
 
@@ -228,8 +230,8 @@ vec2 fieldBounds(Box query, out bool gaveUp) {
 void main() {
   uvec3 b = gl_GlobalInvocationID + pc.first.xyz;
   if (any(greaterThanEqual(b, pc.end.xyz))) return;
-  uint brick = (b.z * pc.bricks.y + b.y) * pc.bricks.x + b.x;
-  if (brick == 0u) activeFlags[pc.bricks.x * pc.bricks.y * pc.bricks.z] = 0u;
+  uint brick = (b.z * pc.bricks.y + b.y) * pc.bricks.x + b.x - pc.first.w;
+  if (brick == 0u) activeFlags[pc.end.w] = 0u;
   if (pc.parents.w != 0u) {
     uvec3 q = b >> 1u;
     if (parentFlags[(q.z * pc.parents.y + q.y) * pc.parents.x + q.x] == 0u) {

@@ -10,13 +10,15 @@ layout(std430, set = 0, binding = 0) readonly buffer BrickScan { uint brickScan[
 layout(std430, set = 0, binding = 1) writeonly buffer Bricks { uint bricks[]; };
 
 layout(push_constant) uniform Push {
-  uvec4 bricks;  // bricks per axis
+  uvec4 bricks;  // bricks per axis, w = the first brick layer listed
+  uint endLayer; // the end of the brick layers listed
+  uint scanBase; // the brick (linear index) whose flag is brickScan[0] (vk::ScanWindow)
 } pc;
 
 void main() {
-  uvec3 b = gl_GlobalInvocationID;
-  if (any(greaterThanEqual(b, pc.bricks.xyz))) return;
-  uint brick = (b.z * pc.bricks.y + b.y) * pc.bricks.x + b.x;
+  uvec3 b = gl_GlobalInvocationID + uvec3(0u, 0u, pc.bricks.w);
+  if (any(greaterThanEqual(b, uvec3(pc.bricks.xy, pc.endLayer)))) return;
+  uint brick = (b.z * pc.bricks.y + b.y) * pc.bricks.x + b.x - pc.scanBase;
   uint number = brickScan[brick];
   if (brickScan[brick + 1u] != number) bricks[number] = b.x | (b.y << 10) | (b.z << 20);
 }

@@ -8,7 +8,10 @@
 //
 // Active bricks are numbered in (bz, by, bx) order: `brickScan` holds the exclusive scan of the
 // active flags over all bricks (one more word: the active count), so an active brick's number is
-// brickScan[its linear index] and each row of bricks (bz, by) is a contiguous run of numbers.
+// brickScan[its linear index] and each row of bricks (bz, by) is a contiguous run of numbers. On
+// a grid too large for one buffer the scan comes in windows of whole brick layers, each counted
+// from its first layer (vk::ScanWindow): indices then start at the window's first brick
+// (`scanBase`) and numbers at its first active brick; only differences of numbers matter.
 // Rows of points (fixed y, z) of an active brick are *segments*; the global order of vertices
 // (by edge key: point z, then y, then x) is the order of segments
 //   [bz][local z][by][local y][k-th active brick of brick row (bz, by)],
@@ -56,13 +59,14 @@ uint segmentOf(uvec4 s, uint base, uint rows, uint rowY, uint rowZ) {
 #ifdef BRICK_SCAN_BINDING
 layout(std430, set = 0, binding = BRICK_SCAN_BINDING) readonly buffer BrickScan { uint brickScan[]; };
 
-// segmentOf's record of active brick `a` (global number) at brick coordinates b, for a batch whose
-// first active brick is activeBase; `coords` is the brick's packed coordinates. Unsigned
-// arithmetic wraps, the positions it gives are those of the whole order minus the batch's start.
-uvec4 brickSegments(uint a, uint coords, uvec3 b, uvec3 bricks, uint activeBase, uint log2B) {
+// segmentOf's record of active brick `a` (number in the scan's window) at brick coordinates b,
+// for a batch whose first active brick is activeBase; `coords` is the brick's packed coordinates,
+// scanBase the linear index of brickScan[0]. Unsigned arithmetic wraps, the positions it gives are
+// those of the whole order minus the batch's start.
+uvec4 brickSegments(uint a, uint coords, uvec3 b, uvec3 bricks, uint activeBase, uint log2B, uint scanBase) {
   uint B = 1u << log2B, R = B + 1u;
-  uint slice = b.z * bricks.y * bricks.x;
-  uint row = (b.z * bricks.y + b.y) * bricks.x;
+  uint slice = b.z * bricks.y * bricks.x - scanBase;
+  uint row = (b.z * bricks.y + b.y) * bricks.x - scanBase;
   uint sliceStart = brickScan[slice], sliceCount = brickScan[slice + bricks.y * bricks.x] - sliceStart;
   uint rowStart = brickScan[row], rowCount = brickScan[row + bricks.x] - rowStart;
   uint inRow = a - rowStart, beforeRow = rowStart - sliceStart;

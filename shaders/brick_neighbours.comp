@@ -18,8 +18,9 @@ layout(std430, set = 0, binding = 2) writeonly buffer Segments { uvec4 segments[
 
 layout(push_constant) uniform Push {
   uvec4 bricks;     // bricks per axis, w = active bricks of this batch
-  uint activeBase;  // the batch's first active brick
+  uint activeBase;  // the batch's first active brick, counted from the scan window's
   uint log2B;
+  uint scanBase;    // the brick (linear index) whose flag is brickScan[0]: the window's first
 } pc;
 
 void main() {
@@ -32,10 +33,10 @@ void main() {
     uint number = 0xffffffffu;
     if (all(lessThan(n, pc.bricks.xyz))) {
       uint linear = (n.z * pc.bricks.y + n.y) * pc.bricks.x + n.x;
-      uint first = brickScan[linear];
-      if (brickScan[linear + 1u] > first) number = first - pc.activeBase;
+      uint first = brickScan[linear - pc.scanBase];
+      if (brickScan[linear - pc.scanBase + 1u] > first) number = first - pc.activeBase;
     }
     neighbours[a * 8u + k] = number;
   }
-  segments[a] = brickSegments(pc.activeBase + a, coords, b, pc.bricks.xyz, pc.activeBase, pc.log2B);
+  segments[a] = brickSegments(pc.activeBase + a, coords, b, pc.bricks.xyz, pc.activeBase, pc.log2B, pc.scanBase);
 }

@@ -163,6 +163,23 @@ TEST_F(MultiDeviceTest, GeneratedKernelsOnEachDeviceGiveTheSameBytes) {
   expectSameBytes(two, one, "tower_L6P8I4, specialised");
 }
 
+// The classification's tables in windows of brick layers (vk::ScanWindow), copied to the other
+// device window by window: the one-device bytes, batches within the windows.
+TEST_F(MultiDeviceTest, WindowsOfTheBrickTablesGiveTheOneDeviceBytes) {
+  const ShippedScene sc = shipped("tower", 36);
+  vk::GpuPolygonizeOptions o;
+  o.traversal = vk::Traversal::Stackless;
+  o.brickCells = 4;
+  const mesh::TriMesh one = vk::polygonize(device(), sc.program, sc.grid, o);
+  o.windowLayers = 2;
+  vk::GpuStats st;
+  const mesh::TriMesh two = vk::polygonizeOnDevices(devices(2), sc.program, sc.grid, o, &st);
+  const std::uint32_t windows = (vk::brickGridFor(sc.grid, 4).z + 1) / 2;
+  EXPECT_GE(st.batches, windows);
+  EXPECT_EQ(st.submits, windows + 2 * st.batches);
+  expectSameBytes(two, one, "tower, windows of 2 brick layers");
+}
+
 TEST_F(MultiDeviceTest, RefusesWhatCannotBeSplit) {
   const ShippedScene sc = shipped("dice", 24);
   vk::Device* same[2] = {&device(), &device()};
@@ -243,6 +260,15 @@ TEST(BatchPlan, SharesEndAtTheNearestLayerBoundaryWithinTheLimit) {
   EXPECT_EQ(tiny.size(), 7u);
   check(tiny);
   EXPECT_THROW(vk::planSparseBatches(starts, 1000, 20), vk::VulkanError);  // two layers over one buffer
+  // Batches end where the classification's windows end (layers 3 and 6), whatever the target.
+  const std::vector<std::uint32_t> ends{3, 6};
+  const auto windowed = vk::planSparseBatches(starts, 1000, 1000, ~0ull, ends);
+  ASSERT_EQ(windowed.size(), 3u);
+  EXPECT_EQ(windowed[0].endLayer, 3u);
+  EXPECT_EQ(windowed[1].firstLayer, 3u);
+  EXPECT_EQ(windowed[1].endLayer, 6u);
+  EXPECT_EQ(windowed[2].endLayer, 8u);
+  check(windowed);
 }
 
 // --devices resolution over a made-up device list (no Vulkan needed).

@@ -155,6 +155,51 @@ TEST_F(VulkanTest, BatchesOfBrickLayersGiveTheSameBytes) {
   }
 }
 
+// The classification's tables in windows of brick layers (what a grid too large for one buffer
+// of flags gets, vk::ScanWindow): the same layer starts as one window (the oracle: the whole
+// grid's scan), batches that never cross a window, and the bytes of one window, which are the
+// reference mesh; a job is one submit per window and two per batch.
+TEST_F(VulkanTest, WindowsOfTheBrickTablesGiveTheSameBytes) {
+  for (const char* name : {"tower", "dice", "twisted_column"}) {
+    const ShippedScene sc = shipped(name, 40);
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Stackless;
+    o.brickCells = 4;
+    const vk::BrickGrid bricks = vk::brickGridFor(sc.grid, 4);
+    vk::GpuStats one;
+    const auto whole = vk::polygonize(device(), sc.program, sc.grid, o, &one);
+    expectSameMeshAsReference(whole, cpu::polygonizeReference(sc.program, sc.grid), 1e-4f * sc.grid.cellSize, name);
+    vk::GpuStats wholeStats;
+    const vk::ClassifiedBricks wholeTables = vk::classifyAndCompact(device(), sc.program, sc.grid, bricks, wholeStats);
+    ASSERT_EQ(wholeTables.windows.size(), 1u) << name;
+    for (std::uint32_t windowLayers : {1u, 2u, 3u}) {
+      for (std::uint32_t batchBricks : {0u, 7u}) {
+        const std::string what = std::string(name) + ", windows of " + std::to_string(windowLayers) +
+                                 " layers, batches of " + std::to_string(batchBricks) + " bricks";
+        vk::GpuStats cs;
+        const vk::ClassifiedBricks tables =
+            vk::classifyAndCompact(device(), sc.program, sc.grid, bricks, cs, nullptr, windowLayers);
+        EXPECT_EQ(tables.windows.size(), (bricks.z + windowLayers - 1) / windowLayers) << what;
+        EXPECT_EQ(tables.layerStarts, wholeTables.layerStarts) << what;
+        EXPECT_EQ(tables.downloadList(device(), 0, tables.layerStarts.back()),
+                  wholeTables.downloadList(device(), 0, wholeTables.layerStarts.back()))
+            << what;
+        o.windowLayers = windowLayers;
+        o.maxBatchBricks = batchBricks;
+        vk::GpuStats st;
+        const auto m = vk::polygonize(device(), sc.program, sc.grid, o, &st);
+        EXPECT_EQ(st.submits, tables.windows.size() + 2 * st.batches) << what;
+        EXPECT_GE(st.batches, tables.windows.size() - 2) << what << ": a batch crossed a window";
+        EXPECT_TRUE(sameBytes(m.positions, whole.positions)) << what;
+        EXPECT_TRUE(sameBytes(m.normals, whole.normals)) << what;
+        EXPECT_TRUE(sameBytes(m.colours, whole.colours)) << what;
+        EXPECT_TRUE(sameBytes(m.edgeKeys, whole.edgeKeys)) << what;
+        EXPECT_TRUE(sameBytes(m.triangles, whole.triangles)) << what;
+      }
+    }
+  }
+}
+
 // A grid that misses the model: every brick is dropped, the mesh is empty.
 TEST_F(VulkanTest, AGridAwayFromTheModelHasNoActiveBricks) {
   const auto program = blobtree::compile(testModels()[0].root);

@@ -123,8 +123,7 @@ struct IncrementalExtractor::State {
     EvaluatedBricks evaluated;
     evaluated.cells = 1u << bricks.log2B;
     if (device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU && a1 > a0) {  // elsewhere the choice ignores them
-      std::vector<std::uint32_t> packed(a1 - a0);
-      device.download(classified.list, packed.data(), packed.size() * 4, 4ull * a0);
+      const std::vector<std::uint32_t> packed = classified.downloadList(device, a0, a1 - a0);
       evaluated.bricks.reserve(packed.size());
       for (std::uint32_t p : packed) evaluated.bricks.push_back({p & 1023u, (p >> 10) & 1023u, (p >> 20) & 1023u});
     }
@@ -160,8 +159,8 @@ struct IncrementalExtractor::State {
       std::optional<CodegenOptions> chosen;
       const GpuPolygonizeOptions resolved =
           evaluatorFor(program, classified, 0, classified.layerStarts.back(), chosen, s);
-      SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bricks, classified.scan,
-                               classified.list, maxLoaded, s.batches);
+      SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bricks, classified.windows,
+                               maxLoaded, s.batches);
       for (const SparseBatch& b : batches) runner.run(b, piece.positions.size(), piece, s, cornerKeys);
       runner.deviceTimes(s);
       bytes += runner.sharedBytes() + runner.peakOutputBytes();

@@ -103,7 +103,7 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     return range;
   };
   // One evaluator for every device: the bytes must not depend on which device ran a batch.
-  const ClassifiedBricks classified = classifyToFit(first, program, grid, options.brickCells, rangeBricks, shares[0]);
+  const ClassifiedBricks classified = classifyToFit(first, program, grid, options.brickCells, rangeBricks, shares[0], options.windowLayers);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
@@ -126,18 +126,21 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     const std::uint64_t pieces = workers * perWorker;
     ownTarget = std::max<std::uint64_t>(1, (active + pieces - 1) / pieces);
   }
-  const std::vector<SparseBatch> batches = planSparseBatches(classified.layerStarts, limit, range, ownTarget);
+  const std::vector<SparseBatch> batches =
+      planSparseBatches(classified.layerStarts, limit, range, ownTarget, classified.windowEnds());
   s.batches = std::uint32_t(batches.size());
   std::uint32_t maxLoaded = 0;
   for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
 
-  // The other devices get the classification from the host (the first device's copy).
-  std::vector<std::uint32_t> scanWords, listWords;
-  if (!batches.empty()) {
-    scanWords.resize(bg.count() + 1);
-    listWords.resize(active);
-    first.download(classified.scan, scanWords.data(), scanWords.size() * 4);
-    first.download(classified.list, listWords.data(), listWords.size() * 4);
+  // The other devices get the classification's tables from the host (the first device's copy).
+  std::vector<std::vector<std::uint32_t>> scanWords, listWords;
+  if (!batches.empty() && n > 1) {
+    for (const ScanWindow& w : classified.windows) {
+      scanWords.emplace_back(w.scan.size() / 4);
+      listWords.emplace_back(w.list.size() / 4);
+      first.download(w.scan, scanWords.back().data(), w.scan.size());
+      first.download(w.list, listWords.back().data(), w.list.size());
+    }
   }
 
   Queue q;
@@ -169,17 +172,23 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     try {
       Device& device = *devices[d];
       std::uint64_t tableBytes = 0;
-      Buffer scan, list;
+      std::vector<ScanWindow> copies;
       if (d > 0) {
-        scan = makeSparseBuffer(device, scanWords.size() * 4, "brick flags", tableBytes);
-        list = makeSparseBuffer(device, listWords.size() * 4, "brick list", tableBytes);
-        device.upload(scan, scanWords.data(), scanWords.size() * 4);
-        device.upload(list, listWords.data(), listWords.size() * 4);
+        for (std::size_t k = 0; k < classified.windows.size(); ++k) {
+          ScanWindow w = {classified.windows[k].firstLayer, classified.windows[k].endLayer,
+                          classified.windows[k].activeBase, {}, {}};
+          w.scan = makeSparseBuffer(device, scanWords[k].size() * 4, "brick flags", tableBytes);
+          w.list = makeSparseBuffer(device, listWords[k].size() * 4, "brick list", tableBytes);
+          device.upload(w.scan, scanWords[k].data(), scanWords[k].size() * 4);
+          device.upload(w.list, listWords[k].data(), listWords[k].size() * 4);
+          copies.push_back(std::move(w));
+        }
       } else {
         tableBytes = classified.bytes;
       }
-      SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, d ? scan : classified.scan,
-                               d ? list : classified.list, maxLoaded, s.batches);
+      SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg,
+                               d ? std::span<const ScanWindow>(copies) : std::span<const ScanWindow>(classified.windows),
+                               maxLoaded, s.batches);
       for (std::size_t b = 0; take(b);) {
         mesh::TriMesh piece;
         runner.run(batches[b], 0, piece, share);

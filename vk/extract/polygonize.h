@@ -28,6 +28,10 @@ struct GpuPolygonizeOptions {
   // active bricks, fewer where the memory limit cuts them smaller). Each batch evaluates one
   // brick layer more than it emits, so 1 suits equal devices; more let a faster device take more.
   std::uint32_t batchesPerDevice = 1;
+  // Sparse: brick layers per window of the classification's tables (vk::ScanWindow); 0: as many
+  // as one storage buffer holds (the whole grid but on the largest grids). The mesh is the same
+  // bytes whatever the windows.
+  std::uint32_t windowLayers = 0;
   bool normals = true;
   bool colours = true;
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation

@@ -80,7 +80,8 @@ std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uin
 }
 
 std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts, std::uint64_t limit,
-                                           std::uint64_t rangeBricks, std::uint64_t ownTarget) {
+                                           std::uint64_t rangeBricks, std::uint64_t ownTarget,
+                                           std::span<const std::uint32_t> ends) {
   std::vector<SparseBatch> batches;
   const std::uint32_t layers = std::uint32_t(starts.size()) - 1;
   for (std::uint32_t z = 0; z < layers;) {
@@ -95,8 +96,9 @@ std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts
       if (own(end + 1) <= ownTarget) return true;
       return own(end) < ownTarget && own(end + 1) - ownTarget < ownTarget - own(end);
     };
+    auto mustEnd = [&](std::uint32_t end) { return std::binary_search(ends.begin(), ends.end(), end); };
     std::uint32_t end = z + 1;
-    while (end < layers && loaded(end + 1) <= limit && nearer(end)) ++end;
+    while (end < layers && !mustEnd(end) && loaded(end + 1) <= limit && nearer(end)) ++end;
     if (loaded(end) > rangeBricks) {
       throw VulkanError("GPU polygonizer: two brick layers hold " + std::to_string(loaded(end)) +
                         " active bricks, over the " + std::to_string(rangeBricks) +
@@ -117,8 +119,7 @@ struct SparseBatchRunner::State {
   const blobtree::GridSpec grid;
   const GpuPolygonizeOptions options;
   const BrickGrid bg;
-  const Buffer& brickScan;
-  const Buffer& brickList;
+  std::span<const ScanWindow> windows;
   UploadBatch uploads;  // the program and case table ride in the first batch's submit
   GpuProgram gpu;
   std::uint64_t bytes = 0, peakOutputBytes = 0;
@@ -149,9 +150,9 @@ struct SparseBatchRunner::State {
   std::uint32_t runs = 0, maxBatches = 0;
 
   State(Device& d, const blobtree::Program& program, const blobtree::GridSpec& g, const GpuPolygonizeOptions& o,
-        Traversal traversal, const BrickGrid& b, const Buffer& scan, const Buffer& list, std::uint32_t maxLoaded,
+        Traversal traversal, const BrickGrid& b, std::span<const ScanWindow> w, std::uint32_t maxLoaded,
         std::uint32_t batches)
-      : device(d), grid(g), options(o), bg(b), brickScan(scan), brickList(list), uploads(d),
+      : device(d), grid(g), options(o), bg(b), windows(w), uploads(d),
         gpu(uploadProgram(d, program, traversal, o.codegen)), timer(d, kMarks * batches), maxBatches(batches) {
     const std::uint64_t B = 1ull << bg.log2B, R = B + 1, P = R * R * R;
     const std::uint64_t maxRows = std::uint64_t(maxLoaded) * R * R, maxCellRows = std::uint64_t(maxLoaded) * B * B;
@@ -211,10 +212,10 @@ struct SparseBatchRunner::State {
 
 SparseBatchRunner::SparseBatchRunner(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                      const GpuPolygonizeOptions& options, Traversal traversal, const BrickGrid& bricks,
-                                     const Buffer& brickScan, const Buffer& brickList, std::uint32_t maxLoaded,
+                                     std::span<const ScanWindow> windows, std::uint32_t maxLoaded,
                                      std::uint32_t maxBatches)
-    : state_(std::make_unique<State>(device, program, grid, options, traversal, bricks, brickScan, brickList,
-                                     maxLoaded, maxBatches)) {}
+    : state_(std::make_unique<State>(device, program, grid, options, traversal, bricks, windows, maxLoaded,
+                                     maxBatches)) {}
 
 SparseBatchRunner::~SparseBatchRunner() = default;
 
@@ -255,6 +256,13 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const std::uint32_t cells[4] = {std::uint32_t(st.grid.cells.x), std::uint32_t(st.grid.cells.y),
                                   std::uint32_t(st.grid.cells.z), bg.log2B};
   const std::uint32_t run = st.runs++, mark = kMarks * run, loaded = batch.loadedActive;
+  // The window of the brick tables holding the batch's layers, and the batch's first active brick
+  // counted from the window's.
+  const ScanWindow* window = nullptr;
+  for (const ScanWindow& w : st.windows)
+    if (!window && w.firstLayer <= batch.firstLayer && batch.endLayer <= w.endLayer) window = &w;
+  if (!window) throw VulkanError("GPU polygonizer: a batch's brick layers lie in no window of the brick tables");
+  const std::uint32_t windowActive = batch.activeBase - window->activeBase;
   const BrickGroups bgroups = brickGroups(loaded);
   const std::uint64_t rowCount = std::uint64_t(loaded) * R * R;
   const std::uint64_t triangleSegmentCount = std::uint64_t(loaded) * B * B;
@@ -265,7 +273,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   BrickTileOrder tileOrder;
   if (st.tiles.size() > 1) {
     st.batchPacked.resize(loaded);
-    device.download(st.brickList, st.batchPacked.data(), 4ull * loaded, 4ull * batch.activeBase);
+    device.download(window->list, st.batchPacked.data(), 4ull * loaded, 4ull * windowActive);
     tileOrder = orderBricksByTile(st.tiles, st.batchPacked);
   } else {
     tileOrder.order.resize(loaded);
@@ -286,7 +294,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     if (run == 0) st.timer.reset(rec);
     rec.computeBarrier();  // the last batch's reads and writes of the shared buffers come first
     st.timer.mark(rec, mark);
-    rec.copy(st.brickList, 4ull * batch.activeBase, st.batchBricks, 0, 4ull * loaded);
+    rec.copy(window->list, 4ull * windowActive, st.batchBricks, 0, 4ull * loaded);
     rec.computeBarrier();
     for (std::size_t t = 0; t < st.tiles.size(); ++t) {
       const std::uint32_t first = tileOrder.starts[t], count = tileOrder.starts[t + 1] - first;
@@ -301,8 +309,8 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       rec.dispatch(*st.fieldKernels[t], bind, &push, sizeof(push), groups, tg.y, tg.z);
     }
     {
-      const std::uint32_t push[6] = {bg.x, bg.y, bg.z, loaded, batch.activeBase, bg.log2B};
-      const BufferRange bind[4] = {st.batchBricks, st.neighbours, st.segments, st.brickScan};
+      const std::uint32_t push[7] = {bg.x, bg.y, bg.z, loaded, windowActive, bg.log2B, window->firstLayer * bg.x * bg.y};
+      const BufferRange bind[4] = {st.batchBricks, st.neighbours, st.segments, window->scan};
       const Groups g = groupsFor(loaded, wg);
       rec.dispatch(*device.kernel("brick_neighbours", wgSpec), bind, push, sizeof(push), g.x, g.y);
     }

@@ -37,9 +37,11 @@ std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uin
 // of one layer may load more: it throws when that is over `rangeBricks`, what one storage buffer
 // holds). `layerStarts[z]` is the first active brick of layer z, `layerStarts[layers]` the count.
 // `ownTarget` (several devices): a batch also ends at the layer boundary nearest to that many
-// bricks of its own, so the batches carry about equal work.
+// bricks of its own, so the batches carry about equal work. A batch ends at each layer of
+// `ends` (ascending; the classification's windows, ClassifiedBricks::windowEnds).
 std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> layerStarts, std::uint64_t limit,
-                                           std::uint64_t rangeBricks, std::uint64_t ownTarget = ~0ull);
+                                           std::uint64_t rangeBricks, std::uint64_t ownTarget = ~0ull,
+                                           std::span<const std::uint32_t> ends = {});
 // What one storage buffer can hold, in active bricks of `bricks`' size, on `device`.
 std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks);
 
@@ -47,15 +49,15 @@ std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks);
 // `bytes`; throws naming `what` when it is over the device's maxStorageBufferRange.
 Buffer makeSparseBuffer(Device& device, std::uint64_t size, const char* what, std::uint64_t& bytes);
 
-// Runs batches on one device. The brick tables are the classification's (scanned flags, bricks
-// + 1 words; active-brick list) on this device; they and the device must outlive the runner.
+// Runs batches on one device. The brick tables are the classification's windows (scanned flags
+// and active-brick list; ClassifiedBricks::windows) on this device, each batch within one; they
+// and the device must outlive the runner.
 // `traversal` must be resolved (not Auto) and the same on every device of a job.
 class SparseBatchRunner {
  public:
   SparseBatchRunner(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                     const GpuPolygonizeOptions& options, Traversal traversal, const BrickGrid& bricks,
-                    const Buffer& brickScan, const Buffer& brickList, std::uint32_t maxLoaded,
-                    std::uint32_t maxBatches);
+                    std::span<const ScanWindow> windows, std::uint32_t maxLoaded, std::uint32_t maxBatches);
   ~SparseBatchRunner();
   SparseBatchRunner(const SparseBatchRunner&) = delete;
   SparseBatchRunner& operator=(const SparseBatchRunner&) = delete;

@@ -49,11 +49,18 @@ ClassifyUniforms classifyUniforms(Device& device, const blobtree::Program& progr
   return u;
 }
 
-// One brick_classify dispatch over the bricks of `box` (of `bg`) into their words of
-// flags[0 .. bricks] (the last word 0 when the box holds brick 0; the caller zeroes the flags
+// Where a classification pass writes: flags[i] is brick firstBrick + i (linear index), and
+// flags[lastWord] is the word after the last brick (set to 0 by the pass over brick firstBrick).
+struct FlagsWindow {
+  std::uint64_t firstBrick = 0, lastWord = 0;
+};
+FlagsWindow wholeFlags(const BrickGrid& bg) { return {0, bg.count()}; }
+
+// One brick_classify dispatch over the bricks of `box` (of `bg`) into their words of `flags`
+// (the last word 0 when the box holds the window's first brick; the caller zeroes the flags
 // otherwise); with `parents` (flags of bricks twice the size), bricks in dropped parents are dropped.
 void dispatchClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
-                      const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags,
+                      const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags, FlagsWindow window,
                       const BrickGrid* parentGrid, const Buffer& parents, const BrickBox& box) {
   if (box.empty()) return;
   const auto pb = gpu.bindings();
@@ -65,8 +72,8 @@ void dispatchClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUnifor
          {bg.x, bg.y, bg.z, gpu.codeLength},
          {parentGrid ? parentGrid->x : 0, parentGrid ? parentGrid->y : 0, parentGrid ? parentGrid->z : 0,
           parentGrid ? 1u : 0u},
-         {box.first[0], box.first[1], box.first[2], 0},
-         {box.end[0], box.end[1], box.end[2], 0}};
+         {box.first[0], box.first[1], box.first[2], std::uint32_t(window.firstBrick)},
+         {box.end[0], box.end[1], box.end[2], std::uint32_t(window.lastWord)}};
   const bool uniform = !uniforms.buffers.empty();
   const BufferRange bind[7] = {uniform ? BufferRange(uniforms.buffers[0]) : pb[0],
                                uniform ? BufferRange(uniforms.buffers[1]) : pb[1],
@@ -105,25 +112,49 @@ ClassifyParents classifyParents(Device& device, const BrickGrid& bg, std::uint64
   return p;
 }
 
-// brick_classify over every brick of the grid, into flags[0 .. bricks] (the last word 0): the
-// coarsest level first, each finer one skipping the bricks its parents dropped. With `only`, the
-// bricks of that box alone, in one pass (an edit's few bricks: a coarser pass would not pay).
-void recordClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
-                    const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags,
-                    const ClassifyParents& parents, const BrickBox* only = nullptr) {
-  if (only) {
-    dispatchClassify(rec, gpu, uniforms, grid, bg, flags, nullptr, parents.none, *only);
-    return;
-  }
+// brick_classify over the coarser levels of the whole grid, coarsest first, each skipping the
+// bricks its parents dropped.
+void recordParents(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
+                   const blobtree::GridSpec& grid, const ClassifyParents& parents) {
   for (std::size_t i = parents.grids.size(); i-- > 0;) {
     const bool top = i + 1 == parents.grids.size();
-    dispatchClassify(rec, gpu, uniforms, grid, parents.grids[i], parents.flags[i], top ? nullptr : &parents.grids[i + 1],
-                     top ? parents.none : parents.flags[i + 1], wholeGrid(parents.grids[i]));
+    dispatchClassify(rec, gpu, uniforms, grid, parents.grids[i], parents.flags[i], wholeFlags(parents.grids[i]),
+                     top ? nullptr : &parents.grids[i + 1], top ? parents.none : parents.flags[i + 1],
+                     wholeGrid(parents.grids[i]));
     rec.computeBarrier();
   }
+}
+
+// brick_classify over `box` of the grid's own bricks into `flags` (`window` of the grid's),
+// skipping the bricks the finest coarser level (recorded before) dropped.
+void recordFinest(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms, const blobtree::GridSpec& grid,
+                  const BrickGrid& bg, const Buffer& flags, FlagsWindow window, const ClassifyParents& parents,
+                  const BrickBox& box) {
   const bool any = !parents.grids.empty();
-  dispatchClassify(rec, gpu, uniforms, grid, bg, flags, any ? &parents.grids[0] : nullptr,
-                   any ? parents.flags[0] : parents.none, wholeGrid(bg));
+  dispatchClassify(rec, gpu, uniforms, grid, bg, flags, window, any ? &parents.grids[0] : nullptr,
+                   any ? parents.flags[0] : parents.none, box);
+}
+
+// The windows' layers: own layers [first, end) each, at most `windowLayers` (0: as many as one
+// storage buffer of flags holds, with the two layers after them that a batch reads).
+std::vector<std::array<std::uint32_t, 2>> planWindows(Device& device, const BrickGrid& bg, std::uint32_t windowLayers) {
+  const std::uint64_t layerBricks = std::uint64_t(bg.x) * bg.y;
+  const std::uint64_t rangeWords = device.info().limits.maxStorageBufferRange / 4;
+  std::uint64_t own = bg.z;
+  if (bg.count() + 1 > rangeWords) {
+    const std::uint64_t fit = (rangeWords - 1) / layerBricks;
+    if (fit < 3) {
+      throw VulkanError("GPU polygonizer: a layer of " + std::to_string(layerBricks) +
+                        " bricks is too large for the brick flags of three layers to fit one storage buffer "
+                        "(maxStorageBufferRange): use larger bricks or a smaller grid");
+    }
+    own = fit - 2;
+  }
+  if (windowLayers) own = std::min<std::uint64_t>(own, windowLayers);
+  std::vector<std::array<std::uint32_t, 2>> windows;
+  for (std::uint32_t z = 0; z < bg.z; z = std::uint32_t(std::min<std::uint64_t>(z + own, bg.z)))
+    windows.push_back({z, std::uint32_t(std::min<std::uint64_t>(z + own, bg.z))});
+  return windows;
 }
 
 }  // namespace
@@ -138,7 +169,8 @@ std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Progra
   std::uint64_t bytes = 0;
   const ClassifyParents parents = classifyParents(device, bg, bytes);
   device.run([&](Recorder& rec) {
-    recordClassify(rec, gpu, uniforms, grid, bg, flags, parents);
+    recordParents(rec, gpu, uniforms, grid, parents);
+    recordFinest(rec, gpu, uniforms, grid, bg, flags, wholeFlags(bg), parents, wholeGrid(bg));
     rec.hostBarrier();
   });
   std::vector<std::uint32_t> out(bg.count());
@@ -188,8 +220,7 @@ EvaluatedBricks activeBricks(Device& device, const ClassifiedBricks& classified)
   e.cells = 1u << classified.bricks.log2B;
   const std::uint32_t active = classified.layerStarts.empty() ? 0 : classified.layerStarts.back();
   if (active == 0) return e;
-  std::vector<std::uint32_t> packed(active);
-  device.download(classified.list, packed.data(), packed.size() * 4);
+  const std::vector<std::uint32_t> packed = classified.downloadList(device, 0, active);
   e.bricks.reserve(active);
   for (std::uint32_t p : packed) e.bricks.push_back({p & 1023u, (p >> 10) & 1023u, (p >> 20) & 1023u});
   return e;
@@ -278,65 +309,117 @@ GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options)
   return resolved;
 }
 
+const ScanWindow& ClassifiedBricks::window(std::uint32_t firstLayer, std::uint32_t endLayer) const {
+  for (const ScanWindow& w : windows)
+    if (w.firstLayer <= firstLayer && endLayer <= w.endLayer) return w;
+  throw VulkanError("GPU polygonizer: no window of the brick tables holds brick layers " + std::to_string(firstLayer) +
+                    " to " + std::to_string(endLayer));
+}
+
+std::vector<std::uint32_t> ClassifiedBricks::windowEnds() const {
+  std::vector<std::uint32_t> ends;
+  for (std::size_t i = 0; i + 1 < windows.size(); ++i) ends.push_back(windows[i].endLayer);
+  return ends;
+}
+
+std::vector<std::uint32_t> ClassifiedBricks::downloadList(Device& device, std::uint32_t first,
+                                                          std::uint32_t count) const {
+  std::vector<std::uint32_t> packed(count);
+  for (const ScanWindow& w : windows) {
+    // The bricks of w's own layers (the list's extra layer is the next window's own).
+    const std::uint32_t begin = std::max(first, w.activeBase), end = std::min(first + count, layerStarts[w.endLayer]);
+    if (begin < end) device.download(w.list, packed.data() + (begin - first), 4ull * (end - begin), 4ull * (begin - w.activeBase));
+  }
+  return packed;
+}
+
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                    const BrickGrid& bg, GpuStats& s, const BrickBox* only) {
+                                    const BrickGrid& bg, GpuStats& s, const BrickBox* only, std::uint32_t windowLayers) {
   ClassifiedBricks c;
   c.bricks = bg;
   // The classification interprets the register code (whatever evaluator the batches use).
-  UploadBatch uploads(device);  // the program rides in the classification's submit
+  UploadBatch uploads(device);  // the program rides in the classification's first submit
   const GpuProgram gpu = uploadProgram(device, program, Traversal::Stackless);
   const ClassifyUniforms uniforms = classifyUniforms(device, program);
-  DeviceTimer timer(device, 2);
+  const std::uint32_t layers = bg.z;
+  const std::uint64_t layerBricks = std::uint64_t(bg.x) * bg.y;
+  const std::vector<std::array<std::uint32_t, 2>> planned =
+      only ? std::vector<std::array<std::uint32_t, 2>>{{0, layers}} : planWindows(device, bg, windowLayers);
+  DeviceTimer timer(device, 2 * std::uint32_t(planned.size()));
   const auto t0 = Clock::now();
-  const std::uint64_t brickCount = bg.count();
-  const std::uint32_t layers = bg.z, layerBricks = bg.x * bg.y;
-  c.scan = makeSparseBuffer(device, (brickCount + 1) * 4, "brick flags", c.bytes);
-  c.list = makeSparseBuffer(device, brickCount * 4, "brick list", c.bytes);
-  Buffer scratch = makeSparseBuffer(device, (scanScratchWords(brickCount + 1) + 1) * 4, "scan scratch", c.bytes);
+  std::uint64_t largestWindow = 0;
+  for (const auto& [first, end] : planned) {
+    const std::uint32_t scanEnd = std::min(end + 2, layers);
+    largestWindow = std::max<std::uint64_t>(largestWindow, (scanEnd - first) * layerBricks);
+  }
+  Buffer scratch = makeSparseBuffer(device, (scanScratchWords(largestWindow + 1) + 1) * 4, "scan scratch", c.bytes);
   Buffer totals = makeSparseBuffer(device, 16, "totals", c.bytes);
   Buffer layerStarts = device.createBuffer((layers + 1) * 4ull, MemoryUse::Readback);
   const ClassifyParents parents = only ? ClassifyParents{{}, {}, makeSparseBuffer(device, 16, "parent brick flags", c.bytes)}
                                        : classifyParents(device, bg, c.bytes);
-  device.run([&](Recorder& rec) {
-    timer.reset(rec);
-    timer.mark(rec, 0);
-    if (only) {  // the bricks outside the box stay inactive
-      rec.fill(c.scan, 0);
+  c.layerStarts.assign(layers + 1, 0);
+  std::uint32_t activeBase = 0;
+  for (std::size_t k = 0; k < planned.size(); ++k) {
+    const auto [first, end] = planned[k];
+    const std::uint32_t scanEnd = std::min(end + 2, layers), listEnd = std::min(end + 1, layers);
+    const std::uint64_t words = (scanEnd - first) * layerBricks;
+    ScanWindow w;
+    w.firstLayer = first;
+    w.endLayer = end;
+    w.activeBase = activeBase;
+    w.scan = makeSparseBuffer(device, (words + 1) * 4, "brick flags", c.bytes);
+    w.list = makeSparseBuffer(device, (listEnd - first) * layerBricks * 4, "brick list", c.bytes);
+    const FlagsWindow flags{first * layerBricks, words};
+    const BrickBox box = only ? *only : BrickBox{{0, 0, first}, {bg.x, bg.y, scanEnd}};
+    device.run([&](Recorder& rec) {
+      if (k == 0) timer.reset(rec);
+      timer.mark(rec, 2 * std::uint32_t(k));
+      if (only) {  // the bricks outside the box stay inactive
+        rec.fill(w.scan, 0);
+        rec.computeBarrier();
+      }
+      if (k == 0) recordParents(rec, gpu, uniforms, grid, parents);
+      recordFinest(rec, gpu, uniforms, grid, bg, w.scan, flags, parents, box);
       rec.computeBarrier();
-    }
-    recordClassify(rec, gpu, uniforms, grid, bg, c.scan, parents, only);
-    rec.computeBarrier();
-    recordExclusiveScan(rec, c.scan.handle(), 0, std::uint32_t(brickCount + 1), scratch.handle(), 0, totals.handle(), 0);
-    rec.computeBarrier();
-    {
-      const std::uint32_t push[4] = {bg.x, bg.y, bg.z, 0};
-      const BufferRange bind[2] = {c.scan, c.list};
-      rec.dispatch(*device.kernel("brick_compact", {}), bind, push, sizeof(push), (bg.x + 3) / 4, (bg.y + 3) / 4,
-                   (bg.z + 3) / 4);
-    }
-    for (std::uint32_t z = 0; z <= layers; ++z) rec.copy(c.scan, 4ull * z * layerBricks, layerStarts, 4ull * z, 4);
-    timer.mark(rec, 1);
-    rec.hostBarrier();
-  });
-  ++s.submits;
-  c.layerStarts.resize(layers + 1);
-  device.download(layerStarts, c.layerStarts.data(), c.layerStarts.size() * 4);
+      recordExclusiveScan(rec, w.scan.handle(), 0, std::uint32_t(words + 1), scratch.handle(), 0, totals.handle(), 0);
+      rec.computeBarrier();
+      {
+        const std::uint32_t push[6] = {bg.x, bg.y, bg.z, first, listEnd, std::uint32_t(first * layerBricks)};
+        const BufferRange bind[2] = {w.scan, w.list};
+        rec.dispatch(*device.kernel("brick_compact", {}), bind, push, sizeof(push), (bg.x + 3) / 4, (bg.y + 3) / 4,
+                     (listEnd - first + 3) / 4);
+      }
+      // The layers' first bricks, counted from the window's first: its own layers and the next.
+      for (std::uint32_t z = first; z <= std::min(end + 1, layers); ++z)
+        rec.copy(w.scan, 4ull * (z - first) * layerBricks, layerStarts, 4ull * z, 4);
+      timer.mark(rec, 2 * std::uint32_t(k) + 1);
+      rec.hostBarrier();
+    });
+    ++s.submits;
+    std::vector<std::uint32_t> starts(std::min(end + 1, layers) + 1 - first);
+    device.download(layerStarts, starts.data(), starts.size() * 4, 4ull * first);
+    for (std::uint32_t z = first; z <= std::min(end + 1, layers); ++z) c.layerStarts[z] = activeBase + starts[z - first];
+    activeBase = c.layerStarts[end];
+    c.windows.push_back(std::move(w));
+  }
   s.activeBricks = c.layerStarts[layers];
   s.classifySeconds = since(t0);
   if (timer.enabled()) {
     s.deviceTimed = true;
-    s.classifySeconds = timer.seconds(0, 1);
+    s.classifySeconds = 0.0;
+    for (std::uint32_t k = 0; k < planned.size(); ++k) s.classifySeconds += timer.seconds(2 * k, 2 * k + 1);
   }
   return c;
 }
 
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
-                               GpuStats& stats) {
+                               GpuStats& stats, std::uint32_t windowLayers) {
   constexpr std::uint32_t kSmallestFallbackCells = 4;
   double classifySeconds = 0.0;
   for (;;) {
-    ClassifiedBricks c = classifyAndCompact(device, program, grid, brickGridFor(grid, brickCells), stats);
+    ClassifiedBricks c =
+        classifyAndCompact(device, program, grid, brickGridFor(grid, brickCells), stats, nullptr, windowLayers);
     classifySeconds += stats.classifySeconds;
     stats.classifySeconds = classifySeconds;
     const std::uint64_t range = rangeBricks(c.bricks);
@@ -345,14 +428,13 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
     for (std::size_t z = 0; z < layers && fits; ++z)
       fits = c.layerStarts[std::min(z + 2, layers)] - c.layerStarts[z] <= range;
     if (fits || brickCells <= kSmallestFallbackCells) return c;  // planSparseBatches names what does not fit
-    // Eight times the bricks: the smaller grid must still be valid and its flags fit one buffer.
-    BrickGrid smaller;
+    // Eight times the bricks (their tables in windows of layers where they outgrow one buffer):
+    // the smaller grid must still be valid.
     try {
-      smaller = brickGridFor(grid, brickCells / 2);
+      brickGridFor(grid, brickCells / 2);
     } catch (const VulkanError&) {
       return c;
     }
-    if ((smaller.count() + 1) * 8 > device.info().limits.maxStorageBufferRange) return c;
     brickCells /= 2;
   }
 }
@@ -364,7 +446,8 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
   // pair would not fit one storage buffer); then, per batch of whole brick layers, two
   // (sparse_batches.h). The evaluator is chosen once the active bricks are known.
   const ClassifiedBricks classified = classifyToFit(
-      device, program, grid, options.brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s);
+      device, program, grid, options.brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s,
+      options.windowLayers);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
@@ -373,14 +456,14 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
   const GpuPolygonizeOptions resolved = evaluator.apply(options);
   const std::vector<SparseBatch> batches =
       planSparseBatches(classified.layerStarts, sparseBatchLimit(device, bg, options.maxBatchBricks),
-                        sparseRangeBricks(device, bg));
+                        sparseRangeBricks(device, bg), ~0ull, classified.windowEnds());
   s.batches = std::uint32_t(batches.size());
   std::uint64_t bytes = classified.bytes;
   if (!batches.empty()) {
     std::uint32_t maxLoaded = 0;
     for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
-    SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, classified.scan,
-                             classified.list, maxLoaded, s.batches);
+    SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, classified.windows, maxLoaded,
+                             s.batches);
     std::uint64_t vertexBase = 0;
     for (std::size_t i = 0; i < batches.size(); ++i) {
       mesh::TriMesh& into = sink.into();

@@ -13,7 +13,8 @@
 //  5. brick_sources, per row: the row's first vertex, and where each of its vertices and
 //     triangles comes from;
 //  6. brick_vertices and brick_triangles, one lane per vertex and per triangle, no search.
-// Device memory follows the active bricks: besides 8 bytes per brick of the grid, each active
+// Device memory follows the active bricks: besides 8 bytes per brick of the grid (in windows of
+// brick layers where they outgrow one storage buffer, ScanWindow), each active
 // brick holds one float per point of its (B+1)^3, 6 words per row of points, 1 per row of cells. The mesh equals
 // cpu::polygonizeReference index by index (vertices in global edge-key order, triangles in cell
 // order) wherever the two classify the grid points alike.
@@ -87,25 +88,50 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
                                        const GpuPolygonizeOptions& options,
                                        const ClassifiedBricks* classified = nullptr);
 
-// Steps 1-2 in one submit: the bricks classified and compacted on `device`. The scanned flags
-// (bricks + 1 words: each active brick's number, then the count) and the active-brick list stay
-// on the device for the batches; layerStarts[z] is the number of the first active brick of brick
-// layer z (layerStarts[bricks.z]: the active count). Sets the stats' activeBricks,
-// classifySeconds (device time where the queue has timestamps, deviceTimed) and counts the submit.
+// The classification's tables that the batches read, for a window of whole brick layers: the
+// exclusive scan of the active flags (a brick's number and each layer's and row's first) and the
+// list of active bricks. A grid's tables are one window unless its flags would not fit one
+// storage buffer (lavapipe's 128 MiB holds 33 M bricks; the tower at 4096³ in bricks of 8 cells
+// has 81 M), and a batch's layers lie in one window. Numbers in a window count from its first
+// active brick; the batches' kernels use only their differences, so the mesh does not depend on
+// the windows.
+struct ScanWindow {
+  std::uint32_t firstLayer = 0, endLayer = 0;  // batches emitting layers within [firstLayer, endLayer) read it
+  std::uint32_t activeBase = 0;                // the number of its first active brick in the whole grid
+  // The scan of layers [firstLayer, min(endLayer + 2, layers)) and one more word (the active
+  // bricks before the next layer): a batch's last loaded layer reads its upper neighbours' flags.
+  Buffer scan;
+  // The active bricks of layers [firstLayer, min(endLayer + 1, layers)) (a batch loads the layer
+  // after the ones it emits), packed (x | y << 10 | z << 20): entry i is brick activeBase + i.
+  Buffer list;
+};
+
+// Steps 1-2: the bricks classified and compacted on `device`, one submit per window of brick
+// layers (at most `windowLayers` each; 0: as many as one storage buffer holds); the coarser levels
+// of bricks run once, in the first. The tables stay on the device for the batches;
+// layerStarts[z] is the number of the first active brick of brick layer z
+// (layerStarts[bricks.z]: the active count). Sets the stats' activeBricks, classifySeconds
+// (device time where the queue has timestamps, deviceTimed) and counts the submits.
 // With `only`, the bricks outside that box are not classified and count as inactive: the batches
 // then run (and number) the box's active bricks alone, in the same global order (the incremental
-// re-run of an edit's bricks, incremental_extract.h).
+// re-run of an edit's bricks, incremental_extract.h); the tables are then one window.
 struct ClassifiedBricks {
   BrickGrid bricks;
-  Buffer scan, list;
+  std::vector<ScanWindow> windows;
   std::vector<std::uint32_t> layerStarts;
   std::uint64_t bytes = 0;  // device memory of the classification's buffers
+  // The window holding brick layers [firstLayer, endLayer); throws when none does.
+  const ScanWindow& window(std::uint32_t firstLayer, std::uint32_t endLayer) const;
+  // Where batches must end: each window's end layer but the last.
+  std::vector<std::uint32_t> windowEnds() const;
+  // Active bricks [first, first + count) read back from the windows' lists, packed.
+  std::vector<std::uint32_t> downloadList(Device& device, std::uint32_t first, std::uint32_t count) const;
 };
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                    const BrickGrid& bricks, GpuStats& stats, const BrickBox* only = nullptr);
+                                    const BrickGrid& bricks, GpuStats& stats, const BrickBox* only = nullptr,
+                                    std::uint32_t windowLayers = 0);
 
-// classifyAndCompact with bricks of `brickCells`, halved (down to 4, and while the smaller grid's
-// brick flags still fit one storage buffer of `device`) while two adjacent brick
+// classifyAndCompact with bricks of `brickCells`, halved (down to 4) while two adjacent brick
 // layers hold more active bricks than `rangeBricks(bricks)` (what one storage buffer holds, the
 // least over the job's devices): a batch loads a layer pair, and a large grid's pair can exceed
 // it (lavapipe's 128 MiB range holds 6,829 bricks of 16³; the tower at 2048³ needs 6,885).
@@ -113,7 +139,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
 // size; the result's `bricks` is the grid used.
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
-                               GpuStats& stats);
+                               GpuStats& stats, std::uint32_t windowLayers = 0);
 
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);
