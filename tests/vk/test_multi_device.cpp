@@ -268,7 +268,24 @@ TEST(BatchPlan, SharesEndAtTheNearestLayerBoundaryWithinTheLimit) {
   EXPECT_EQ(windowed[1].firstLayer, 3u);
   EXPECT_EQ(windowed[1].endLayer, 6u);
   EXPECT_EQ(windowed[2].endLayer, 8u);
-  check(windowed);
+  check(windowed);  // A layer pair over one buffer: refused, or with keyed corners that layer alone (layers 3-4
+  // hold 25 + 5 bricks, over 26; layer 3 alone fits), the next layer not loaded.
+  EXPECT_THROW(vk::planSparseBatches(starts, 26, 26), vk::VulkanError);
+  const auto keyed = vk::planSparseBatches(starts, 26, 26, ~0ull, {}, vk::KeyedBatches::Allow);
+  check(keyed);
+  bool alone = false;
+  for (const vk::SparseBatch& b : keyed) {
+    EXPECT_LE(b.loadedActive, 26u);
+    if (b.keyedCorners) {
+      alone = true;
+      EXPECT_EQ(b.endLayer, b.firstLayer + 1);
+      EXPECT_EQ(b.loadedActive, b.ownActive);
+    }
+  }
+  EXPECT_TRUE(alone);
+  const auto forced = vk::planSparseBatches(starts, 1000, 1000, ~0ull, {}, vk::KeyedBatches::Force);
+  EXPECT_EQ(forced.size(), 7u);  // one per non-empty layer
+  check(forced);
 }
 
 // --devices resolution over a made-up device list (no Vulkan needed).

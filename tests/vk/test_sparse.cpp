@@ -200,6 +200,38 @@ TEST_F(VulkanTest, WindowsOfTheBrickTablesGiveTheSameBytes) {
   }
 }
 
+// Batches of one brick layer whose triangles come back as corner keys and are matched on the host
+// (what a layer pair over one storage buffer gets, sparse_batches.h): one batch per non-empty
+// layer, the bytes of one batch, which are the reference mesh, also in windows of the tables.
+TEST_F(VulkanTest, KeyedCornerBatchesGiveTheSameBytes) {
+  for (const char* name : {"tower", "dice", "twisted_column"}) {
+    const ShippedScene sc = shipped(name, 40);
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Stackless;
+    o.brickCells = 4;
+    const auto whole = vk::polygonize(device(), sc.program, sc.grid, o);
+    expectSameMeshAsReference(whole, cpu::polygonizeReference(sc.program, sc.grid), 1e-4f * sc.grid.cellSize, name);
+    vk::GpuStats cs;
+    const vk::ClassifiedBricks tables =
+        vk::classifyAndCompact(device(), sc.program, sc.grid, vk::brickGridFor(sc.grid, 4), cs);
+    std::uint32_t layers = 0;
+    for (std::size_t z = 0; z + 1 < tables.layerStarts.size(); ++z) layers += tables.layerStarts[z + 1] > tables.layerStarts[z];
+    for (std::uint32_t windowLayers : {0u, 2u}) {
+      const std::string what = std::string(name) + ", windows of " + std::to_string(windowLayers) + " layers";
+      o.keyedCornerBatches = true;
+      o.windowLayers = windowLayers;
+      vk::GpuStats st;
+      const auto m = vk::polygonize(device(), sc.program, sc.grid, o, &st);
+      EXPECT_EQ(st.batches, layers) << what;
+      EXPECT_TRUE(sameBytes(m.positions, whole.positions)) << what;
+      EXPECT_TRUE(sameBytes(m.normals, whole.normals)) << what;
+      EXPECT_TRUE(sameBytes(m.colours, whole.colours)) << what;
+      EXPECT_TRUE(sameBytes(m.edgeKeys, whole.edgeKeys)) << what;
+      EXPECT_TRUE(sameBytes(m.triangles, whole.triangles)) << what;
+    }
+  }
+}
+
 // A grid that misses the model: every brick is dropped, the mesh is empty.
 TEST_F(VulkanTest, AGridAwayFromTheModelHasNoActiveBricks) {
   const auto program = blobtree::compile(testModels()[0].root);

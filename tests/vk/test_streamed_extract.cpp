@@ -52,13 +52,16 @@ class JoiningSink final : public mesh::MeshSink {
 };
 
 TEST_F(VulkanTest, StreamedBatchesJoinToTheReferenceMesh) {
-  for (const char* name : {"tower", "dice", "twisted_column"}) {
+  for (const auto& [name, keyed] : {std::pair{"tower", false}, {"dice", false}, {"twisted_column", false}, {"tower", true},
+                                     {"twisted_column", true}}) {
+    SCOPED_TRACE(keyed ? "one brick layer a batch, keyed corners" : "batches of brick layers");
     const auto scene = shipped(name, 64);
     cpu::ReferenceOptions ro;
     const mesh::TriMesh reference = cpu::polygonizeReference(scene.program, scene.grid, ro);
     vk::GpuPolygonizeOptions options;
     options.brickCells = 4;      // many bricks ...
     options.maxBatchBricks = 64;  // ... in many batches, each a few brick layers
+    options.keyedCornerBatches = keyed;  // or each one layer, its triangles matched by key
     JoiningSink sink;
     std::size_t lastDone = 0, total = 0;
     vk::GpuStats stats;
@@ -79,6 +82,7 @@ TEST_F(VulkanTest, StreamedBatchesJoinToTheReferenceMesh) {
     expectSameMeshAsReference(sink.mesh, referenceRuns, 1e-4f * scene.grid.cellSize, name);
     vk::GpuPolygonizeOptions whole = options;
     whole.maxBatchBricks = 0;
+    whole.keyedCornerBatches = false;
     const mesh::TriMesh inMemory = vk::polygonize(device(), scene.program, scene.grid, whole);
     EXPECT_TRUE(sameBytes(sink.mesh.positions, inMemory.positions)) << name;
     EXPECT_TRUE(sameBytes(sink.mesh.normals, inMemory.normals)) << name;

@@ -32,6 +32,10 @@ struct GpuPolygonizeOptions {
   // as one storage buffer holds (the whole grid but on the largest grids). The mesh is the same
   // bytes whatever the windows.
   std::uint32_t windowLayers = 0;
+  // Sparse: every batch one brick layer whose triangles come back as corner keys, matched on the
+  // host (what a layer pair over one storage buffer gets; sparse_batches.h), for tests. The same
+  // bytes either way.
+  bool keyedCornerBatches = false;
   bool normals = true;
   bool colours = true;
   int refineSteps = 0;         // regula-falsi steps after the linear interpolation

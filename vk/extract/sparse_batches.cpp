@@ -81,7 +81,7 @@ std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uin
 
 std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts, std::uint64_t limit,
                                            std::uint64_t rangeBricks, std::uint64_t ownTarget,
-                                           std::span<const std::uint32_t> ends) {
+                                           std::span<const std::uint32_t> ends, KeyedBatches keyed) {
   std::vector<SparseBatch> batches;
   const std::uint32_t layers = std::uint32_t(starts.size()) - 1;
   for (std::uint32_t z = 0; z < layers;) {
@@ -98,9 +98,16 @@ std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts
     };
     auto mustEnd = [&](std::uint32_t end) { return std::binary_search(ends.begin(), ends.end(), end); };
     std::uint32_t end = z + 1;
+    const bool alone = keyed == KeyedBatches::Force || (keyed == KeyedBatches::Allow && loaded(end) > rangeBricks);
+    if (alone && own(end) <= rangeBricks) {
+      batches.push_back({starts[z], starts[end] - starts[z], starts[end] - starts[z], z, end, true});
+      z = end;
+      continue;
+    }
     while (end < layers && !mustEnd(end) && loaded(end + 1) <= limit && nearer(end)) ++end;
     if (loaded(end) > rangeBricks) {
-      throw VulkanError("GPU polygonizer: two brick layers hold " + std::to_string(loaded(end)) +
+      throw VulkanError(std::string("GPU polygonizer: ") + (alone ? "a brick layer holds " : "two brick layers hold ") +
+                        std::to_string(alone ? own(end) : loaded(end)) +
                         " active bricks, over the " + std::to_string(rangeBricks) +
                         " one storage buffer can hold (maxStorageBufferRange): use a smaller grid or bricks");
     }

@@ -22,11 +22,24 @@ namespace blobvk::vk {
 // Whole brick layers run together, holding one layer more than they emit: a triangle of the last
 // layer may use a vertex that the next layer's bricks own, whose index comes from that layer's
 // scanned segments.
+//
+// Where two layers hold more active bricks than one storage buffer, a batch is one layer alone
+// with *keyed corners*: it does not load the next layer, its triangles come back as their
+// corners' edge keys (shaders/brick_triangle_keys.comp), and the host finds each corner among
+// its own and the next batch's vertices by key (runSparseExtraction).
 struct SparseBatch {
   std::uint32_t activeBase = 0;    // the batch's first active brick (in (bz, by, bx) order)
   std::uint32_t ownActive = 0;     // active bricks whose vertices and triangles it emits
   std::uint32_t loadedActive = 0;  // ... plus the next layer's, whose segments it scans
   std::uint32_t firstLayer = 0, endLayer = 0;  // the brick layers [first, end) it emits
+  bool keyedCorners = false;       // one layer, the next not loaded: triangles as corner keys
+};
+
+// What planSparseBatches does with a layer whose pair with the next is over one storage buffer.
+enum class KeyedBatches {
+  Refuse,  // throw (the callers that cannot match keys: several devices, edits)
+  Allow,   // that layer alone, with keyed corners
+  Force,   // every batch one layer with keyed corners (tests)
 };
 
 // Active bricks per batch that fit `device`: its storage-buffer range and a quarter of its
@@ -35,13 +48,15 @@ std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uin
 
 // Cuts the active bricks into batches of whole layers of at most `limit` loaded bricks (a batch
 // of one layer may load more: it throws when that is over `rangeBricks`, what one storage buffer
-// holds). `layerStarts[z]` is the first active brick of layer z, `layerStarts[layers]` the count.
+// holds, or with `keyed` Allow is that layer alone with keyed corners). `layerStarts[z]` is the
+// first active brick of layer z, `layerStarts[layers]` the count.
 // `ownTarget` (several devices): a batch also ends at the layer boundary nearest to that many
 // bricks of its own, so the batches carry about equal work. A batch ends at each layer of
 // `ends` (ascending; the classification's windows, ClassifiedBricks::windowEnds).
 std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> layerStarts, std::uint64_t limit,
                                            std::uint64_t rangeBricks, std::uint64_t ownTarget = ~0ull,
-                                           std::span<const std::uint32_t> ends = {});
+                                           std::span<const std::uint32_t> ends = {},
+                                           KeyedBatches keyed = KeyedBatches::Refuse);
 // What one storage buffer can hold, in active bricks of `bricks`' size, on `device`.
 std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks);
 

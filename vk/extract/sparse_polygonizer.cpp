@@ -10,6 +10,9 @@
 #include "blobvk/vk/extract/scan.h"
 
 #include <algorithm>
+#include <span>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <bit>
 #include <chrono>
 #include <string>
@@ -439,6 +442,45 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
   }
 }
 
+namespace {
+// A batch with keyed corners (sparse_batches.h): its triangles' corners as edge keys, held until
+// the next batch has run. A corner is a vertex of the batch's own bricks or of the next layer's
+// (a vertex on the batch's upper face), and each batch's vertices ascend by key, so a corner is
+// found by a binary search in the batch's keys, else in the next batch's.
+struct KeyedCorners {
+  bool pending = false;
+  std::vector<std::uint64_t> corners, keys;
+  std::uint64_t firstVertex = 0;  // the batch's first vertex in the mesh
+  std::size_t firstTriangle = 0;  // its first triangle in the mesh that holds it
+
+  void hold(std::vector<std::uint64_t> c, std::span<const std::uint64_t> k, std::uint64_t first, std::size_t at) {
+    corners = std::move(c);
+    keys.assign(k.begin(), k.end());
+    firstVertex = first;
+    firstTriangle = at;
+    pending = true;
+  }
+  // Writes the held triangles at firstTriangle of `triangles`; `next` are the next batch's keys.
+  void resolve(std::vector<std::array<std::uint32_t, 3>>& triangles, std::span<const std::uint64_t> next) {
+    const std::uint64_t nextFirst = firstVertex + keys.size();
+    auto indexOf = [&](std::uint64_t key) -> std::uint32_t {
+      if (auto it = std::lower_bound(keys.begin(), keys.end(), key); it != keys.end() && *it == key)
+        return std::uint32_t(firstVertex + std::uint64_t(it - keys.begin()));
+      if (auto it = std::lower_bound(next.begin(), next.end(), key); it != next.end() && *it == key)
+        return std::uint32_t(nextFirst + std::uint64_t(it - next.begin()));
+      throw VulkanError("GPU polygonizer: a triangle corner's edge key " + std::to_string(key) +
+                        " is no vertex of its brick layer or the next");
+    };
+    const std::size_t count = corners.size() / 3;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t t = r.begin(); t < r.end(); ++t)
+        triangles[firstTriangle + t] = {indexOf(corners[3 * t]), indexOf(corners[3 * t + 1]), indexOf(corners[3 * t + 2])};
+    });
+    pending = false;
+  }
+};
+}  // namespace
+
 void runSparseExtraction(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const GpuPolygonizeOptions& options, const SparseBatchSink& sink, GpuStats& s) {
   const auto wallStart = Clock::now();
@@ -454,9 +496,9 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
   const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
   evaluator.report(s);
   const GpuPolygonizeOptions resolved = evaluator.apply(options);
-  const std::vector<SparseBatch> batches =
-      planSparseBatches(classified.layerStarts, sparseBatchLimit(device, bg, options.maxBatchBricks),
-                        sparseRangeBricks(device, bg), ~0ull, classified.windowEnds());
+  const std::vector<SparseBatch> batches = planSparseBatches(
+      classified.layerStarts, sparseBatchLimit(device, bg, options.maxBatchBricks), sparseRangeBricks(device, bg),
+      ~0ull, classified.windowEnds(), options.keyedCornerBatches ? KeyedBatches::Force : KeyedBatches::Allow);
   s.batches = std::uint32_t(batches.size());
   std::uint64_t bytes = classified.bytes;
   if (!batches.empty()) {
@@ -465,10 +507,20 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
     SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, classified.windows, maxLoaded,
                              s.batches);
     std::uint64_t vertexBase = 0;
+    KeyedCorners waiting;  // a keyed batch's triangles, until the next batch's vertices are known
     for (std::size_t i = 0; i < batches.size(); ++i) {
       mesh::TriMesh& into = sink.into();
-      const std::size_t before = into.positions.size();
-      runner.run(batches[i], vertexBase, into, s);
+      const std::size_t before = into.positions.size(), trianglesBefore = into.triangles.size();
+      const bool keyed = batches[i].keyedCorners;
+      std::vector<std::uint64_t> corners;
+      runner.run(batches[i], vertexBase, into, s, keyed ? &corners : nullptr);
+      const std::span<const std::uint64_t> keys(into.edgeKeys.data() + before, into.positions.size() - before);
+      if (waiting.pending) waiting.resolve(sink.meshOf(i - 1).triangles, keys);
+      if (keyed) {
+        into.triangles.resize(trianglesBefore + corners.size() / 3);
+        waiting.hold(std::move(corners), keys, vertexBase, trianglesBefore);
+        if (i + 1 == batches.size()) waiting.resolve(into.triangles, {});
+      }
       vertexBase += into.positions.size() - before;
       if (sink.done) sink.done(i, batches.size());
     }
@@ -484,7 +536,9 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
                                const GpuPolygonizeOptions& options, GpuStats* stats) {
   mesh::TriMesh mesh;
   GpuStats s;
-  runSparseExtraction(device, program, grid, options, {[&]() -> mesh::TriMesh& { return mesh; }, {}}, s);
+  runSparseExtraction(device, program, grid, options,
+                      {[&]() -> mesh::TriMesh& { return mesh; }, {}, [&](std::size_t) -> mesh::TriMesh& { return mesh; }},
+                      s);
   if (stats) *stats = s;
   return mesh;
 }

@@ -147,10 +147,14 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
 // What polygonizeSparse runs, batch by batch: each batch appends its vertices and its triangles
 // (indices counted from the mesh's first vertex) to the mesh `into` returns, then `done` is
 // called with the batch's number and the batch count. polygonizeSparse keeps one mesh; the
-// streamed extraction (streamed_extract.h) hands each batch on and drops it.
+// streamed extraction (streamed_extract.h) hands each batch on and drops it. A batch with keyed
+// corners (sparse_batches.h) appends its triangles as placeholders, filled in before the next
+// batch's `done`: `meshOf(batch)` must then still give the mesh that holds them (the last batch's
+// or the one before), where they start at the size its triangles had before the batch.
 struct SparseBatchSink {
   std::function<mesh::TriMesh&()> into;
   std::function<void(std::size_t batch, std::size_t batches)> done;
+  std::function<mesh::TriMesh&(std::size_t batch)> meshOf;
 };
 void runSparseExtraction(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const GpuPolygonizeOptions& options, const SparseBatchSink& sink, GpuStats& stats);

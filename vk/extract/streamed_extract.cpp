@@ -33,12 +33,15 @@ void polygonizeStreamed(Device& device, const blobtree::Program& program, const 
     current.edgeKeys.clear();
     return current;
   };
+  std::size_t currentBatch = 0;
+  batches.meshOf = [&](std::size_t batch) -> mesh::TriMesh& { return batch == currentBatch ? current : previous; };
   batches.done = [&](std::size_t batch, std::size_t count) {
     sink.vertices(current.positions, current.normals, current.colours);
     if (pending) sink.triangles(previous.triangles, mesh::VertexWindow{previousFirst, previous.positions, current.positions});
     previousFirst = currentFirst;
     currentFirst += current.positions.size();
     std::swap(previous, current);
+    currentBatch = batch + 1;
     pending = true;
     if (progress) progress(batch + 1, count);
   };
