@@ -662,7 +662,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     const auto flipStart = std::chrono::steady_clock::now();
     auto& seeds = scratch.flipSeeds;
     seeds.assign(result.addedTets.begin(), result.addedTets.end());
-    std::sort(seeds.begin(), seeds.end());
+    radixSort(seeds, scratch.sortScratch32, std::uint32_t(topology_.slotCount()), [](std::uint32_t x) { return x; });
     seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
     const FlipStats flips = flips_.improve(topology_, grid_, seeds, options_.improveBelowDeg, 2 * seeds.size() + 16,
                                            {result.removedTets, result.removedTetNodes, result.addedTets});

@@ -81,6 +81,26 @@ double cosineQuality(Double3 a, Double3 b, Double3 c, Double3 d) {
   return -std::min(worst, 1.0);
 }
 
+// Whether the tet's smallest dihedral angle is clearly no smaller than the angle whose cosine is
+// `cosine` (> 0), without square roots or divisions: every pair of outward face normals must
+// satisfy -dot <= cosine |n_i| |n_j|, tested squared with a relative margin of 1e-9, far above
+// the rounding of cosineQuality. Within the margin (or degenerate) it answers false and the
+// caller computes cosineQuality: the decision is exactly cosineQuality's. Most tets a cut event
+// writes are screened by this alone.
+bool clearlyAtLeast(Double3 a, Double3 b, Double3 c, Double3 d, double cosine) {
+  const std::array<Double3, 4> n{cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a), cross(c - a, b - a)};
+  std::array<double, 4> square{};
+  for (int i = 0; i < 4; ++i) square[std::size_t(i)] = dot(n[std::size_t(i)], n[std::size_t(i)]);
+  const double bound = cosine * cosine * (1.0 - 1e-9);
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) {
+      const double l2 = square[std::size_t(i)] * square[std::size_t(j)];
+      const double minusDot = -dot(n[std::size_t(i)], n[std::size_t(j)]);
+      if (!(l2 > 0) || (minusDot > 0 && minusDot * minusDot > bound * l2)) return false;
+    }
+  return true;
+}
+
 // Below every quality (-cos lies in [-1, 1]).
 constexpr double kInvalid = -2.0;
 
@@ -148,11 +168,13 @@ void LocalFlips::releaseLast(CutTopology& topology, const std::vector<std::uint3
   topology.compact();  // the only hole is the last slot: a truncation, no move
 }
 
-bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double belowDeg, FlipStats& stats) {
+bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double belowCosine, FlipStats& stats) {
   const mesh::TetMesh& m = topology.mesh();
   const Tet t = topology.tet(slot);
+  const auto& rest = m.restPositions;
+  if (belowCosine > 0 && clearlyAtLeast(rest[t[0]], rest[t[1]], rest[t[2]], rest[t[3]], belowCosine)) return false;
   const double own = quality(m, t);
-  if (own >= -std::cos(belowDeg * (3.14159265358979323846 / 180.0))) return false;
+  if (own >= -belowCosine) return false;
   const std::uint32_t region = m.regions.empty() ? 0u : m.regions[slot];
   auto regionOf = [&](std::uint32_t s) { return m.regions.empty() ? 0u : m.regions[s]; };
   ++stats.attempts;
@@ -324,11 +346,12 @@ FlipStats LocalFlips::improve(CutTopology& topology, SpatialGrid& grid, std::spa
   topology_ = &topology;
   firstFlipSlot_ = topology.slotCount();
   queue_.assign(seeds.begin(), seeds.end());
+  const double belowCosine = std::cos(belowDeg * (3.14159265358979323846 / 180.0));
   for (std::size_t q = 0; q < queue_.size() && stats.attempts < maxAttempts; ++q) {
     const std::uint32_t slot = queue_[q];
     if (slot >= topology.slotCount() || !topology.alive(slot)) continue;
     written_.clear();
-    if (!improveTet(topology, slot, belowDeg, stats)) continue;
+    if (!improveTet(topology, slot, belowCosine, stats)) continue;
     for (std::uint32_t s : written_) {
       grid.insert(topology, s);
       queue_.push_back(s);  // still bad: tried again (an operation around it may now exist)

@@ -54,7 +54,9 @@ class LocalFlips {
                     std::size_t maxAttempts, FlipChangeSet change);
 
  private:
-  bool improveTet(CutTopology& topology, std::uint32_t slot, double belowDeg, FlipStats& stats);
+  // One attempt on the tet in `slot` when its smallest dihedral angle has a cosine above
+  // belowCosine (the threshold's, computed once per call).
+  bool improveTet(CutTopology& topology, std::uint32_t slot, double belowCosine, FlipStats& stats);
   void write(CutTopology& topology, std::uint32_t slot, const Tet& nodes);
   std::uint32_t append(CutTopology& topology, const Tet& nodes, std::uint32_t region);
   // A 3-2 flip frees a slot, which a running FEM cannot take: it is done only when the last slot
