@@ -57,7 +57,10 @@ bool positive(const mesh::TetMesh& m, const Tet& t) {
   const auto& p = m.positions;
   auto ok = [&](const std::vector<mesh::Double3>& x) {
     const double v = tetVolume(x[t[0]], x[t[1]], x[t[2]], x[t[3]]);
-    const double l = std::max({length(x[t[1]] - x[t[0]]), length(x[t[2]] - x[t[0]]), length(x[t[3]] - x[t[0]])});
+    // The longest of the three edges from t[0]: one square root of the largest square (sqrt is
+    // monotonic and correctly rounded, so this is the largest of the three lengths, to the bit).
+    const Double3 e1 = x[t[1]] - x[t[0]], e2 = x[t[2]] - x[t[0]], e3 = x[t[3]] - x[t[0]];
+    const double l = std::sqrt(std::max({dot(e1, e1), dot(e2, e2), dot(e3, e3)}));
     return v > 1e-12 * l * l * l;
   };
   return ok(r) && (&r == &p || ok(p));

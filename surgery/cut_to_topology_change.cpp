@@ -1,5 +1,7 @@
 #include "blobvk/surgery/cut_to_topology_change.h"
 
+#include "blobvk/cutting/radix_sort.h"
+
 #include <algorithm>
 #include <stdexcept>
 #include <string>
@@ -37,8 +39,11 @@ fem::TopologyChange toTopologyChange(const cutting::CutResult& event, const cutt
 
   // A slot may be written twice in one event (split, then re-pointed at a duplicated node):
   // its final content is what counts.
-  std::vector<std::uint32_t> slots = event.addedTets;
-  std::sort(slots.begin(), slots.end());
+  std::vector<std::uint32_t> slots = event.addedTets, scratch;
+  // Radix-sorted: std::sort was most of this conversion (~2,000 slots an event, ~150
+  // instructions each).
+  const std::uint32_t largest = slots.empty() ? 0u : *std::max_element(slots.begin(), slots.end());
+  cutting::radixSort(slots, scratch, largest, [](std::uint32_t slot) { return slot; });
   slots.erase(std::unique(slots.begin(), slots.end()), slots.end());
   for (std::uint32_t removed : event.removedTets)
     if (!std::binary_search(slots.begin(), slots.end(), removed)) fail("tet slot " + std::to_string(removed) + " was removed and not refilled");
