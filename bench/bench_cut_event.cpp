@@ -38,6 +38,13 @@ using bench::cube;
 using bench::stroke;
 
 
+// The cutter's options with the snap fraction given in hundredths (a benchmark argument).
+cutting::CutOptions snapOptions(std::int64_t percent) {
+  cutting::CutOptions options;
+  options.snapFraction = double(percent) / 100.0;
+  return options;
+}
+
 double threadCpuMs() {
   timespec t{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
@@ -63,7 +70,7 @@ struct PhaseClock {
 // the cut, its conversion to an FEM topology change and the FEM update, wall and CPU time.
 template <class Stroke>
 void runCutEvents(benchmark::State& state, const mesh::TetMesh& body, const fem::SimulationSettings& settings,
-                  int strokesPerMesh, Stroke&& stroke) {
+                  const cutting::CutOptions& options, int strokesPerMesh, Stroke&& stroke) {
   std::unique_ptr<cutting::Cutter> cutter;
   std::optional<fem::Simulation> sim;
   int k = strokesPerMesh;
@@ -75,7 +82,7 @@ void runCutEvents(benchmark::State& state, const mesh::TetMesh& body, const fem:
       state.PauseTiming();
       cutter.reset();
       sim.reset();
-      cutter = std::make_unique<cutting::Cutter>(body);
+      cutter = std::make_unique<cutting::Cutter>(body, options);
       sim.emplace(body, settings);
       sim->run(1);
       k = 0;
@@ -100,6 +107,7 @@ void runCutEvents(benchmark::State& state, const mesh::TetMesh& body, const fem:
   }
   const double events = double(state.iterations());
   state.counters["tets"] = double(body.tets.size());
+  state.counters["snap_fraction"] = options.snapFraction;
   state.counters["split_per_event"] = splits / events;
   state.counters["new_nodes"] = newNodes / events;
   state.counters["slots_written"] = slots / events;
@@ -126,10 +134,11 @@ void BM_CutEventEndToEnd(benchmark::State& state) {
   const int n = int(state.range(0));
   const mesh::TetMesh block = cube(n);
   constexpr int kStrokesPerMesh = 16;  // slices z = 3.5 .. 18.5 of a block at least 26 cells high
-  runCutEvents(state, block, bench::cutBlockSettings(), kStrokesPerMesh, [](int k) { return stroke(k); });
+  runCutEvents(state, block, bench::cutBlockSettings(), snapOptions(state.range(1)), kStrokesPerMesh,
+               [](int k) { return stroke(k); });
 }
-// 26^3 * 6 = 105,456 tets.
-BENCHMARK(BM_CutEventEndToEnd)->Arg(26)->Unit(benchmark::kMillisecond)->Iterations(64);
+// 26^3 * 6 = 105,456 tets; the default snap fraction (0.42), then the thesis' 0.2.
+BENCHMARK(BM_CutEventEndToEnd)->Args({26, 42})->Args({26, 20})->Unit(benchmark::kMillisecond)->Iterations(64);
 
 // The same event on the kind of body the shipped scenes simulate: a TetGen ball of radius 1
 // (icosphere surface, -a maxVolume), ~100k tets, cut by 16 parallel tilted square strokes of
@@ -158,10 +167,10 @@ void BM_CutEventTetgenBall(benchmark::State& state) {
   fem::SimulationSettings settings = bench::cutBlockSettings();
   settings.fixed = [](const mesh::Double3& p) { return p.y < -0.9; };
   constexpr int kStrokesPerMesh = 16;
-  runCutEvents(state, ball, settings, kStrokesPerMesh, ballStroke);
+  runCutEvents(state, ball, settings, snapOptions(state.range(1)), kStrokesPerMesh, ballStroke);
 }
-// Argument: TetGen's -a bound in 1e-6 units; 130 gives ~100k tets.
-BENCHMARK(BM_CutEventTetgenBall)->Arg(130)->Unit(benchmark::kMillisecond)->Iterations(64);
+// Arguments: TetGen's -a bound in 1e-6 units (130 gives ~100k tets), the snap fraction in %.
+BENCHMARK(BM_CutEventTetgenBall)->Args({130, 42})->Args({130, 20})->Unit(benchmark::kMillisecond)->Iterations(64);
 
 // Item 3 of the quality target: 100 random kinked strokes (tests/cutting/random_strokes.h, seed 16,
 // as the TetgenStrokes test: three blade steps, each re-cutting the previous one, and a pass over
@@ -185,7 +194,7 @@ void BM_RandomStrokesTetgenBall(benchmark::State& state) {
   PhaseClock cut, convert, apply;
   for (auto _ : state) {
     state.PauseTiming();
-    cutting::Cutter cutter(ball);
+    cutting::Cutter cutter(ball, snapOptions(state.range(1)));
     fem::Simulation sim(ball, settings);
     const double volume = cutter.topology().totalRestVolume();
     cutting::test::RandomStrokes strokes(16);
@@ -221,6 +230,7 @@ void BM_RandomStrokesTetgenBall(benchmark::State& state) {
     state.ResumeTiming();
   }
   state.counters["tets"] = double(ball.tets.size());
+  state.counters["snap_fraction"] = double(state.range(1)) / 100.0;
   state.counters["tets_after"] = tetsAfter;
   state.counters["events"] = events / double(state.iterations());
   state.counters["event_ms"] = (cut.wallMs + convert.wallMs + apply.wallMs) / events;
@@ -238,7 +248,7 @@ void BM_RandomStrokesTetgenBall(benchmark::State& state) {
   state.counters["volume_rel_change"] = volumeChange;
   state.counters["self_check_ok"] = selfCheckOk;
 }
-BENCHMARK(BM_RandomStrokesTetgenBall)->Arg(130)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_RandomStrokesTetgenBall)->Args({130, 42})->Args({130, 20})->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace
 

@@ -23,7 +23,7 @@ struct CutOptions {
   // removes all its edges from the cut list (the thesis' roi = 0.2). Every kept cut point then
   // lies in [tau, 1 - tau] along its edge, which bounds the children's volumes from below (see
   // minimumChildVolumeFraction). Must lie in [0, 0.5).
-  double snapFraction = 0.2;
+  double snapFraction = 0.42;
   // Nodes closer than this to the swept surface (relative to the mean edge length) are on it.
   double onSurfaceTolerance = 1e-9;
   // Partial cuts split around a Steiner point placed on the swept surface when all its

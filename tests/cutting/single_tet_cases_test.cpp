@@ -26,8 +26,16 @@ Double3 randomUnit(std::mt19937& rng) {
   return normalized(Double3{g(rng), g(rng), g(rng)});
 }
 
+CutOptions thesisSnap() {
+  CutOptions options;
+  options.snapFraction = 0.2;
+  return options;
+}
+
 // A plane giving each node the requested side (-1, 0 = through the node, +1), with every crossing
-// of an edge between opposite sides at a fraction in [0.25, 0.75] (so nothing snaps).
+// of an edge between opposite sides at a fraction in [0.25, 0.75] (so nothing snaps with the
+// thesis' snap fraction 0.2, which the cutters of these tests use: they test the cases, and a
+// larger fraction would turn most of them into cuts through nodes).
 std::optional<Plane> planeForPattern(const std::vector<Double3>& p, std::array<int, 4> pattern, std::mt19937& rng) {
   std::uniform_real_distribution<double> w(0.05, 1.0);
   std::vector<int> zeros;
@@ -136,7 +144,7 @@ TEST_P(CompleteCases, ConformingSeparatedAndVolumeConserving) {
     const auto plane = planeForPattern(m.positions, pattern, rng);
     if (!plane) continue;
     const double scale = diameter(m);
-    Cutter cutter(m);
+    Cutter cutter(m, thesisSnap());
     const double before = cutter.topology().totalRestVolume();
     const CutResult r = cutter.cut(bigSquare(*plane, 10 * scale));
     EXPECT_EQ(r.count(spec.kind), 1u) << cutCaseName(spec.kind);
@@ -169,7 +177,7 @@ TEST(CaseZ, CutAlongASharedFaceSeparatesTheTwoTets) {
     if (tetVolume(m.positions[0], m.positions[1], m.positions[2], m.positions[4]) < 0) std::swap(second[1], second[2]);
     m.tets.push_back(second);
     const Plane plane{centre, normalized(cross(p[1] - p[0], p[2] - p[0]))};
-    Cutter cutter(m);
+    Cutter cutter(m, thesisSnap());
     const double scale = diameter(m);
     const double before = cutter.topology().totalRestVolume();
     const CutResult r = cutter.cut(bigSquare(plane, 10 * scale));
@@ -232,7 +240,7 @@ TEST_P(PartialCases, SplitWithoutSeparatingThenContinue) {
     for (const Double3& o : outside)
       if (length(o - closestPointOnTriangle(o, tri[0], tri[1], tri[2])) < 0.02 * scale) clear = false;
     if (!clear) continue;
-    Cutter cutter(m);
+    Cutter cutter(m, thesisSnap());
     const double before = cutter.topology().totalRestVolume();
     const CutResult r = cutter.cut({tri});
     const CutCase expected = kind == Partial::C ? CutCase::C : (kind == Partial::D ? CutCase::D : CutCase::E);

@@ -3,8 +3,10 @@
 // one, and finished by a pass over the whole stroke, as surgery::SoftBody does. Oracles: the
 // topology self-check (every face shared by at most two tets, node lists consistent), the ball's
 // volume at rest (children partition their parents), and the child/parent volume bound the snap
-// fraction guarantees (minimumChildVolumeFraction), and a floor on the smallest dihedral angle
-// (0.75 deg: 0.008 deg with Steiner cones and no flips; docs/cutting.md, "Quality after cuts").
+// fraction guarantees (minimumChildVolumeFraction), and the quality target of the cut: no
+// dihedral angle below 5 deg at the end, measured by meshQuality (quality.cpp, its own angle
+// computation, not the flips' measure). Measured 6.82 deg with the default snap fraction 0.42;
+// 0.77 deg with the thesis' 0.2 (docs/cutting.md, "Quality after cuts").
 #include "blobvk/cutting/cutter.h"
 #include "blobvk/cutting/quality.h"
 #include "blobvk/fem/tetgen_mesher.h"
@@ -57,7 +59,8 @@ TEST(TetgenStrokes, HundredRandomStrokesKeepTheBallConformingAndItsVolume) {
   std::printf("tets below 5 deg: %zu, below 1 deg: %zu\n", below5, below1);
   std::printf("ball: %zu -> %zu tets, %zu splits, %zu slivers kept attached\n  before: %s\n  after:  %s\n",
               before.tets, after.tets, splits, attached, before.summary().c_str(), after.summary().c_str());
-  EXPECT_GE(after.minDihedralDeg, 0.75);
+  EXPECT_GE(after.minDihedralDeg, 5.0);
+  EXPECT_EQ(below5, 0u);
   EXPECT_GT(after.tets, before.tets);
 }
 
