@@ -112,6 +112,7 @@ struct Cutter::Scratch {
   FlatHashSet<std::uint64_t, U64Hash> tested{kNoEdge};
   FlatHashSet<std::uint32_t, U32Hash> cutNodes{kNone};
   FlatHashMap<std::uint64_t, std::uint32_t, U64Hash> edgePoint{kNoEdge};
+  FlatHashMap<std::uint32_t, double, U32Hash> cutNodeDistance{kNone};  // this event's surface distance of each cut node
 };
 
 void Cutter::ScratchDeleter::operator()(Scratch* scratch) const { delete scratch; }
@@ -262,7 +263,15 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   });
   // Remember how far from the surface each cut node is (kept for later events, see snapReach_).
   if (snapReach_.size() < pos.size()) snapReach_.resize(pos.size() + pos.size() / 2, 0.0);
-  cutNodes.forEach([&](std::uint32_t n) { snapReach_[n] = std::max(snapReach_[n], distanceToSurface(pos[n], swept)); });
+  // The distances are kept for the crack faces of step 6 (every node of such a face is a cut node).
+  auto& cutNodeDistance = scratch.cutNodeDistance;
+  cutNodeDistance.clear();
+  cutNodeDistance.reserve(cutNodes.size());
+  cutNodes.forEach([&](std::uint32_t n) {
+    const double distance = distanceToSurface(pos[n], swept);
+    cutNodeDistance.insert(n, distance);
+    snapReach_[n] = std::max(snapReach_[n], distance);
+  });
   auto& kept = scratch.kept;
   kept.clear();
   cutEdges.forEach([&](std::uint64_t, const CutEdge& ce) {
@@ -354,6 +363,15 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
         const auto pair = topology_.tetsOfFace(a, b, c);
         const std::uint32_t other = pair[0] == slot ? pair[1] : pair[0];
         if (other == kNone) continue;
+        // Everything below is the face's and the pair's, not the order of the two tets: a face
+        // whose other tet came earlier in `order` with three cut nodes on it was settled there.
+        if (other < slot) {
+          const auto it = std::lower_bound(order.begin(), order.begin() + std::ptrdiff_t(k), other);
+          if (it != order.begin() + std::ptrdiff_t(k) && *it == other) {
+            const Codes& otherCodes = orderCodes[std::size_t(it - order.begin())];
+            if (otherCodes.edges == 0 && std::popcount(unsigned(otherCodes.nodes)) >= 3) continue;
+          }
+        }
         const Double3 centre = (pos[a] + pos[b] + pos[c]) * (1.0 / 3.0);
         const Triangle* nearest = nullptr;
         double nearestDistance = 1e300;
@@ -363,8 +381,8 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
         }
         // Beyond the blade the face would drift off the surface: its centre may be no farther
         // than its farthest (snapped) node, plus tau of its size where the surface bends.
-        const double reach = std::max({distanceToSurface(pos[a], swept), distanceToSurface(pos[b], swept),
-                                       distanceToSurface(pos[c], swept)});
+        const double reach =
+            std::max({*cutNodeDistance.find(a), *cutNodeDistance.find(b), *cutNodeDistance.find(c)});
         const double span = std::max({length(pos[b] - pos[a]), length(pos[c] - pos[b]), length(pos[a] - pos[c])});
         if (nearestDistance > reach + tau * span + tolAbs) continue;
         const Triangle& plane = *nearest;
