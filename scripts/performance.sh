@@ -59,7 +59,12 @@ gb() {  # binary, filter
 }
 gb bench_evaluator '^(grid/)?scene/'
 gb bench_vk '^(scan/.*|specialise_compile/.*|(field/specialised|cpu_avx_field)/.*/(128|256)/.*|field/stackless/tower/128/.*|polygonize/specialised/.*/128/.*)$'
-gb bench_compile_cost '.'
+# A build's cost without Mesa's shader cache: with it, every repetition after the first would
+# reuse the first one's machine code.
+if [ -x "$build/bench/bench_compile_cost" ]; then
+  run gb_bench_compile_cost env MESA_SHADER_CACHE_DISABLE=true "$build/bench/bench_compile_cost" \
+    --benchmark_repetitions=$gb_reps --benchmark_format=json
+fi
 gb bench_fem '.'
 gb bench_cutting '.'
 gb bench_cut_event '.'
