@@ -122,13 +122,17 @@ void copyMpu(const glm::ivec3& mpus, const MpuResults& results, const MeshPlacem
   for (std::size_t row = 0; row < vertexRows; ++row) {
     const std::uint32_t begin = r.vertexRowStart[row], end = r.vertexRowStart[row + 1];
     if (begin == end) continue;
-    const std::uint32_t g = vertexBase[row];
-    const std::size_t n = end - begin;
-    std::memcpy(&out.positions[g], &r.positions[begin], n * sizeof(mesh::Float3));
-    std::memcpy(&out.edgeKeys[g], &r.keys[begin], n * sizeof(std::uint64_t));
-    if (!r.normals.empty()) std::memcpy(&out.normals[g], &r.normals[begin], n * sizeof(mesh::Float3));
-    if (!r.colours.empty()) std::memcpy(&out.colours[g], &r.colours[begin], n * sizeof(mesh::Float3));
-    for (std::uint32_t v = begin; v < end; ++v) localToGlobal[v] = g + (v - begin);
+    // Rows are short (a few vertices): element by element beats a library call per array.
+    const std::uint32_t g = vertexBase[row] - begin;
+    for (std::uint32_t v = begin; v < end; ++v) {
+      out.positions[g + v] = r.positions[v];
+      out.edgeKeys[g + v] = r.keys[v];
+      localToGlobal[v] = g + v;
+    }
+    if (!r.normals.empty())
+      for (std::uint32_t v = begin; v < end; ++v) out.normals[g + v] = r.normals[v];
+    if (!r.colours.empty())
+      for (std::uint32_t v = begin; v < end; ++v) out.colours[g + v] = r.colours[v];
   }
   const std::uint32_t* triangleBase = p.triangleBase.data() + p.triangleRowAt[m];
   const std::size_t triangleRows = std::size_t(r.pts.y - 1) * std::size_t(r.pts.z - 1);

@@ -172,7 +172,7 @@ struct GroupTapes {
 };
 
 // `reuse`: a result whose arrays this MPU's may take over (their capacity), or null.
-std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Program& bounds,
+BLOBVK_POPCNT_CLONES std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Program& bounds,
                                       const GroupTapes& group, Scratch& s, ThreadStats& st,
                                       std::unique_ptr<MpuResult> reuse) {
   const blobtree::GridSpec& grid = ctx.grid;
