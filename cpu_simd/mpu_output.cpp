@@ -24,6 +24,35 @@
 #endif
 
 namespace blobvk::cpu::detail {
+// The owner of an edge referenced by a deferred corner (x, y or z past the owned range), the
+// owner's point row holding it and its rank there.
+DeferredTarget findDeferred(const glm::ivec3& mpus, const MpuResults& results, const MpuResult& r,
+                            std::uint32_t code) {
+  int q[3] = {int(code & 127u), int((code >> 7) & 127u), int((code >> 14) & 127u)};
+  const int axis = int((code >> 21) & 3u);
+  glm::ivec3 owner = r.mpu;
+  for (int a = 0; a < 3; ++a) {
+    if (q[a] >= r.owned[a]) {
+      owner[a] += 1;
+      q[a] -= r.owned[a];
+    }
+  }
+  const int m = (owner.z * mpus.y + owner.y) * mpus.x + owner.x;
+  const MpuResult* o = results[std::size_t(m)].get();
+  std::uint8_t rank = kNoRank;
+  if (o) {
+    if (q[0] == 0)
+      rank = o->faceX[std::size_t(q[2] * o->owned.y + q[1])][std::size_t(axis)];
+    else if (q[1] == 0)
+      rank = o->faceY[std::size_t(q[2] * o->owned.x + q[0])][std::size_t(axis)];
+    else
+      rank = o->faceZ[std::size_t(q[1] * o->owned.x + q[0])][std::size_t(axis)];
+  }
+  if (rank == kNoRank)
+    throw std::logic_error("polygonizeMpu: a triangle refers to an edge its owner has no vertex for");
+  return {std::size_t(m), std::size_t(q[2]) * std::size_t(o->owned.y) + std::size_t(q[1]), rank};
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -216,35 +245,6 @@ void weldResults(const blobtree::GridSpec& grid, int mpuCells, const MpuResults&
     for (std::size_t i = range.begin(); i != range.end(); ++i) copyMpu(mpus, results, p, withResult[i], out, map);
   });
   if (times) times->msCopy = msSince(t0);
-}
-
-// The owner of an edge referenced by a deferred corner (x, y or z past the owned range), the
-// owner's point row holding it and its rank there.
-DeferredTarget findDeferred(const glm::ivec3& mpus, const MpuResults& results, const MpuResult& r,
-                            std::uint32_t code) {
-  int q[3] = {int(code & 127u), int((code >> 7) & 127u), int((code >> 14) & 127u)};
-  const int axis = int((code >> 21) & 3u);
-  glm::ivec3 owner = r.mpu;
-  for (int a = 0; a < 3; ++a) {
-    if (q[a] >= r.owned[a]) {
-      owner[a] += 1;
-      q[a] -= r.owned[a];
-    }
-  }
-  const int m = (owner.z * mpus.y + owner.y) * mpus.x + owner.x;
-  const MpuResult* o = results[std::size_t(m)].get();
-  std::uint8_t rank = kNoRank;
-  if (o) {
-    if (q[0] == 0)
-      rank = o->faceX[std::size_t(q[2] * o->owned.y + q[1])][std::size_t(axis)];
-    else if (q[1] == 0)
-      rank = o->faceY[std::size_t(q[2] * o->owned.x + q[0])][std::size_t(axis)];
-    else
-      rank = o->faceZ[std::size_t(q[1] * o->owned.x + q[0])][std::size_t(axis)];
-  }
-  if (rank == kNoRank)
-    throw std::logic_error("polygonizeMpu: a triangle refers to an edge its owner has no vertex for");
-  return {std::size_t(m), std::size_t(q[2]) * std::size_t(o->owned.y) + std::size_t(q[1]), rank};
 }
 
 std::uint32_t resolveDeferred(const glm::ivec3& mpus, int pointsY, const MpuResults& results,
