@@ -36,6 +36,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -455,10 +456,15 @@ BLOBVK_POPCNT_CLONES std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, 
     std::uint8_t* __restrict edgeAxis = s.edgeAxis.data();
     // Low-face rank tables for the neighbours below (rank: the vertex's place in its row),
     // filled as the vertices of points with i, j or k == 0 are made.
-    const std::array<std::uint8_t, 3> none{kNoRank, kNoRank, kNoRank};
-    r->faceX.assign(std::size_t(owned.y) * std::size_t(owned.z), none);
-    r->faceY.assign(std::size_t(owned.x) * std::size_t(owned.z), none);
-    r->faceZ.assign(std::size_t(owned.x) * std::size_t(owned.y), none);
+    // Every byte kNoRank: one memset each (a fill of 3-byte elements is an element loop).
+    static_assert(sizeof(std::array<std::uint8_t, 3>) == 3 && kNoRank == 0xff);
+    const auto clearFace = [](std::vector<std::array<std::uint8_t, 3>>& face, std::size_t n) {
+      face.resize(n);
+      std::memset(face.data(), 0xff, n * 3);
+    };
+    clearFace(r->faceX, std::size_t(owned.y) * std::size_t(owned.z));
+    clearFace(r->faceY, std::size_t(owned.x) * std::size_t(owned.z));
+    clearFace(r->faceZ, std::size_t(owned.x) * std::size_t(owned.y));
     std::uint32_t e = 0;
     for (int k = 0; k < owned.z; ++k) {
       const float lz = cz[k + 1 < pts.z ? k + 1 : k] - cz[k];
