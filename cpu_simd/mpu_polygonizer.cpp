@@ -259,8 +259,10 @@ BLOBVK_POPCNT_CLONES std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, 
     // Per point row: the points to evaluate (bits of unclassified leaves) and the points that a
     // classified block puts inside. Word operations per block row, no per-point writes.
     const std::size_t rowCount = std::size_t(pts.y) * std::size_t(pts.z);
-    s.needRows.assign(rowCount, 0);
-    s.classRows.assign(rowCount, 0);
+    for (auto* rows : {&s.needRows, &s.classRows}) {  // memset: assign's 128-bit fill is a loop
+      rows->resize(rowCount);
+      std::memset(static_cast<void*>(rows->data()), 0, rowCount * sizeof(detail::RowBits));
+    }
     using Block = Scratch::Block;
     s.blockBounds.reset(*fieldProgram, glm::dvec3(cx[0], cy[0], cz[0]),
                         glm::dvec3(cx[cellsHere.x], cy[cellsHere.y], cz[cellsHere.z]));
