@@ -71,8 +71,9 @@ mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::Gr
 // polygonizeMpu for a host that meshes again (an editor's full re-mesh, an animation, a
 // benchmark's repeats): the object keeps its per-thread scratch and every MPU's result arrays,
 // and `out`'s arrays keep their capacity, so after the first mesh a mesh of about the same size
-// allocates nothing and takes no page faults. The mesh is polygonizeMpu's, byte for byte. One
-// polygonize at a time per object.
+// allocates nothing and takes no page faults. The mesh is polygonizeMpu's, byte for byte; if
+// polygonize throws (polygonizeMpu's errors), `out` holds no meaningful mesh and the object
+// stays usable. One polygonize at a time per object.
 class MpuPolygonizer {
  public:
   MpuPolygonizer();

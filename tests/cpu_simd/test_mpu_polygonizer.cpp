@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -225,6 +226,12 @@ TEST(MpuPolygonizer, MeshingAgainIntoOneMeshEqualsReference) {
       {"random blobs D24", testmodels::randomBlobs(128), 0.1f, kWholeMeshMpuCells, kWholeMeshSubBlockCells, 2, true}};
   MpuPolygonizer polygonizer;
   mesh::TriMesh out;
+  {  // A failed call leaves the object usable (the next job checks it).
+    MpuOptions bad;
+    bad.mpuCells = 1;
+    const blobtree::Program program = blobtree::compile(testmodels::tower());
+    EXPECT_THROW(polygonizer.polygonize(program, gridAround(program, 0.2f), bad, out), std::invalid_argument);
+  }
   for (const Job& job : jobs) {
     SCOPED_TRACE(job.name);
     const blobtree::Program program = blobtree::compile(job.node);
