@@ -172,7 +172,7 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
 }
 
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
-                         const PolygonizeSettings& settings, PolygonizeStats* stats) {
+                         const PolygonizeSettings& settings, PolygonizeStats* stats, mesh::TriMesh recycled) {
   const auto start = std::chrono::steady_clock::now();
   mesh::TriMesh mesh;
   double evaluations = 0.0;
@@ -187,7 +187,12 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
                             : settings.mpuSize > 0  ? cpu::kDefaultSubBlockCells
                                                     : cpu::kWholeMeshSubBlockCells;
     cpu::MpuStats mpu;
-    mesh = cpu::polygonizeMpu(program, grid, options, &mpu);
+    if (settings.cpuPolygonizer) {
+      mesh = std::move(recycled);
+      settings.cpuPolygonizer->polygonize(program, grid, options, mesh, &mpu);
+    } else {
+      mesh = cpu::polygonizeMpu(program, grid, options, &mpu);
+    }
     evaluations = double(mpu.pointEvaluations);
     if (stats) {
       const double parts[] = {mpu.cpuDiscard + mpu.cpuPrune, mpu.cpuField, mpu.cpuVertices, mpu.cpuAttributes, mpu.cpuCells};

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <utility>
@@ -20,6 +21,10 @@ class MeshSink;
 
 namespace blobvk::vk {
 enum class Traversal;  // vk/eval/gpu_program.h
+}
+
+namespace blobvk::cpu {
+class MpuPolygonizer;  // cpu_simd/mpu_polygonizer.h
 }
 
 namespace blobvk::app {
@@ -53,6 +58,9 @@ struct PolygonizeSettings {
   // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads; vk streamed:
   // after each batch of brick layers.
   std::function<void(std::size_t done, std::size_t total)> progress;
+  // cpu: mesh with this polygonizer, which keeps its scratch and MPU results for the next call
+  // (bench repeats: meshing again as an editor does); null: a fresh one, freed after the call.
+  std::shared_ptr<cpu::MpuPolygonizer> cpuPolygonizer;
 };
 
 struct PolygonizeStats {
@@ -99,8 +107,10 @@ void checkDeviceList(const PolygonizeSettings& settings);
 // if needed; with --devices an array of them; an empty object in builds without Vulkan.
 nlohmann::json backendDeviceJson(const PolygonizeSettings& settings);
 
+// `recycled`: a mesh whose arrays the cpu backend may fill again (their capacity reused).
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
-                         const PolygonizeSettings& settings, PolygonizeStats* stats = nullptr);
+                         const PolygonizeSettings& settings, PolygonizeStats* stats = nullptr,
+                         mesh::TriMesh recycled = {});
 
 // The vk backend's sparse extraction handed to `sink` batch by batch (vk/extract/streamed_extract.h),
 // the same runs as polygonize()'s mesh; one device. Throws for other backends, --devices, or in

@@ -5,6 +5,8 @@
 //   bench_polygonizer --benchmark_filter='/256/2/'      # the 256^3, 2-core target
 //   bench_polygonizer --benchmark_filter='mpu_sweep'     # time against MPU size
 //   bench_polygonizer --benchmark_filter='subblock_sweep' # sparse field cache block size
+//   bench_polygonizer --benchmark_filter='remesh'         # one MpuPolygonizer meshing again into
+//                                                        # one TriMesh (polygonize/: fresh each time)
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "tests/cpu_simd/models.h"
 
@@ -27,7 +29,9 @@ blobtree::GridSpec gridFor(const blobtree::Program& program, int resolution) {
   return g;
 }
 
-void polygonize(benchmark::State& state, const blobtree::Node& node) {
+// `again`: one MpuPolygonizer meshing into one TriMesh every iteration (its scratch, MPU results
+// and output arrays reused), as a host re-meshing does; otherwise polygonizeMpu into a fresh mesh.
+void polygonize(benchmark::State& state, const blobtree::Node& node, bool again = false) {
   const blobtree::Program program = blobtree::compile(node);
   const blobtree::GridSpec grid = gridFor(program, int(state.range(0)));
   cpu::MpuOptions o;
@@ -35,9 +39,16 @@ void polygonize(benchmark::State& state, const blobtree::Node& node) {
   o.mpuCells = int(state.range(2));
   if (state.range(3) >= 0) o.subBlockCells = int(state.range(3));
   cpu::MpuStats st;
+  cpu::MpuPolygonizer polygonizer;
+  mesh::TriMesh kept;
   for (auto _ : state) {
-    mesh::TriMesh m = cpu::polygonizeMpu(program, grid, o, &st);
-    benchmark::DoNotOptimize(m.positions.data());
+    if (again) {
+      polygonizer.polygonize(program, grid, o, kept, &st);
+      benchmark::DoNotOptimize(kept.positions.data());
+    } else {
+      mesh::TriMesh m = cpu::polygonizeMpu(program, grid, o, &st);
+      benchmark::DoNotOptimize(m.positions.data());
+    }
   }
   state.counters["triangles"] = double(st.triangles);
   state.counters["FVEPT"] = st.fvept;
@@ -72,6 +83,11 @@ void registerAll() {
     for (int res : {64, 128, 256})
       for (int threads : {1, 2}) b->Args({res, threads, cpu::kDefaultMpuCells, -1});
     b->Unit(benchmark::kMillisecond)->UseRealTime();
+    auto* remesh = benchmark::RegisterBenchmark(
+        (std::string("remesh/") + name).c_str(),
+        [node = node](benchmark::State& s) { polygonize(s, node, true); });
+    for (int threads : {1, 2}) remesh->Args({256, threads, cpu::kDefaultMpuCells, -1});
+    remesh->Unit(benchmark::kMillisecond)->UseRealTime();
     auto* sweep = benchmark::RegisterBenchmark(
         (std::string("mpu_sweep/") + name).c_str(),
         [node = node](benchmark::State& s) { polygonize(s, node); });

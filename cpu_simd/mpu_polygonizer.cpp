@@ -1,20 +1,19 @@
-// MPU polygonizer (see mpu_polygonizer.h). Two parallel passes and a scan in between:
+// MPU polygonizer (see mpu_polygonizer.h). A parallel pass over MPUs, then the welding:
 //
 // 1. Per MPU (parallel): early discard by interval bounds; field cache of its (D+1)^3 grid points
 //    in SIMD batches; case index per cell; one vertex per crossing edge that the MPU *owns* (the
 //    edge's start point lies in the MPU's half-open point range [lo, lo + D), the last MPU along
 //    an axis also owning the grid's far plane); triangles whose corners are local vertex ids or,
-//    for edges owned by a neighbour above, a deferred reference (the point and axis). The MPU
-//    writes how many vertices each of its point rows (k, j) has and how many triangles each of
-//    its cell rows has into global count arrays indexed by (row, MPU column).
-// 2. Exclusive scan of both count arrays in (row, MPU column) order. That order is exactly the
+//    for edges owned by a neighbour above, a deferred reference (the point and axis). The MPU's
+//    result delimits its point rows (k, j) of vertices and its cell rows of triangles.
+// 2. The welding (mpu_output.cpp): a scan in (row, MPU column) order, which is exactly the
 //    global edge-key order of vertices (rows of points, x increasing, axes 0..2) and the cell
-//    order of triangles, so the scan gives every row segment its final place.
-// 3. Per MPU (parallel): copy vertices and triangles to their places; deferred references are
-//    resolved through the owner's table of ranks for the points on its low faces.
+//    order of triangles, gives every row segment its final place; each MPU's rows are copied
+//    there and deferred references resolved.
 // Placement depends only on indices, never on scheduling: the output is the same for any
 // thread count, and equal to polygonizeReference's since the fields are bit-identical.
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/mpu_output.h"
 #include "blobvk/cpu_simd/mpu_results.h"
 
 #include "blobvk/blobtree/gradient.h"
@@ -27,7 +26,6 @@
 #include <tbb/combinable.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include <glm/common.hpp>
@@ -39,7 +37,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -85,7 +82,6 @@ struct Scratch {
   };
   std::vector<CaseOffsets> caseOffsets;  // per marching-cubes case, for caseStrides
   std::size_t caseSy = 0, caseSz = 0;    // the field cache's strides the table was built for
-  std::vector<std::uint32_t> localToGlobal;
   // Sparse field cache, per point row: points of unclassified leaves, points classified inside.
   std::vector<detail::RowBits> needRows, classRows;
   struct Block {
@@ -98,6 +94,15 @@ struct Scratch {
   // Tapes of the current group of MPUs (from the Program), and the MPUs' tapes when they are
   // pruned from the group's (a tape of a tape: makeTapeProgram of the group's records).
   std::unique_ptr<blobtree::Program> groupTape, groupColourTape, childTape, childColourTape;
+  // Scratch outlives a mesh (MpuPolygonizer keeps it); the tapes are copies of one mesh's
+  // Program (makeTapeProgram), so they are made again when the mesh is a new one.
+  std::uint64_t tapesOf = 0;
+  void startMesh(std::uint64_t mesh) {
+    if (tapesOf == mesh) return;
+    tapesOf = mesh;
+    for (auto* tape : {&fieldTape, &colourTape, &groupTape, &groupColourTape, &childTape, &childColourTape})
+      tape->reset();
+  }
 };
 
 struct Context {
@@ -109,11 +114,10 @@ struct Context {
   int D;
   glm::ivec3 mpus;     // MPUs per axis
   glm::ivec3 points;   // grid points per axis
+  // Per MPU: on entry a previous mesh's result whose arrays may be reused (or null), on exit
+  // this mesh's (null: no surface).
   std::vector<std::unique_ptr<MpuResult>> results;
-  // After the scan: the global index of the first vertex of each owned point row and of the
-  // first triangle of each cell row, per MPU with a result (rows from `rowAt[m]`).
-  std::vector<std::uint32_t> vertexBase, triangleBase;
-  std::vector<std::size_t> vertexRowAt, triangleRowAt;
+  std::uint64_t mesh = 0;  // which mesh this is, for Scratch::startMesh
 
   std::uint64_t blocks(std::size_t n) const { return (n + std::size_t(width) - 1) / std::size_t(width); }
 };
@@ -168,8 +172,10 @@ struct GroupTapes {
   const blobtree::Program* colour = nullptr;
 };
 
-std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Program& bounds,
-                                      const GroupTapes& group, Scratch& s, ThreadStats& st) {
+// `reuse`: a result whose arrays this MPU's may take over (their capacity), or null.
+BLOBVK_POPCNT_CLONES std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Program& bounds,
+                                      const GroupTapes& group, Scratch& s, ThreadStats& st,
+                                      std::unique_ptr<MpuResult> reuse) {
   const blobtree::GridSpec& grid = ctx.grid;
   const int D = ctx.D;
   const glm::ivec3 mi(m % ctx.mpus.x, (m / ctx.mpus.x) % ctx.mpus.y, m / (ctx.mpus.x * ctx.mpus.y));
@@ -253,8 +259,10 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
     // Per point row: the points to evaluate (bits of unclassified leaves) and the points that a
     // classified block puts inside. Word operations per block row, no per-point writes.
     const std::size_t rowCount = std::size_t(pts.y) * std::size_t(pts.z);
-    s.needRows.assign(rowCount, 0);
-    s.classRows.assign(rowCount, 0);
+    for (auto* rows : {&s.needRows, &s.classRows}) {  // memset: assign's 128-bit fill is a loop
+      rows->resize(rowCount);
+      std::memset(static_cast<void*>(rows->data()), 0, rowCount * sizeof(detail::RowBits));
+    }
     using Block = Scratch::Block;
     s.blockBounds.reset(*fieldProgram, glm::dvec3(cx[0], cy[0], cz[0]),
                         glm::dvec3(cx[cellsHere.x], cy[cellsHere.y], cz[cellsHere.z]));
@@ -399,7 +407,7 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
 
   // ---- vertices on owned crossing edges, in edge-key order ----
   t0 = Clock::now();
-  auto r = std::make_unique<MpuResult>();
+  std::unique_ptr<MpuResult> r = reuse ? std::move(reuse) : std::make_unique<MpuResult>();
   r->mpu = mi, r->lo = lo, r->pts = pts, r->owned = owned;
   if (s.vertexId.size() < N * 3) s.vertexId.resize(N * 3);
   const std::size_t ownedRows = std::size_t(owned.y) * std::size_t(owned.z);
@@ -450,10 +458,15 @@ std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, const blobtree::Progr
     std::uint8_t* __restrict edgeAxis = s.edgeAxis.data();
     // Low-face rank tables for the neighbours below (rank: the vertex's place in its row),
     // filled as the vertices of points with i, j or k == 0 are made.
-    const std::array<std::uint8_t, 3> none{kNoRank, kNoRank, kNoRank};
-    r->faceX.assign(std::size_t(owned.y) * std::size_t(owned.z), none);
-    r->faceY.assign(std::size_t(owned.x) * std::size_t(owned.z), none);
-    r->faceZ.assign(std::size_t(owned.x) * std::size_t(owned.y), none);
+    // Every byte kNoRank: one memset each (a fill of 3-byte elements is an element loop).
+    static_assert(sizeof(std::array<std::uint8_t, 3>) == 3 && kNoRank == 0xff);
+    const auto clearFace = [](std::vector<std::array<std::uint8_t, 3>>& face, std::size_t n) {
+      face.resize(n);
+      std::memset(face.data(), 0xff, n * 3);
+    };
+    clearFace(r->faceX, std::size_t(owned.y) * std::size_t(owned.z));
+    clearFace(r->faceY, std::size_t(owned.x) * std::size_t(owned.z));
+    clearFace(r->faceZ, std::size_t(owned.x) * std::size_t(owned.y));
     std::uint32_t e = 0;
     for (int k = 0; k < owned.z; ++k) {
       const float lz = cz[k + 1 < pts.z ? k + 1 : k] - cz[k];
@@ -639,7 +652,10 @@ void processGroup(Context& ctx, int g, Scratch& s, ThreadStats& st) {
                                   std::uint64_t((m1 - m0).z);
       (f.hi < iso ? st.discardedEmpty : st.discardedFull) += count;
       st.discard += msSince(t0);
-      return;  // results stay null
+      for (int z = m0.z; z < m1.z; ++z)
+        for (int y = m0.y; y < m1.y; ++y)
+          for (int x = m0.x; x < m1.x; ++x) ctx.results[std::size_t((z * ctx.mpus.y + y) * ctx.mpus.x + x)].reset();
+      return;
     }
     if (!s.groupTape) {
       s.groupTape = std::make_unique<blobtree::Program>(makeTapeProgram(ctx.program));
@@ -657,152 +673,112 @@ void processGroup(Context& ctx, int g, Scratch& s, ThreadStats& st) {
     for (int y = m0.y; y < m1.y; ++y)
       for (int x = m0.x; x < m1.x; ++x) {
         const int m = (z * ctx.mpus.y + y) * ctx.mpus.x + x;
-        ctx.results[std::size_t(m)] = processMpu(ctx, m, *bounds, tapes, s, st);
+        std::unique_ptr<MpuResult>& slot = ctx.results[std::size_t(m)];
+        slot = processMpu(ctx, m, *bounds, tapes, s, st, std::move(slot));
       }
 }
 
-// Global index of the vertex a deferred corner names: its owner's row base plus its rank.
-std::uint32_t resolveDeferred(const Context& ctx, const MpuResult& r, std::uint32_t code) {
-  const detail::DeferredTarget d = detail::findDeferred(ctx.mpus, ctx.results, r, code);
-  return ctx.vertexBase[ctx.vertexRowAt[d.mpu] + d.row] + d.rank;
+// What one mesh needs that can outlive it: per-thread scratch, every MPU's result (their arrays
+// are reused by the same MPU of the next mesh) and the welding's placement.
+struct MeshState {
+  tbb::combinable<Scratch> scratch;
+  detail::MpuResults results;
+  detail::MeshPlacement placement;
+};
+
+std::uint64_t nextMeshId() {
+  static std::atomic<std::uint64_t> meshes{0};
+  return ++meshes;
 }
 
-// Copies one MPU's vertices and triangles to their places (runs of rows, memcpy'd), with
-// triangle corners made global.
-void scatterMpu(const Context& ctx, std::size_t m, mesh::TriMesh& out, Scratch& s) {
-  const MpuResult& r = *ctx.results[m];
-  const glm::ivec3 owned = r.owned;
-  s.localToGlobal.resize(r.positions.size());
-  const std::uint32_t* vertexBase = ctx.vertexBase.data() + ctx.vertexRowAt[m];
-  const std::size_t vertexRows = std::size_t(owned.y) * std::size_t(owned.z);
-  for (std::size_t row = 0; row < vertexRows; ++row) {
-    const std::uint32_t begin = r.vertexRowStart[row], end = r.vertexRowStart[row + 1];
-    if (begin == end) continue;
-    const std::uint32_t g = vertexBase[row];
-    const std::size_t n = end - begin;
-    std::memcpy(&out.positions[g], &r.positions[begin], n * sizeof(mesh::Float3));
-    std::memcpy(&out.edgeKeys[g], &r.keys[begin], n * sizeof(std::uint64_t));
-    if (!r.normals.empty()) std::memcpy(&out.normals[g], &r.normals[begin], n * sizeof(mesh::Float3));
-    if (!r.colours.empty()) std::memcpy(&out.colours[g], &r.colours[begin], n * sizeof(mesh::Float3));
-    for (std::uint32_t v = begin; v < end; ++v) s.localToGlobal[v] = g + (v - begin);
-  }
-  const std::uint32_t* triangleBase = ctx.triangleBase.data() + ctx.triangleRowAt[m];
-  const std::size_t triangleRows = std::size_t(r.pts.y - 1) * std::size_t(r.pts.z - 1);
-  const std::uint32_t* localToGlobal = s.localToGlobal.data();
-  for (std::size_t row = 0; row < triangleRows; ++row) {
-    const std::uint32_t begin = r.triangleRowStart[row], end = r.triangleRowStart[row + 1];
-    std::array<std::uint32_t, 3>* dst = out.triangles.data() + triangleBase[row];
-    for (std::uint32_t t = begin; t < end; ++t, ++dst) {
-      const std::array<std::uint32_t, 3>& tri = r.triangles[t];
-      if (((tri[0] | tri[1] | tri[2]) & kDeferred) == 0) {
-        *dst = {localToGlobal[tri[0]], localToGlobal[tri[1]], localToGlobal[tri[2]]};
-        continue;
-      }
-      for (int v = 0; v < 3; ++v)
-        (*dst)[std::size_t(v)] = (tri[std::size_t(v)] & kDeferred) ? resolveDeferred(ctx, r, tri[std::size_t(v)])
-                                                                  : localToGlobal[tri[std::size_t(v)]];
-    }
-  }
+void validate(const blobtree::GridSpec& grid, const MpuOptions& options) {
+  if (!(grid.cellSize > 0.0f))
+    throw std::invalid_argument("polygonizeMpu: cell size must be positive, got " +
+                                std::to_string(grid.cellSize));
+  if (grid.cells.x < 0 || grid.cells.y < 0 || grid.cells.z < 0)
+    throw std::invalid_argument("polygonizeMpu: negative cell count");
+  if (options.mpuCells < 2 || options.mpuCells > 64)
+    throw std::invalid_argument("polygonizeMpu: mpuCells must be in [2, 64], got " +
+                                std::to_string(options.mpuCells));
+  if (options.refineSteps < 0) throw std::invalid_argument("polygonizeMpu: refineSteps must be >= 0");
+  if (options.threads < 0) throw std::invalid_argument("polygonizeMpu: threads must be >= 0");
 }
 
-// The scan over (row, MPU column) in global order, visiting only MPUs with a result: rows of
-// points by z then y, and in each row the MPU columns by x, which is the global edge-key order of
-// vertices (and the cell order of triangles). An MPU without a result has no rows to place.
-void scanRows(Context& ctx) {
-  const glm::ivec3 mpus = ctx.mpus;
-  // Per (MPU row y, MPU layer z): its MPUs with a result, by x.
-  std::vector<std::vector<std::uint32_t>> columns(std::size_t(mpus.y) * std::size_t(mpus.z));
-  std::size_t vertexRows = 0, triangleRows = 0;
-  ctx.vertexRowAt.assign(ctx.results.size(), 0);
-  ctx.triangleRowAt.assign(ctx.results.size(), 0);
-  for (std::size_t m = 0; m < ctx.results.size(); ++m) {
-    const MpuResult* r = ctx.results[m].get();
-    if (!r) continue;
-    columns[std::size_t(r->mpu.z) * std::size_t(mpus.y) + std::size_t(r->mpu.y)].push_back(std::uint32_t(m));
-    ctx.vertexRowAt[m] = vertexRows, ctx.triangleRowAt[m] = triangleRows;
-    vertexRows += std::size_t(r->owned.y) * std::size_t(r->owned.z);
-    triangleRows += std::size_t(r->pts.y - 1) * std::size_t(r->pts.z - 1);
+// The whole mesh into `out` (its arrays resized), with `state` from the previous mesh or fresh.
+void polygonizeInto(MeshState& state, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                    const MpuOptions& options, MpuStats* stats, mesh::TriMesh& out) {
+  const auto tStart = Clock::now();
+  validate(grid, options);
+  MpuStats local;
+  MpuStats& st = stats ? *stats : local;
+  st = MpuStats{};
+  const SimdLevel level = options.simd.value_or(bestSimdLevel());
+  if (!simdLevelSupported(level))
+    throw std::invalid_argument(std::string("polygonizeMpu: SIMD level ") + toString(level) +
+                                " is not supported by this CPU");
+  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  st.mpuCells = options.mpuCells, st.threads = threads, st.simd = level;
+
+  if (grid.cells.x == 0 || grid.cells.y == 0 || grid.cells.z == 0) {
+    out = mesh::TriMesh{};
+    state.results.clear();
+    return;
   }
-  ctx.vertexBase.resize(vertexRows);
-  ctx.triangleBase.resize(triangleRows);
-  // Rows an MPU layer (row) spans along z (y): points it owns, or cells.
-  const int D = ctx.D;
-  const auto ownedPoints = [&](int a, int axis) {
-    return a == mpus[axis] - 1 ? ctx.grid.cells[axis] - a * D + 1 : D;
-  };
-  const auto cellRows = [&](int a, int axis) { return std::min(D, ctx.grid.cells[axis] - a * D); };
-  std::uint64_t vSum = 0, tSum = 0;
-  for (int mz = 0; mz < mpus.z; ++mz) {
-    for (int k = 0; k < ownedPoints(mz, 2); ++k)
-      for (int my = 0; my < mpus.y; ++my) {
-        const auto& list = columns[std::size_t(mz) * std::size_t(mpus.y) + std::size_t(my)];
-        if (list.empty()) continue;
-        const int rows = ownedPoints(my, 1);
-        for (int j = 0; j < rows; ++j)
-          for (std::uint32_t m : list) {
-            const MpuResult& r = *ctx.results[m];
-            const std::size_t row = std::size_t(k) * std::size_t(rows) + std::size_t(j);
-            ctx.vertexBase[ctx.vertexRowAt[m] + row] = std::uint32_t(vSum);
-            vSum += r.vertexRowStart[row + 1] - r.vertexRowStart[row];
-          }
+
+  const int D = options.mpuCells;
+  Context ctx{program, grid, options, level, simdWidth(level), D,
+              (grid.cells + D - 1) / D, grid.points(), std::move(state.results), nextMeshId()};
+  const std::size_t mpuCount = std::size_t(ctx.mpus.x) * std::size_t(ctx.mpus.y) * std::size_t(ctx.mpus.z);
+  ctx.results.resize(mpuCount);
+  st.mpus = mpuCount;
+  st.msSetup = msSince(tStart);
+
+  tbb::task_arena arena(threads);
+  tbb::combinable<ThreadStats> perThread;
+  auto t0 = Clock::now();
+  const glm::ivec3 groups = (ctx.mpus + kGroupMpus - 1) / kGroupMpus;
+  const std::size_t groupCount = std::size_t(groups.x) * std::size_t(groups.y) * std::size_t(groups.z);
+  std::atomic<std::size_t> groupsDone{0};
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groupCount, 1), [&](const auto& range) {
+      ThreadStats& ts = perThread.local();
+      Scratch& s = state.scratch.local();
+      s.startMesh(ctx.mesh);
+      for (std::size_t g = range.begin(); g != range.end(); ++g) {
+        processGroup(ctx, int(g), s, ts);
+        if (options.progress) options.progress(++groupsDone, groupCount);
       }
-    for (int k = 0; k < cellRows(mz, 2); ++k)
-      for (int my = 0; my < mpus.y; ++my) {
-        const auto& list = columns[std::size_t(mz) * std::size_t(mpus.y) + std::size_t(my)];
-        if (list.empty()) continue;
-        const int rows = cellRows(my, 1);
-        for (int j = 0; j < rows; ++j)
-          for (std::uint32_t m : list) {
-            const MpuResult& r = *ctx.results[m];
-            const std::size_t row = std::size_t(k) * std::size_t(rows) + std::size_t(j);
-            ctx.triangleBase[ctx.triangleRowAt[m] + row] = std::uint32_t(tSum);
-            tSum += r.triangleRowStart[row + 1] - r.triangleRowStart[row];
-          }
-      }
-  }
+    });
+  });
+  st.msMpus = msSince(t0);
+  state.results = std::move(ctx.results);
+
+  detail::WeldTimes weld;
+  arena.execute([&] {
+    detail::weldResults(grid, D, state.results, options.normals, options.colours, state.placement, out, &weld);
+  });
+  st.msPrefix = weld.msScan, st.msScatter = weld.msCopy;
+
+  perThread.combine_each([&](const ThreadStats& t) {
+    st.gridEvaluations += t.grid, st.edgeEvaluations += t.edge, st.attributeEvaluations += t.attribute;
+    st.simdBlocks += t.blocks;
+    st.discardedEmpty += t.discardedEmpty, st.discardedFull += t.discardedFull;
+    st.empty += t.empty, st.full += t.full, st.crossed += t.crossed;
+    st.tapeInstructions += t.tapeInstructions;
+    st.subBlocks += t.subBlocks, st.subBlocksClassified += t.subBlocksClassified;
+    st.cpuDiscard += t.discard, st.cpuPrune += t.prune, st.cpuField += t.field, st.cpuCells += t.cells;
+    st.cpuVertices += t.vertices, st.cpuAttributes += t.attributes;
+  });
+  st.pointEvaluations = st.gridEvaluations + st.edgeEvaluations + st.attributeEvaluations;
+  st.vertices = out.positions.size(), st.triangles = out.triangles.size();
+  st.fvept = st.triangles ? double(st.pointEvaluations) / double(st.triangles) : 0.0;
+  st.fveptSimd = st.triangles ? double(st.simdBlocks) / double(st.triangles) : 0.0;
+  st.msTotal = msSince(tStart);
 }
 
 }  // namespace
 
 namespace detail {
-
-// The owner of an edge referenced by a deferred corner (x, y or z past the owned range), the
-// owner's point row holding it and its rank there.
-DeferredTarget findDeferred(const glm::ivec3& mpus, const MpuResults& results, const MpuResult& r,
-                            std::uint32_t code) {
-  int q[3] = {int(code & 127u), int((code >> 7) & 127u), int((code >> 14) & 127u)};
-  const int axis = int((code >> 21) & 3u);
-  glm::ivec3 owner = r.mpu;
-  for (int a = 0; a < 3; ++a) {
-    if (q[a] >= r.owned[a]) {
-      owner[a] += 1;
-      q[a] -= r.owned[a];
-    }
-  }
-  const int m = (owner.z * mpus.y + owner.y) * mpus.x + owner.x;
-  const MpuResult* o = results[std::size_t(m)].get();
-  std::uint8_t rank = kNoRank;
-  if (o) {
-    if (q[0] == 0)
-      rank = o->faceX[std::size_t(q[2] * o->owned.y + q[1])][std::size_t(axis)];
-    else if (q[1] == 0)
-      rank = o->faceY[std::size_t(q[2] * o->owned.x + q[0])][std::size_t(axis)];
-    else
-      rank = o->faceZ[std::size_t(q[1] * o->owned.x + q[0])][std::size_t(axis)];
-  }
-  if (rank == kNoRank)
-    throw std::logic_error("polygonizeMpu: a triangle refers to an edge its owner has no vertex for");
-  return {std::size_t(m), std::size_t(q[2]) * std::size_t(o->owned.y) + std::size_t(q[1]), rank};
-}
-
-std::uint32_t resolveDeferred(const glm::ivec3& mpus, int pointsY, const MpuResults& results,
-                              const std::uint32_t* vertexRows, const MpuResult& r, std::uint32_t code) {
-  const DeferredTarget d = findDeferred(mpus, results, r, code);
-  const MpuResult& o = *results[d.mpu];
-  const std::size_t gz = std::size_t(o.lo.z) + d.row / std::size_t(o.owned.y);
-  const std::size_t gy = std::size_t(o.lo.y) + d.row % std::size_t(o.owned.y);
-  return vertexRows[(gz * std::size_t(pointsY) + gy) * std::size_t(mpus.x) + std::size_t(o.mpu.x)] + d.rank;
-}
 
 void repolygonizeMpus(const blobtree::Program& program, const blobtree::GridSpec& grid,
                       const MpuOptions& options, const std::vector<std::uint32_t>& which,
@@ -811,7 +787,7 @@ void repolygonizeMpus(const blobtree::Program& program, const blobtree::GridSpec
   const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
   const int D = options.mpuCells;
   Context ctx{program, grid, options, level, simdWidth(level), D,
-              (grid.cells + D - 1) / D, grid.points(), std::move(results), {}, {}, {}, {}};
+              (grid.cells + D - 1) / D, grid.points(), std::move(results), nextMeshId()};
   tbb::task_arena arena(threads);
   tbb::combinable<ThreadStats> perThread;
   tbb::combinable<Scratch> scratch;
@@ -820,7 +796,7 @@ void repolygonizeMpus(const blobtree::Program& program, const blobtree::GridSpec
       ThreadStats& ts = perThread.local();
       Scratch& s = scratch.local();
       for (std::size_t i = range.begin(); i != range.end(); ++i)
-        ctx.results[which[i]] = processMpu(ctx, int(which[i]), program, {}, s, ts);
+        ctx.results[which[i]] = processMpu(ctx, int(which[i]), program, {}, s, ts, nullptr);
     });
   });
   results = std::move(ctx.results);
@@ -835,114 +811,35 @@ void repolygonizeMpus(const blobtree::Program& program, const blobtree::GridSpec
   }
 }
 
+mesh::TriMesh polygonizeMpuKeeping(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                   const MpuOptions& options, MpuStats* stats, MpuResults& results) {
+  MeshState state;
+  mesh::TriMesh mesh;
+  polygonizeInto(state, program, grid, options, stats, mesh);
+  results = std::move(state.results);
+  return mesh;
+}
+
 }  // namespace detail
 
 mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::GridSpec& grid,
                             const MpuOptions& options, MpuStats* stats) {
-  detail::MpuResults discard;
-  return detail::polygonizeMpuKeeping(program, grid, options, stats, discard);
+  MeshState state;
+  mesh::TriMesh mesh;
+  polygonizeInto(state, program, grid, options, stats, mesh);
+  return mesh;
 }
 
-mesh::TriMesh detail::polygonizeMpuKeeping(const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                           const MpuOptions& options, MpuStats* stats, MpuResults& results) {
-  const auto tStart = Clock::now();
-  if (!(grid.cellSize > 0.0f))
-    throw std::invalid_argument("polygonizeMpu: cell size must be positive, got " +
-                                std::to_string(grid.cellSize));
-  if (grid.cells.x < 0 || grid.cells.y < 0 || grid.cells.z < 0)
-    throw std::invalid_argument("polygonizeMpu: negative cell count");
-  if (options.mpuCells < 2 || options.mpuCells > 64)
-    throw std::invalid_argument("polygonizeMpu: mpuCells must be in [2, 64], got " +
-                                std::to_string(options.mpuCells));
-  if (options.refineSteps < 0) throw std::invalid_argument("polygonizeMpu: refineSteps must be >= 0");
-  if (options.threads < 0) throw std::invalid_argument("polygonizeMpu: threads must be >= 0");
+struct MpuPolygonizer::State : MeshState {};
 
-  MpuStats local;
-  MpuStats& st = stats ? *stats : local;
-  st = MpuStats{};
-  const SimdLevel level = options.simd.value_or(bestSimdLevel());
-  if (!simdLevelSupported(level))
-    throw std::invalid_argument(std::string("polygonizeMpu: SIMD level ") + toString(level) +
-                                " is not supported by this CPU");
-  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-  st.mpuCells = options.mpuCells, st.threads = threads, st.simd = level;
+MpuPolygonizer::MpuPolygonizer() : state_(std::make_unique<State>()) {}
+MpuPolygonizer::~MpuPolygonizer() = default;
+MpuPolygonizer::MpuPolygonizer(MpuPolygonizer&&) noexcept = default;
+MpuPolygonizer& MpuPolygonizer::operator=(MpuPolygonizer&&) noexcept = default;
 
-  mesh::TriMesh mesh;
-  if (grid.cells.x == 0 || grid.cells.y == 0 || grid.cells.z == 0) return mesh;
-
-  const int D = options.mpuCells;
-  Context ctx{program, grid, options, level, simdWidth(level), D,
-              (grid.cells + D - 1) / D, grid.points(), {}, {}, {}, {}, {}};
-  const std::size_t mpuCount = std::size_t(ctx.mpus.x) * std::size_t(ctx.mpus.y) * std::size_t(ctx.mpus.z);
-  ctx.results.resize(mpuCount);
-  st.mpus = mpuCount;
-  st.msSetup = msSince(tStart);
-
-  tbb::task_arena arena(threads);
-  tbb::combinable<ThreadStats> perThread;
-  tbb::combinable<Scratch> scratch;
-  auto t0 = Clock::now();
-  const glm::ivec3 groups = (ctx.mpus + kGroupMpus - 1) / kGroupMpus;
-  const std::size_t groupCount = std::size_t(groups.x) * std::size_t(groups.y) * std::size_t(groups.z);
-  std::atomic<std::size_t> groupsDone{0};
-  arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groupCount, 1), [&](const auto& range) {
-      ThreadStats& ts = perThread.local();
-      Scratch& s = scratch.local();
-      for (std::size_t g = range.begin(); g != range.end(); ++g) {
-        processGroup(ctx, int(g), s, ts);
-        if (options.progress) options.progress(++groupsDone, groupCount);
-      }
-    });
-  });
-  st.msMpus = msSince(t0);
-
-  // The serial scan and the output's allocation run side by side: the allocation is mostly the
-  // kernel's page faults and zeroing, paid once per array, and the arrays are independent.
-  t0 = Clock::now();
-  std::uint64_t nv = 0, nt = 0;
-  for (const auto& r : ctx.results)
-    if (r) nv += r->positions.size(), nt += r->triangles.size();
-  if (nv >= std::uint64_t(kDeferred))
-    throw std::length_error("polygonizeMpu: more than 2^31 vertices");
-  if (nt > std::numeric_limits<std::uint32_t>::max())
-    throw std::length_error("polygonizeMpu: more than 2^32 triangles");
-  arena.execute([&] {
-    tbb::parallel_invoke([&] { scanRows(ctx); }, [&] { mesh.positions.resize(nv); },
-                         [&] { mesh.edgeKeys.resize(nv); },
-                         [&] { if (options.normals) mesh.normals.resize(nv); },
-                         [&] { if (options.colours) mesh.colours.resize(nv); },
-                         [&] { mesh.triangles.resize(nt); });
-  });
-  st.msPrefix = msSince(t0);
-
-  t0 = Clock::now();
-  arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mpuCount, 1), [&](const auto& range) {
-      Scratch& s = scratch.local();
-      for (std::size_t m = range.begin(); m != range.end(); ++m)
-        if (ctx.results[m]) scatterMpu(ctx, m, mesh, s);
-    });
-  });
-  st.msScatter = msSince(t0);
-
-  perThread.combine_each([&](const ThreadStats& t) {
-    st.gridEvaluations += t.grid, st.edgeEvaluations += t.edge, st.attributeEvaluations += t.attribute;
-    st.simdBlocks += t.blocks;
-    st.discardedEmpty += t.discardedEmpty, st.discardedFull += t.discardedFull;
-    st.empty += t.empty, st.full += t.full, st.crossed += t.crossed;
-    st.tapeInstructions += t.tapeInstructions;
-    st.subBlocks += t.subBlocks, st.subBlocksClassified += t.subBlocksClassified;
-    st.cpuDiscard += t.discard, st.cpuPrune += t.prune, st.cpuField += t.field, st.cpuCells += t.cells;
-    st.cpuVertices += t.vertices, st.cpuAttributes += t.attributes;
-  });
-  st.pointEvaluations = st.gridEvaluations + st.edgeEvaluations + st.attributeEvaluations;
-  st.vertices = nv, st.triangles = nt;
-  st.fvept = nt ? double(st.pointEvaluations) / double(nt) : 0.0;
-  st.fveptSimd = nt ? double(st.simdBlocks) / double(nt) : 0.0;
-  st.msTotal = msSince(tStart);
-  results = std::move(ctx.results);
-  return mesh;
+void MpuPolygonizer::polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                const MpuOptions& options, mesh::TriMesh& out, MpuStats* stats) {
+  polygonizeInto(*state_, program, grid, options, stats, out);
 }
 
 }  // namespace blobvk::cpu

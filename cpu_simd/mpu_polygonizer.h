@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 
 namespace blobvk::cpu {
@@ -66,5 +67,26 @@ struct MpuStats {
 
 mesh::TriMesh polygonizeMpu(const blobtree::Program& program, const blobtree::GridSpec& grid,
                             const MpuOptions& options = {}, MpuStats* stats = nullptr);
+
+// polygonizeMpu for a host that meshes again (an editor's full re-mesh, an animation, a
+// benchmark's repeats): the object keeps its per-thread scratch and every MPU's result arrays,
+// and `out`'s arrays keep their capacity, so after the first mesh a mesh of about the same size
+// allocates nothing and takes no page faults. The mesh is polygonizeMpu's, byte for byte; if
+// polygonize throws (polygonizeMpu's errors), `out` holds no meaningful mesh and the object
+// stays usable. One polygonize at a time per object.
+class MpuPolygonizer {
+ public:
+  MpuPolygonizer();
+  ~MpuPolygonizer();
+  MpuPolygonizer(MpuPolygonizer&&) noexcept;
+  MpuPolygonizer& operator=(MpuPolygonizer&&) noexcept;
+
+  void polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                  const MpuOptions& options, mesh::TriMesh& out, MpuStats* stats = nullptr);
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 }  // namespace blobvk::cpu

@@ -12,6 +12,18 @@
 #include <emmintrin.h>
 #endif
 
+// The portable build targets any x86-64, whose baseline lacks POPCNT: a function that counts
+// row bits in its loops is compiled twice (function multi-versioning), and the loader picks the
+// POPCNT clone on every CPU that has it.
+#if defined(__x86_64__) && defined(__has_attribute)
+#if __has_attribute(target_clones)
+#define BLOBVK_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
+#endif
+#endif
+#ifndef BLOBVK_POPCNT_CLONES
+#define BLOBVK_POPCNT_CLONES
+#endif
+
 namespace blobvk::cpu::detail {
 
 __extension__ typedef unsigned __int128 RowBits;
@@ -38,14 +50,10 @@ inline RowBits packRow(const std::uint8_t* flags, int n) {
 #endif
 }
 
-// Set bits of a row. Written out (SWAR) because the portable build has no POPCNT instruction and
-// std::popcount becomes a libgcc call there, which showed up in profiles.
-inline int popCount64(std::uint64_t x) {
-  x = x - ((x >> 1) & 0x5555555555555555ull);
-  x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
-  x = (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0full;
-  return int((x * 0x0101010101010101ull) >> 56);
-}
+// Set bits of a row. __builtin_popcountll is one instruction where the function calling it is
+// compiled for POPCNT (the MPU polygonizer's row passes are cloned for it, see
+// kRowPassesTarget) and a libgcc call elsewhere.
+inline int popCount64(std::uint64_t x) { return __builtin_popcountll(x); }
 inline int popCount(RowBits bits) { return popCount64(std::uint64_t(bits)) + popCount64(std::uint64_t(bits >> 64)); }
 
 // Bit i of a row (i < 128).

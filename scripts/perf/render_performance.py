@@ -211,11 +211,11 @@ def phase_section(rows, command):
             "(the octree of sub-block bounds and the SIMD evaluation of the points it keeps),\n"
             "*vertices* (crossing edges, positions, edge keys), *normals + colours* (one analytic-gradient\n"
             "pass per vertex), *triangles* (case index and the case table per cell).\n"
-            "*welding* is the serial scan over (row, MPU column) with the allocation of the output arrays\n"
-            "beside it, then the parallel copy of every MPU's rows of vertices and triangles into the\n"
-            "welded arrays; the output arrays are fresh memory, so a large part of it is the kernel's\n"
-            "page faults and zeroing. *output* encodes the mesh as binary PLY, once, after the timed runs\n"
-            "(not in ns/tri).\n\n"
+            "*welding* is the scan over (row, MPU column), MPU layers in parallel, beside the sizing of\n"
+            "the output arrays, then the parallel copy of every MPU's rows of vertices and triangles into\n"
+            "the welded arrays (memory bound: the copy's stores miss the cache). *output* encodes the\n"
+            "mesh as binary PLY, once, after the timed runs (not in ns/tri; its fresh string's page faults\n"
+            "included).\n\n"
             "The field dominates where the model is large (`tower`: the interval bounds of the octree\n"
             "blocks and the SIMD evaluation of the points they keep); *normals + colours* dominates\n"
             "`random128`, whose colour tape blends many primitives at each vertex with three divisions\n"
@@ -391,7 +391,9 @@ def main():
     w("## CPU polygonization (`blobvk bench`)\n")
     w("The MPU polygonizer on TBB with the AVX evaluator (`--backend cpu`), welded, indexed output.\n"
       "*ns/tri* is the minimum wall time divided by the output triangles; *FVEPT* is field\n"
-      "evaluations per output triangle (point evaluations, normals included).\n")
+      "evaluations per output triangle (point evaluations, normals included). The repeats mesh\n"
+      "again with one `cpu::MpuPolygonizer` into the previous mesh's arrays, as a host re-meshing\n"
+      "does, so they pay no allocation or page faults; the first, cold run is `first_s` in the JSON.\n")
     w(cmd("bench_cpu"))
     w(cpu_table(cpu_rows) if cpu_rows else "_(not measured)_")
     if chart_ns_per_triangle(cpu_rows, vk_rows, os.path.join(charts, "ns_per_triangle.png")):

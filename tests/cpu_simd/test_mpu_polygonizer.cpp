@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -203,6 +204,62 @@ TEST(MpuPolygonizer, EarlyDiscardLosesNoSurface) {
     EXPECT_TRUE(m == ref);
     EXPECT_GT(st.discardedEmpty + st.discardedFull, 0u) << "the discard never fired";
   }
+}
+
+// One MpuPolygonizer meshing again and again into one TriMesh (scratch, MPU results and output
+// arrays reused): each mesh is the reference's, whatever came before it — a larger mesh, a
+// smaller one, other MPU sizes, attributes switched off, an empty grid, a grid with no surface.
+TEST(MpuPolygonizer, MeshingAgainIntoOneMeshEqualsReference) {
+  struct Job {
+    std::string name;
+    blobtree::Node node;
+    float cellSize;
+    int mpuCells, subBlock, threads;
+    bool attributes;
+  };
+  const std::vector<Job> jobs = {
+      {"tower D24", testmodels::tower(), 0.1f, kWholeMeshMpuCells, kWholeMeshSubBlockCells, 2, true},
+      {"random blobs D8", testmodels::randomBlobs(128), 0.1f, 8, 4, 1, true},
+      {"thin shell D16", testmodels::thinShell(), 0.03f, 16, 4, 2, false},
+      {"tower D24 again", testmodels::tower(), 0.1f, kWholeMeshMpuCells, kWholeMeshSubBlockCells, 2, true},
+      {"tower coarser", testmodels::tower(), 0.15f, kWholeMeshMpuCells, kWholeMeshSubBlockCells, 1, true},
+      {"random blobs D24", testmodels::randomBlobs(128), 0.1f, kWholeMeshMpuCells, kWholeMeshSubBlockCells, 2, true}};
+  MpuPolygonizer polygonizer;
+  mesh::TriMesh out;
+  {  // A failed call leaves the object usable (the next job checks it).
+    MpuOptions bad;
+    bad.mpuCells = 1;
+    const blobtree::Program program = blobtree::compile(testmodels::tower());
+    EXPECT_THROW(polygonizer.polygonize(program, gridAround(program, 0.2f), bad, out), std::invalid_argument);
+  }
+  for (const Job& job : jobs) {
+    SCOPED_TRACE(job.name);
+    const blobtree::Program program = blobtree::compile(job.node);
+    const blobtree::GridSpec grid = gridAround(program, job.cellSize);
+    ReferenceOptions ro;
+    ro.normals = ro.colours = job.attributes;
+    const mesh::TriMesh ref = polygonizeReference(program, grid, ro);
+    ASSERT_GT(ref.triangleCount(), 1000u);
+    MpuOptions o;
+    o.mpuCells = job.mpuCells, o.subBlockCells = job.subBlock, o.threads = job.threads;
+    o.normals = o.colours = job.attributes;
+    MpuStats st;
+    polygonizer.polygonize(program, grid, o, out, &st);
+    EXPECT_TRUE(out == ref);
+    EXPECT_EQ(st.triangles, ref.triangleCount());
+
+    // Between jobs: a grid the surface misses entirely, and an empty grid.
+    blobtree::GridSpec away = grid;
+    away.origin += glm::vec3(100.0f);
+    away.cells = glm::ivec3(20);
+    polygonizer.polygonize(program, away, o, out);
+    EXPECT_EQ(out.triangleCount(), 0u);
+    EXPECT_EQ(out.vertexCount(), 0u);
+  }
+  blobtree::GridSpec none = gridAround(blobtree::compile(testmodels::tower()), 0.1f);
+  none.cells = glm::ivec3(0);
+  polygonizer.polygonize(blobtree::compile(testmodels::tower()), none, {}, out);
+  EXPECT_EQ(out.vertexCount(), 0u);
 }
 
 TEST(MpuPolygonizer, RejectsBadOptions) {
