@@ -1,25 +1,29 @@
 #version 450
 // Sparse extraction, pass 6 (after the scans): per row of points of a brick of the batch
-// (brick_layout.glsl), one invocation stores the row's first vertex (its scanned segment) in
-// edges.w, for the triangle pass; for a brick the batch emits, it writes where each of the row's
-// vertices comes from (vertex v: brick, row, point, axis) and, for local y, z < B, where each
-// triangle of the row of cells comes from (brick, configuration, its k-th triangle, cell, the
-// brick's upper faces that belong to neighbours), in the global order. The vertex and triangle
-// passes then run one lane per output with no search. Invocation x is the row (y + z * R),
-// y + z * (groups in y) the brick of the batch.
+// (brick_layout.glsl), one invocation gives each point of the row with a crossing upper edge its
+// *point word* (first vertex << 3 | the point's crossing edges, bit i: the +i edge), the vertex
+// counted from the batch's first segment (the row's scanned segment plus the vertices before the
+// point), so the triangle pass finds a corner's vertex with one load; for a brick the batch emits,
+// it writes where each of the row's vertices (brick, row, point, axis) and, for local y, z < B,
+// where each triangle of its row of cells comes from (brick, configuration, its k-th triangle,
+// cell, the brick's upper faces that belong to neighbours), in the global order. The vertex and
+// triangle passes then run one lane per output with no search. Invocation x is the row
+// (y + z * R), y + z * (groups in y) the brick of the batch. Point words of points without a
+// crossing edge are never written nor read.
 #extension GL_GOOGLE_include_directive : require
 #include "program_layout.h"
 #include "common.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Masks { uint masks[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Segments { uvec4 segments[]; };  // brick_neighbours.comp
-layout(std430, set = 0, binding = 3) buffer Edges { uvec4 edges[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Edges { uvec4 edges[]; };
 layout(std430, set = 0, binding = 4) readonly buffer VertexSegments { uint vertexSegments[]; };      // scanned
 layout(std430, set = 0, binding = 5) readonly buffer TriangleSegments { uint triangleSegments[]; };  // scanned
 // Vertex v: (brick, row << 7 | x << 2 | axis). Triangle t: (brick, configuration | k << 8 | x << 11 |
 // cell row (y + z * B) << 15 | faces << 23), faces bit i: the brick is not the grid's last on axis i.
 layout(std430, set = 0, binding = 6) writeonly buffer VertexSources { uvec2 vertexSources[]; };
 layout(std430, set = 0, binding = 7) writeonly buffer TriangleSources { uvec2 triangleSources[]; };
+layout(std430, set = 0, binding = 8) writeonly buffer PointWords { uint pointWords[]; };  // R^3 per brick
 #define CASES_BINDING 2
 #include "brick_layout.glsl"
 
@@ -39,14 +43,21 @@ void main() {
   uvec3 b = unpackBrick(seg.x);
   uint row = a * R * R + r;
   uint v = vertexSegments[segmentOf(seg, seg.y, R, ly, lz)];
-  edges[row].w = v;
-  if (a >= pc.ownActive) return;  // the next layer's rows: only their first vertex, for this batch's triangles
+  // The next layer's bricks (a >= ownActive) get their point words alone: this batch's triangles
+  // of its last layer use the vertices on their lower faces.
+  bool own = a < pc.ownActive;
   uvec3 e = edges[row].xyz;
   for (uint points = e.x | e.y | e.z; points != 0u; points &= points - 1u) {
     uint x = findLSB(points);
     uint bits = ((e.x >> x) & 1u) | (((e.y >> x) & 1u) << 1) | (((e.z >> x) & 1u) << 2);
+    pointWords[row * R + x] = (v << 3) | bits;
+    if (!own) {
+      v += bitCount(bits);
+      continue;
+    }
     for (; bits != 0u; bits &= bits - 1u) vertexSources[v++] = uvec2(a, (r << 7) | (x << 2) | uint(findLSB(bits)));
   }
+  if (!own) return;
   uvec3 g0 = b << pc.cells.w;
   if (ly >= B || lz >= B || g0.y + ly >= pc.cells.y || g0.z + lz >= pc.cells.z) return;
   uint m = masks[row], my = masks[row + 1u], mz = masks[row + R], myz = masks[row + R + 1u];

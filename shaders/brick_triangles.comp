@@ -1,14 +1,15 @@
 #version 450
 // Sparse extraction, pass 8: one invocation per triangle of the batch, in cell order then
-// case-table order, from where brick_sources.comp says it comes from. A vertex index is the first
-// vertex of the row holding the edge's start point (edges.w, in the brick that owns the point:
-// this one, or the neighbour whose lower face holds it, brick_neighbours.comp), plus the vertices
-// before the point in that row, plus the edge's rank among the point's crossing edges: the global
-// edge-key order of the CPU reference.
+// case-table order, from where brick_sources.comp says it comes from. A corner's vertex index is
+// the point word of its edge's start point (brick_sources.comp: the point's first vertex and its
+// crossing edges), in the brick that owns the point (this one, or the neighbour whose lower face
+// holds it, brick_neighbours.comp), plus the edge's rank among the point's crossing edges: the
+// global edge-key order of the CPU reference. Two loads a corner, one where the point is the
+// brick's own (llvmpipe runs a storage load as a loop over the lanes; a masked-off lane skips it).
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
-layout(std430, set = 0, binding = 1) readonly buffer Edges { uvec4 edges[]; };
+layout(std430, set = 0, binding = 1) readonly buffer PointWords { uint pointWords[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Neighbours { uint neighbours[]; };
 layout(std430, set = 0, binding = 3) readonly buffer TriangleSources { uvec2 triangleSources[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer Indices { uint indices[]; };
@@ -37,11 +38,12 @@ void main() {
     // A point on an upper face belongs to the neighbour there, unless the brick is the grid's last.
     uvec3 up = uvec3(p.x == B && (faces & 1u) != 0u ? 1u : 0u, p.y == B && (faces & 2u) != 0u ? 1u : 0u,
                      p.z == B && (faces & 4u) != 0u ? 1u : 0u);
-    uint owner = neighbours[a * 8u + (up.x | (up.y << 1) | (up.z << 2))];
+    uint side = up.x | (up.y << 1) | (up.z << 2);
+    uint owner = a;
+    if (side != 0u) owner = neighbours[a * 8u + side];
     uvec3 local = p - up * B;
-    uvec4 oe = edges[owner * R * R + local.z * R + local.y];
-    uint bits = ((oe.x >> local.x) & 1u) | (((oe.y >> local.x) & 1u) << 1) | (((oe.z >> local.x) & 1u) << 2);
-    uint rank = bitCount(bits & ((1u << axis) - 1u));
-    indices[t * 3u + i] = pc.vertexBase + oe.w + rowVerticesBefore(oe.xyz, local.x) + rank;
+    uint word = pointWords[((owner * R + local.z) * R + local.y) * R + local.x];
+    uint rank = bitCount(word & ((1u << axis) - 1u));
+    indices[t * 3u + i] = pc.vertexBase + (word >> 3) + rank;
   }
 }

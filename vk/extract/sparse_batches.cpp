@@ -37,7 +37,7 @@ BrickGroups brickGroups(std::uint32_t bricks) {
 
 std::uint64_t perBrickBytes(const BrickGrid& bricks) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
-  return R * R * R * 4   // field samples
+  return R * R * R * 8   // field samples, point words
          + R * R * 24      // inside masks, edge masks and first vertex, vertex segments
          + B * B * 4       // triangle segments
          + 32 + 16         // the brick's neighbours and its segment record
@@ -130,7 +130,7 @@ struct SparseBatchRunner::State {
   UploadBatch uploads;  // the program and case table ride in the first batch's submit
   GpuProgram gpu;
   std::uint64_t bytes = 0, peakOutputBytes = 0;
-  Buffer batchBricks, field, cases, masks, edges, vertexSegments, triangleSegments, neighbours, segments, segmentScratch,
+  Buffer batchBricks, field, pointWords, cases, masks, edges, vertexSegments, triangleSegments, neighbours, segments, segmentScratch,
       counts, fieldOrder;
   std::uint64_t vertexScratch = 0;
   std::uint32_t fieldGroupSize = 0;  // brick_field's work group: one brick's rows of points
@@ -166,6 +166,7 @@ struct SparseBatchRunner::State {
     auto make = [&](std::uint64_t size, const char* what) { return makeSparseBuffer(device, size, what, bytes); };
     batchBricks = make(std::uint64_t(maxLoaded) * 4, "batch brick list");
     field = make(std::uint64_t(maxLoaded) * P * 4, "field samples");
+    pointWords = make(std::uint64_t(maxLoaded) * P * 4, "point words");
     const std::vector<std::uint32_t>& words = caseTableUniform();
     bytes += words.size() * 4;
     cases = device.createBuffer(words.size() * 4, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
@@ -345,6 +346,12 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   });
   std::uint32_t c[4] = {0, 0, 0, 0};
   device.download(st.counts, c, 16);
+  // A point word holds a vertex counted from the batch's first segment in 29 bits
+  // (brick_sources.comp), the loaded bricks' vertices included.
+  if (c[0] >= (1u << 29)) {
+    throw VulkanError("GPU polygonizer: a batch of brick layers holds " + std::to_string(c[0]) +
+                      " vertices, over 2^29: use smaller batches (maxBatchBricks)");
+  }
   const std::uint32_t vertices = batch.ownActive < loaded ? c[2] : c[0];
   const std::uint32_t triangles = batch.ownActive < loaded ? c[3] : c[1];
   if (vertexBase + vertices > 0xffffffffull) {
@@ -401,8 +408,8 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     st.timer.mark(rec, mark + 4);
     if (vertices || triangles) {
       const std::uint32_t push[9] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded, batch.ownActive};
-      const BufferRange bind[8] = {st.masks,           st.segments,   st.cases,       st.edges, st.vertexSegments,
-                                   st.triangleSegments, vertexSources, triangleSources};
+      const BufferRange bind[9] = {st.masks,          st.segments,   st.cases,        st.edges,        st.vertexSegments,
+                                   st.triangleSegments, vertexSources, triangleSources, st.pointWords};
       rec.dispatch(*device.kernel("brick_sources", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
     }
     rec.computeBarrier();
@@ -436,7 +443,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       rec.dispatch(*device.kernel("brick_triangle_keys", wgSpec), bind, &push, sizeof(push), g.x, g.y);
     } else if (triangles) {
       const std::uint32_t push[3] = {bg.log2B, triangles, std::uint32_t(vertexBase)};
-      const BufferRange bind[5] = {st.cases, st.edges, st.neighbours, triangleSources, indices};
+      const BufferRange bind[5] = {st.cases, st.pointWords, st.neighbours, triangleSources, indices};
       const Groups g = groupsFor(triangles, wg);
       rec.dispatch(*device.kernel("brick_triangles", wgSpec), bind, &push, sizeof(push), g.x, g.y);
     }
