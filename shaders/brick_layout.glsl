@@ -37,6 +37,56 @@ uint rowVerticesBefore(uvec3 e, uint x) {
   return bitCount(e.x & below) + bitCount(e.y & below) + bitCount(e.z & below);
 }
 
+// The crossing upper edges that row (ly, lz) of points of a brick at grid cell g0 owns (bit x of
+// .x, .y, .z: point x's +x, +y, +z edge), from the inside masks of the row (m) and of the next
+// row in y (my) and in z (mz), the row itself where there is none. A row owns local x < B, and
+// x = B on the grid's last point of the axis; none past the grid's end. Rows likewise in y and z.
+uvec3 ownedRowEdges(uint m, uint my, uint mz, uvec3 cells, uvec3 g0, uint log2B, uint ly, uint lz) {
+  uint B = 1u << log2B;
+  uint gy = g0.y + ly, gz = g0.z + lz;
+  uint xEnd = min(cells.x - g0.x, B);  // points x < xEnd have a +x edge in the grid
+  uint owned = g0.x + B == cells.x ? (2u << B) - 1u : (1u << min(cells.x - g0.x + 1u, B)) - 1u;
+  bool ownsRow = (ly < B || gy == cells.y) && (lz < B || gz == cells.z) && gy <= cells.y && gz <= cells.z;
+  uvec3 e = uvec3(0u);
+  if (ownsRow) {
+    e.x = (m ^ (m >> 1)) & ((1u << xEnd) - 1u);
+    e.y = gy < cells.y ? (m ^ my) & owned : 0u;
+    e.z = gz < cells.z ? (m ^ mz) & owned : 0u;
+  }
+  return e;
+}
+
+// The row passes (brick_rows.comp, brick_sources.comp) run one invocation per *column* of rows,
+// (brick, local y), walking local z: a row's inside mask and its +y neighbour's are the last
+// step's +z ones, so each step loads two masks instead of four, and the brick's segment record
+// is loaded once per column instead of once per row (llvmpipe runs every storage access as a
+// loop over the lanes). MaskColumn holds the four masks of the current step.
+struct MaskColumn {
+  uint m, my, mz, myz;  // rows (y, z), (y + 1, z), (y, z + 1), (y + 1, z + 1); the row itself past the brick
+};
+
+#ifdef MASKS_BINDING
+layout(std430, set = 0, binding = MASKS_BINDING) readonly buffer Masks { uint masks[]; };  // brick_field.comp
+
+// Column (ly) of the brick whose rows start at `rowBase` (row (ly, lz) is rowBase + lz * R + ly):
+// the masks of its step lz = 0.
+MaskColumn firstMaskStep(uint rowBase, uint ly, uint R) {
+  uint dy = ly + 1u < R ? 1u : 0u;
+  return MaskColumn(masks[rowBase + ly], masks[rowBase + ly + dy], masks[rowBase + R + ly], masks[rowBase + R + ly + dy]);
+}
+
+// From step lz to lz + 1 (< R): the +z rows become the current ones.
+void nextMaskStep(inout MaskColumn c, uint rowBase, uint ly, uint lz, uint R) {
+  c.m = c.mz;
+  c.my = c.myz;
+  if (lz + 2u < R) {  // the same for every lane of a step: no load at all on the last
+    uint dy = ly + 1u < R ? 1u : 0u;
+    c.mz = masks[rowBase + (lz + 2u) * R + ly];
+    c.myz = masks[rowBase + (lz + 2u) * R + ly + dy];
+  }
+}
+#endif
+
 // The marching-cubes case table as a uniform buffer (vk::caseTableUniform): per configuration,
 // x = triangle count, y = edges 0..7 and z = edges 8..14 (triangle k's edge i is edge 3k + i),
 // four bits each. A uniform load at a per-lane index is one vector gather on llvmpipe; a storage

@@ -38,7 +38,7 @@ BrickGroups brickGroups(std::uint32_t bricks) {
 std::uint64_t perBrickBytes(const BrickGrid& bricks) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
   return R * R * R * 8   // field samples, point words
-         + R * R * 24      // inside masks, edge masks and first vertex, vertex segments
+         + R * R * 8       // inside masks, vertex segments
          + B * B * 4       // triangle segments
          + 32 + 16         // the brick's neighbours and its segment record
          + 4;              // its place in the field tiles' order
@@ -70,7 +70,7 @@ Buffer makeSparseBuffer(Device& device, std::uint64_t size, const char* what, st
 std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks) {
   const std::uint64_t R = (1ull << bricks.log2B) + 1;
   const std::uint64_t range = device.info().limits.maxStorageBufferRange;
-  return std::min(range / (R * R * R * 4), range / (R * R * 16));
+  return range / (R * R * R * 4);  // the field samples and point words: the largest per-brick arrays
 }
 
 std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uint32_t maxBatchBricks) {
@@ -130,7 +130,7 @@ struct SparseBatchRunner::State {
   UploadBatch uploads;  // the program and case table ride in the first batch's submit
   GpuProgram gpu;
   std::uint64_t bytes = 0, peakOutputBytes = 0;
-  Buffer batchBricks, field, pointWords, cases, masks, edges, vertexSegments, triangleSegments, neighbours, segments, segmentScratch,
+  Buffer batchBricks, field, pointWords, cases, masks, vertexSegments, triangleSegments, neighbours, segments, segmentScratch,
       counts, fieldOrder;
   std::uint64_t vertexScratch = 0;
   std::uint32_t fieldGroupSize = 0;  // brick_field's work group: one brick's rows of points
@@ -172,7 +172,6 @@ struct SparseBatchRunner::State {
     cases = device.createBuffer(words.size() * 4, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     device.upload(cases, words.data(), words.size() * 4);
     masks = make(maxRows * 4, "inside masks");
-    edges = make(maxRows * 16, "edge masks");
     vertexSegments = make(maxRows * 4, "vertex segments");
     triangleSegments = make(maxCellRows * 4, "triangle segments");
     neighbours = make(std::uint64_t(maxLoaded) * 32, "brick neighbours");
@@ -271,10 +270,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     if (!window && w.firstLayer <= batch.firstLayer && batch.endLayer <= w.endLayer) window = &w;
   if (!window) throw VulkanError("GPU polygonizer: a batch's brick layers lie in no window of the brick tables");
   const std::uint32_t windowActive = batch.activeBase - window->activeBase;
-  const BrickGroups bgroups = brickGroups(loaded);
   const std::uint64_t rowCount = std::uint64_t(loaded) * R * R;
   const std::uint64_t triangleSegmentCount = std::uint64_t(loaded) * B * B;
-  const std::uint32_t rowGroups = (R * R + wg - 1) / wg;
+  const Groups columnGroups = groupsFor(std::uint64_t(loaded) * R, wg);  // the row passes: a lane per column of rows
   s.fieldEvaluations += std::uint64_t(loaded) * P;
   s.fieldTiles = std::uint32_t(st.tiles.size());
   // The batch's bricks grouped by field tile (the identity with one tile), uploaded for brick_field.
@@ -326,8 +324,8 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     st.timer.mark(rec, mark + 1);
     {
       const std::uint32_t push[8] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded};
-      const BufferRange bind[6] = {st.masks, st.segments, st.cases, st.edges, st.vertexSegments, st.triangleSegments};
-      rec.dispatch(*device.kernel("brick_rows", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
+      const BufferRange bind[5] = {st.masks, st.segments, st.cases, st.vertexSegments, st.triangleSegments};
+      rec.dispatch(*device.kernel("brick_rows", wgSpec), bind, push, sizeof(push), columnGroups.x, columnGroups.y);
     }
     rec.computeBarrier();
     st.timer.mark(rec, mark + 2);
@@ -408,9 +406,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     st.timer.mark(rec, mark + 4);
     if (vertices || triangles) {
       const std::uint32_t push[9] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded, batch.ownActive};
-      const BufferRange bind[9] = {st.masks,          st.segments,   st.cases,        st.edges,        st.vertexSegments,
+      const BufferRange bind[8] = {st.masks,           st.segments,   st.cases,        st.vertexSegments,
                                    st.triangleSegments, vertexSources, triangleSources, st.pointWords};
-      rec.dispatch(*device.kernel("brick_sources", wgSpec), bind, push, sizeof(push), rowGroups, bgroups.y, bgroups.z);
+      rec.dispatch(*device.kernel("brick_sources", wgSpec), bind, push, sizeof(push), columnGroups.x, columnGroups.y);
     }
     rec.computeBarrier();
     st.timer.mark(rec, mark + 5);

@@ -204,7 +204,7 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
                                 std::uint64_t triangles, bool normals, bool colours) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
   const std::uint64_t perBrick = R * R * R * 8   // field, point words
-                                 + R * R * 24    // inside and edge masks (+ first vertex), vertex segments
+                                 + R * R * 8     // inside masks, vertex segments
                                  + B * B * 4     // triangle segments
                                  + 32 + 16       // neighbours, segment record
                                  + 4;            // place in the field tiles' order
