@@ -65,6 +65,19 @@ struct MaskColumn {
   uint m, my, mz, myz;  // rows (y, z), (y + 1, z), (y, z + 1), (y + 1, z + 1); the row itself past the brick
 };
 
+// The marching-cubes configuration of cell x of the step's row of cells (corner bits as the CPU
+// reference numbers them).
+uint cellConfig(MaskColumn c, uint x) {
+  return ((c.m >> x) & 3u) | (((c.my >> x) & 3u) << 2) | (((c.mz >> x) & 3u) << 4) | (((c.myz >> x) & 3u) << 6);
+}
+
+// Bit x: cell x of the step's row of cells has corners on both sides (configurations 0 and 255
+// have no triangle): not all of the corners x and x + 1 of the four rows inside, nor all outside.
+uint mixedCells(MaskColumn c) {
+  uint all4 = c.m & c.my & c.mz & c.myz, any4 = c.m | c.my | c.mz | c.myz;
+  return ~((all4 & (all4 >> 1)) | ~(any4 | (any4 >> 1)));
+}
+
 #ifdef MASKS_BINDING
 layout(std430, set = 0, binding = MASKS_BINDING) readonly buffer Masks { uint masks[]; };  // brick_field.comp
 

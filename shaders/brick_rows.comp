@@ -40,9 +40,11 @@ void main() {
     if (ly < B && lz < B) {
       uint triangles = 0u;
       if (gy < pc.cells.y && g0.z + lz < pc.cells.z) {
-        for (uint x = 0u; x < xEnd; ++x) {
-          uint config = ((c.m >> x) & 3u) | (((c.my >> x) & 3u) << 2) | (((c.mz >> x) & 3u) << 4) | (((c.myz >> x) & 3u) << 6);
-          triangles += cases[config].x;
+        // Only the cells with corners on both sides (brick_sources.comp): a surface crosses a few
+        // of a row's B cells, and a loop runs as long as its longest lane.
+        for (uint cells = mixedCells(c) & ((1u << xEnd) - 1u); cells != 0u; cells &= cells - 1u) {
+          uint x = findLSB(cells);
+          triangles += cases[cellConfig(c, x)].x;
         }
       }
       triangleSegments[segmentOf(seg, seg.z, B, ly, lz)] = triangles;

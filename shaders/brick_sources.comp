@@ -65,15 +65,10 @@ void main() {
     }
     if (!own || ly >= B || lz >= B || g0.y + ly >= pc.cells.y || g0.z + lz >= pc.cells.z) continue;
     uint t = triangleSegments[segmentOf(seg, seg.z, B, ly, lz)];
-    // Cells whose corners are not all inside or all outside (configurations 0 and 255 have no
-    // triangle): bit x of `inside` / `outside` is set when the cell's corners x and x + 1 of all
-    // four rows are inside / outside.
-    uint all4 = c.m & c.my & c.mz & c.myz, any4 = c.m | c.my | c.mz | c.myz;
-    uint inside = all4 & (all4 >> 1), outside = ~(any4 | (any4 >> 1));
     uint tag = ((ly + (lz << pc.cells.w)) << 15) | (faces << 23);
-    for (uint cells = ~(inside | outside) & ((1u << xEnd) - 1u); cells != 0u; cells &= cells - 1u) {
+    for (uint cells = mixedCells(c) & ((1u << xEnd) - 1u); cells != 0u; cells &= cells - 1u) {
       uint x = findLSB(cells);
-      uint config = ((c.m >> x) & 3u) | (((c.my >> x) & 3u) << 2) | (((c.mz >> x) & 3u) << 4) | (((c.myz >> x) & 3u) << 6);
+      uint config = cellConfig(c, x);
       uint n = cases[config].x;
       for (uint k = 0u; k < n; ++k) triangleSources[t++] = uvec2(a, config | (k << 8) | (x << 11) | tag);
     }
