@@ -367,9 +367,11 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   Buffer colours = make(options.colours ? std::uint64_t(vertices) * 12 : 16, "vertex colours");
   Buffer keys = make(std::uint64_t(vertices) * 8, "edge keys");
   const std::uint64_t cornerBytes = cornerKeys ? 24 : 12;  // per triangle: three indices or three edge keys
-  Buffer indices = make(std::uint64_t(triangles) * cornerBytes, "triangle indices");
+  // brick_triangles.comp runs a lane per four triangles: its buffers hold whole groups of four.
+  const std::uint64_t triangleQuads = (std::uint64_t(triangles) + 3) / 4;
+  Buffer indices = make(triangleQuads * 4 * cornerBytes, "triangle indices");
   Buffer vertexSources = make(std::uint64_t(vertices) * 8, "vertex sources");
-  Buffer triangleSources = make(std::uint64_t(triangles) * 8, "triangle sources");
+  Buffer triangleSources = make(triangleQuads * 4 * 8, "triangle sources");
   // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
   static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
   auto append = [](auto& vec, std::uint64_t count) {
@@ -442,7 +444,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     } else if (triangles) {
       const std::uint32_t push[3] = {bg.log2B, triangles, std::uint32_t(vertexBase)};
       const BufferRange bind[5] = {st.cases, st.pointWords, st.neighbours, triangleSources, indices};
-      const Groups g = groupsFor(triangles, wg);
+      const Groups g = groupsFor(triangleQuads, wg);
       rec.dispatch(*device.kernel("brick_triangles", wgSpec), bind, &push, sizeof(push), g.x, g.y);
     }
     rec.computeBarrier();
