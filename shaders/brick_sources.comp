@@ -53,24 +53,41 @@ void main() {
     uint r = lz * R + ly, row = rowBase + r;
     uvec3 e = ownedRowEdges(c.m, c.my, c.mz, pc.cells.xyz, g0, pc.cells.w, ly, lz);
     uint v = vertexSegments[segmentOf(seg, seg.y, R, ly, lz)];
-    for (uint points = e.x | e.y | e.z; points != 0u; points &= points - 1u) {
-      uint x = findLSB(points);
-      uint bits = ((e.x >> x) & 1u) | (((e.y >> x) & 1u) << 1) | (((e.z >> x) & 1u) << 2);
-      pointWords[row * R + x] = (v << 3) | bits;
-      if (!own) {
-        v += bitCount(bits);
-        continue;
+    // One loop over the row's vertices, not one over its points and one over each point's
+    // edges: llvmpipe runs a loop's body at least once, as long as its longest lane, and each
+    // store in it as a loop over the lanes.
+    uint pending = e.x | e.y | e.z;  // points whose vertices are still to come
+    uint count = bitCount(e.x) + bitCount(e.y) + bitCount(e.z);
+    uint x = 0u, bits = 0u;
+    for (uint i = 0u; i < count; ++i) {
+      if (bits == 0u) {  // the next point: its word, then its vertices in axis order
+        x = findLSB(pending);
+        pending &= pending - 1u;
+        bits = ((e.x >> x) & 1u) | (((e.y >> x) & 1u) << 1) | (((e.z >> x) & 1u) << 2);
+        pointWords[row * R + x] = (v << 3) | bits;
       }
-      for (; bits != 0u; bits &= bits - 1u) vertexSources[v++] = uvec2(a, (r << 7) | (x << 2) | uint(findLSB(bits)));
+      if (own) vertexSources[v] = uvec2(a, (r << 7) | (x << 2) | uint(findLSB(bits)));
+      ++v;
+      bits &= bits - 1u;
     }
     if (!own || ly >= B || lz >= B || g0.y + ly >= pc.cells.y || g0.z + lz >= pc.cells.z) continue;
     uint t = triangleSegments[segmentOf(seg, seg.z, B, ly, lz)];
     uint tag = ((ly + (lz << pc.cells.w)) << 15) | (faces << 23);
-    for (uint cells = mixedCells(c) & ((1u << xEnd) - 1u); cells != 0u; cells &= cells - 1u) {
-      uint x = findLSB(cells);
-      uint config = cellConfig(c, x);
-      uint n = cases[config].x;
-      for (uint k = 0u; k < n; ++k) triangleSources[t++] = uvec2(a, config | (k << 8) | (x << 11) | tag);
+    // One loop over the row's triangles, as over its vertices (the inner loop only moves to the
+    // next mixed cell: registers and a uniform gather, no storage access).
+    uint cells = mixedCells(c) & ((1u << xEnd) - 1u);
+    uint cx = 0u, config = 0u, k = 0u, n = 0u;
+    for (;;) {
+      while (k == n && cells != 0u) {
+        cx = findLSB(cells);
+        cells &= cells - 1u;
+        config = cellConfig(c, cx);
+        n = cases[config].x;
+        k = 0u;
+      }
+      if (k == n) break;
+      triangleSources[t++] = uvec2(a, config | (k << 8) | (cx << 11) | tag);
+      ++k;
     }
   }
 }
