@@ -7,15 +7,15 @@
 //  3. brick_field: the field at the (B+1)^3 points of each active brick only, one lane per row
 //     of points, and the row's inside bits packed in one word; brick_neighbours: each brick's
 //     upper neighbours and where its rows go in the global order (one record per brick);
-//  4. brick_rows: crossing edges (three bit masks) and vertex counts per row of points, triangle
-//     counts per row of cells, each at its position in the global order
-//     (shaders/brick_layout.glsl), two scans;
-//  5. brick_sources, per row: the row's first vertex, and where each of its vertices and
-//     triangles comes from;
-//  6. brick_vertices and brick_triangles, one lane per vertex and per triangle, no search.
+//  4. brick_rows: vertex counts per row of points (its owned crossing edges, from the inside
+//     masks), triangle counts per row of cells, each at its position in the global order
+//     (shaders/brick_layout.glsl), two scans; a lane per column of rows walking z;
+//  5. brick_sources, per row: each point's word (first vertex, crossing edges), and where each
+//     of its vertices and triangles comes from;
+//  6. brick_vertices, one lane per vertex, and brick_triangles, one lane per four triangles; no search.
 // Device memory follows the active bricks: besides 8 bytes per brick of the grid (in windows of
 // brick layers where they outgrow one storage buffer, ScanWindow), each active
-// brick holds one float per point of its (B+1)^3, 6 words per row of points, 1 per row of cells. The mesh equals
+// brick holds two words per point of its (B+1)^3 (sample, point word), 2 per row of points, 1 per row of cells. The mesh equals
 // cpu::polygonizeReference index by index (vertices in global edge-key order, triangles in cell
 // order) wherever the two classify the grid points alike.
 #pragma once
