@@ -11,6 +11,11 @@
 // brick_tiles.h), each with an evaluator pruned to its bricks. One work group spans a brick's rows
 // (R^2 rounded up to a vector of 8: few idle lanes, which llvmpipe would run through the whole
 // evaluator). The same point formula as GridSpec::point: origin + h * (i, j, k).
+// The samples (brick_layout.glsl, fieldIndex): a row's points x < B in a run of S = max(B, 4)
+// floats that starts on 16 bytes, stored four at a time as a vec4 (llvmpipe runs each store
+// instruction as a loop over the lanes, whatever its width: 5 stores a row of 17 instead of 17),
+// and its last point (x = B) in the tail at tailBase + row, through a second binding of the same
+// buffer.
 #extension GL_GOOGLE_include_directive : require
 #define EVALUATOR_FIELD_ONLY  // calls evaluateField alone (eval_program.glsl)
 #define PROGRAM_SET 0
@@ -19,9 +24,10 @@
 #include "common.glsl"
 
 layout(std430, set = 0, binding = 5) readonly buffer Bricks { uint bricks[]; };  // packed coordinates
-layout(std430, set = 0, binding = 6) writeonly buffer Field { float field[]; };
+layout(std430, set = 0, binding = 6) writeonly buffer FieldQuads { vec4 fieldQuads[]; };
 layout(std430, set = 0, binding = 7) writeonly buffer Masks { uint masks[]; };
 layout(std430, set = 0, binding = 8) readonly buffer Order { uint order[]; };  // batch brick numbers by tile
+layout(std430, set = 0, binding = 9) writeonly buffer FieldTail { float fieldTail[]; };  // binding 6's buffer
 
 #include "brick_layout.glsl"
 
@@ -31,6 +37,7 @@ layout(push_constant) uniform Push {
   uint activeBricks;  // bricks of this dispatch
   uint codeLength;
   uint orderBase;     // this dispatch's first entry of `order`
+  uint tailBase;      // where the rows' last samples start (floats)
 } pc;
 
 void main() {
@@ -42,12 +49,24 @@ void main() {
   uint z = divideSmall(r, R), y = r - z * R;
   uvec3 g = (unpackBrick(bricks[a]) << pc.log2B) + uvec3(0u, y, z);
   uint row = a * R * R + r;
+  uint B = R - 1u, S = max(B, 4u);
   uint m = 0u;
-  for (uint x = 0u; x < R; ++x) {
-    precise vec3 p = pc.originCell.xyz + pc.originCell.w * vec3(float(g.x + x), float(g.y), float(g.z));  // no fma
-    float f = evaluateField(p, pc.codeLength);
-    field[row * R + x] = f;
-    if (f >= ISO_VALUE) m |= 1u << x;
+  // Runs of four points, each evaluated in an inner loop (one call site of the evaluator: drivers
+  // inline every call) and stored as one vec4 while it lies in the row's run of S floats (for
+  // B = 2 the run holds all three points and a float of padding); with B >= 4 the last run is
+  // the row's last point alone, stored in the tail after the loop.
+  vec4 quad = vec4(0.0);
+  for (uint x0 = 0u; x0 < R; x0 += 4u) {
+    uint n = min(4u, R - x0);
+    for (uint j = 0u; j < n; ++j) {
+      uint x = x0 + j;
+      precise vec3 p = pc.originCell.xyz + pc.originCell.w * vec3(float(g.x + x), float(g.y), float(g.z));  // no fma
+      float f = evaluateField(p, pc.codeLength);
+      quad = vec4(j == 0u ? f : quad.x, j == 1u ? f : quad.y, j == 2u ? f : quad.z, j == 3u ? f : quad.w);
+      if (f >= ISO_VALUE) m |= 1u << x;
+    }
+    if (x0 < S) fieldQuads[(row * S + x0) >> 2] = quad;
   }
+  if (S < R) fieldTail[pc.tailBase + row] = quad.x;
   masks[row] = m;
 }

@@ -28,6 +28,14 @@ uint divideSmall(uint q, uint d) {
   return uint(quotient);
 }
 
+// The field samples of a batch (brick_field.comp writes them, the vertex kernels read them):
+// point x of row `row` (a * R * R + r) at row * S + x, S = max(B, 4) floats a row so that each
+// row starts on 16 bytes, and with B >= 4 the row's last point (x = B) at tailBase + row.
+uint fieldIndex(uint row, uint x, uint log2B, uint tailBase) {
+  uint S = max(1u << log2B, 4u);
+  return x < S ? row * S + x : tailBase + row;
+}
+
 uvec3 unpackBrick(uint packed) { return uvec3(packed & 0x3ffu, (packed >> 10) & 0x3ffu, packed >> 20); }
 
 // Vertices of a row of points before point x: e.x, e.y, e.z hold the row's crossing +x, +y, +z

@@ -24,6 +24,7 @@ layout(push_constant) uniform Push {
   uint log2B;
   uint vertices;    // the batch's vertex count
   uint nx, ny;      // grid points per axis (edge keys)
+  uint tailBase;    // the samples' tail (brick_layout.glsl, fieldIndex)
 } pc;
 
 #include "edge_vertex.glsl"
@@ -36,8 +37,11 @@ void main() {
   uint r = source.y >> 7, x0 = (source.y >> 2) & 31u, axis = source.y & 3u;
   uint lz = divideSmall(r, R), ly = r - lz * R;
   uvec3 g = (unpackBrick(bricks[source.x]) << pc.log2B) + uvec3(x0, ly, lz);
-  uint idx = (source.x * R * R + r) * R + x0;
-  emitEdgeVertex(v, g, axis, field[idx], field[idx + (axis == 0u ? 1u : (axis == 1u ? R : R * R))]);
+  uint row = source.x * R * R + r;
+  uint fa = fieldIndex(row, x0, pc.log2B, pc.tailBase);
+  uint fb = axis == 0u ? fieldIndex(row, x0 + 1u, pc.log2B, pc.tailBase)
+                       : fieldIndex(row + (axis == 1u ? 1u : R), x0, pc.log2B, pc.tailBase);
+  emitEdgeVertex(v, g, axis, field[fa], field[fb]);
   // Key = ((z * ny + y) * nx + x) * 3 + axis in 64 bits.
   uint khi, klo, carry;
   umulExtended(g.z * pc.ny + g.y, pc.nx, khi, klo);

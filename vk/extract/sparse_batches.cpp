@@ -37,7 +37,9 @@ BrickGroups brickGroups(std::uint32_t bricks) {
 
 std::uint64_t perBrickBytes(const BrickGrid& bricks) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
-  return R * R * R * 8   // field samples, point words
+  const std::uint64_t S = std::max<std::uint64_t>(B, 4);  // floats a row of samples takes (brick_field.comp)
+  return R * R * (S + 1) * 4  // field samples
+         + R * R * R * 4      // point words
          + R * R * 8       // inside masks, vertex segments
          + B * B * 4       // triangle segments
          + 32 + 16         // the brick's neighbours and its segment record
@@ -70,7 +72,9 @@ Buffer makeSparseBuffer(Device& device, std::uint64_t size, const char* what, st
 std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks) {
   const std::uint64_t R = (1ull << bricks.log2B) + 1;
   const std::uint64_t range = device.info().limits.maxStorageBufferRange;
-  return range / (R * R * R * 4);  // the field samples and point words: the largest per-brick arrays
+  const std::uint64_t S = std::max<std::uint64_t>(R - 1, 4);  // floats a row of samples takes
+  // The field samples (R^3 floats from B = 4 on) and point words: the largest per-brick arrays.
+  return range / (std::max(R * R * (S + 1), R * R * R) * 4);
 }
 
 std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uint32_t maxBatchBricks) {
@@ -133,6 +137,7 @@ struct SparseBatchRunner::State {
   Buffer batchBricks, field, pointWords, cases, masks, vertexSegments, triangleSegments, neighbours, segments, segmentScratch,
       counts, fieldOrder;
   std::uint64_t vertexScratch = 0;
+  std::uint64_t fieldTailBase = 0;   // floats before the samples' tail
   std::uint32_t fieldGroupSize = 0;  // brick_field's work group: one brick's rows of points
   // The field pass per tile of bricks, each kernel pruned to its tile (brick_tiles.h); one tile
   // with the program's kernel when the evaluator is not specialised or pruning gains too little.
@@ -165,7 +170,11 @@ struct SparseBatchRunner::State {
     const std::uint64_t maxRows = std::uint64_t(maxLoaded) * R * R, maxCellRows = std::uint64_t(maxLoaded) * B * B;
     auto make = [&](std::uint64_t size, const char* what) { return makeSparseBuffer(device, size, what, bytes); };
     batchBricks = make(std::uint64_t(maxLoaded) * 4, "batch brick list");
-    field = make(std::uint64_t(maxLoaded) * P * 4, "field samples");
+    // A row's samples: S = max(B, 4) floats from a 16-byte boundary, then (B >= 4) its last
+    // point in the tail after every row's run (brick_layout.glsl, fieldIndex).
+    const std::uint64_t S = std::max<std::uint64_t>(B, 4);
+    fieldTailBase = maxRows * S;
+    field = make(maxRows * (S + 1) * 4, "field samples");
     pointWords = make(std::uint64_t(maxLoaded) * P * 4, "point words");
     const std::vector<std::uint32_t>& words = caseTableUniform();
     bytes += words.size() * 4;
@@ -307,9 +316,12 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       if (count == 0) continue;
       struct {
         float originCell[4];
-        std::uint32_t log2B, activeBricks, codeLength, orderBase;
-      } push{{originCell[0], originCell[1], originCell[2], originCell[3]}, bg.log2B, count, gpu.codeLength, first};
-      const BufferRange bind[9] = {pb[0], pb[1], pb[2], pb[3], pb[4], st.batchBricks, st.field, st.masks, st.fieldOrder};
+        std::uint32_t log2B, activeBricks, codeLength, orderBase, tailBase;
+      } push{{originCell[0], originCell[1], originCell[2], originCell[3]}, bg.log2B, count, gpu.codeLength, first,
+             std::uint32_t(st.fieldTailBase)};
+      // Bindings 6 and 9: the samples' runs (vec4) and their tail (float), one buffer.
+      const BufferRange bind[10] = {pb[0],    pb[1],          pb[2], pb[3], pb[4], st.batchBricks, st.field, st.masks,
+                                    st.fieldOrder, st.field};
       const std::uint32_t groups = (R * R + st.fieldGroupSize - 1) / st.fieldGroupSize;
       const BrickGroups tg = brickGroups(count);
       rec.dispatch(*st.fieldKernels[t], bind, &push, sizeof(push), groups, tg.y, tg.z);
@@ -419,7 +431,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
         float originCell[4];
         std::uint32_t codeLength, refineSteps, attributes;
         float normalStep;
-        std::uint32_t log2B, vertices, nx, ny;
+        std::uint32_t log2B, vertices, nx, ny, tailBase;
       } push{{originCell[0], originCell[1], originCell[2], originCell[3]},
              gpu.codeLength,
              std::uint32_t(std::max(options.refineSteps, 0)),
@@ -428,7 +440,8 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
              bg.log2B,
              vertices,
              std::uint32_t(st.grid.cells.x + 1),
-             std::uint32_t(st.grid.cells.y + 1)};
+             std::uint32_t(st.grid.cells.y + 1),
+             std::uint32_t(st.fieldTailBase)};
       const BufferRange bind[12] = {pb[0],    pb[1],          pb[2],         pb[3],     pb[4],   st.field,
                                     st.batchBricks, vertexSources, positions, normals, colours, keys};
       const Groups g = groupsFor(vertices, wg);
