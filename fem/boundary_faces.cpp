@@ -76,6 +76,10 @@ void BoundaryFaceSet::build(std::vector<Face>& faces) {
   std::stable_sort(entries.begin(), entries.end(), [](const auto& x, const auto& y) { return keyLess(x.first, y.first); });
   const auto sameFace = [](const auto& x, const auto& y) { return sameKey(x.first, y.first); };
   entries.erase(std::unique(entries.begin(), entries.end(), sameFace), entries.end());
+  // Spare room so that the in-place edits of later cuts rarely reallocate.
+  const std::size_t room = entries.size() + entries.size() / 4 + 256;
+  keys_.reserve(room);
+  faces.reserve(room);
   keys_.resize(entries.size());
   faces.resize(entries.size());
   for (std::size_t i = 0; i < entries.size(); ++i) {
@@ -151,36 +155,61 @@ void BoundaryFaceSet::update(const std::vector<Tet>& removed, const std::vector<
   applyEdits(faces);
 }
 
-// One merge pass of the sorted edits into the sorted list, into scratch arrays that are then
-// swapped in (element by element: edits come ~1,000 per event, too many for a copy call each).
+// Edits in place, in two passes that only move the stretches between edits (memmove of runs,
+// no per-face comparison): erases close their gaps front to back, then inserts open theirs back
+// to front, so neither pass overwrites a face it has yet to move. Positions come from binary
+// searches, each starting where the previous edit was found (edits are sorted). What is untouched
+// is the list before the first edit; the moves cost a copy of the tail after it, no compare.
 void BoundaryFaceSet::applyEdits(std::vector<Face>& faces) {
   if (edits_.empty()) return;
   std::sort(edits_.begin(), edits_.end(), [](const Edit& x, const Edit& y) { return keyLess(x.key, y.key); });
-  scratchKeys_.resize(keys_.size() + edits_.size());
-  scratchFaces_.resize(keys_.size() + edits_.size());
-  std::size_t from = 0, out = 0;
+  // Erases: each listed face's position, then shift the runs between them left.
+  positions_.clear();
+  std::size_t from = 0;
   for (const Edit& e : edits_) {
-    while (from < keys_.size() && keyLess(keys_[from], e.key)) {
-      scratchKeys_[out] = keys_[from];
-      scratchFaces_[out++] = faces[from++];
-    }
-    if (e.insert) {
-      scratchKeys_[out] = e.key;
-      scratchFaces_[out++] = e.oriented;
-    } else {
-      if (from == keys_.size() || !sameKey(keys_[from], e.key))
-        throw std::logic_error("boundary faces: erasing a face that is not listed");
-      ++from;
-    }
+    if (e.insert) continue;
+    from = std::size_t(std::lower_bound(keys_.begin() + std::ptrdiff_t(from), keys_.end(), e.key, keyLess) - keys_.begin());
+    if (from == keys_.size() || !sameKey(keys_[from], e.key))
+      throw std::logic_error("boundary faces: erasing a face that is not listed");
+    positions_.push_back(from++);
   }
-  for (; from < keys_.size(); ++from) {
-    scratchKeys_[out] = keys_[from];
-    scratchFaces_[out++] = faces[from];
+  if (!positions_.empty()) {
+    std::size_t out = positions_[0];
+    for (std::size_t j = 0; j < positions_.size(); ++j) {
+      const std::size_t runBegin = positions_[j] + 1;
+      const std::size_t runEnd = j + 1 < positions_.size() ? positions_[j + 1] : keys_.size();
+      std::copy(keys_.begin() + std::ptrdiff_t(runBegin), keys_.begin() + std::ptrdiff_t(runEnd), keys_.begin() + std::ptrdiff_t(out));
+      std::copy(faces.begin() + std::ptrdiff_t(runBegin), faces.begin() + std::ptrdiff_t(runEnd), faces.begin() + std::ptrdiff_t(out));
+      out += runEnd - runBegin;
+    }
+    keys_.resize(out);
+    faces.resize(out);
   }
-  scratchKeys_.resize(out);
-  scratchFaces_.resize(out);
-  std::swap(keys_, scratchKeys_);
-  std::swap(faces, scratchFaces_);
+  // Inserts: positions in the list after the erases (no insert's key is listed), then shift
+  // the runs right, last first, each insert landing in the gap in front of its run.
+  positions_.clear();
+  from = 0;
+  for (const Edit& e : edits_) {
+    if (!e.insert) continue;
+    from = std::size_t(std::lower_bound(keys_.begin() + std::ptrdiff_t(from), keys_.end(), e.key, keyLess) - keys_.begin());
+    positions_.push_back(from);
+  }
+  if (positions_.empty()) return;
+  const std::size_t oldSize = keys_.size();
+  keys_.resize(oldSize + positions_.size());
+  faces.resize(oldSize + positions_.size());
+  std::size_t runEnd = oldSize, insertIndex = positions_.size();
+  for (std::size_t j = edits_.size(); j-- > 0;) {
+    const Edit& e = edits_[j];
+    if (!e.insert) continue;
+    const std::size_t at = positions_[--insertIndex];
+    const std::size_t shift = insertIndex + 1;  // inserts at or before this one
+    std::copy_backward(keys_.begin() + std::ptrdiff_t(at), keys_.begin() + std::ptrdiff_t(runEnd), keys_.begin() + std::ptrdiff_t(runEnd + shift));
+    std::copy_backward(faces.begin() + std::ptrdiff_t(at), faces.begin() + std::ptrdiff_t(runEnd), faces.begin() + std::ptrdiff_t(runEnd + shift));
+    keys_[at + insertIndex] = e.key;
+    faces[at + insertIndex] = e.oriented;
+    runEnd = at;
+  }
 }
 
 }  // namespace blobvk::fem

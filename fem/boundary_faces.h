@@ -29,8 +29,8 @@ class BoundaryFaceSet {
   // removed plus added. That holds for conforming meshes (a face has at most two tets), which
   // meshers and cuts produce; the few faces where it cannot decide (a new face between old
   // nodes, a face left to an untouched tet) and every face when slots repeat are re-counted
-  // from the incidence rows. Cost: O(faces of the change), plus one merge pass over `faces`
-  // (a streaming copy) when faces appear or vanish.
+  // from the incidence rows. Cost: O(faces of the change), plus, when faces appear or vanish,
+  // in-place moves of the list after the first edit (memmove of runs, no per-face work).
   void update(const std::vector<Tet>& removed, const std::vector<Tet>& added, bool addedAreFinal,
               std::uint32_t firstNewNode, const NodeIncidence& incidence, std::vector<Face>& faces);
 
@@ -53,7 +53,7 @@ class BoundaryFaceSet {
   std::vector<KeyState> states_;
   std::vector<std::uint32_t> table_;  // 0 = empty, else 1 + index into states_
   std::vector<Edit> edits_;
-  std::vector<Face> scratchKeys_, scratchFaces_;
+  std::vector<std::size_t> positions_;  // of the erases, then of the inserts, in applyEdits
 };
 
 }  // namespace blobvk::fem
