@@ -7,6 +7,7 @@
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/mesh/trimesh.h"
+#include "shipped_scenes.h"
 
 #include <gtest/gtest.h>
 
@@ -74,5 +75,15 @@ inline void expectSameMeshWithin(const mesh::TriMesh& a, const mesh::TriMesh& b,
 // Vertex tolerance of a GPU mesh against the CPU reference, in cells: lavapipe's division and
 // sqrt are IEEE; other drivers' sqrt, division, sin/cos and pow are not (docs/vulkan.md).
 inline float referenceToleranceCells(bool cpuDevice) { return cpuDevice ? 1e-4f : 1e-2f; }
+
+// Every array of `m` byte for byte that of `one` (another split of the same job: batches, windows,
+// devices), naming `what` on a difference.
+inline void expectSameBytes(const mesh::TriMesh& m, const mesh::TriMesh& one, const std::string& what) {
+  EXPECT_TRUE(sameBytes(m.positions, one.positions)) << what;
+  EXPECT_TRUE(sameBytes(m.normals, one.normals)) << what;
+  EXPECT_TRUE(sameBytes(m.colours, one.colours)) << what;
+  EXPECT_TRUE(sameBytes(m.edgeKeys, one.edgeKeys)) << what;
+  EXPECT_TRUE(sameBytes(m.triangles, one.triangles)) << what;
+}
 
 }  // namespace blobvk::testing

@@ -26,15 +26,6 @@
 namespace blobvk::testing {
 namespace {
 
-
-void expectSameBytes(const mesh::TriMesh& m, const mesh::TriMesh& one, const std::string& what) {
-  EXPECT_TRUE(sameBytes(m.positions, one.positions)) << what;
-  EXPECT_TRUE(sameBytes(m.normals, one.normals)) << what;
-  EXPECT_TRUE(sameBytes(m.colours, one.colours)) << what;
-  EXPECT_TRUE(sameBytes(m.edgeKeys, one.edgeKeys)) << what;
-  EXPECT_TRUE(sameBytes(m.triangles, one.triangles)) << what;
-}
-
 // The fixture's device plus two more contexts on the same physical device (each its own
 // instance, VkDevice, pipelines and buffers), validated like the fixture's.
 class MultiDeviceTest : public VulkanTest {

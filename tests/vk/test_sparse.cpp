@@ -146,11 +146,7 @@ TEST_F(VulkanTest, BatchesOfBrickLayersGiveTheSameBytes) {
       const std::string what = std::string(name) + ", batches of " + std::to_string(batchBricks) + " bricks";
       EXPECT_GT(st.batches, 1u) << what;
       EXPECT_EQ(st.submits, 1 + 2 * st.batches) << what;
-      EXPECT_TRUE(sameBytes(m.positions, whole.positions)) << what;
-      EXPECT_TRUE(sameBytes(m.normals, whole.normals)) << what;
-      EXPECT_TRUE(sameBytes(m.colours, whole.colours)) << what;
-      EXPECT_TRUE(sameBytes(m.edgeKeys, whole.edgeKeys)) << what;
-      EXPECT_TRUE(sameBytes(m.triangles, whole.triangles)) << what;
+      expectSameBytes(m, whole, what);
     }
   }
 }
@@ -190,11 +186,7 @@ TEST_F(VulkanTest, WindowsOfTheBrickTablesGiveTheSameBytes) {
         const auto m = vk::polygonize(device(), sc.program, sc.grid, o, &st);
         EXPECT_EQ(st.submits, tables.windows.size() + 2 * st.batches) << what;
         EXPECT_GE(st.batches, tables.windows.size() - 2) << what << ": a batch crossed a window";
-        EXPECT_TRUE(sameBytes(m.positions, whole.positions)) << what;
-        EXPECT_TRUE(sameBytes(m.normals, whole.normals)) << what;
-        EXPECT_TRUE(sameBytes(m.colours, whole.colours)) << what;
-        EXPECT_TRUE(sameBytes(m.edgeKeys, whole.edgeKeys)) << what;
-        EXPECT_TRUE(sameBytes(m.triangles, whole.triangles)) << what;
+        expectSameBytes(m, whole, what);
       }
     }
   }
@@ -223,11 +215,7 @@ TEST_F(VulkanTest, KeyedCornerBatchesGiveTheSameBytes) {
       vk::GpuStats st;
       const auto m = vk::polygonize(device(), sc.program, sc.grid, o, &st);
       EXPECT_EQ(st.batches, layers) << what;
-      EXPECT_TRUE(sameBytes(m.positions, whole.positions)) << what;
-      EXPECT_TRUE(sameBytes(m.normals, whole.normals)) << what;
-      EXPECT_TRUE(sameBytes(m.colours, whole.colours)) << what;
-      EXPECT_TRUE(sameBytes(m.edgeKeys, whole.edgeKeys)) << what;
-      EXPECT_TRUE(sameBytes(m.triangles, whole.triangles)) << what;
+      expectSameBytes(m, whole, what);
     }
   }
 }
