@@ -274,10 +274,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const std::uint32_t run = st.runs++, mark = kMarks * run, loaded = batch.loadedActive;
   // The window of the brick tables holding the batch's layers, and the batch's first active brick
   // counted from the window's.
-  const ScanWindow* window = nullptr;
-  for (const ScanWindow& w : st.windows)
-    if (!window && w.firstLayer <= batch.firstLayer && batch.endLayer <= w.endLayer) window = &w;
-  if (!window) throw VulkanError("GPU polygonizer: a batch's brick layers lie in no window of the brick tables");
+  const ScanWindow* window = &windowHolding(st.windows, batch.firstLayer, batch.endLayer);
   const std::uint32_t windowActive = batch.activeBase - window->activeBase;
   const std::uint64_t rowCount = std::uint64_t(loaded) * R * R;
   const std::uint64_t triangleSegmentCount = std::uint64_t(loaded) * B * B;

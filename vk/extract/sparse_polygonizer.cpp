@@ -9,12 +9,13 @@
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/scan.h"
 
-#include <algorithm>
-#include <span>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+
+#include <algorithm>
 #include <bit>
 #include <chrono>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -313,7 +314,7 @@ GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options)
   return resolved;
 }
 
-const ScanWindow& ClassifiedBricks::window(std::uint32_t firstLayer, std::uint32_t endLayer) const {
+const ScanWindow& windowHolding(std::span<const ScanWindow> windows, std::uint32_t firstLayer, std::uint32_t endLayer) {
   for (const ScanWindow& w : windows)
     if (w.firstLayer <= firstLayer && endLayer <= w.endLayer) return w;
   throw VulkanError("GPU polygonizer: no window of the brick tables holds brick layers " + std::to_string(firstLayer) +
@@ -394,15 +395,15 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
                      (listEnd - first + 3) / 4);
       }
       // The layers' first bricks, counted from the window's first: its own layers and the next.
-      for (std::uint32_t z = first; z <= std::min(end + 1, layers); ++z)
+      for (std::uint32_t z = first; z <= listEnd; ++z)
         rec.copy(w.scan, 4ull * (z - first) * layerBricks, layerStarts, 4ull * z, 4);
       timer.mark(rec, 2 * std::uint32_t(k) + 1);
       rec.hostBarrier();
     });
     ++s.submits;
-    std::vector<std::uint32_t> starts(std::min(end + 1, layers) + 1 - first);
+    std::vector<std::uint32_t> starts(listEnd + 1 - first);
     device.download(layerStarts, starts.data(), starts.size() * 4, 4ull * first);
-    for (std::uint32_t z = first; z <= std::min(end + 1, layers); ++z) c.layerStarts[z] = activeBase + starts[z - first];
+    for (std::uint32_t z = first; z <= listEnd; ++z) c.layerStarts[z] = activeBase + starts[z - first];
     activeBase = c.layerStarts[end];
     c.windows.push_back(std::move(w));
   }
@@ -450,20 +451,24 @@ namespace {
 // found by a binary search in the batch's keys, else in the next batch's.
 struct KeyedCorners {
   bool pending = false;
-  std::vector<std::uint64_t> corners, keys;
-  std::uint64_t firstVertex = 0;  // the batch's first vertex in the mesh
-  std::size_t firstTriangle = 0;  // its first triangle in the mesh that holds it
+  std::vector<std::uint64_t> corners;
+  std::size_t firstKey = 0, keyCount = 0;  // the batch's vertices in the mesh that holds them
+  std::uint64_t firstVertex = 0;           // the batch's first vertex in the whole mesh
+  std::size_t firstTriangle = 0;           // its first triangle in the mesh that holds it
 
-  void hold(std::vector<std::uint64_t> c, std::span<const std::uint64_t> k, std::uint64_t first, std::size_t at) {
+  void hold(std::vector<std::uint64_t> c, std::size_t keyAt, std::size_t keys, std::uint64_t first, std::size_t at) {
     corners = std::move(c);
-    keys.assign(k.begin(), k.end());
+    firstKey = keyAt;
+    keyCount = keys;
     firstVertex = first;
     firstTriangle = at;
     pending = true;
   }
-  // Writes the held triangles at firstTriangle of `triangles`; `next` are the next batch's keys.
-  void resolve(std::vector<std::array<std::uint32_t, 3>>& triangles, std::span<const std::uint64_t> next) {
-    const std::uint64_t nextFirst = firstVertex + keys.size();
+  // Writes the held triangles into `held` (the mesh holding the batch); `next` are the next
+  // batch's keys.
+  void resolve(mesh::TriMesh& held, std::span<const std::uint64_t> next) {
+    const std::span<const std::uint64_t> keys(held.edgeKeys.data() + firstKey, keyCount);
+    const std::uint64_t nextFirst = firstVertex + keyCount;
     auto indexOf = [&](std::uint64_t key) -> std::uint32_t {
       if (auto it = std::lower_bound(keys.begin(), keys.end(), key); it != keys.end() && *it == key)
         return std::uint32_t(firstVertex + std::uint64_t(it - keys.begin()));
@@ -473,6 +478,7 @@ struct KeyedCorners {
                         " is no vertex of its brick layer or the next");
     };
     const std::size_t count = corners.size() / 3;
+    auto& triangles = held.triangles;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
       for (std::size_t t = r.begin(); t < r.end(); ++t)
         triangles[firstTriangle + t] = {indexOf(corners[3 * t]), indexOf(corners[3 * t + 1]), indexOf(corners[3 * t + 2])};
@@ -515,14 +521,14 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
       const bool keyed = batches[i].keyedCorners;
       std::vector<std::uint64_t> corners;
       runner.run(batches[i], vertexBase, into, s, keyed ? &corners : nullptr);
-      const std::span<const std::uint64_t> keys(into.edgeKeys.data() + before, into.positions.size() - before);
-      if (waiting.pending) waiting.resolve(sink.meshOf(i - 1).triangles, keys);
+      const std::size_t added = into.positions.size() - before;
+      if (waiting.pending) waiting.resolve(sink.meshOf(i - 1), {into.edgeKeys.data() + before, added});
       if (keyed) {
         into.triangles.resize(trianglesBefore + corners.size() / 3);
-        waiting.hold(std::move(corners), keys, vertexBase, trianglesBefore);
-        if (i + 1 == batches.size()) waiting.resolve(into.triangles, {});
+        waiting.hold(std::move(corners), before, added, vertexBase, trianglesBefore);
+        if (i + 1 == batches.size()) waiting.resolve(into, {});
       }
-      vertexBase += into.positions.size() - before;
+      vertexBase += added;
       if (sink.done) sink.done(i, batches.size());
     }
     runner.deviceTimes(s);

@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <vector>
 
 namespace blobvk::vk {
@@ -106,6 +107,9 @@ struct ScanWindow {
   Buffer list;
 };
 
+// The window of `windows` holding brick layers [firstLayer, endLayer); throws when none does.
+const ScanWindow& windowHolding(std::span<const ScanWindow> windows, std::uint32_t firstLayer, std::uint32_t endLayer);
+
 // Steps 1-2: the bricks classified and compacted on `device`, one submit per window of brick
 // layers (at most `windowLayers` each; 0: as many as one storage buffer holds); the coarser levels
 // of bricks run once, in the first. The tables stay on the device for the batches;
@@ -120,8 +124,6 @@ struct ClassifiedBricks {
   std::vector<ScanWindow> windows;
   std::vector<std::uint32_t> layerStarts;
   std::uint64_t bytes = 0;  // device memory of the classification's buffers
-  // The window holding brick layers [firstLayer, endLayer); throws when none does.
-  const ScanWindow& window(std::uint32_t firstLayer, std::uint32_t endLayer) const;
   // Where batches must end: each window's end layer but the last.
   std::vector<std::uint32_t> windowEnds() const;
   // Active bricks [first, first + count) read back from the windows' lists, packed.
@@ -149,8 +151,8 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
 // called with the batch's number and the batch count. polygonizeSparse keeps one mesh; the
 // streamed extraction (streamed_extract.h) hands each batch on and drops it. A batch with keyed
 // corners (sparse_batches.h) appends its triangles as placeholders, filled in before the next
-// batch's `done`: `meshOf(batch)` must then still give the mesh that holds them (the last batch's
-// or the one before), where they start at the size its triangles had before the batch.
+// batch's `done`: `meshOf(batch)` must then still give the mesh that holds them and the batch's
+// vertex edge keys (the last batch's or the one before), each where the batch began appending.
 struct SparseBatchSink {
   std::function<mesh::TriMesh&()> into;
   std::function<void(std::size_t batch, std::size_t batches)> done;
