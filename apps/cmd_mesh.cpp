@@ -85,6 +85,10 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
   cmd->add_option("--traversal", a->settings.traversal, "vk: auto (default: the cost model picks per job), specialised, stackless or stack")
       ->check(CLI::IsMember(traversalNames()));
+  cmd->add_option("--brick-cells", a->settings.brickCells,
+                  "vk: cells per brick edge of the sparse extraction, 2 to 16, a power of two (0 = default: 16, halved "
+                  "while a pair of brick layers outgrows a storage buffer); the mesh does not depend on it")
+      ->check(CLI::IsMember({0, 2, 4, 8, 16}));
   cmd->add_option("--field-tiles", a->settings.fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")
       ->check(CLI::Range(1, 256));

@@ -27,6 +27,7 @@ layout(push_constant) uniform Push {
   // at 0. first.w: the brick (linear index) whose flag is activeFlags[0]; end.w: the flags' last
   // word (0, so that an exclusive scan ends with the active count), written by brick first.w.
   uvec4 first, end;
+  uint parentBase;          // the parent brick (linear index) whose flag is parentFlags[0]
 } pc;
 
 const float INF = 1.0 / 0.0;  // +infinity
@@ -234,7 +235,7 @@ void main() {
   if (brick == 0u) activeFlags[pc.end.w] = 0u;
   if (pc.parents.w != 0u) {
     uvec3 q = b >> 1u;
-    if (parentFlags[(q.z * pc.parents.y + q.y) * pc.parents.x + q.x] == 0u) {
+    if (parentFlags[(q.z * pc.parents.y + q.y) * pc.parents.x + q.x - pc.parentBase] == 0u) {
       activeFlags[brick] = 0u;
       return;
     }

@@ -1,8 +1,9 @@
 #version 450
 // Sparse extraction, pass 2 (after the exclusive scan of brick_classify's flags): the list of
-// active bricks, each at its number brickScan[brick], as packed coordinates (x | y << 10 | z << 20).
+// active bricks, each at its number brickScan[brick], as packed coordinates (brick_layout.glsl, packBrick).
 // Written in place of an append, so the list is in (bz, by, bx) order whatever the scheduling.
 #extension GL_GOOGLE_include_directive : require
+#include "brick_layout.glsl"
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
@@ -20,5 +21,5 @@ void main() {
   if (any(greaterThanEqual(b, uvec3(pc.bricks.xy, pc.endLayer)))) return;
   uint brick = (b.z * pc.bricks.y + b.y) * pc.bricks.x + b.x - pc.scanBase;
   uint number = brickScan[brick];
-  if (brickScan[brick + 1u] != number) bricks[number] = b.x | (b.y << 10) | (b.z << 20);
+  if (brickScan[brick + 1u] != number) bricks[number] = packBrick(b, pc.bricks.xy);
 }

@@ -38,6 +38,7 @@ layout(push_constant) uniform Push {
   uint codeLength;
   uint orderBase;     // this dispatch's first entry of `order`
   uint tailBase;      // where the rows' last samples start (floats)
+  uint bricksX, bricksY;  // bricks along x and y (packed brick coordinates)
 } pc;
 
 void main() {
@@ -47,7 +48,7 @@ void main() {
   if (r >= R * R || i >= pc.activeBricks) return;
   uint a = order[pc.orderBase + i];
   uint z = divideSmall(r, R), y = r - z * R;
-  uvec3 g = (unpackBrick(bricks[a]) << pc.log2B) + uvec3(0u, y, z);
+  uvec3 g = (unpackBrick(bricks[a], uvec2(pc.bricksX, pc.bricksY)) << pc.log2B) + uvec3(0u, y, z);
   uint row = a * R * R + r;
   uint B = R - 1u, S = max(B, 4u);
   uint m = 0u;

@@ -36,7 +36,21 @@ uint fieldIndex(uint row, uint x, uint log2B, uint tailBase) {
   return x < S ? row * S + x : tailBase + row;
 }
 
-uvec3 unpackBrick(uint packed) { return uvec3(packed & 0x3ffu, (packed >> 10) & 0x3ffu, packed >> 20); }
+// Active bricks are listed by packed coordinates x | y << bx | z << (bx + by), bx and by the bits
+// that the grid's bricks along x and y need (vk::BrickGrid::pack): any grid of at most 2^32 bricks
+// packs in one word, however its bricks share out over the axes (4096^3 cells of a tall model in
+// bricks of 4^3 takes 1025 bricks along one axis and fewer along the others).
+uint brickBits(uint bricksOnAxis) { return uint(findMSB(bricksOnAxis - 1u) + 1); }  // findMSB(0) = -1
+uint packBrick(uvec3 b, uvec2 bricksXY) {
+  uint bx = brickBits(bricksXY.x), by = brickBits(bricksXY.y);
+  return b.x | (b.y << bx) | (b.z << (bx + by));
+}
+uvec3 unpackBrick(uint packed, uvec2 bricksXY) {
+  uint bx = brickBits(bricksXY.x), by = brickBits(bricksXY.y);
+  return uvec3(packed & ((1u << bx) - 1u), (packed >> bx) & ((1u << by) - 1u), packed >> (bx + by));
+}
+// Bricks along x and y of a grid of `points` points per axis (edge keys): ceil(cells / B).
+uvec2 bricksOfPoints(uvec2 points, uint log2B) { return (points + (1u << log2B) - 2u) >> log2B; }
 
 // Vertices of a row of points before point x: e.x, e.y, e.z hold the row's crossing +x, +y, +z
 // edges (bit x: point x's edge), and a point's vertices follow in axis order.

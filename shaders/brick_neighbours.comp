@@ -27,7 +27,7 @@ void main() {
   uint a = linearInvocation();
   if (a >= pc.bricks.w) return;
   uint coords = bricks[a];
-  uvec3 b = unpackBrick(coords);
+  uvec3 b = unpackBrick(coords, pc.bricks.xy);
   for (uint k = 0u; k < 8u; ++k) {
     uvec3 n = b + uvec3(k & 1u, (k >> 1) & 1u, k >> 2);
     uint number = 0xffffffffu;

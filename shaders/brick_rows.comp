@@ -28,7 +28,7 @@ void main() {
   if (column >= pc.bricks.w * R) return;
   uint a = column / R, ly = column - a * R;
   uvec4 seg = segments[a];
-  uvec3 g0 = unpackBrick(seg.x) << pc.cells.w;
+  uvec3 g0 = unpackBrick(seg.x, pc.bricks.xy) << pc.cells.w;
   uint gy = g0.y + ly;
   uint xEnd = min(pc.cells.x - g0.x, B);
   uint rowBase = a * R * R;

@@ -39,7 +39,7 @@ void main() {
   if (column >= pc.bricks.w * R) return;
   uint a = column / R, ly = column - a * R;
   uvec4 seg = segments[a];
-  uvec3 b = unpackBrick(seg.x);
+  uvec3 b = unpackBrick(seg.x, pc.bricks.xy);
   uvec3 g0 = b << pc.cells.w;
   // The next layer's bricks (a >= ownActive) get their point words alone: this batch's triangles
   // of its last layer use the vertices on their lower faces.

@@ -26,7 +26,7 @@ void main() {
   uvec2 source = triangleSources[t];
   uint a = source.x, k = (source.y >> 8) & 7u, x = (source.y >> 11) & 15u, cellRow = (source.y >> 15) & 255u;
   uint B = 1u << pc.log2B;
-  uvec3 cell = (unpackBrick(bricks[a]) << pc.log2B) + uvec3(x, cellRow & (B - 1u), cellRow >> pc.log2B);
+  uvec3 cell = (unpackBrick(bricks[a], bricksOfPoints(uvec2(pc.nx, pc.ny), pc.log2B)) << pc.log2B) + uvec3(x, cellRow & (B - 1u), cellRow >> pc.log2B);
   uvec4 entry = cases[source.y & 255u];
   for (uint i = 0u; i < 3u; ++i) {
     uint e = caseEdge(entry, k * 3u + i);

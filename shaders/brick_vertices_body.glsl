@@ -36,7 +36,7 @@ void main() {
   uint R = (1u << pc.log2B) + 1u;
   uint r = source.y >> 7, x0 = (source.y >> 2) & 31u, axis = source.y & 3u;
   uint lz = divideSmall(r, R), ly = r - lz * R;
-  uvec3 g = (unpackBrick(bricks[source.x]) << pc.log2B) + uvec3(x0, ly, lz);
+  uvec3 g = (unpackBrick(bricks[source.x], bricksOfPoints(uvec2(pc.nx, pc.ny), pc.log2B)) << pc.log2B) + uvec3(x0, ly, lz);
   uint row = source.x * R * R + r;
   uint fa = fieldIndex(row, x0, pc.log2B, pc.tailBase);
   uint fb = axis == 0u ? fieldIndex(row, x0 + 1u, pc.log2B, pc.tailBase)

@@ -3,6 +3,7 @@
 // meshes evaluated with kernels pruned per tile are the CPU reference's and, byte for byte, those
 // of one unpruned kernel.
 #include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/polygonize.h"
@@ -14,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -27,7 +29,33 @@ bool regionHolds(const vk::PointRegion& r, const glm::vec3& p) {
   return true;
 }
 
-std::uint32_t packBrick(std::uint32_t x, std::uint32_t y, std::uint32_t z) { return x | (y << 10) | (z << 20); }
+// Packed brick coordinates take the bits each axis's brick count needs: the tower at 4096³ in
+// bricks of 4³ (2337 x 4098 x 2337 cells: 585 x 1025 x 585 bricks) packs in 10 + 11 + 10 bits and
+// every corner of its brick box round-trips; a cube of 1025³ bricks (33 bits), 2048 bricks along x
+// (a segment record's row count) and a layer of 2^21 bricks are refused, naming the limit.
+TEST(BrickGridPacking, EachAxisTakesTheBitsItsBricksNeed) {
+  blobtree::GridSpec grid;
+  grid.cells = {2337, 4098, 2337};
+  const vk::BrickGrid tower = vk::brickGridFor(grid, 4);
+  ASSERT_EQ(tower.x, 585u);
+  ASSERT_EQ(tower.y, 1025u);
+  EXPECT_EQ(tower.bitsX() + tower.bitsY() + tower.bitsZ(), 31u);
+  for (std::uint32_t c = 0; c < 8; ++c) {
+    const std::array<std::uint32_t, 3> b{c & 1 ? tower.x - 1 : 0, c & 2 ? tower.y - 1 : 0, c & 4 ? tower.z - 1 : 0};
+    EXPECT_EQ(tower.unpack(tower.pack(b)), b);
+  }
+  const std::array<std::uint32_t, 3> inner{300, 1024, 17};
+  EXPECT_EQ(tower.unpack(tower.pack(inner)), inner);
+  for (const glm::ivec3 cells : {glm::ivec3(4098, 4098, 4098), glm::ivec3(8192, 4, 4), glm::ivec3(4096, 8192, 4)}) {
+    grid.cells = cells;
+    try {
+      vk::brickGridFor(grid, 4);
+      ADD_FAILURE() << cells.x << " x " << cells.y << " x " << cells.z << " cells in bricks of 4 were accepted";
+    } catch (const vk::VulkanError& e) {
+      EXPECT_NE(std::string(e.what()).find("use larger bricks"), std::string::npos) << e.what();
+    }
+  }
+}
 
 TEST(BrickTiles, CoverEveryBrickOnceWithRegionsHoldingTheirPoints) {
   for (const char* name : {"tower", "random128"}) {
@@ -43,6 +71,7 @@ TEST(BrickTiles, CoverEveryBrickOnceWithRegionsHoldingTheirPoints) {
       for (const auto& t : tiles) cheaper += vk::prunedEvaluationCost(sc.program, t.region) < whole ? 1u : 0u;
       EXPECT_GT(cheaper, 0u) << what;
       std::vector<std::uint32_t> packed;
+      std::vector<std::array<std::uint32_t, 3>> coords;  // of each packed brick
       for (std::uint32_t z = 0; z < bg.z; ++z)
         for (std::uint32_t y = 0; y < bg.y; ++y)
           for (std::uint32_t x = 0; x < bg.x; ++x) {
@@ -59,9 +88,12 @@ TEST(BrickTiles, CoverEveryBrickOnceWithRegionsHoldingTheirPoints) {
               }
             }
             EXPECT_EQ(holders, 1u) << what << " brick " << x << "," << y << "," << z;
-            if ((x + y + z) % 3 == 0) packed.push_back(packBrick(x, y, z));  // a sparse batch
+            if ((x + y + z) % 3 == 0) {  // a sparse batch
+              packed.push_back(bg.pack({x, y, z}));
+              coords.push_back({x, y, z});
+            }
           }
-      const vk::BrickTileOrder order = vk::orderBricksByTile(tiles, packed);
+      const vk::BrickTileOrder order = vk::orderBricksByTile(tiles, bg, packed);
       ASSERT_EQ(order.starts.size(), tiles.size() + 1);
       ASSERT_EQ(order.starts.back(), packed.size());
       std::vector<std::uint32_t> sorted = order.order;
@@ -71,8 +103,7 @@ TEST(BrickTiles, CoverEveryBrickOnceWithRegionsHoldingTheirPoints) {
       EXPECT_EQ(sorted, identity) << what << ": the order is a permutation of the batch";
       for (std::size_t t = 0; t < tiles.size(); ++t)
         for (std::uint32_t i = order.starts[t]; i < order.starts[t + 1]; ++i) {
-          const std::uint32_t p = packed[order.order[i]];
-          const std::uint32_t b[3] = {p & 1023u, (p >> 10) & 1023u, p >> 20};
+          const std::array<std::uint32_t, 3> b = coords[order.order[i]];
           for (int k = 0; k < 3; ++k) EXPECT_TRUE(b[k] >= tiles[t].first[k] && b[k] <= tiles[t].last[k]) << what;
           if (i > order.starts[t]) {
             EXPECT_LT(order.order[i - 1], order.order[i]) << what;

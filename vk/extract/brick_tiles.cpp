@@ -38,13 +38,14 @@ std::vector<BrickTile> planBrickTiles(const blobtree::Program& program, const bl
   return tiles;
 }
 
-BrickTileOrder orderBricksByTile(std::span<const BrickTile> tiles, std::span<const std::uint32_t> packedBricks) {
+BrickTileOrder orderBricksByTile(std::span<const BrickTile> tiles, const BrickGrid& bricks,
+                                 std::span<const std::uint32_t> packedBricks) {
   BrickTileOrder o;
   std::vector<std::uint32_t> tileOf(packedBricks.size(), 0);
   std::vector<std::uint32_t> sizes(tiles.size(), 0);
   for (std::size_t a = 0; a < packedBricks.size(); ++a) {
     const std::uint32_t p = packedBricks[a];
-    const std::array<std::uint32_t, 3> b{p & 1023u, (p >> 10) & 1023u, p >> 20};
+    const std::array<std::uint32_t, 3> b = bricks.unpack(p);
     std::uint32_t t = 0;
     auto holds = [&](const BrickTile& tile) {
       for (int i = 0; i < 3; ++i)

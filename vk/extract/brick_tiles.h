@@ -31,12 +31,13 @@ struct BrickTile {
 std::vector<BrickTile> planBrickTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
                                       const BrickGrid& bricks, std::uint32_t maxTiles);
 
-// Bricks (packed coordinates x | y << 10 | z << 20, in batch order) grouped by tile: `order`
+// Bricks (packed coordinates, BrickGrid::pack, in batch order) grouped by tile: `order`
 // holds batch brick numbers, tile t's at order[starts[t] .. starts[t + 1]), ascending.
 struct BrickTileOrder {
   std::vector<std::uint32_t> order;
   std::vector<std::uint32_t> starts;  // tiles + 1
 };
-BrickTileOrder orderBricksByTile(std::span<const BrickTile> tiles, std::span<const std::uint32_t> packedBricks);
+BrickTileOrder orderBricksByTile(std::span<const BrickTile> tiles, const BrickGrid& bricks,
+                                 std::span<const std::uint32_t> packedBricks);
 
 }  // namespace blobvk::vk

@@ -125,7 +125,7 @@ struct IncrementalExtractor::State {
     if (device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU && a1 > a0) {  // elsewhere the choice ignores them
       const std::vector<std::uint32_t> packed = classified.downloadList(device, a0, a1 - a0);
       evaluated.bricks.reserve(packed.size());
-      for (std::uint32_t p : packed) evaluated.bricks.push_back({p & 1023u, (p >> 10) & 1023u, (p >> 20) & 1023u});
+      for (std::uint32_t p : packed) evaluated.bricks.push_back(bricks.unpack(p));
     }
     job.evaluated = &evaluated;
     chosen = codegen ? *codegen : defaultCodegenOptions(device);

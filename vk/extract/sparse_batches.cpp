@@ -286,7 +286,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   if (st.tiles.size() > 1) {
     st.batchPacked.resize(loaded);
     device.download(window->list, st.batchPacked.data(), 4ull * loaded, 4ull * windowActive);
-    tileOrder = orderBricksByTile(st.tiles, st.batchPacked);
+    tileOrder = orderBricksByTile(st.tiles, bg, st.batchPacked);
   } else {
     tileOrder.order.resize(loaded);
     for (std::uint32_t a = 0; a < loaded; ++a) tileOrder.order[a] = a;
@@ -313,9 +313,15 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       if (count == 0) continue;
       struct {
         float originCell[4];
-        std::uint32_t log2B, activeBricks, codeLength, orderBase, tailBase;
-      } push{{originCell[0], originCell[1], originCell[2], originCell[3]}, bg.log2B, count, gpu.codeLength, first,
-             std::uint32_t(st.fieldTailBase)};
+        std::uint32_t log2B, activeBricks, codeLength, orderBase, tailBase, bricksX, bricksY;
+      } push{{originCell[0], originCell[1], originCell[2], originCell[3]},
+             bg.log2B,
+             count,
+             gpu.codeLength,
+             first,
+             std::uint32_t(st.fieldTailBase),
+             bg.x,
+             bg.y};
       // Bindings 6 and 9: the samples' runs (vec4) and their tail (float), one buffer.
       const BufferRange bind[10] = {pb[0],    pb[1],          pb[2], pb[3], pb[4], st.batchBricks, st.field, st.masks,
                                     st.fieldOrder, st.field};

@@ -62,22 +62,25 @@ FlagsWindow wholeFlags(const BrickGrid& bg) { return {0, bg.count()}; }
 
 // One brick_classify dispatch over the bricks of `box` (of `bg`) into their words of `flags`
 // (the last word 0 when the box holds the window's first brick; the caller zeroes the flags
-// otherwise); with `parents` (flags of bricks twice the size), bricks in dropped parents are dropped.
+// otherwise); with `parents` (flags of bricks twice the size, parents[0] being parent brick
+// `parentBase`), bricks in dropped parents are dropped.
 void dispatchClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
                       const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags, FlagsWindow window,
-                      const BrickGrid* parentGrid, const Buffer& parents, const BrickBox& box) {
+                      const BrickGrid* parentGrid, const Buffer& parents, std::uint64_t parentBase, const BrickBox& box) {
   if (box.empty()) return;
   const auto pb = gpu.bindings();
   struct {
     float originCell[4];
     std::uint32_t cells[4], bricks[4], parents[4], first[4], end[4];
+    std::uint32_t parentBase;
   } push{{grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize},
          {std::uint32_t(grid.cells.x), std::uint32_t(grid.cells.y), std::uint32_t(grid.cells.z), bg.log2B},
          {bg.x, bg.y, bg.z, gpu.codeLength},
          {parentGrid ? parentGrid->x : 0, parentGrid ? parentGrid->y : 0, parentGrid ? parentGrid->z : 0,
           parentGrid ? 1u : 0u},
          {box.first[0], box.first[1], box.first[2], std::uint32_t(window.firstBrick)},
-         {box.end[0], box.end[1], box.end[2], std::uint32_t(window.lastWord)}};
+         {box.end[0], box.end[1], box.end[2], std::uint32_t(window.lastWord)},
+         std::uint32_t(parentBase)};
   const bool uniform = !uniforms.buffers.empty();
   const BufferRange bind[7] = {uniform ? BufferRange(uniforms.buffers[0]) : pb[0],
                                uniform ? BufferRange(uniforms.buffers[1]) : pb[1],
@@ -98,45 +101,75 @@ void dispatchClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUnifor
 constexpr std::uint64_t kParentPassBricks = 512;
 constexpr std::size_t kMaxParentLevels = 3;
 
-// The coarser levels' grids and flags, parent of the classified grid first.
+// The coarser levels' grids and flags, parent of the classified grid first. Like the finest
+// flags, each level's come in windows of its layers: those under the finest layers a pass
+// classifies (parentLayers), so that no level outgrows a storage buffer where the finest flags
+// need windows (the tower at 4096³ in bricks of 4³: its bricks of 8³ alone take 324 MB of flags).
 struct ClassifyParents {
   std::vector<BrickGrid> grids;
   std::vector<Buffer> flags;
   Buffer none;  // bound where a pass has no parent
 };
-ClassifyParents classifyParents(Device& device, const BrickGrid& bg, std::uint64_t& bytes) {
+
+// Layers [first, end) of coarser level `level` (0: bricks twice the size) that hold the finest
+// layers [first, end).
+std::array<std::uint32_t, 2> parentLayers(std::uint32_t first, std::uint32_t end, std::size_t level) {
+  const unsigned shift = unsigned(level + 1);
+  return {first >> shift, ((end - 1) >> shift) + 1};
+}
+
+// Levels of parents for `bg`, their flags sized for the largest of `windows` (finest layers
+// [first, end) a pass classifies).
+ClassifyParents classifyParents(Device& device, const BrickGrid& bg,
+                                std::span<const std::array<std::uint32_t, 2>> windows, std::uint64_t& bytes) {
   ClassifyParents p;
   BrickGrid g = bg;
   while (g.count() >= kParentPassBricks && p.grids.size() < kMaxParentLevels) {
     g = {g.log2B + 1, (g.x + 1) / 2, (g.y + 1) / 2, (g.z + 1) / 2};
+    std::uint64_t layers = 0;
+    for (const auto& [first, end] : windows) {
+      const auto [lo, hi] = parentLayers(first, end, p.grids.size());
+      layers = std::max<std::uint64_t>(layers, hi - lo);
+    }
     p.grids.push_back(g);
-    p.flags.push_back(makeSparseBuffer(device, (g.count() + 1) * 4, "parent brick flags", bytes));
+    p.flags.push_back(makeSparseBuffer(device, (layers * g.x * g.y + 1) * 4, "parent brick flags", bytes));
   }
   p.none = makeSparseBuffer(device, 16, "parent brick flags", bytes);
   return p;
 }
 
-// brick_classify over the coarser levels of the whole grid, coarsest first, each skipping the
-// bricks its parents dropped.
+// The first brick (linear index) of level `level`'s flags for finest layers from `first`.
+std::uint64_t parentBase(const ClassifyParents& parents, std::size_t level, std::uint32_t first) {
+  const BrickGrid& g = parents.grids[level];
+  return std::uint64_t(parentLayers(first, first + 1, level)[0]) * g.x * g.y;
+}
+
+// brick_classify over the coarser levels under the finest layers [first, end), coarsest first,
+// each skipping the bricks its parents dropped.
 void recordParents(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
-                   const blobtree::GridSpec& grid, const ClassifyParents& parents) {
+                   const blobtree::GridSpec& grid, const ClassifyParents& parents, std::uint32_t first,
+                   std::uint32_t end) {
   for (std::size_t i = parents.grids.size(); i-- > 0;) {
     const bool top = i + 1 == parents.grids.size();
-    dispatchClassify(rec, gpu, uniforms, grid, parents.grids[i], parents.flags[i], wholeFlags(parents.grids[i]),
-                     top ? nullptr : &parents.grids[i + 1], top ? parents.none : parents.flags[i + 1],
-                     wholeGrid(parents.grids[i]));
+    const BrickGrid& g = parents.grids[i];
+    const auto [lo, hi] = parentLayers(first, end, i);
+    const FlagsWindow window{std::uint64_t(lo) * g.x * g.y, std::uint64_t(hi - lo) * g.x * g.y};
+    dispatchClassify(rec, gpu, uniforms, grid, g, parents.flags[i], window, top ? nullptr : &parents.grids[i + 1],
+                     top ? parents.none : parents.flags[i + 1], top ? 0 : parentBase(parents, i + 1, first),
+                     BrickBox{{0, 0, lo}, {g.x, g.y, hi}});
     rec.computeBarrier();
   }
 }
 
 // brick_classify over `box` of the grid's own bricks into `flags` (`window` of the grid's),
-// skipping the bricks the finest coarser level (recorded before) dropped.
+// skipping the bricks the finest coarser level (recorded before, for finest layers from
+// box.first[2]) dropped.
 void recordFinest(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms, const blobtree::GridSpec& grid,
                   const BrickGrid& bg, const Buffer& flags, FlagsWindow window, const ClassifyParents& parents,
                   const BrickBox& box) {
   const bool any = !parents.grids.empty();
   dispatchClassify(rec, gpu, uniforms, grid, bg, flags, window, any ? &parents.grids[0] : nullptr,
-                   any ? parents.flags[0] : parents.none, box);
+                   any ? parents.flags[0] : parents.none, any ? parentBase(parents, 0, box.first[2]) : 0, box);
 }
 
 // The windows' layers: own layers [first, end) each, at most `windowLayers` (0: as many as one
@@ -171,9 +204,10 @@ std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Progra
   const ClassifyUniforms uniforms = uniformRecords ? classifyUniforms(device, program) : ClassifyUniforms{};
   Buffer flags = device.createBuffer((bg.count() + 1) * 4);
   std::uint64_t bytes = 0;
-  const ClassifyParents parents = classifyParents(device, bg, bytes);
+  const std::array<std::uint32_t, 2> all{0, bg.z};
+  const ClassifyParents parents = classifyParents(device, bg, {&all, 1}, bytes);
   device.run([&](Recorder& rec) {
-    recordParents(rec, gpu, uniforms, grid, parents);
+    recordParents(rec, gpu, uniforms, grid, parents, 0, bg.z);
     recordFinest(rec, gpu, uniforms, grid, bg, flags, wholeFlags(bg), parents, wholeGrid(bg));
     rec.hostBarrier();
   });
@@ -192,9 +226,12 @@ BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells)
   b.x = (std::uint32_t(grid.cells.x) + brickCells - 1) / brickCells;
   b.y = (std::uint32_t(grid.cells.y) + brickCells - 1) / brickCells;
   b.z = (std::uint32_t(grid.cells.z) + brickCells - 1) / brickCells;
-  if (std::max({b.x, b.y, b.z}) > 1024) {
-    throw VulkanError("GPU polygonizer: " + std::to_string(std::max({b.x, b.y, b.z})) +
-                      " bricks along an axis (at most 1024): use larger bricks");
+  // Limits of the packed brick coordinates (BrickGrid::pack: one word) and of a segment record's
+  // counts (brick_layout.glsl, brickSegments: a slice's active bricks in 21 bits, a row's in 11).
+  if (b.bitsX() + b.bitsY() + b.bitsZ() > 32 || b.bitsX() + b.bitsY() > 31 || b.x >= (1u << 11) ||
+      std::uint64_t(b.x) * b.y >= (1u << 21)) {
+    throw VulkanError("GPU polygonizer: " + std::to_string(b.x) + " x " + std::to_string(b.y) + " x " +
+                      std::to_string(b.z) + " bricks (at most 2^32 in all, 2047 along x, 2^21 in a layer): use larger bricks");
   }
   return b;
 }
@@ -227,7 +264,7 @@ EvaluatedBricks activeBricks(Device& device, const ClassifiedBricks& classified)
   if (active == 0) return e;
   const std::vector<std::uint32_t> packed = classified.downloadList(device, 0, active);
   e.bricks.reserve(active);
-  for (std::uint32_t p : packed) e.bricks.push_back({p & 1023u, (p >> 10) & 1023u, (p >> 20) & 1023u});
+  for (std::uint32_t p : packed) e.bricks.push_back(classified.bricks.unpack(p));
   return e;
 }
 }  // namespace
@@ -353,15 +390,17 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   DeviceTimer timer(device, 2 * std::uint32_t(planned.size()));
   const auto t0 = Clock::now();
   std::uint64_t largestWindow = 0;
+  std::vector<std::array<std::uint32_t, 2>> classified;  // the layers each window's passes classify
   for (const auto& [first, end] : planned) {
     const std::uint32_t scanEnd = std::min(end + 2, layers);
     largestWindow = std::max<std::uint64_t>(largestWindow, (scanEnd - first) * layerBricks);
+    classified.push_back({first, scanEnd});
   }
   Buffer scratch = makeSparseBuffer(device, (scanScratchWords(largestWindow + 1) + 1) * 4, "scan scratch", c.bytes);
   Buffer totals = makeSparseBuffer(device, 16, "totals", c.bytes);
   Buffer layerStarts = device.createBuffer((layers + 1) * 4ull, MemoryUse::Readback);
   const ClassifyParents parents = only ? ClassifyParents{{}, {}, makeSparseBuffer(device, 16, "parent brick flags", c.bytes)}
-                                       : classifyParents(device, bg, c.bytes);
+                                       : classifyParents(device, bg, classified, c.bytes);
   c.layerStarts.assign(layers + 1, 0);
   std::uint32_t activeBase = 0;
   for (std::size_t k = 0; k < planned.size(); ++k) {
@@ -383,7 +422,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
         rec.fill(w.scan, 0);
         rec.computeBarrier();
       }
-      if (k == 0) recordParents(rec, gpu, uniforms, grid, parents);
+      recordParents(rec, gpu, uniforms, grid, parents, first, scanEnd);
       recordFinest(rec, gpu, uniforms, grid, bg, w.scan, flags, parents, box);
       rec.computeBarrier();
       recordExclusiveScan(rec, w.scan.handle(), 0, std::uint32_t(words + 1), scratch.handle(), 0, totals.handle(), 0);

@@ -27,6 +27,7 @@
 #include "blobvk/vk/extract/polygonize.h"
 
 #include <array>
+#include <bit>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -40,6 +41,17 @@ struct BrickGrid {
   std::uint32_t log2B = 3;
   std::uint32_t x = 1, y = 1, z = 1;
   std::uint64_t count() const { return std::uint64_t(x) * y * z; }
+  // Active-brick lists hold packed coordinates x | y << bitsX | z << (bitsX + bitsY), each axis in
+  // the bits its brick count needs (shaders/brick_layout.glsl, packBrick, unpackBrick):
+  // brickGridFor refuses a grid whose three widths exceed one word.
+  std::uint32_t bitsX() const { return std::uint32_t(std::bit_width(x - 1)); }
+  std::uint32_t bitsY() const { return std::uint32_t(std::bit_width(y - 1)); }
+  std::uint32_t bitsZ() const { return std::uint32_t(std::bit_width(z - 1)); }
+  std::uint32_t pack(const std::array<std::uint32_t, 3>& b) const { return b[0] | b[1] << bitsX() | b[2] << (bitsX() + bitsY()); }
+  std::array<std::uint32_t, 3> unpack(std::uint32_t p) const {
+    const std::uint32_t bx = bitsX(), by = bitsY();
+    return {p & ((1u << bx) - 1u), (p >> bx) & ((1u << by) - 1u), bx + by < 32 ? p >> (bx + by) : 0u};
+  }
 };
 BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells);
 
@@ -112,7 +124,7 @@ const ScanWindow& windowHolding(std::span<const ScanWindow> windows, std::uint32
 
 // Steps 1-2: the bricks classified and compacted on `device`, one submit per window of brick
 // layers (at most `windowLayers` each; 0: as many as one storage buffer holds); the coarser levels
-// of bricks run once, in the first. The tables stay on the device for the batches;
+// of bricks run in each submit, over the layers under its window. The tables stay on the device for the batches;
 // layerStarts[z] is the number of the first active brick of brick layer z
 // (layerStarts[bricks.z]: the active count). Sets the stats' activeBricks, classifySeconds
 // (device time where the queue has timestamps, deviceTimed) and counts the submits.
