@@ -1,6 +1,7 @@
 // The only file that includes TetGen (AGPL-3.0+). Compiled only with BLOBVK_WITH_TETGEN=ON.
 #include "blobvk/fem/tetgen_mesher.h"
 
+#include "blobvk/fem/tet_ordering.h"
 #include "blobvk/fem/tet_utils.h"
 #include "blobvk/mesh/checks.h"
 
@@ -104,7 +105,8 @@ mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& 
     for (int k = 0; k < 4; ++k)
       mesh.tets[std::size_t(t)][std::size_t(k)] = std::uint32_t(out.tetrahedronlist[t * out.numberofcorners + k]);
   orientTets(mesh);
-  mesh.boundaryFaces = findBoundaryFaces(mesh);
+  // Before the sliver pass, so that the numbering is TetGen's mesh's whatever that pass moves.
+  orderForLocality(mesh, surface.positions.size());
   if (options.quality && options.smoothSlivers && options.minDihedralDegrees > 0) {
     const SliverStats stats = smoothSlivers(mesh, options.minDihedralDegrees, surface.positions.size());
     if (slivers) *slivers = stats;

@@ -37,7 +37,9 @@ bool tetgenAvailable();
 std::string tetgenSwitches(const TetgenOptions& options);
 
 // Surface vertex i becomes node i (TetGen keeps input points first), so a render mesh with the
-// same vertices follows the body through fem::identityEmbedding(). Throws std::invalid_argument
+// same vertices follows the body through fem::identityEmbedding(); the other nodes and the tets
+// are numbered in Z-order (fem/tet_ordering.h: a cut's tets and a matrix row's nodes lie close
+// in memory). Throws std::invalid_argument
 // when the surface is not closed, manifold and consistently oriented (mesh::checkMesh), and
 // for a self-intersecting surface (found by a TetGen -d pass first: TetGen 1.5 crashes on such
 // input otherwise), and std::runtime_error with TetGen's reason when meshing fails.
