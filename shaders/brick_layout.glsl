@@ -141,19 +141,21 @@ uint segmentOf(uvec4 s, uint base, uint rows, uint rowY, uint rowZ) {
   return base + rowZ * rows * (s.w & 0x1fffffu) + rowY * (s.w >> 21);
 }
 
-#ifdef BRICK_SCAN_BINDING
-layout(std430, set = 0, binding = BRICK_SCAN_BINDING) readonly buffer BrickScan { uint brickScan[]; };
+#ifdef ROW_STARTS_BINDING
+// The number of each brick row's first active brick in the window (brick_row_starts.comp): row
+// (z, y) at (z - firstLayer) * bricks.y + y.
+layout(std430, set = 0, binding = ROW_STARTS_BINDING) readonly buffer RowStarts { uint rowStarts[]; };
 
-// segmentOf's record of active brick `a` (number in the scan's window) at brick coordinates b,
-// for a batch whose first active brick is activeBase; `coords` is the brick's packed coordinates,
-// scanBase the linear index of brickScan[0]. Unsigned arithmetic wraps, the positions it gives are
-// those of the whole order minus the batch's start.
-uvec4 brickSegments(uint a, uint coords, uvec3 b, uvec3 bricks, uint activeBase, uint log2B, uint scanBase) {
+// segmentOf's record of active brick `a` (number in the window) at brick coordinates b, for a
+// batch whose first active brick is activeBase; `coords` is the brick's packed coordinates,
+// firstLayer the window's. Unsigned arithmetic wraps, the positions it gives are those of the
+// whole order minus the batch's start.
+uvec4 brickSegments(uint a, uint coords, uvec3 b, uvec3 bricks, uint activeBase, uint log2B, uint firstLayer) {
   uint B = 1u << log2B, R = B + 1u;
-  uint slice = b.z * bricks.y * bricks.x - scanBase;
-  uint row = (b.z * bricks.y + b.y) * bricks.x - scanBase;
-  uint sliceStart = brickScan[slice], sliceCount = brickScan[slice + bricks.y * bricks.x] - sliceStart;
-  uint rowStart = brickScan[row], rowCount = brickScan[row + bricks.x] - rowStart;
+  uint slice = (b.z - firstLayer) * bricks.y;
+  uint row = slice + b.y;
+  uint sliceStart = rowStarts[slice], sliceCount = rowStarts[slice + bricks.y] - sliceStart;
+  uint rowStart = rowStarts[row], rowCount = rowStarts[row + 1u] - rowStart;
   uint inRow = a - rowStart, beforeRow = rowStart - sliceStart;
   uint pointBase = R * R * sliceStart + R * beforeRow + inRow - activeBase * R * R;
   uint cellBase = B * B * sliceStart + B * beforeRow + inRow - activeBase * B * B;

@@ -133,12 +133,12 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
 
   // The other devices get the classification's tables from the host (the first device's copy).
-  std::vector<std::vector<std::uint32_t>> scanWords, listWords;
+  std::vector<std::vector<std::uint32_t>> rowWords, listWords;
   if (!batches.empty() && n > 1) {
     for (const ScanWindow& w : classified.windows) {
-      scanWords.emplace_back(w.scan.size() / 4);
+      rowWords.emplace_back(w.rowStarts.size() / 4);
       listWords.emplace_back(w.list.size() / 4);
-      first.download(w.scan, scanWords.back().data(), w.scan.size());
+      first.download(w.rowStarts, rowWords.back().data(), w.rowStarts.size());
       first.download(w.list, listWords.back().data(), w.list.size());
     }
   }
@@ -177,9 +177,9 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
         for (std::size_t k = 0; k < classified.windows.size(); ++k) {
           ScanWindow w = {classified.windows[k].firstLayer, classified.windows[k].endLayer,
                           classified.windows[k].activeBase, {}, {}};
-          w.scan = makeSparseBuffer(device, scanWords[k].size() * 4, "brick flags", tableBytes);
+          w.rowStarts = makeSparseBuffer(device, rowWords[k].size() * 4, "brick row starts", tableBytes);
           w.list = makeSparseBuffer(device, listWords[k].size() * 4, "brick list", tableBytes);
-          device.upload(w.scan, scanWords[k].data(), scanWords[k].size() * 4);
+          device.upload(w.rowStarts, rowWords[k].data(), rowWords[k].size() * 4);
           device.upload(w.list, listWords[k].data(), listWords[k].size() * 4);
           copies.push_back(std::move(w));
         }

@@ -330,8 +330,8 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       rec.dispatch(*st.fieldKernels[t], bind, &push, sizeof(push), groups, tg.y, tg.z);
     }
     {
-      const std::uint32_t push[7] = {bg.x, bg.y, bg.z, loaded, windowActive, bg.log2B, window->firstLayer * bg.x * bg.y};
-      const BufferRange bind[4] = {st.batchBricks, st.neighbours, st.segments, window->scan};
+      const std::uint32_t push[7] = {bg.x, bg.y, bg.z, loaded, windowActive, bg.log2B, window->firstLayer};
+      const BufferRange bind[5] = {st.batchBricks, st.neighbours, st.segments, window->rowStarts, window->list};
       const Groups g = groupsFor(loaded, wg);
       rec.dispatch(*device.kernel("brick_neighbours", wgSpec), bind, push, sizeof(push), g.x, g.y);
     }

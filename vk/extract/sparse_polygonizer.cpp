@@ -387,7 +387,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   const std::uint64_t layerBricks = std::uint64_t(bg.x) * bg.y;
   const std::vector<std::array<std::uint32_t, 2>> planned =
       only ? std::vector<std::array<std::uint32_t, 2>>{{0, layers}} : planWindows(device, bg, windowLayers);
-  DeviceTimer timer(device, 2 * std::uint32_t(planned.size()));
+  DeviceTimer timer(device, 4 * std::uint32_t(planned.size()));
   const auto t0 = Clock::now();
   std::uint64_t largestWindow = 0;
   std::vector<std::array<std::uint32_t, 2>> classified;  // the layers each window's passes classify
@@ -397,6 +397,13 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
     classified.push_back({first, scanEnd});
   }
   Buffer scratch = makeSparseBuffer(device, (scanScratchWords(largestWindow + 1) + 1) * 4, "scan scratch", c.bytes);
+  // The flags and their scan, one window at a time: only the row starts and the active bricks'
+  // list stay for the batches.
+  Buffer scan = makeSparseBuffer(device, (largestWindow + 1) * 4, "brick flags", c.bytes);
+  // With several windows each list is sized to its active bricks, counted by a first submit (the
+  // flags of a grid that needs windows would add up to more than the device holds, lavapipe's
+  // 2 GiB at 4096³); one window takes a list for all its bricks and a single submit.
+  const bool countFirst = planned.size() > 1;
   Buffer totals = makeSparseBuffer(device, 16, "totals", c.bytes);
   Buffer layerStarts = device.createBuffer((layers + 1) * 4ull, MemoryUse::Readback);
   const ClassifyParents parents = only ? ClassifyParents{{}, {}, makeSparseBuffer(device, 16, "parent brick flags", c.bytes)}
@@ -405,44 +412,83 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   std::uint32_t activeBase = 0;
   for (std::size_t k = 0; k < planned.size(); ++k) {
     const auto [first, end] = planned[k];
-    const std::uint32_t scanEnd = std::min(end + 2, layers), listEnd = std::min(end + 1, layers);
+    const std::uint32_t scanEnd = std::min(end + 2, layers);
     const std::uint64_t words = (scanEnd - first) * layerBricks;
+    const std::uint32_t rows = (scanEnd - first) * bg.y;
     ScanWindow w;
     w.firstLayer = first;
     w.endLayer = end;
     w.activeBase = activeBase;
-    w.scan = makeSparseBuffer(device, (words + 1) * 4, "brick flags", c.bytes);
-    w.list = makeSparseBuffer(device, (listEnd - first) * layerBricks * 4, "brick list", c.bytes);
+    w.rowStarts = makeSparseBuffer(device, (rows + 1) * 4ull, "brick row starts", c.bytes);
     const FlagsWindow flags{first * layerBricks, words};
     const BrickBox box = only ? *only : BrickBox{{0, 0, first}, {bg.x, bg.y, scanEnd}};
-    device.run([&](Recorder& rec) {
-      if (k == 0) timer.reset(rec);
-      timer.mark(rec, 2 * std::uint32_t(k));
+    // The flags, their scan and the layers' first bricks (counted from the window's first).
+    auto classify = [&](Recorder& rec) {
       if (only) {  // the bricks outside the box stay inactive
-        rec.fill(w.scan, 0);
+        rec.fill(scan, 0);
         rec.computeBarrier();
       }
       recordParents(rec, gpu, uniforms, grid, parents, first, scanEnd);
-      recordFinest(rec, gpu, uniforms, grid, bg, w.scan, flags, parents, box);
+      recordFinest(rec, gpu, uniforms, grid, bg, scan, flags, parents, box);
       rec.computeBarrier();
-      recordExclusiveScan(rec, w.scan.handle(), 0, std::uint32_t(words + 1), scratch.handle(), 0, totals.handle(), 0);
+      recordExclusiveScan(rec, scan.handle(), 0, std::uint32_t(words + 1), scratch.handle(), 0, totals.handle(), 0);
       rec.computeBarrier();
+      for (std::uint32_t z = first; z <= scanEnd; ++z)
+        rec.copy(scan, 4ull * (z - first) * layerBricks, layerStarts, 4ull * z, 4);
+    };
+    // The list of active bricks and the rows' first numbers, from the scan.
+    auto compact = [&](Recorder& rec) {
       {
-        const std::uint32_t push[6] = {bg.x, bg.y, bg.z, first, listEnd, std::uint32_t(first * layerBricks)};
-        const BufferRange bind[2] = {w.scan, w.list};
+        const std::uint32_t push[6] = {bg.x, bg.y, bg.z, first, scanEnd, std::uint32_t(first * layerBricks)};
+        const BufferRange bind[2] = {scan, w.list};
         rec.dispatch(*device.kernel("brick_compact", {}), bind, push, sizeof(push), (bg.x + 3) / 4, (bg.y + 3) / 4,
-                     (listEnd - first + 3) / 4);
+                     (scanEnd - first + 3) / 4);
       }
-      // The layers' first bricks, counted from the window's first: its own layers and the next.
-      for (std::uint32_t z = first; z <= listEnd; ++z)
-        rec.copy(w.scan, 4ull * (z - first) * layerBricks, layerStarts, 4ull * z, 4);
-      timer.mark(rec, 2 * std::uint32_t(k) + 1);
+      {
+        const std::uint32_t push[2] = {bg.x, rows};
+        const BufferRange bind[2] = {scan, w.rowStarts};
+        constexpr std::array<std::uint32_t, 1> wg{64};
+        const Groups g = groupsFor(rows + 1, wg[0]);
+        rec.dispatch(*device.kernel("brick_row_starts", wg), bind, push, sizeof(push), g.x, g.y);
+      }
+    };
+    auto begin = [&](Recorder& rec, std::uint32_t mark) {
+      if (k == 0 && mark == 0) timer.reset(rec);
+      timer.mark(rec, 4 * std::uint32_t(k) + mark);
+    };
+    auto finish = [&](Recorder& rec, std::uint32_t mark) {
+      timer.mark(rec, 4 * std::uint32_t(k) + mark);
       rec.hostBarrier();
-    });
-    ++s.submits;
-    std::vector<std::uint32_t> starts(listEnd + 1 - first);
+    };
+    if (countFirst) {
+      device.run([&](Recorder& rec) {
+        begin(rec, 0);
+        classify(rec);
+        finish(rec, 1);
+      });
+      std::uint32_t counted = 0;
+      device.download(layerStarts, &counted, 4, 4ull * scanEnd);
+      w.list = makeSparseBuffer(device, std::max<std::uint64_t>(counted, 1) * 4, "brick list", c.bytes);
+      device.run([&](Recorder& rec) {
+        begin(rec, 2);
+        compact(rec);
+        finish(rec, 3);
+      });
+      s.submits += 2;
+    } else {
+      w.list = makeSparseBuffer(device, std::max<std::uint64_t>(words, 1) * 4, "brick list", c.bytes);
+      device.run([&](Recorder& rec) {
+        begin(rec, 0);
+        classify(rec);
+        rec.computeBarrier();
+        compact(rec);
+        finish(rec, 1);
+      });
+      ++s.submits;
+    }
+    std::vector<std::uint32_t> starts(scanEnd + 1 - first);
     device.download(layerStarts, starts.data(), starts.size() * 4, 4ull * first);
-    for (std::uint32_t z = first; z <= listEnd; ++z) c.layerStarts[z] = activeBase + starts[z - first];
+    for (std::uint32_t z = first; z <= scanEnd; ++z) c.layerStarts[z] = activeBase + starts[z - first];
     activeBase = c.layerStarts[end];
     c.windows.push_back(std::move(w));
   }
@@ -451,7 +497,10 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   if (timer.enabled()) {
     s.deviceTimed = true;
     s.classifySeconds = 0.0;
-    for (std::uint32_t k = 0; k < planned.size(); ++k) s.classifySeconds += timer.seconds(2 * k, 2 * k + 1);
+    for (std::uint32_t k = 0; k < planned.size(); ++k) {
+      s.classifySeconds += timer.seconds(4 * k, 4 * k + 1);
+      if (countFirst) s.classifySeconds += timer.seconds(4 * k + 2, 4 * k + 3);
+    }
   }
   return c;
 }

@@ -102,20 +102,23 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
                                        const ClassifiedBricks* classified = nullptr);
 
 // The classification's tables that the batches read, for a window of whole brick layers: the
-// exclusive scan of the active flags (a brick's number and each layer's and row's first) and the
-// list of active bricks. A grid's tables are one window unless its flags would not fit one
-// storage buffer (lavapipe's 128 MiB holds 33 M bricks; the tower at 4096³ in bricks of 8 cells
-// has 81 M), and a batch's layers lie in one window. Numbers in a window count from its first
+// number of each brick row's first active brick and the list of active bricks. The flags and
+// their scan, one word per brick, are a scratch of the classification and gone before the
+// batches, so device memory follows the active bricks. A grid's tables are one window unless its
+// flags would not fit one storage buffer (lavapipe's 128 MiB holds 33 M bricks; the tower at
+// 4096³ in bricks of 8 cells has 81 M), and a batch's layers lie in one window. Numbers in a window count from its first
 // active brick; the batches' kernels use only their differences, so the mesh does not depend on
 // the windows.
 struct ScanWindow {
   std::uint32_t firstLayer = 0, endLayer = 0;  // batches emitting layers within [firstLayer, endLayer) read it
   std::uint32_t activeBase = 0;                // the number of its first active brick in the whole grid
-  // The scan of layers [firstLayer, min(endLayer + 2, layers)) and one more word (the active
-  // bricks before the next layer): a batch's last loaded layer reads its upper neighbours' flags.
-  Buffer scan;
-  // The active bricks of layers [firstLayer, min(endLayer + 1, layers)) (a batch loads the layer
-  // after the ones it emits), packed (x | y << 10 | z << 20): entry i is brick activeBase + i.
+  // Of layers [firstLayer, min(endLayer + 2, layers)) (a batch loads the layer after the ones it
+  // emits, and that layer's bricks look up their upper neighbours): per row of bricks (z, y), at
+  // (z - firstLayer) * bricks.y + y, the number of its first active brick counted from the
+  // window's, and one more word, the window's active count.
+  Buffer rowStarts;
+  // The active bricks of the same layers, packed (BrickGrid::pack), in (z, y, x) order: entry i is
+  // brick activeBase + i, and a row's bricks ascend in x (brick_neighbours.comp searches them).
   Buffer list;
 };
 
