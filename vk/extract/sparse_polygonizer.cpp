@@ -104,7 +104,7 @@ constexpr std::size_t kMaxParentLevels = 3;
 // The coarser levels' grids and flags, parent of the classified grid first. Like the finest
 // flags, each level's come in windows of its layers: those under the finest layers a pass
 // classifies (parentLayers), so that no level outgrows a storage buffer where the finest flags
-// need windows (the tower at 4096³ in bricks of 4³: its bricks of 8³ alone take 324 MB of flags).
+// need windows (tower_L6P8I4 at 4096³ in bricks of 4³: its bricks of 8³ alone take 324 MB of flags).
 struct ClassifyParents {
   std::vector<BrickGrid> grids;
   std::vector<Buffer> flags;
