@@ -13,6 +13,7 @@
 // Placement depends only on indices, never on scheduling: the output is the same for any
 // thread count, and equal to polygonizeReference's since the fields are bit-identical.
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/mpu_attributes.h"
 #include "blobvk/cpu_simd/mpu_output.h"
 #include "blobvk/cpu_simd/mpu_results.h"
 
@@ -536,20 +537,11 @@ BLOBVK_POPCNT_CLONES std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, 
     st.blocks += ctx.blocks(nv);
     if (ctx.options.normals) {
       r->normals.resize(nv);
-      // blobtree::outwardNormal's operations, inline: -g / |g| with |g| = sqrt((x*x + y*y) + z*z).
-      const float* __restrict gx = s.nx.data();
-      const float* __restrict gy = s.ny.data();
-      const float* __restrict gz = s.nz.data();
-      mesh::Float3* __restrict normals = r->normals.data();
-      for (std::size_t e = 0; e < nv; ++e) {
-        const float x = gx[e], y = gy[e], z = gz[e];
-        const float len = std::sqrt(x * x + y * y + z * z);
-        normals[e] = len > 0.0f ? mesh::Float3{-x / len, -y / len, -z / len} : mesh::Float3{0.0f, 0.0f, 1.0f};
-      }
+      detail::outwardNormals(s.nx.data(), s.ny.data(), s.nz.data(), nv, r->normals.data());
     }
     if (colours) {
       r->colours.resize(nv);
-      for (std::size_t e = 0; e < nv; ++e) r->colours[e] = {s.cr[e], s.cg[e], s.cb[e]};
+      detail::interleave(s.cr.data(), s.cg.data(), s.cb.data(), nv, r->colours.data());
     }
   }
   st.attributes += msSince(t0);
