@@ -13,15 +13,16 @@
 // Placement depends only on indices, never on scheduling: the output is the same for any
 // thread count, and equal to polygonizeReference's since the fields are bit-identical.
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
+#include "blobvk/cpu_simd/mpu_attributes.h"
 #include "blobvk/cpu_simd/mpu_output.h"
 #include "blobvk/cpu_simd/mpu_results.h"
+#include "blobvk/cpu_simd/mpu_triangles.h"
 
 #include "blobvk/blobtree/gradient.h"
 
 #include "blobvk/cpu_simd/block_bounds.h"
 #include "blobvk/cpu_simd/row_bits.h"
 #include "blobvk/cpu_simd/tape_pruning.h"
-#include "blobvk/mesh/marching_cubes.h"
 
 #include <tbb/combinable.h>
 #include <tbb/info.h>
@@ -54,11 +55,6 @@ using detail::kDeferred;
 using detail::kNoRank;
 using detail::MpuResult;
 
-std::uint32_t encodeDeferred(int x, int y, int z, int axis) {
-  return kDeferred | std::uint32_t(x) | (std::uint32_t(y) << 7) | (std::uint32_t(z) << 14) |
-         (std::uint32_t(axis) << 21);
-}
-
 struct ThreadStats {
   std::uint64_t grid = 0, edge = 0, attribute = 0, blocks = 0;
   std::uint64_t discardedEmpty = 0, discardedFull = 0, empty = 0, full = 0, crossed = 0;
@@ -75,13 +71,7 @@ struct Scratch {
   std::vector<std::uint8_t> edgeAxis;
   std::vector<float> t, lo, hi, flo, fhi, f, px, py, pz, nx, ny, nz, cr, cg, cb;
   std::vector<int> kept, active;
-  std::vector<std::array<std::uint32_t, 3>> tris;  // one MPU's triangles, before their copy
-  struct CaseOffsets {
-    std::uint8_t corners = 0;         // 3 per triangle
-    std::int32_t offset[15] = {};     // corner -> offset in vertexId from the cell's first point
-  };
-  std::vector<CaseOffsets> caseOffsets;  // per marching-cubes case, for caseStrides
-  std::size_t caseSy = 0, caseSz = 0;    // the field cache's strides the table was built for
+  detail::TriangleScratch triangles;  // the triangle phase's case table and triangle buffer
   // Sparse field cache, per point row: points of unclassified leaves, points classified inside.
   std::vector<detail::RowBits> needRows, classRows;
   struct Block {
@@ -536,94 +526,18 @@ BLOBVK_POPCNT_CLONES std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, 
     st.blocks += ctx.blocks(nv);
     if (ctx.options.normals) {
       r->normals.resize(nv);
-      // blobtree::outwardNormal's operations, inline: -g / |g| with |g| = sqrt((x*x + y*y) + z*z).
-      const float* __restrict gx = s.nx.data();
-      const float* __restrict gy = s.ny.data();
-      const float* __restrict gz = s.nz.data();
-      mesh::Float3* __restrict normals = r->normals.data();
-      for (std::size_t e = 0; e < nv; ++e) {
-        const float x = gx[e], y = gy[e], z = gz[e];
-        const float len = std::sqrt(x * x + y * y + z * z);
-        normals[e] = len > 0.0f ? mesh::Float3{-x / len, -y / len, -z / len} : mesh::Float3{0.0f, 0.0f, 1.0f};
-      }
+      detail::outwardNormals(s.nx.data(), s.ny.data(), s.nz.data(), nv, r->normals.data());
     }
     if (colours) {
       r->colours.resize(nv);
-      for (std::size_t e = 0; e < nv; ++e) r->colours[e] = {s.cr[e], s.cg[e], s.cb[e]};
+      detail::interleave(s.cr.data(), s.cg.data(), s.cb.data(), nv, r->colours.data());
     }
   }
   st.attributes += msSince(t0);
 
-  // ---- cells: case index per row of cells, triangles in cell order ----
+  // ---- cells: case index per row of cells, triangles in cell order (mpu_triangles.cpp) ----
   t0 = Clock::now();
-  const auto& cases = mesh::marchingCubesCases();
-  const int ncx = pts.x - 1, ncy = pts.y - 1, ncz = pts.z - 1;
-  const detail::RowBits cellMask = detail::lowBits(ncx);
-  r->triangleRowStart.resize(std::size_t(ncy) * std::size_t(ncz) + 1);
-  // Per case: its triangles' corners as offsets from the cell's first point in vertexId (built
-  // once per field-cache shape, which is the same for nearly every MPU).
-  if (s.caseSy != sy || s.caseSz != sz) {
-    s.caseSy = sy, s.caseSz = sz;
-    s.caseOffsets.resize(256);
-    for (std::size_t c = 0; c < 256; ++c) {
-      const mesh::McCase& mc = cases[c];
-      s.caseOffsets[c].corners = std::uint8_t(mc.triangleCount * 3);
-      for (int v = 0; v < mc.triangleCount * 3; ++v) {
-        const int e = mc.edges[std::size_t(v)];
-        const std::array<int, 3> d = mesh::mcEdgeStart(e);
-        s.caseOffsets[c].offset[std::size_t(v)] = std::int32_t(
-            (std::size_t(d[2]) * sz + std::size_t(d[1]) * sy + std::size_t(d[0])) * 3 + std::size_t(mesh::mcEdgeAxis(e)));
-      }
-    }
-  }
-  const Scratch::CaseOffsets* caseOffsets = s.caseOffsets.data();
-  std::size_t nt = 0;
-  const std::uint32_t* vertexId = s.vertexId.data();
-  for (int k = 0; k < ncz; ++k) {
-    for (int j = 0; j < ncy; ++j) {
-      r->triangleRowStart[std::size_t(k * ncy + j)] = std::uint32_t(nt);
-      const detail::RowBits b00 = rowBits(j, k), b10 = rowBits(j + 1, k), b01 = rowBits(j, k + 1),
-                            b11 = rowBits(j + 1, k + 1);
-      // Mixed cells (case neither 0 nor 255): some corner is inside and some is not.
-      const detail::RowBits any4 = b00 | b10 | b01 | b11;
-      const detail::RowBits all4 = b00 & b10 & b01 & b11;
-      const detail::RowBits mixed = (any4 | (any4 >> 1)) & ~(all4 & (all4 >> 1)) & cellMask;
-      if (!mixed) continue;
-      if (s.tris.size() < nt + 5 * 64) s.tris.resize(nt + 5 * 64 + s.tris.size());  // a row: <= 64 cells of <= 5
-      std::array<std::uint32_t, 3>* __restrict tris = s.tris.data();
-      // A cell whose far corners are owned here needs no neighbour's vertex.
-      const int ownedCells = j + 1 < owned.y && k + 1 < owned.z ? owned.x - 1 : 0;
-      const std::size_t rowPoint = std::size_t(k) * sz + std::size_t(j) * sy;
-      detail::forEachBit(mixed, [&](int i) {
-        // Corner c at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1) sets bit c.
-        const unsigned config = (unsigned(b00 >> i) & 3u) | (unsigned(b10 >> i) & 3u) << 2 |
-                                (unsigned(b01 >> i) & 3u) << 4 | (unsigned(b11 >> i) & 3u) << 6;
-        if (i < ownedCells) {
-          const std::uint32_t* cell = vertexId + (rowPoint + std::size_t(i)) * 3;
-          const Scratch::CaseOffsets& co = caseOffsets[config];
-          for (int v = 0; v < co.corners; v += 3, ++nt)
-            tris[nt] = {cell[co.offset[v]], cell[co.offset[v + 1]], cell[co.offset[v + 2]]};
-          return;
-        }
-        const mesh::McCase& mc = cases[config];
-        const int count = mc.triangleCount;
-        for (int t = 0; t < count; ++t, ++nt) {
-          for (int v = 0; v < 3; ++v) {
-            const int e = mc.edges[std::size_t(t * 3 + v)];
-            const std::array<int, 3> st3 = mesh::mcEdgeStart(e);
-            const int axis = mesh::mcEdgeAxis(e);
-            const int x = i + st3[0], y = j + st3[1], z = k + st3[2];
-            tris[nt][std::size_t(v)] =
-                x < owned.x && y < owned.y && z < owned.z
-                    ? vertexId[(std::size_t(z) * sz + std::size_t(y) * sy + std::size_t(x)) * 3 + std::size_t(axis)]
-                    : encodeDeferred(x, y, z, axis);
-          }
-        }
-      });
-    }
-  }
-  r->triangleRowStart.back() = std::uint32_t(nt);
-  r->triangles.assign(s.tris.begin(), s.tris.begin() + std::ptrdiff_t(nt));
+  detail::mpuTriangles(s.rows.data(), pts, owned, s.vertexId.data(), s.triangles, *r);
   st.cells += msSince(t0);
   return r;
 }

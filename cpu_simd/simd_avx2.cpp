@@ -48,6 +48,11 @@ inline F8 vabs(F8 a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a.v); }
 inline F8 select(M8 m, F8 a, F8 b) { return _mm256_blendv_ps(b.v, a.v, m.v); }
 inline bool any(M8 m) { return _mm256_movemask_ps(m.v) != 0; }
 inline bool all(M8 m) { return _mm256_movemask_ps(m.v) == 0xff; }
+// Bit for bit (+0 and -0 differ, a NaN equals its own bits).
+inline bool sameBits(F8 a, F8 b) {
+  const __m256i eq = _mm256_cmpeq_epi32(_mm256_castps_si256(a.v), _mm256_castps_si256(b.v));
+  return _mm256_movemask_epi8(eq) == -1;
+}
 
 }  // namespace
 }  // namespace blobvk::cpu::detail

@@ -45,6 +45,10 @@ inline F16 vabs(F16 a) { return _mm512_abs_ps(a.v); }
 inline F16 select(M16 m, F16 a, F16 b) { return _mm512_mask_blend_ps(m.v, b.v, a.v); }
 inline bool any(M16 m) { return m.v != 0; }
 inline bool all(M16 m) { return m.v == 0xffff; }
+// Bit for bit (+0 and -0 differ, a NaN equals its own bits).
+inline bool sameBits(F16 a, F16 b) {
+  return _mm512_cmpneq_epi32_mask(_mm512_castps_si512(a.v), _mm512_castps_si512(b.v)) == 0;
+}
 
 }  // namespace
 }  // namespace blobvk::cpu::detail

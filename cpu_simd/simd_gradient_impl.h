@@ -159,6 +159,51 @@ V powDerivativeV(const V& base, float exponent, V& derivative) {
   return V::load(b);
 }
 
+// A primitive type that no evaluator knows (tape_pruning's null twins) evaluates to exactly +0,
+// gradient +0 (primitiveGradientK's default).
+inline bool zeroPrimitiveType(std::uint32_t type) {
+  switch (type) {
+    case layout::PRIM_POINT:
+    case layout::PRIM_LINE:
+    case layout::PRIM_CYLINDER:
+    case layout::PRIM_DISC:
+    case layout::PRIM_RING:
+    case layout::PRIM_CUBE:
+    case layout::PRIM_TRIANGLE:
+    case layout::PRIM_QUADRIC:
+      return false;
+    default:
+      return true;
+  }
+}
+
+// Colour tapes (tape_pruning.h) keep every add of a blend, so a blend of many primitives of which
+// few reach an MPU runs long chains of "r = null twin; d += r" at its vertices. Each such pair
+// does the same thing to register d: the twin's field and gradient are +0 (no point register,
+// so no Jacobian product) and its colour, finite and >= 0, enters only as colour * +0 = +0. So
+// the chain is one function T applied again and again; T is not the identity (c * w / w rounds),
+// but once an application leaves d's bits unchanged every later one does too, and the rest of the
+// chain can go (in practice after the second). Returns the number of such pairs from pc on, all
+// before `end`, with the same r and d.
+inline std::size_t nullAddRun(const blobtree::Program& program, std::size_t pc, std::size_t end,
+                              std::uint32_t regs) {
+  const auto& code = program.code;
+  const std::uint32_t r = code[pc].code.x >> 8;
+  if (pc + 1 >= end) return 0;
+  const std::uint32_t d = code[pc + 1].code.x >> 8;
+  if (r >= regs || d >= regs || r == d) return 0;
+  std::size_t pairs = 0;
+  for (std::size_t j = pc; j + 1 < end; j += 2, ++pairs) {
+    const layout::uvec4 p = code[j].code, a = code[j + 1].code;
+    const bool nullPrim = (p.x & 0xffu) == layout::OP_PRIM && (p.x >> 8) == r && p.z == 0u &&
+                          p.y < program.primitives.size() &&
+                          zeroPrimitiveType(program.primitives[p.y].meta.x);
+    const bool addIt = (a.x & 0xffu) == layout::OP_ADD && (a.x >> 8) == d && a.y == r;
+    if (!nullPrim || !addIt) break;
+  }
+  return pairs;
+}
+
 // K blocks of V::W points: field, gradient and (kColour) colour, as blobtree::run<kColour> in
 // evaluate_gradient.cpp. Each instruction is decoded once for the K blocks (as runBlocks does).
 // Skips as in runBlocks: all active lanes outside -> jump; some -> zero those lanes' register,
@@ -195,6 +240,24 @@ void runGradientBlocks(const blobtree::Program& program, const Vec3V<V>* p, V (*
   const auto pick = [](M m, const Vec3V<V>& a, const Vec3V<V>& c) {
     return Vec3V<V>{select(m, a.x, c.x), select(m, a.y, c.y), select(m, a.z, c.z)};
   };
+  const auto primColour = [](std::uint32_t rgba, V& r, V& g, V& b) {
+    r = V(float(rgba & 0xffu) / 255.0f), g = V(float((rgba >> 8) & 0xffu) / 255.0f);
+    b = V(float((rgba >> 16) & 0xffu) / 255.0f);
+  };
+  // d += s for block b: the blend's colour weighted by the clamped fields, field and gradient summed.
+  const auto addBlock = [&](std::uint32_t d, std::uint32_t s, int b) {
+    const V a = reg[d][b], c = reg[s][b];
+    if constexpr (kColour) {
+      const V wa = vmax(a, zero), wb = vmax(c, zero);
+      const V w = wa + wb;
+      const M m = w > zero;
+      cr[d][b] = select(m, (cr[d][b] * wa + cr[s][b] * wb) / w, cr[d][b]);
+      cg[d][b] = select(m, (cg[d][b] * wa + cg[s][b] * wb) / w, cg[d][b]);
+      cb[d][b] = select(m, (cb[d][b] * wa + cb[s][b] * wb) / w, cb[d][b]);
+    }
+    reg[d][b] = a + c;
+    grad[d][b] = {grad[d][b].x + grad[s][b].x, grad[d][b].y + grad[s][b].y, grad[d][b].z + grad[s][b].z};
+  };
   for (;;) {
     while (pc >= stop && pending > 0) {
       const Frame& f = frames[--pending];
@@ -216,6 +279,33 @@ void runGradientBlocks(const blobtree::Program& program, const Vec3V<V>* p, V (*
     const std::uint32_t src = in.y < regs ? in.y : 0;
     switch (op) {
       case layout::OP_PRIM: {
+        if constexpr (kColour) {
+          const std::size_t pairs = nullAddRun(program, pc, stop, regs);
+          if (pairs > 1) {
+            // The last twin leaves r as it would have; then T until it changes no bit.
+            const std::uint32_t r = dst, d = program.code[pc + 1].code.x >> 8;
+            const std::uint32_t rgba = program.primitives[program.code[pc + 2 * (pairs - 1)].code.y].meta.z;
+            for (int b = 0; b < K; ++b) {
+              reg[r][b] = zero;
+              grad[r][b] = {zero, zero, zero};
+              primColour(rgba, cr[r][b], cg[r][b], cb[r][b]);
+            }
+            for (std::size_t i = 0; i < pairs; ++i) {
+              bool unchanged = true;
+              for (int b = 0; b < K; ++b) {
+                const V f0 = reg[d][b], r0 = cr[d][b], g0 = cg[d][b], b0 = cb[d][b];
+                const Vec3V<V> n0 = grad[d][b];
+                addBlock(d, r, b);
+                unchanged = unchanged && sameBits(reg[d][b], f0) && sameBits(cr[d][b], r0) &&
+                            sameBits(cg[d][b], g0) && sameBits(cb[d][b], b0) && sameBits(grad[d][b].x, n0.x) &&
+                            sameBits(grad[d][b].y, n0.y) && sameBits(grad[d][b].z, n0.z);
+              }
+              if (unchanged) break;
+            }
+            pc += 2 * pairs;
+            continue;
+          }
+        }
         const auto& prim = program.primitives[in.y];
         Vec3V<V> gk[K];
         primitiveGradientK<V, K>(program, prim, pts[in.z], reg[dst], gk);
@@ -228,29 +318,12 @@ void runGradientBlocks(const blobtree::Program& program, const Vec3V<V>* p, V (*
           }
           grad[dst][b] = g;
         }
-        if constexpr (kColour) {
-          const std::uint32_t rgba = prim.meta.z;
-          const V r(float(rgba & 0xffu) / 255.0f), g(float((rgba >> 8) & 0xffu) / 255.0f),
-              bl(float((rgba >> 16) & 0xffu) / 255.0f);
-          for (int b = 0; b < K; ++b) cr[dst][b] = r, cg[dst][b] = g, cb[dst][b] = bl;
-        }
+        if constexpr (kColour)
+          for (int b = 0; b < K; ++b) primColour(prim.meta.z, cr[dst][b], cg[dst][b], cb[dst][b]);
         break;
       }
       case layout::OP_ADD:
-        for (int b = 0; b < K; ++b) {
-          const V a = reg[dst][b], c = reg[src][b];
-          if constexpr (kColour) {
-            const V wa = vmax(a, zero), wb = vmax(c, zero);
-            const V w = wa + wb;
-            const M m = w > zero;
-            cr[dst][b] = select(m, (cr[dst][b] * wa + cr[src][b] * wb) / w, cr[dst][b]);
-            cg[dst][b] = select(m, (cg[dst][b] * wa + cg[src][b] * wb) / w, cg[dst][b]);
-            cb[dst][b] = select(m, (cb[dst][b] * wa + cb[src][b] * wb) / w, cb[dst][b]);
-          }
-          reg[dst][b] = a + c;
-          grad[dst][b] = {grad[dst][b].x + grad[src][b].x, grad[dst][b].y + grad[src][b].y,
-                          grad[dst][b].z + grad[src][b].z};
-        }
+        for (int b = 0; b < K; ++b) addBlock(dst, src, b);
         break;
       case layout::OP_MAX:
       case layout::OP_MIN:

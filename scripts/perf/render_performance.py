@@ -217,12 +217,17 @@ def phase_section(rows, command):
             "mesh as binary PLY, once, after the timed runs (not in ns/tri; its fresh string's page faults\n"
             "included).\n\n"
             "The field dominates where the model is large (`tower`: the interval bounds of the octree\n"
-            "blocks and the SIMD evaluation of the points they keep); *normals + colours* dominates\n"
-            "`random128`, whose colour tape blends many primitives at each vertex with three divisions\n"
-            "per blend (kept, because the colours equal the reference's bits). On `eggshell` (two\n"
-            "primitives) the field is cheap and the extraction phases and welding are most of the time.\n"
-            "A phase profile of one thread: `perf record -g build/release/apps/blobvk bench\n"
-            "scenes/eggshell.json --resolution 384 --backend cpu --threads 1`.\n"
+            "blocks and the SIMD evaluation of the points they keep). `random128`'s colour tapes keep\n"
+            "every add of its 128-way blend (three divisions per add, for the reference's colour bits),\n"
+            "but an MPU's tape adds about 93 null twins into the accumulator in about 4 chains, and the\n"
+            "gradient pass stops a chain at the first add that changes no bit (one or two adds per\n"
+            "chain), so *normals + colours* is no longer its largest phase. On `eggshell`\n"
+            "(two primitives) the field is cheap and the extraction phases and welding are most of the\n"
+            "time, spread over many small loops: by source line (one thread) the welding's copy is about\n"
+            "a fifth, the triangle loop about a seventh, the vertex loop and the SIMD field and gradient\n"
+            "kernels about a ninth each. A phase profile of one thread: `perf record -g\n"
+            "build/release/apps/blobvk bench scenes/eggshell.json --resolution 384 --backend cpu\n"
+            "--threads 1` (`perf report --sort srcline` with `-g` objects for the lines).\n"
             + (f"\n```sh\n{command}\n```\n" if command else "") + "\n" + phase_table(rows, res) + "\n")
 
 

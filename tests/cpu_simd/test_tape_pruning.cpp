@@ -1,7 +1,10 @@
 // Pruned tapes against the full Program: the same field bits (and, for colour tapes, the same
 // colour bits) at random points of the region, with the scalar reference and the SIMD kernels,
-// on every test model; and pruning really shortens the code of a large blend.
+// on every test model; the analytic-gradient pass on colour tapes (long chains of null twins
+// added into one register, which the SIMD pass cuts short) gives the full Program's reference
+// bits; and pruning really shortens the code of a large blend.
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/gradient.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/cpu_simd/simd_evaluator.h"
 #include "blobvk/cpu_simd/tape_pruning.h"
@@ -117,6 +120,90 @@ TEST(TapePruning, ATapeOfATapeKeepsTheBitsInsideTheSubRegion) {
         ASSERT_EQ(bits(tc.colour.y), bits(fc.colour.y));
         ASSERT_EQ(bits(tc.colour.z), bits(fc.colour.z));
       }
+    }
+  }
+}
+
+// The MPU's attribute pass runs the analytic-gradient evaluator on colour tapes: in small regions
+// of a large blend most adds take a null twin, in chains the SIMD pass stops once an add changes
+// no bit. Field, gradient and colour must be blobtree::evaluateGradientColour's bits on the full
+// Program, at every SIMD level, in the K-block chunks and in the single-block tail.
+//
+// In a blend the colour an add leaves is already a quotient by the register's clamped field, and
+// a null twin's add (weight 0) then keeps its bits; after a union it is a primitive's colour, and
+// the first add of a null twin may round it (c * w / w): `union_then_far_blend` has that case.
+blobtree::Node unionThenFarBlend() {
+  using testmodels::primitive;
+  const auto coloured = [](glm::dvec3 centre, glm::dvec3 colour) {
+    blobtree::Node n = primitive(blobtree::PrimitiveType::Point, centre);
+    std::get<blobtree::Primitive>(n.kind).colour = colour;
+    return n;
+  };
+  std::vector<blobtree::Node> kids{testmodels::op(blobtree::OperatorType::Union, {coloured({0, 0, 0}, {0.13, 0.71, 0.37}),
+                                                              coloured({0.4, 0.1, 0}, {0.83, 0.29, 0.61})})};
+  for (int i = 0; i < 30; ++i) kids.push_back(coloured({4.0 + 0.3 * i, 0, 0}, {0.01 * i, 0.5, 1.0 - 0.02 * i}));
+  return testmodels::op(blobtree::OperatorType::Blend, std::move(kids));
+}
+
+TEST(TapePruning, TheGradientPassOnColourTapesGivesTheReferenceBits) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<SimdLevel> levels;
+  for (SimdLevel l : {SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512})
+    if (simdLevelSupported(l)) levels.push_back(l);
+  auto models = allModels();
+  models.emplace_back("union_then_far_blend", unionThenFarBlend());
+  for (const auto& [name, node] : models) {
+    SCOPED_TRACE(name);
+    const blobtree::Program program = blobtree::compile(node);
+    blobtree::Program fieldTape = makeTapeProgram(program), colourTape = fieldTape;
+    const bool finite = program.bounds.finite();
+    const glm::vec3 lo = finite ? program.bounds.lo : glm::vec3(-2.5f);
+    const glm::vec3 hi = finite ? program.bounds.hi : glm::vec3(2.5f);
+    std::size_t longestChain = 0, blended = 0;
+    for (int region = 0; region < 30; ++region) {
+      // MPU-sized to a third of the model, so that some regions see few of a blend's primitives.
+      const glm::vec3 extent = (hi - lo) * (0.04f + 0.3f * u(rng) * u(rng));
+      const bool nearUnion = name == "union_then_far_blend";  // around the union, far from the rest
+      const glm::vec3 rlo = nearUnion ? glm::vec3(-0.6f) + glm::vec3(u(rng), u(rng), u(rng)) * 0.3f
+                                      : lo + glm::vec3(u(rng), u(rng), u(rng)) * (hi - lo - extent);
+      const glm::vec3 rhi = rlo + (nearUnion ? glm::vec3(0.8f) : extent);
+      specialiseTapes(program, rlo, rhi, fieldTape, &colourTape);
+      std::size_t chain = 0;
+      for (const auto& in : colourTape.code) {
+        const bool twin = (in.code.x & 0xffu) == layout::OP_PRIM && in.code.y >= program.primitives.size();
+        const bool add = (in.code.x & 0xffu) == layout::OP_ADD;
+        chain = twin ? chain + 1 : add ? chain : 0;
+        longestChain = std::max(longestChain, chain);
+      }
+      const std::size_t n = 64 + 37;  // whole chunks at every lane width, then a partial block
+      std::vector<float> x(n), y(n), z(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        const glm::vec3 p = rlo + glm::vec3(u(rng), u(rng), u(rng)) * (rhi - rlo);
+        x[i] = p.x, y[i] = p.y, z[i] = p.z;
+      }
+      for (SimdLevel level : levels) {
+        std::vector<float> f(n), gx(n), gy(n), gz(n), r(n), g(n), b(n);
+        evaluateGradientBatch(colourTape, x.data(), y.data(), z.data(), f.data(), gx.data(), gy.data(),
+                              gz.data(), r.data(), g.data(), b.data(), n, level);
+        for (std::size_t i = 0; i < n; ++i) {
+          const blobtree::FieldGradient ref = blobtree::evaluateGradientColour(program, {x[i], y[i], z[i]});
+          const std::string where = std::string(toString(level)) + " region " + std::to_string(region) +
+                                    " point " + std::to_string(i);
+          ASSERT_EQ(bits(f[i]), bits(ref.field)) << where;
+          ASSERT_EQ(bits(gx[i]), bits(ref.gradient.x)) << where;
+          ASSERT_EQ(bits(gy[i]), bits(ref.gradient.y)) << where;
+          ASSERT_EQ(bits(gz[i]), bits(ref.gradient.z)) << where;
+          ASSERT_EQ(bits(r[i]), bits(ref.colour.x)) << where;
+          ASSERT_EQ(bits(g[i]), bits(ref.colour.y)) << where;
+          ASSERT_EQ(bits(b[i]), bits(ref.colour.z)) << where;
+          blended += level == levels.front() && ref.field > 0.0f;
+        }
+      }
+    }
+    if (name == "random_blobs" || name == "union_then_far_blend") {
+      EXPECT_GT(longestChain, 20u) << "no long chain of null twins: the test misses the cut-short path";
+      EXPECT_GT(blended, 200u) << "few points where the blend's weights are not all 0";
     }
   }
 }
