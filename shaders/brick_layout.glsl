@@ -6,12 +6,12 @@
 // last brick of that axis owns: each grid point has one owner, and a point's three upper edges lie
 // inside its owner's points.
 //
-// Active bricks are numbered in (bz, by, bx) order: `brickScan` holds the exclusive scan of the
-// active flags over all bricks (one more word: the active count), so an active brick's number is
-// brickScan[its linear index] and each row of bricks (bz, by) is a contiguous run of numbers. On
-// a grid too large for one buffer the scan comes in windows of whole brick layers, each counted
-// from its first layer (vk::ScanWindow): indices then start at the window's first brick
-// (`scanBase`) and numbers at its first active brick; only differences of numbers matter.
+// Active bricks are numbered in (bz, by, bx) order (the exclusive scan of the classification's
+// flags), so each row of bricks (bz, by) is a contiguous run of numbers: `rowStarts` holds each
+// row's first (brick_row_starts.comp) and the active-brick list the bricks themselves. On a grid
+// too large for one buffer the tables come in windows of whole brick layers (vk::ScanWindow):
+// rows then count from the window's first layer and numbers from its first active brick; only
+// differences of numbers matter.
 // Rows of points (fixed y, z) of an active brick are *segments*; the global order of vertices
 // (by edge key: point z, then y, then x) is the order of segments
 //   [bz][local z][by][local y][k-th active brick of brick row (bz, by)],

@@ -96,13 +96,21 @@ TEST(TetOrdering, KeepsTheMeshAndBringsNeighboursTogether) {
   o.maxVolume = 2e-3;
   const mesh::TriMesh sphere = testing::icosphere(2);
   const std::size_t keep = sphere.positions.size();
-  const mesh::TetMesh scrambledBall = scrambled(tetrahedralize(sphere, o), keep);
+  mesh::TetMesh ball = tetrahedralize(sphere, o);
+  // Deformed positions unlike the rest ones, so that both must move with their nodes.
+  for (Double3& p : ball.positions) p = {p.x + 0.5 * p.y, p.y - 0.25 * p.z * p.z, p.z + 3.0};
+  const mesh::TetMesh scrambledBall = scrambled(ball, keep);
   ASSERT_GT(scrambledBall.tetCount(), 1000u);
   mesh::TetMesh ordered = scrambledBall;
   orderForLocality(ordered, keep);
 
   ASSERT_EQ(ordered.nodeCount(), scrambledBall.nodeCount());
   for (std::size_t i = 0; i < keep; ++i) EXPECT_EQ(ordered.restPositions[i], scrambledBall.restPositions[i]) << i;
+  // Each node's deformed position goes with its rest position (the deformation is a function of it).
+  for (std::size_t i = 0; i < ordered.nodeCount(); ++i) {
+    const Double3 r = ordered.restPositions[i], p = ordered.positions[i];
+    EXPECT_EQ(p, (Double3{r.x + 0.5 * r.y, r.y - 0.25 * r.z * r.z, r.z + 3.0})) << "node " << i;
+  }
   EXPECT_EQ(tetsByPosition(ordered), tetsByPosition(scrambledBall));
   EXPECT_NO_THROW(validateTetMesh(ordered));
   EXPECT_NEAR(totalVolume(ordered, true), totalVolume(scrambledBall, true), 1e-12);

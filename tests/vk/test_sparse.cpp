@@ -260,21 +260,25 @@ TEST_F(VulkanTest, MoreThan1024BricksAlongAnAxisGiveTheReferenceMesh) {
   }
 }
 
-// A grid that misses the model: every brick is dropped, the mesh is empty.
+// A grid that misses the model: every brick is dropped, the mesh is empty; also with the tables
+// in windows of one layer (each window's list counted first: none).
 TEST_F(VulkanTest, AGridAwayFromTheModelHasNoActiveBricks) {
   const auto program = blobtree::compile(testModels()[0].root);
   blobtree::GridSpec grid;
   grid.origin = {50.0f, 50.0f, 50.0f};
   grid.cellSize = 0.1f;
   grid.cells = {20, 20, 20};
-  vk::GpuPolygonizeOptions o;
-  o.brickCells = 8;
-  vk::GpuStats stats;
-  const auto m = vk::polygonize(device(), program, grid, o, &stats);
-  EXPECT_EQ(m.triangleCount(), 0u);
-  EXPECT_EQ(m.vertexCount(), 0u);
-  EXPECT_EQ(stats.activeBricks, 0u);
-  EXPECT_EQ(stats.bricks, 27u);
+  for (std::uint32_t windowLayers : {0u, 1u}) {
+    vk::GpuPolygonizeOptions o;
+    o.brickCells = 8;
+    o.windowLayers = windowLayers;
+    vk::GpuStats stats;
+    const auto m = vk::polygonize(device(), program, grid, o, &stats);
+    EXPECT_EQ(m.triangleCount(), 0u);
+    EXPECT_EQ(m.vertexCount(), 0u);
+    EXPECT_EQ(stats.activeBricks, 0u);
+    EXPECT_EQ(stats.bricks, 27u);
+  }
 }
 
 // A layer pair over one storage buffer is classified again with smaller bricks: with a range

@@ -135,11 +135,14 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   // The other devices get the classification's tables from the host (the first device's copy).
   std::vector<std::vector<std::uint32_t>> rowWords, listWords;
   if (!batches.empty() && n > 1) {
+    const std::uint32_t layers = std::uint32_t(classified.layerStarts.size() - 1);
     for (const ScanWindow& w : classified.windows) {
+      // The list's bricks, not its room (a single window's has room for every brick).
+      const std::uint32_t listed = classified.layerStarts[std::min(w.endLayer + 2, layers)] - w.activeBase;
       rowWords.emplace_back(w.rowStarts.size() / 4);
-      listWords.emplace_back(w.list.size() / 4);
+      listWords.emplace_back(std::max<std::uint32_t>(listed, 1));
       first.download(w.rowStarts, rowWords.back().data(), w.rowStarts.size());
-      first.download(w.list, listWords.back().data(), w.list.size());
+      if (listed) first.download(w.list, listWords.back().data(), 4ull * listed);
     }
   }
 

@@ -104,7 +104,8 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
 // The classification's tables that the batches read, for a window of whole brick layers: the
 // number of each brick row's first active brick and the list of active bricks. The flags and
 // their scan, one word per brick, are a scratch of the classification and gone before the
-// batches, so device memory follows the active bricks. A grid's tables are one window unless its
+// batches; with several windows each list is sized to its active bricks (a single window's holds
+// room for all its bricks, one word each). A grid's tables are one window unless its
 // flags would not fit one storage buffer (lavapipe's 128 MiB holds 33 M bricks; the tower at
 // 4096³ in bricks of 8 cells has 81 M), and a batch's layers lie in one window. Numbers in a window count from its first
 // active brick; the batches' kernels use only their differences, so the mesh does not depend on
@@ -125,9 +126,10 @@ struct ScanWindow {
 // The window of `windows` holding brick layers [firstLayer, endLayer); throws when none does.
 const ScanWindow& windowHolding(std::span<const ScanWindow> windows, std::uint32_t firstLayer, std::uint32_t endLayer);
 
-// Steps 1-2: the bricks classified and compacted on `device`, one submit per window of brick
-// layers (at most `windowLayers` each; 0: as many as one storage buffer holds); the coarser levels
-// of bricks run in each submit, over the layers under its window. The tables stay on the device for the batches;
+// Steps 1-2: the bricks classified and compacted on `device`, per window of brick layers (at most
+// `windowLayers` each; 0: as many as one storage buffer holds), two submits each (count, then
+// list), one for a single window; the coarser levels of bricks run with each window, over the
+// layers under it. The tables stay on the device for the batches;
 // layerStarts[z] is the number of the first active brick of brick layer z
 // (layerStarts[bricks.z]: the active count). Sets the stats' activeBricks, classifySeconds
 // (device time where the queue has timestamps, deviceTimed) and counts the submits.
