@@ -1,5 +1,6 @@
 #include "blobvk/fem/block_pcg.h"
 
+#include "blobvk/fem/coarse_correction.h"
 #include "blobvk/fem/kernel_dispatch.h"
 #include "blobvk/fem/system_matrix.h"
 
@@ -107,7 +108,7 @@ BLOBVK_FEM_KERNEL Sums updateChunk(const double* inverse, double alpha, double b
 template <int Stride>
 PcgResult solve(const SystemMatrix& A, const std::vector<double>& inverse, const std::vector<double>& b,
                 const std::vector<unsigned char>& freeDof, std::vector<double>& x, int maxIterations, double tolerance,
-                BlockPcgScratch& scratch) {
+                BlockPcgScratch& scratch, const CoarseCorrection* coarse) {
   const std::size_t n = b.size(), nodes = n / 3;
   auto &r = scratch.r, &u = scratch.u, &p = scratch.p, &s = scratch.s, &w = scratch.w;
   auto& partial = scratch.partial;
@@ -128,6 +129,7 @@ PcgResult solve(const SystemMatrix& A, const std::vector<double>& inverse, const
   }
   const double target = tolerance * (bNorm > 0 ? bNorm : 1.0);
   double rNorm = std::sqrt(setup[2]), ru = setup[3];
+  if (coarse) ru += coarse->apply(r.data(), u.data(), freeDof);
   // Chronopoulos-Gear CG: the same iterates as standard PCG in exact arithmetic, but both dots
   // of an iteration come from one pass (alpha follows from (r, u) and (A u, u) by a recurrence),
   // so an iteration is two parallel passes (product; fused updates), not three.
@@ -146,8 +148,9 @@ PcgResult solve(const SystemMatrix& A, const std::vector<double>& inverse, const
     });
     rNorm = std::sqrt(sums[0]);
     ++result.iterations;
-    beta = sums[1] / ru;
-    ru = sums[1];
+    const double ruNext = sums[1] + (coarse && rNorm > target ? coarse->apply(r.data(), u.data(), freeDof) : 0.0);
+    beta = ruNext / ru;
+    ru = ruNext;
   }
   result.relativeResidual = bNorm > 0 ? rNorm / bNorm : rNorm;
   result.converged = rNorm <= target;
@@ -158,9 +161,9 @@ PcgResult solve(const SystemMatrix& A, const std::vector<double>& inverse, const
 
 PcgResult solveBlockPcg(const SystemMatrix& A, const std::vector<double>& inverse, int stride, const std::vector<double>& b,
                         const std::vector<unsigned char>& freeDof, std::vector<double>& x, int maxIterations,
-                        double tolerance, BlockPcgScratch& scratch) {
-  if (stride == 9) return solve<9>(A, inverse, b, freeDof, x, maxIterations, tolerance, scratch);
-  return solve<3>(A, inverse, b, freeDof, x, maxIterations, tolerance, scratch);
+                        double tolerance, BlockPcgScratch& scratch, const CoarseCorrection* coarse) {
+  if (stride == 9) return solve<9>(A, inverse, b, freeDof, x, maxIterations, tolerance, scratch, coarse);
+  return solve<3>(A, inverse, b, freeDof, x, maxIterations, tolerance, scratch, coarse);
 }
 
 }  // namespace blobvk::fem

@@ -15,6 +15,7 @@
 namespace blobvk::fem {
 
 class SystemMatrix;
+class CoarseCorrection;
 
 // The solver's vectors, kept by the caller between solves (a step then allocates nothing).
 struct BlockPcgScratch {
@@ -26,6 +27,7 @@ struct BlockPcgScratch {
 // inverseStride says which; zero on fixed DOFs. x holds the warm start (fixed entries kept).
 PcgResult solveBlockPcg(const SystemMatrix& A, const std::vector<double>& inverse, int inverseStride,
                         const std::vector<double>& b, const std::vector<unsigned char>& freeDof, std::vector<double>& x,
-                        int maxIterations, double tolerance, BlockPcgScratch& scratch);
+                        int maxIterations, double tolerance, BlockPcgScratch& scratch,
+                        const CoarseCorrection* coarse = nullptr);
 
 }  // namespace blobvk::fem
