@@ -1,8 +1,9 @@
 // Preconditioned CG on the assembled system (system_matrix.h) with a Jacobi or 3x3
 // block-Jacobi preconditioner in two parallel passes per iteration (the product w = A u with
-// (w, u); then p, s = A p, x, r, u = P^-1 r and the dots |r|^2, (r, u)) instead of six: at 10k tets
-// a pass costs about as much in scheduling as in arithmetic. Chronopoulos-Gear's recurrence
-// (p.Ap from (w, u)) is what lets both dots share one pass. Same stopping rule and free-DOF
+// (w, u); then p, s = A p, x, r, u = P^-1 r and the dots |r|^2, (r, u)) instead of three: at 10k
+// tets a pass costs about as much in scheduling as in arithmetic. Chronopoulos-Gear's recurrence
+// (p.Ap from (w, u)) is what lets both dots share one pass. With `coarse`, P^-1 also adds the
+// two-level correction (coarse_correction.h), serially after the update pass. Same stopping rule and free-DOF
 // restriction as solvePcg (pcg.h). Dots are summed per fixed chunk of nodes, then the chunk sums
 // in order, so results do not depend on the thread count.
 #pragma once
