@@ -7,6 +7,9 @@
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(BLOBVK_NO_KERNEL_CLONES)
 #define BLOBVK_FEM_KERNEL __attribute__((target_clones("arch=x86-64-v3", "default")))
+// Kernels written with AVX2 intrinsics (a target attribute), called after __builtin_cpu_supports.
+#define BLOBVK_FEM_AVX2 1
 #else
+#define BLOBVK_FEM_AVX2 0
 #define BLOBVK_FEM_KERNEL
 #endif

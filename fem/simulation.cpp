@@ -6,6 +6,7 @@
 #include "blobvk/fem/elements.h"
 #include "blobvk/fem/pcg.h"
 #include "blobvk/fem/preconditioner.h"
+#include "blobvk/fem/coarse_correction.h"
 #include "blobvk/fem/reserve_touched.h"
 #include "blobvk/fem/system_matrix.h"
 #include "blobvk/fem/tet_utils.h"
@@ -47,6 +48,10 @@ struct Simulation::Impl {
   bool matrixPatternDirty = true;
   std::vector<std::uint32_t> matrixRows;
   BlockPcgScratch pcgScratch;
+  // The two-level correction of the (block-)Jacobi CG (coarse_correction.h), set up at the
+  // first step; useCoarse: its factor of this step's system is valid.
+  CoarseCorrection coarse;
+  bool coarseAggregates = false, useCoarse = false;
   // The incomplete Cholesky preconditioner: A assembled as blocks, its factor, and when to
   // rebuild it (patternDirty: the mesh changed; factorDirty: the fixed set changed).
   BlockSystem blockSystem;
@@ -86,6 +91,12 @@ bool Simulation::Impl::preparePreconditioner(double stiffnessScale) {
   const PreconditionerKind kind = settings.preconditioner;
   if (kind != PreconditionerKind::IncompleteCholesky) {
     preconditioner.setDiagonalBlocks(kind, diagonalBlocks, freeDof);
+    useCoarse = settings.coarseAggregateNodes > 0;
+    if (useCoarse && !coarseAggregates) {
+      coarse.setAggregates(mesh.restPositions, std::size_t(settings.coarseAggregateNodes));
+      coarseAggregates = true;
+    }
+    if (useCoarse) useCoarse = coarse.factor(matrix, freeDof, mesh.restPositions);
     return false;
   }
   const int refresh = settings.preconditionerRefreshSteps;
@@ -140,6 +151,7 @@ Simulation::Simulation(mesh::TetMesh m, SimulationSettings s) : impl_(std::make_
   if (s.cgMaxIterations < 1) throw std::invalid_argument("simulation: cgMaxIterations must be >= 1");
   if (!(s.cgTolerance >= 0)) throw std::invalid_argument("simulation: cgTolerance must be >= 0");
   if (s.preconditionerRefreshSteps < 1) throw std::invalid_argument("simulation: preconditionerRefreshSteps must be >= 1");
+  if (s.coarseAggregateNodes < 0) throw std::invalid_argument("simulation: coarseAggregateNodes must be >= 0");
   for (std::size_t k = 0; k < s.tools.size(); ++k) validateTool(s.tools[k], k);
   if (s.floor) {
     const auto& n = s.floor->normal;
@@ -342,7 +354,7 @@ void Simulation::step() {
   } else {  // (block-)Jacobi: the fused solver
     const int stride = d.preconditioner.kind() == PreconditionerKind::BlockJacobi ? 9 : 3;
     cg = solveBlockPcg(d.matrix, d.preconditioner.inverse(), stride, d.rhs, d.freeDof, d.solution, d.settings.cgMaxIterations,
-                       d.settings.cgTolerance, d.pcgScratch);
+                       d.settings.cgTolerance, d.pcgScratch, d.useCoarse ? &d.coarse : nullptr);
   }
   stats.cgIterations = cg.iterations;
   stats.cgRelativeResidual = cg.relativeResidual;

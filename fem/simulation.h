@@ -50,6 +50,9 @@ struct SimulationSettings {
   double cgTolerance = 1e-3;        // relative residual |r| / |b|; 0 = always cgMaxIterations
   PreconditionerKind preconditioner = PreconditionerKind::BlockJacobi;
   int preconditionerRefreshSteps = 10;
+  // Jacobi / block-Jacobi: nodes per aggregate of the two-level correction (coarse_correction.h:
+  // the system restricted to aggregate translations, solved exactly each step); 0 = off.
+  int coarseAggregateNodes = 125;
   // Called with one line the first time a step's CG stops at cgMaxIterations above the
   // tolerance (later such steps are counted in solverSummary(), not reported again). The library
   // prints nothing itself.

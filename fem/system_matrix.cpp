@@ -9,6 +9,10 @@
 
 #include <tbb/parallel_for.h>
 
+#if BLOBVK_FEM_AVX2
+#include <immintrin.h>
+#endif
+
 namespace blobvk::fem {
 
 namespace {
@@ -113,17 +117,21 @@ void SystemMatrix::updateRows(const NodeIncidence& incidence, const std::vector<
   forEach(rows.size(), 64, [&](std::size_t k) { computeSlots(incidence, tets, rows[k]); });
 }
 
-BLOBVK_FEM_KERNEL void SystemMatrix::multiplyRows(std::size_t begin, std::size_t end, const double* p, double* y) const {
+namespace {
+
+// The baseline product of rows [begin, end): scalar, one block row at a time.
+BLOBVK_FEM_KERNEL void multiplyRowsScalar(const SystemMatrix::Rows& m, std::size_t begin, std::size_t end, const double* p,
+                                          double* y) {
   for (std::size_t r = begin; r != end; ++r) {
-    const double* d = diagonal_.data() + 9 * r;
+    const double* d = m.diagonal + 9 * r;
     const double* pr = p + 3 * r;
     double y0 = d[0] * pr[0] + d[1] * pr[1] + d[2] * pr[2];
     double y1 = d[3] * pr[0] + d[4] * pr[1] + d[5] * pr[2];
     double y2 = d[6] * pr[0] + d[7] * pr[1] + d[8] * pr[2];
-    const std::uint32_t first = rowStart_[r], last = first + rowLength_[r];
+    const std::uint32_t first = m.start[r], last = first + m.length[r];
     for (std::uint32_t k = first; k != last; ++k) {
-      const float* b = offDiagonal_.data() + 9 * std::size_t(k);
-      const double* pc = p + 3 * std::size_t(column_[k]);
+      const float* b = m.offDiagonal + 9 * std::size_t(k);
+      const double* pc = p + 3 * std::size_t(m.column[k]);
       y0 += double(b[0]) * pc[0] + double(b[1]) * pc[1] + double(b[2]) * pc[2];
       y1 += double(b[3]) * pc[0] + double(b[4]) * pc[1] + double(b[5]) * pc[2];
       y2 += double(b[6]) * pc[0] + double(b[7]) * pc[1] + double(b[8]) * pc[2];
@@ -132,6 +140,57 @@ BLOBVK_FEM_KERNEL void SystemMatrix::multiplyRows(std::size_t begin, std::size_t
     y[3 * r + 1] = y1;
     y[3 * r + 2] = y2;
   }
+}
+
+#if BLOBVK_FEM_AVX2
+// AVX2 + FMA: per output component a 4-lane accumulator of (row of the block) * (neighbour's
+// 3 values, 4th lane 0), summed across lanes once per row: 3 fused multiply-adds per block
+// instead of 9 multiplies, 9 adds and 9 conversions (the product was ~45% of a step). Masked
+// loads keep every read inside its block and vector. Each row sums in its own fixed order.
+__attribute__((target("arch=x86-64-v3"))) void multiplyRowsAvx2(const SystemMatrix::Rows& m, std::size_t begin,
+                                                                std::size_t end, const double* p, double* y) {
+  const __m256i mask3 = _mm256_setr_epi64x(-1, -1, -1, 0);
+  const __m128i mask3f = _mm_setr_epi32(-1, -1, -1, 0);
+  for (std::size_t r = begin; r != end; ++r) {
+    const double* d = m.diagonal + 9 * r;
+    const __m256d pr = _mm256_maskload_pd(p + 3 * r, mask3);
+    __m256d a0 = _mm256_mul_pd(_mm256_maskload_pd(d, mask3), pr);
+    __m256d a1 = _mm256_mul_pd(_mm256_maskload_pd(d + 3, mask3), pr);
+    __m256d a2 = _mm256_mul_pd(_mm256_maskload_pd(d + 6, mask3), pr);
+    const std::uint32_t first = m.start[r], last = first + m.length[r];
+    for (std::uint32_t k = first; k != last; ++k) {
+      const float* b = m.offDiagonal + 9 * std::size_t(k);
+      const __m256d pc = _mm256_maskload_pd(p + 3 * std::size_t(m.column[k]), mask3);
+      // Lane 3 of the first two rows reads the block's next row (finite) times pc's lane 3 (0).
+      a0 = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(b)), pc, a0);
+      a1 = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(b + 3)), pc, a1);
+      a2 = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_maskload_ps(b + 6, mask3f)), pc, a2);
+    }
+    const __m256d h01 = _mm256_hadd_pd(a0, a1);  // a0_01, a1_01, a0_23, a1_23
+    const __m256d h22 = _mm256_hadd_pd(a2, a2);  // a2_01, a2_01, a2_23, a2_23
+    const __m256d sum = _mm256_add_pd(_mm256_permute2f128_pd(h01, h22, 0x20), _mm256_permute2f128_pd(h01, h22, 0x31));
+    alignas(32) double out[4];
+    _mm256_store_pd(out, sum);
+    y[3 * r] = out[0];
+    y[3 * r + 1] = out[1];
+    y[3 * r + 2] = out[2];
+  }
+}
+
+bool haveAvx2() {
+  static const bool have = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return have;
+}
+#endif
+
+}  // namespace
+
+void SystemMatrix::multiplyRows(std::size_t begin, std::size_t end, const double* p, double* y) const {
+  const Rows m{rowStart_.data(), rowLength_.data(), column_.data(), offDiagonal_.data(), diagonal_.data()};
+#if BLOBVK_FEM_AVX2
+  if (haveAvx2()) return multiplyRowsAvx2(m, begin, end, p, y);
+#endif
+  multiplyRowsScalar(m, begin, end, p, y);
 }
 
 void SystemMatrix::multiply(const double* p, double* y) const {

@@ -31,7 +31,15 @@ class SystemMatrix {
                   const std::vector<std::uint32_t>& rows);
   std::size_t nodeCount() const { return diagonal_.size() / 9; }
 
-  // y = A p (3 values per node); multiplyRows: rows [begin, end) only.
+  // The storage a product reads (system_matrix.cpp's kernels).
+  struct Rows {
+    const std::uint32_t *start, *length, *column;
+    const float* offDiagonal;
+    const double* diagonal;
+  };
+
+  // y = A p (3 values per node); multiplyRows: rows [begin, end) only. AVX2 + FMA where the CPU
+  // has them (picked once), else a scalar loop; the two differ in the last bits only.
   void multiply(const double* p, double* y) const;
   void multiplyRows(std::size_t begin, std::size_t end, const double* p, double* y) const;
 

@@ -212,7 +212,7 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
     if (j["damping"].contains("stiffness")) c.settings.rayleighStiffness = r.number(j["damping"]["stiffness"], p + "/damping/stiffness", 0, 1e6);
   }
   if (j.contains("solver")) {
-    r.keys(j["solver"], p + "/solver", {"maxIterations", "tolerance", "preconditioner"});
+    r.keys(j["solver"], p + "/solver", {"maxIterations", "tolerance", "preconditioner", "coarseAggregateNodes"});
     if (j["solver"].contains("preconditioner")) {
       const Json& v = j["solver"]["preconditioner"];
       const std::string name = v.is_string() ? v.get<std::string>() : "";
@@ -223,6 +223,8 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
     }
     if (j["solver"].contains("maxIterations")) c.settings.cgMaxIterations = r.integer(j["solver"]["maxIterations"], p + "/solver/maxIterations", 1, 100000);
     if (j["solver"].contains("tolerance")) c.settings.cgTolerance = r.number(j["solver"]["tolerance"], p + "/solver/tolerance", 0, 1);
+    if (j["solver"].contains("coarseAggregateNodes"))
+      c.settings.coarseAggregateNodes = r.integer(j["solver"]["coarseAggregateNodes"], p + "/solver/coarseAggregateNodes", 0, 1000000);
   }
   if (j.contains("fixed")) c.fixedSelector = selector(j["fixed"], p + "/fixed", file);
   if (j.contains("floor")) {
