@@ -5,11 +5,6 @@
 #include "blobvk/vk/device/shader_registry.h"
 
 #include <algorithm>
-#ifdef __linux__
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-#endif
 #include <cstring>
 
 namespace blobvk::vk {
@@ -267,14 +262,9 @@ void Device::buildInBackground(const std::string& key, std::function<void()> bui
   std::lock_guard lock(kernelMutex_);
   for (const auto& b : backgroundBuilds_)
     if (b.first == key) return;
+  // At the process's priority: a lower one (nice 10) made the first job faster on a busy machine
+  // but starved the build, and the next job waited for it for tens of seconds.
   backgroundBuilds_.emplace_back(key, std::async(std::launch::async, [build = std::move(build)] {
-#ifdef __linux__
-    // Below the job's own threads (the driver's workers): the build takes what the running job
-    // leaves idle (host work, waits) instead of slowing its dispatches; lowering a thread's own
-    // priority needs no privilege, and failing leaves it as it was. (Tower at 256 cells on the
-    // shared 2-core machine, bench --repeats 3: first run 1.2-1.6 s at nice 10, 1.8-2.2 s at 0.)
-    (void)setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
-#endif
     try {
       build();
     } catch (...) {  // the next job to need the kernel builds it in the foreground and reports

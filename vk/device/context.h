@@ -147,8 +147,8 @@ class Device {
                    std::span<const std::uint32_t> specs);
   // A cached pipeline, or null (lets callers skip generating code that is already built).
   KernelPtr findKernel(const std::string& name, std::span<const std::uint32_t> specs);
-  // Runs `build` (which builds kernels into this cache) on a thread of its own at low priority,
-  // for a later job: a job that cannot wait for a slow kernel runs another evaluator meanwhile.
+  // Runs `build` (which builds kernels into this cache) on a thread of its own, for a later job:
+  // a job that cannot wait for a slow kernel runs another evaluator meanwhile.
   // One build per `key` is started in the Device's life (a key started before is ignored); a
   // build that throws is dropped, so the job that next needs the kernel builds it and sees the
   // error. Background builds are waited for by waitForBackgroundBuilds() and the destructor.
