@@ -98,6 +98,7 @@ Device::~Device() {
   // failed. The host's device and queue are the host's business (no vkDeviceWaitIdle). The
   // kernels only the cache holds are destroyed here; one a pass still holds goes with its last
   // holder.
+  waitForBackgroundBuilds();
   if (fencePending_) (void)d_.vkWaitForFences(host_.device, 1, &fence_, VK_TRUE, UINT64_MAX);
   kernels_.clear();
   kernelLru_.clear();
@@ -107,7 +108,8 @@ Device::~Device() {
   memory_.reset();
 }
 
-std::vector<std::uint8_t> Device::pipelineCacheData() const {
+std::vector<std::uint8_t> Device::pipelineCacheData() {
+  waitForBackgroundBuilds();  // what they build belongs in the data
   std::size_t size = 0;
   check(d_.vkGetPipelineCacheData(host_.device, pipelineCache_, &size, nullptr), "vkGetPipelineCacheData");
   std::vector<std::uint8_t> data(size);
@@ -254,6 +256,53 @@ KernelPtr Device::kernel(const std::string& shader, std::span<const std::uint32_
 
 KernelPtr Device::findKernel(const std::string& name, std::span<const std::uint32_t> specs) {
   return touch(kernelKey(name, specs));
+}
+
+void Device::buildInBackground(const std::string& key, std::function<void()> build) {
+  std::lock_guard lock(kernelMutex_);
+  for (const auto& b : backgroundBuilds_)
+    if (b.first == key) return;
+  // At the process's priority: a lower one (nice 10) made the first job faster on a busy machine
+  // but starved the build, and the next job waited for it for tens of seconds.
+  backgroundBuilds_.emplace_back(key, std::async(std::launch::async, [build = std::move(build)] {
+    try {
+      build();
+    } catch (...) {  // the next job to need the kernel builds it in the foreground and reports
+    }
+  }).share());
+}
+
+std::size_t Device::backgroundBuildsStarted() const {
+  std::lock_guard lock(kernelMutex_);
+  return backgroundBuilds_.size();
+}
+
+bool Device::backgroundBuildStarted(const std::string& key) const {
+  std::lock_guard lock(kernelMutex_);
+  for (const auto& b : backgroundBuilds_)
+    if (b.first == key) return true;
+  return false;
+}
+
+bool Device::waitForBackgroundBuild(const std::string& key) {
+  std::shared_future<void> build;
+  {
+    std::lock_guard lock(kernelMutex_);
+    for (const auto& b : backgroundBuilds_)
+      if (b.first == key) build = b.second;
+  }
+  if (!build.valid()) return false;
+  build.wait();
+  return true;
+}
+
+void Device::waitForBackgroundBuilds() {
+  std::vector<std::shared_future<void>> builds;
+  {
+    std::lock_guard lock(kernelMutex_);
+    for (const auto& b : backgroundBuilds_) builds.push_back(b.second);
+  }
+  for (const auto& b : builds) b.wait();
 }
 
 KernelPtr Device::kernel(const std::string& name, std::span<const std::uint32_t> code, const std::string& layoutOf,

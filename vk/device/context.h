@@ -13,6 +13,7 @@
 #include <mutex>
 #include <span>
 #include <string>
+#include <future>
 #include <unordered_map>
 #include <vector>
 
@@ -146,6 +147,18 @@ class Device {
                    std::span<const std::uint32_t> specs);
   // A cached pipeline, or null (lets callers skip generating code that is already built).
   KernelPtr findKernel(const std::string& name, std::span<const std::uint32_t> specs);
+  // Runs `build` (which builds kernels into this cache) on a thread of its own, for a later job:
+  // a job that cannot wait for a slow kernel runs another evaluator meanwhile.
+  // One build per `key` is started in the Device's life (a key started before is ignored); a
+  // build that throws is dropped, so the job that next needs the kernel builds it and sees the
+  // error. Background builds are waited for by waitForBackgroundBuilds() and the destructor.
+  void buildInBackground(const std::string& key, std::function<void()> build);
+  // Background builds started so far (tests); whether the one of `key` was; a wait for it
+  // (false: none was started), and for all of them.
+  std::size_t backgroundBuildsStarted() const;
+  bool backgroundBuildStarted(const std::string& key) const;
+  bool waitForBackgroundBuild(const std::string& key);
+  void waitForBackgroundBuilds();
   // Pipelines in the cache, and how many it has evicted since creation.
   std::size_t cachedKernels() const {
     std::lock_guard lock(kernelMutex_);
@@ -168,8 +181,9 @@ class Device {
   // The VkPipelineCache every pipeline is created with: the host's, or the Device's own.
   VkPipelineCache pipelineCache() const { return pipelineCache_; }
   bool ownsPipelineCache() const { return ownsPipelineCache_; }
-  // vkGetPipelineCacheData of that cache (what to persist for a later process).
-  std::vector<std::uint8_t> pipelineCacheData() const;
+  // vkGetPipelineCacheData of that cache (what to persist for a later process), once the
+  // background builds have ended.
+  std::vector<std::uint8_t> pipelineCacheData();
 
   // DeviceOptions::spirvCacheDir.
   const std::string& spirvCacheDir() const { return spirvCacheDir_; }
@@ -206,6 +220,8 @@ class Device {
   std::list<std::pair<std::string, KernelPtr>> kernelLru_;
   std::unordered_map<std::string, std::list<std::pair<std::string, KernelPtr>>::iterator> kernels_;
   std::uint64_t evictedKernels_ = 0;
+  // Background builds by key, in start order (kernelMutex_ guards the list, not the waits).
+  std::vector<std::pair<std::string, std::shared_future<void>>> backgroundBuilds_;
   std::vector<std::string> shadersUsed_;
   std::shared_ptr<void> tilePlanCache_;
   std::string spirvCacheDir_;

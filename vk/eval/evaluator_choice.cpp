@@ -196,6 +196,16 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
       vertex = generated;
   }
   const double vertexBuild = vertex.build, vertexMegabytes = vertex.megabytes, vertexRun = vertex.run;
+  // One vertex pass with the embedded interpreter (no code generated: its kernel builds in
+  // kInterpreterKernelSeconds) against waiting for the generated kernel's build. Only without
+  // refinement: the vertex kernel then samples no field (brick_vertices_direct), the interpreter
+  // runs the gradient alone.
+  const bool generatedToBuild =
+      job.refineSteps <= 0 && vertex.gradient && wholeFits && !whole.looped && vertex.build > 0.0;
+  const double interpretedVertexPass =
+      (isBuilt("vertices", nullptr) ? 0.0 : kInterpreterKernelSeconds) +
+      kInterpreterSecondsPerInstruction * meanBranchCost * kInterpretedGradientEvaluations * vertices;
+  const bool interpretFirst = generatedToBuild && interpretedVertexPass < vertex.build + vertex.run;
   chosenCodegen.gradient = vertex.gradient;
   const bool wholeFieldBuilt = wholeFits && isBuilt("field_grid", &chosenCodegen);
   if (wholeFits) {
@@ -203,6 +213,7 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     e.traversal = Traversal::Specialised;
     e.fieldKernels = 1;
     e.vertexGradient = vertex.gradient;
+    e.interpretVertexPassUntilBuilt = interpretFirst;
     e.looped = whole.looped;
     e.buildSeconds = (wholeFieldBuilt ? 0.0 : kernelSeconds(whole, 1.0)) + vertexBuild;
     e.buildMegabytes = std::max(wholeFieldBuilt ? 0.0 : buildMegabytes(whole.size), vertexMegabytes);
@@ -217,6 +228,7 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     tiled.traversal = Traversal::Specialised;
     tiled.fieldKernels = std::uint32_t(tiles.size());
     tiled.vertexGradient = vertex.gradient;
+    tiled.interpretVertexPassUntilBuilt = interpretFirst;
     bool shared = false, own = false;
     for (const FieldTile& t : tiles) {
       if (specialiseTile(program, t.region, codegen.loops)) {

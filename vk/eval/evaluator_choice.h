@@ -47,6 +47,12 @@ struct EvaluatorEstimate {
   // Specialised unrolled code: the vertex kernel runs the generated gradient (CodegenOptions::
   // gradient), or interprets it where that kernel's build would cost more than it saves.
   bool vertexGradient = true;
+  // With the generated gradient not built yet: a job that cannot reuse the kernel pays its whole
+  // build before its vertex pass, though interpreting that pass would cost less (tower at 256
+  // cells on lavapipe: about 0.8 s to create the pipeline, even with warm caches, against 0.1-0.3 s
+  // more vertex pass). Then the first job interprets the vertex pass (the meshes are the same
+  // bytes) while the generated kernel builds in the background for the jobs after it.
+  bool interpretVertexPassUntilBuilt = false;
   bool looped = false;  // specialised: the code loops over instances (vk/eval/program_shape.h)
   double buildSeconds = 0.0, runSeconds = 0.0;
   double buildMegabytes = 0.0;  // peak memory of its largest kernel build, beyond the process's

@@ -56,6 +56,11 @@ struct GpuPolygonizeOptions {
   // 128 cells: 57 -> 40 ms) — worth it only when a polygonizer is used many times (an engine
   // re-extracting every frame), not for one mesh.
   bool tiledVertexPass = false;
+  // Sparse path, specialised code (set by the cost model for Auto, EvaluatorEstimate::
+  // interpretVertexPassUntilBuilt): while the generated-gradient vertex kernel is not built, the
+  // vertex pass runs the embedded interpreter (the same bytes) instead of waiting for the build;
+  // with expectedRuns > 1 the kernel builds in the background (Device::buildInBackground).
+  bool interpretVertexPassUntilBuilt = false;
 };
 
 struct GpuStats {
@@ -89,7 +94,7 @@ struct GpuStats {
   // Sparse: the evaluator the batches ran, and on CPU drivers what the cost model
   // (vk/eval/evaluator_choice.h) predicted for it (seconds; < 0 where it made no prediction).
   Traversal traversal = Traversal::Auto;
-  bool vertexGradient = false;
+  bool vertexGradient = false;  // false too where the vertex pass interpreted while it built
   double modelBuildSeconds = -1.0, modelRunSeconds = -1.0;
 };
 

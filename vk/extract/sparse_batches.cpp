@@ -153,6 +153,7 @@ struct SparseBatchRunner::State {
   // second submit. Declared after everything the build reads, so that it is joined first.
   KernelPtr vertexKernel;
   std::future<KernelPtr> vertexKernelBuild;
+  bool interpretedVertexPass = false;  // the embedded interpreter while the generated kernel builds
   const KernelPtr& vertices() {
     if (vertexKernelBuild.valid()) vertexKernel = vertexKernelBuild.get();  // rethrows a failed build
     return vertexKernel;
@@ -198,8 +199,31 @@ struct SparseBatchRunner::State {
     // sample loop, whose field evaluator llvmpipe would run once per vertex anyway.
     const bool samples = o.refineSteps > 0 || traversal == Traversal::StackBased;
     const char* vertexShader = samples ? "brick_vertices" : "brick_vertices_direct";
-    if (traversal == Traversal::Specialised) {
-      vertexKernelBuild = std::async(std::launch::async, [this, vertexShader, wg = o.workgroupSize, traversal] {
+    const bool generated = traversal == Traversal::Specialised && gpu.specialised && gpu.codegen.gradient;
+    // Background builds of the generated vertex kernel are known by this key.
+    const std::string backgroundKey = std::string(vertexShader) + ":" +
+                                      std::to_string(evaluatorFingerprint(gpu.fingerprint, gpu.codegen)) + ":" +
+                                      std::to_string(o.workgroupSize);
+    if (generated && o.interpretVertexPassUntilBuilt &&
+        !specialisedKernelBuilt(device, gpu.fingerprint, gpu.codegen, vertexShader, o.workgroupSize) &&
+        !device.backgroundBuildStarted(backgroundKey)) {
+      // Not built, and no earlier job started it: this job interprets its vertex pass (quick to
+      // create, the same bytes) and, if more jobs are expected, the generated kernel builds in
+      // the background for them. A later job waits for that build (below) rather than
+      // interpreting again: the cost model found the kernel worth building over the expected runs.
+      vertexKernel = evaluatorKernel(device, gpu, vertexShader, o.workgroupSize, Traversal::Stackless);
+      interpretedVertexPass = true;
+      if (o.expectedRuns > 1) {
+        device.buildInBackground(backgroundKey, [&d = device, program = gpu.specialised, print = gpu.fingerprint,
+                                                 codegen = gpu.codegen, shader = std::string(vertexShader),
+                                                 wg = o.workgroupSize] {
+          specialisedKernel(d, *program, print, codegen, shader, wg);
+        });
+      }
+    } else if (traversal == Traversal::Specialised) {
+      vertexKernelBuild = std::async(std::launch::async, [this, vertexShader, wg = o.workgroupSize, traversal,
+                                                          backgroundKey] {
+        device.waitForBackgroundBuild(backgroundKey);  // an earlier job's: then a cache hit here
         return evaluatorKernel(device, gpu, vertexShader, wg, traversal);
       });
     } else {  // the embedded interpreter: its pipeline is quick to create
@@ -418,6 +442,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   Buffer staging = stagingBytes ? device.createBuffer(stagingBytes, MemoryUse::Readback) : Buffer{};
   st.peakOutputBytes = std::max(st.peakOutputBytes, outBytes);
   const KernelPtr& vertexKernel = st.vertices();
+  if (st.interpretedVertexPass) s.vertexGradient = false;
   submit([&](Recorder& rec) {
     rec.computeBarrier();
     st.timer.mark(rec, mark + 4);

@@ -300,6 +300,7 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
     e.traversal = choice.chosen.traversal;
     e.codegen = codegen;
     e.codegen->gradient = choice.chosen.vertexGradient;
+    e.interpretVertexPassUntilBuilt = cpuDevice && choice.chosen.interpretVertexPassUntilBuilt;
   }
   if (estimate && cpuDevice) {
     e.modelBuildSeconds = estimate->buildSeconds;
@@ -348,6 +349,7 @@ GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options)
   resolved.traversal = traversal;
   if (codegen) resolved.codegen = &*codegen;
   if (!fieldTiles) resolved.maxFieldTiles = 1;
+  resolved.interpretVertexPassUntilBuilt = options.interpretVertexPassUntilBuilt || interpretVertexPassUntilBuilt;
   return resolved;
 }
 

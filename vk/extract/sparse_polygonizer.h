@@ -93,6 +93,7 @@ struct SparseEvaluator {
   // On CPU drivers, false where the field tiles' extra kernels (brick_tiles.h) would take longer
   // to build than they save over the job's active bricks: the field is then one kernel.
   bool fieldTiles = true;
+  bool interpretVertexPassUntilBuilt = false;  // EvaluatorEstimate's
   void report(GpuStats& stats) const;
   // `options` with this evaluator; its codegen points into this object, which must outlive it.
   GpuPolygonizeOptions apply(const GpuPolygonizeOptions& options) const;

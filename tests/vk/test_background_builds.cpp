@@ -1,0 +1,126 @@
+// A job that would wait for its slowest kernel instead runs the embedded interpreter and leaves the
+// kernel to build in the background for the jobs after it (Device::buildInBackground,
+// GpuPolygonizeOptions::interpretVertexPassUntilBuilt): the builds run once per key and are
+// waited for, the meshes are the generated kernel's byte for byte, and the cost model asks for
+// it only where one interpreted vertex pass is predicted to cost less than the build.
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/program.h"
+#include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/eval/gpu_program.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "reference_checks.h"
+#include "shipped_scenes.h"
+#include "vk_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <stdexcept>
+
+namespace blobvk::testing {
+namespace {
+
+class BackgroundBuildTest : public VulkanTest {};
+
+TEST_F(BackgroundBuildTest, RunOncePerKeyAndAreWaitedFor) {
+  vk::Device fresh(device().host());  // its own kernel cache, so nothing is built yet
+  const std::uint32_t spec[1] = {64};
+  std::atomic<int> runs{0};
+  fresh.buildInBackground("reduce", [&] {
+    fresh.kernel("scan_reduce", spec);
+    ++runs;
+  });
+  fresh.buildInBackground("reduce", [&] { ++runs; });  // the key was started: ignored
+  fresh.buildInBackground("fails", [] { throw std::runtime_error("a failed build is dropped"); });
+  EXPECT_TRUE(fresh.backgroundBuildStarted("reduce"));
+  EXPECT_FALSE(fresh.backgroundBuildStarted("apply"));
+  EXPECT_TRUE(fresh.waitForBackgroundBuild("reduce"));
+  EXPECT_NE(fresh.findKernel("scan_reduce", spec), nullptr);  // built into the cache
+  EXPECT_FALSE(fresh.waitForBackgroundBuild("apply"));
+  fresh.waitForBackgroundBuilds();
+  EXPECT_EQ(runs.load(), 1);
+  EXPECT_EQ(fresh.backgroundBuildsStarted(), 2u);
+}
+
+struct Job {
+  mesh::TriMesh mesh;
+  vk::GpuStats stats;
+};
+
+Job polygonizeOn(vk::Device& d, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                 bool interpretUntilBuilt, std::uint32_t expectedRuns) {
+  // The generated gradient, unrolled (a small program); given, so that the stats report it.
+  const vk::CodegenOptions codegen = vk::defaultCodegenOptions(d);
+  vk::GpuPolygonizeOptions o;
+  o.traversal = vk::Traversal::Specialised;
+  o.codegen = &codegen;
+  o.interpretVertexPassUntilBuilt = interpretUntilBuilt;
+  o.expectedRuns = expectedRuns;
+  Job j;
+  j.mesh = vk::polygonize(d, program, grid, o, &j.stats);
+  return j;
+}
+
+TEST_F(BackgroundBuildTest, FirstJobInterpretsTheVertexPassAndTheNextRunsTheGeneratedKernel) {
+  const auto program = blobtree::compile(blobtree::generateTower(1, 4, 6.0, 6.0, 1));
+  const auto grid = gridAt(program, 48);
+  // The oracle: the generated gradient's kernel, built before the job as the default path does.
+  vk::Device reference(device().host());
+  const Job generated = polygonizeOn(reference, program, grid, false, 1);
+  ASSERT_TRUE(generated.stats.vertexGradient);
+  ASSERT_FALSE(generated.mesh.triangles.empty());
+  EXPECT_EQ(reference.backgroundBuildsStarted(), 0u);
+
+  vk::Device fresh(device().host());
+  const Job first = polygonizeOn(fresh, program, grid, true, 2);
+  EXPECT_FALSE(first.stats.vertexGradient);  // interpreted
+  EXPECT_EQ(fresh.backgroundBuildsStarted(), 1u);
+  expectSameBytes(first.mesh, generated.mesh, "first job, interpreted vertex pass");
+  // No wait here: the second job waits for the build the first started instead of interpreting
+  // again or building it a second time.
+  const Job second = polygonizeOn(fresh, program, grid, true, 2);
+  EXPECT_TRUE(second.stats.vertexGradient);
+  EXPECT_EQ(fresh.backgroundBuildsStarted(), 1u);
+  expectSameBytes(second.mesh, generated.mesh, "second job, generated kernel");
+}
+
+TEST_F(BackgroundBuildTest, OneExpectedRunBuildsNothingInTheBackground) {
+  const auto program = blobtree::compile(blobtree::generateTower(1, 4, 6.0, 6.0, 1));
+  const auto grid = gridAt(program, 32);
+  vk::Device fresh(device().host());
+  const Job only = polygonizeOn(fresh, program, grid, true, 1);
+  EXPECT_FALSE(only.stats.vertexGradient);
+  EXPECT_EQ(fresh.backgroundBuildsStarted(), 0u);
+  EXPECT_FALSE(only.mesh.triangles.empty());
+}
+
+// The model's decision follows its own estimates: one interpreted vertex pass against the
+// generated kernel's build and run. Tower's unrolled vertex kernel (268 instructions, the field,
+// gradient and colour spelled out) is predicted to build for longer than an interpreted pass at
+// 256 cells; dice's (48) builds in a fraction of its interpreted pass; a built kernel is never
+// waited for.
+TEST(BackgroundBuildModel, InterpretsFirstOnlyWhereTheBuildCostsMore) {
+  vk::EvaluatorJob job;
+  job.vertexPass = true;
+  job.repeats = 3;
+  const vk::CodegenOptions codegen = vk::defaultCodegenOptions(true);
+  const ShippedScene tower = shipped("tower", 256);
+  const vk::EvaluatorChoice towerChoice = vk::chooseEvaluator(true, tower.program, tower.grid, job, codegen);
+  ASSERT_EQ(towerChoice.chosen.traversal, vk::Traversal::Specialised);
+  EXPECT_TRUE(towerChoice.chosen.vertexGradient);
+  EXPECT_TRUE(towerChoice.chosen.interpretVertexPassUntilBuilt);
+
+  const vk::KernelBuiltQuery vertexKernelBuilt = [](const std::string& shader, const vk::CodegenOptions* c) {
+    return shader == "vertices" && c && c->gradient;
+  };
+  EXPECT_FALSE(vk::chooseEvaluator(true, tower.program, tower.grid, job, codegen, vertexKernelBuilt)
+                   .chosen.interpretVertexPassUntilBuilt);
+
+  const ShippedScene dice = shipped("dice", 256);
+  const vk::EvaluatorChoice diceChoice = vk::chooseEvaluator(true, dice.program, dice.grid, job, codegen);
+  ASSERT_EQ(diceChoice.chosen.traversal, vk::Traversal::Specialised);
+  EXPECT_FALSE(diceChoice.chosen.interpretVertexPassUntilBuilt);
+}
+
+}  // namespace
+}  // namespace blobvk::testing
