@@ -22,6 +22,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
+
 #include <time.h>
 
 #include <array>
@@ -179,6 +181,13 @@ BENCHMARK(BM_CutEventTetgenBall)->Args({130, 42})->Args({130, 20})->Unit(benchma
 // Counters: per event, the mean and largest wall ms (cut + convert + FEM) and the mean of each
 // phase; at the end, the smallest dihedral angle at rest, how many tets are below 5 deg, the
 // rest volume's relative change and whether the topology self-check passes.
+// The strokes' seed: 16 (the TetgenStrokes test's), or BLOBVK_STROKES_SEED to see how the
+// quality holds for other stroke sequences (docs/cutting.md, "Quality after cuts").
+unsigned strokeSeed() {
+  const char* text = std::getenv("BLOBVK_STROKES_SEED");
+  return text && *text ? unsigned(std::strtoul(text, nullptr, 10)) : 16u;
+}
+
 void BM_RandomStrokesTetgenBall(benchmark::State& state) {
   if (!fem::tetgenAvailable()) {
     state.SkipWithError("built without TetGen");
@@ -197,7 +206,7 @@ void BM_RandomStrokesTetgenBall(benchmark::State& state) {
     cutting::Cutter cutter(ball, snapOptions(state.range(1)));
     fem::Simulation sim(ball, settings);
     const double volume = cutter.topology().totalRestVolume();
-    cutting::test::RandomStrokes strokes(16);
+    cutting::test::RandomStrokes strokes(strokeSeed());
     state.ResumeTiming();
     for (int s = 0; s < 100; ++s)
       for (const auto& swept : strokes.next()) {
