@@ -14,6 +14,7 @@
 
 #include <bit>
 #include <random>
+#include <utility>
 
 namespace blobvk::cpu {
 namespace {
@@ -32,6 +33,13 @@ std::vector<std::pair<std::string, blobtree::Node>> allModels() {
 
 std::uint32_t bits(float f) { return std::bit_cast<std::uint32_t>(f); }
 
+// Where the tests draw their regions: the model's bounds, or a box around the origin for a
+// model without finite ones.
+std::pair<glm::vec3, glm::vec3> regionsBox(const blobtree::Program& program) {
+  if (program.bounds.finite()) return {program.bounds.lo, program.bounds.hi};
+  return {glm::vec3(-2.5f), glm::vec3(2.5f)};
+}
+
 TEST(TapePruning, SameBitsAsTheFullProgramInsideTheRegion) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
@@ -39,9 +47,7 @@ TEST(TapePruning, SameBitsAsTheFullProgramInsideTheRegion) {
     SCOPED_TRACE(name);
     const blobtree::Program program = blobtree::compile(node);
     blobtree::Program fieldTape = makeTapeProgram(program), colourTape = fieldTape;
-    const bool finite = program.bounds.finite();
-    const glm::vec3 lo = finite ? program.bounds.lo : glm::vec3(-2.5f);
-    const glm::vec3 hi = finite ? program.bounds.hi : glm::vec3(2.5f);
+    const auto [lo, hi] = regionsBox(program);
     std::size_t shorter = 0;
     for (int region = 0; region < 40; ++region) {
       // Regions from a tenth of the model to all of it, anywhere in (and around) its bounds.
@@ -93,9 +99,7 @@ TEST(TapePruning, ATapeOfATapeKeepsTheBitsInsideTheSubRegion) {
     const blobtree::Program program = blobtree::compile(node);
     blobtree::Program groupField = makeTapeProgram(program), groupColour = groupField;
     blobtree::Program childField = makeTapeProgram(groupField), childColour = childField;
-    const bool finite = program.bounds.finite();
-    const glm::vec3 lo = finite ? program.bounds.lo : glm::vec3(-2.5f);
-    const glm::vec3 hi = finite ? program.bounds.hi : glm::vec3(2.5f);
+    const auto [lo, hi] = regionsBox(program);
     for (int region = 0; region < 30; ++region) {
       const glm::vec3 extent = (hi - lo) * (0.1f + 0.5f * u(rng));
       const glm::vec3 glo = lo + glm::vec3(u(rng), u(rng), u(rng)) * (hi - lo - extent);
@@ -157,9 +161,7 @@ TEST(TapePruning, TheGradientPassOnColourTapesGivesTheReferenceBits) {
     SCOPED_TRACE(name);
     const blobtree::Program program = blobtree::compile(node);
     blobtree::Program fieldTape = makeTapeProgram(program), colourTape = fieldTape;
-    const bool finite = program.bounds.finite();
-    const glm::vec3 lo = finite ? program.bounds.lo : glm::vec3(-2.5f);
-    const glm::vec3 hi = finite ? program.bounds.hi : glm::vec3(2.5f);
+    const auto [lo, hi] = regionsBox(program);
     std::size_t longestChain = 0, blended = 0;
     for (int region = 0; region < 30; ++region) {
       // MPU-sized to a third of the model, so that some regions see few of a blend's primitives.

@@ -228,7 +228,7 @@ BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells)
   b.z = (std::uint32_t(grid.cells.z) + brickCells - 1) / brickCells;
   // Limits of the packed brick coordinates (BrickGrid::pack: one word) and of a segment record's
   // counts (brick_layout.glsl, brickSegments: a slice's active bricks in 21 bits, a row's in 11).
-  if (b.bitsX() + b.bitsY() + b.bitsZ() > 32 || b.bitsX() + b.bitsY() > 31 || b.x >= (1u << 11) ||
+  if (b.bitsX() + b.bitsY() + b.bitsZ() > 32 || b.x >= (1u << 11) ||
       std::uint64_t(b.x) * b.y >= (1u << 21)) {
     throw VulkanError("GPU polygonizer: " + std::to_string(b.x) + " x " + std::to_string(b.y) + " x " +
                       std::to_string(b.z) + " bricks (at most 2^32 in all, 2047 along x, 2^21 in a layer): use larger bricks");

@@ -43,14 +43,14 @@ struct BrickGrid {
   std::uint64_t count() const { return std::uint64_t(x) * y * z; }
   // Active-brick lists hold packed coordinates x | y << bitsX | z << (bitsX + bitsY), each axis in
   // the bits its brick count needs (shaders/brick_layout.glsl, packBrick, unpackBrick):
-  // brickGridFor refuses a grid whose three widths exceed one word.
+  // brickGridFor refuses a grid whose three widths exceed one word (and bx + by stays under 23).
   std::uint32_t bitsX() const { return std::uint32_t(std::bit_width(x - 1)); }
   std::uint32_t bitsY() const { return std::uint32_t(std::bit_width(y - 1)); }
   std::uint32_t bitsZ() const { return std::uint32_t(std::bit_width(z - 1)); }
   std::uint32_t pack(const std::array<std::uint32_t, 3>& b) const { return b[0] | b[1] << bitsX() | b[2] << (bitsX() + bitsY()); }
   std::array<std::uint32_t, 3> unpack(std::uint32_t p) const {
     const std::uint32_t bx = bitsX(), by = bitsY();
-    return {p & ((1u << bx) - 1u), (p >> bx) & ((1u << by) - 1u), bx + by < 32 ? p >> (bx + by) : 0u};
+    return {p & ((1u << bx) - 1u), (p >> bx) & ((1u << by) - 1u), p >> (bx + by)};
   }
 };
 BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells);
