@@ -462,15 +462,17 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
       timer.mark(rec, 4 * std::uint32_t(k) + mark);
       rec.hostBarrier();
     };
+    // The layers' first bricks, counted from the window's first (the last: its active count).
+    std::vector<std::uint32_t> starts(scanEnd + 1 - first);
+    auto readStarts = [&] { device.download(layerStarts, starts.data(), starts.size() * 4, 4ull * first); };
     if (countFirst) {
       device.run([&](Recorder& rec) {
         begin(rec, 0);
         classify(rec);
         finish(rec, 1);
       });
-      std::uint32_t counted = 0;
-      device.download(layerStarts, &counted, 4, 4ull * scanEnd);
-      w.list = makeSparseBuffer(device, std::max<std::uint64_t>(counted, 1) * 4, "brick list", c.bytes);
+      readStarts();
+      w.list = makeSparseBuffer(device, std::max<std::uint64_t>(starts.back(), 1) * 4, "brick list", c.bytes);
       device.run([&](Recorder& rec) {
         begin(rec, 2);
         compact(rec);
@@ -487,9 +489,8 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
         finish(rec, 1);
       });
       ++s.submits;
+      readStarts();
     }
-    std::vector<std::uint32_t> starts(scanEnd + 1 - first);
-    device.download(layerStarts, starts.data(), starts.size() * 4, 4ull * first);
     for (std::uint32_t z = first; z <= scanEnd; ++z) c.layerStarts[z] = activeBase + starts[z - first];
     activeBase = c.layerStarts[end];
     c.windows.push_back(std::move(w));
