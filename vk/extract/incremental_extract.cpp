@@ -152,7 +152,7 @@ struct IncrementalExtractor::State {
     const std::vector<SparseBatch> batches = planSparseBatches(
         classified.layerStarts, sparseBatchLimit(device, bricks, options.maxBatchBricks), sparseRangeBricks(device, bricks));
     s.batches = std::uint32_t(batches.size());
-    std::uint64_t bytes = classified.bytes;
+    std::uint64_t batchBytes = 0;
     if (!batches.empty()) {
       std::uint32_t maxLoaded = 0;
       for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
@@ -163,9 +163,9 @@ struct IncrementalExtractor::State {
                                maxLoaded, s.batches);
       for (const SparseBatch& b : batches) runner.run(b, piece.positions.size(), piece, s, cornerKeys);
       runner.deviceTimes(s);
-      bytes += runner.sharedBytes() + runner.peakOutputBytes();
+      batchBytes = runner.sharedBytes() + runner.peakOutputBytes();
     }
-    s.deviceBytes = bytes;
+    s.deviceBytes = classified.peakBytes(batchBytes);
     st.msExtract = msSince(t0);
   }
 };

@@ -186,8 +186,6 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
           device.upload(w.list, listWords[k].data(), listWords[k].size() * 4);
           copies.push_back(std::move(w));
         }
-      } else {
-        tableBytes = classified.bytes;
       }
       SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg,
                                d ? std::span<const ScanWindow>(copies) : std::span<const ScanWindow>(classified.windows),
@@ -199,7 +197,9 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
         give(b, std::move(piece));
       }
       runner.deviceTimes(share);
-      share.deviceBytes = tableBytes + runner.sharedBytes() + runner.peakOutputBytes();
+      // Device 0 also classified: its peak is the classification's or the batches', whichever is larger.
+      const std::uint64_t batchBytes = runner.sharedBytes() + runner.peakOutputBytes();
+      share.deviceBytes = d ? tableBytes + batchBytes : classified.peakBytes(batchBytes);
     } catch (...) {
       fail();
     }

@@ -196,6 +196,10 @@ std::vector<std::array<std::uint32_t, 2>> planWindows(Device& device, const Bric
 
 }  // namespace
 
+std::uint64_t ClassifiedBricks::peakBytes(std::uint64_t batchBytes) const {
+  return bytes + std::max(scratchBytes, batchBytes);
+}
+
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
                                           const blobtree::GridSpec& grid, std::uint32_t brickCells,
                                           bool uniformRecords) {
@@ -252,7 +256,8 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
   // Outputs, and where each vertex and triangle comes from (8 bytes each).
   const std::uint64_t outputs = vertices * (12 + 8 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * (12 + 8);
   const std::uint64_t parentFlags = (bricks.count() / 7 + 8) * 4;  // the classification's coarser passes
-  return (bricks.count() + 1) * 8 + parentFlags + activeBricks * perBrick + scan + outputs + 256 * 4 * 4;
+  const std::uint64_t rowStarts = (std::uint64_t(bricks.y) * (bricks.z + 2) + 1) * 4;  // each brick row's first active brick
+  return (bricks.count() + 1) * 8 + parentFlags + rowStarts + activeBricks * perBrick + scan + outputs + 256 * 4 * 4;
 }
 
 namespace {
@@ -398,18 +403,18 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
     largestWindow = std::max<std::uint64_t>(largestWindow, (scanEnd - first) * layerBricks);
     classified.push_back({first, scanEnd});
   }
-  Buffer scratch = makeSparseBuffer(device, (scanScratchWords(largestWindow + 1) + 1) * 4, "scan scratch", c.bytes);
+  Buffer scratch = makeSparseBuffer(device, (scanScratchWords(largestWindow + 1) + 1) * 4, "scan scratch", c.scratchBytes);
   // The flags and their scan, one window at a time: only the row starts and the active bricks'
   // list stay for the batches.
-  Buffer scan = makeSparseBuffer(device, (largestWindow + 1) * 4, "brick flags", c.bytes);
+  Buffer scan = makeSparseBuffer(device, (largestWindow + 1) * 4, "brick flags", c.scratchBytes);
   // With several windows each list is sized to its active bricks, counted by a first submit (the
   // flags of a grid that needs windows would add up to more than the device holds, lavapipe's
   // 2 GiB at 4096³); one window takes a list for all its bricks and a single submit.
   const bool countFirst = planned.size() > 1;
-  Buffer totals = makeSparseBuffer(device, 16, "totals", c.bytes);
+  Buffer totals = makeSparseBuffer(device, 16, "totals", c.scratchBytes);
   Buffer layerStarts = device.createBuffer((layers + 1) * 4ull, MemoryUse::Readback);
-  const ClassifyParents parents = only ? ClassifyParents{{}, {}, makeSparseBuffer(device, 16, "parent brick flags", c.bytes)}
-                                       : classifyParents(device, bg, classified, c.bytes);
+  const ClassifyParents parents = only ? ClassifyParents{{}, {}, makeSparseBuffer(device, 16, "parent brick flags", c.scratchBytes)}
+                                       : classifyParents(device, bg, classified, c.scratchBytes);
   c.layerStarts.assign(layers + 1, 0);
   std::uint32_t activeBase = 0;
   for (std::size_t k = 0; k < planned.size(); ++k) {
@@ -598,7 +603,7 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
       classified.layerStarts, sparseBatchLimit(device, bg, options.maxBatchBricks), sparseRangeBricks(device, bg),
       ~0ull, classified.windowEnds(), options.keyedCornerBatches ? KeyedBatches::Force : KeyedBatches::Allow);
   s.batches = std::uint32_t(batches.size());
-  std::uint64_t bytes = classified.bytes;
+  std::uint64_t batchBytes = 0;
   if (!batches.empty()) {
     std::uint32_t maxLoaded = 0;
     for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
@@ -623,9 +628,9 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
       if (sink.done) sink.done(i, batches.size());
     }
     runner.deviceTimes(s);
-    bytes += runner.sharedBytes() + runner.peakOutputBytes();
+    batchBytes = runner.sharedBytes() + runner.peakOutputBytes();
   }
-  s.deviceBytes = bytes;
+  s.deviceBytes = classified.peakBytes(batchBytes);
   s.seconds = since(wallStart);
   s.hostSeconds = std::max(0.0, s.seconds - s.classifySeconds - s.fieldSeconds - s.extractSeconds - s.readbackSeconds);
 }

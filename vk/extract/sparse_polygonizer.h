@@ -141,7 +141,10 @@ struct ClassifiedBricks {
   BrickGrid bricks;
   std::vector<ScanWindow> windows;
   std::vector<std::uint32_t> layerStarts;
-  std::uint64_t bytes = 0;  // device memory of the classification's buffers
+  std::uint64_t bytes = 0;         // device memory of the tables above, held through the batches
+  std::uint64_t scratchBytes = 0;  // the flags, their scan and the parent levels, freed before the batches
+  // The most device memory held at once: the classification's, or its tables with `batchBytes`.
+  std::uint64_t peakBytes(std::uint64_t batchBytes) const;
   // Where batches must end: each window's end layer but the last.
   std::vector<std::uint32_t> windowEnds() const;
   // Active bricks [first, first + count) read back from the windows' lists, packed.
