@@ -53,6 +53,8 @@ class NodeSmoothing {
   std::vector<std::uint32_t> star_;
   std::vector<std::uint64_t> linkEdges_;
   std::vector<std::uint32_t> linkNodes_;
+  std::vector<std::uint64_t> boundaryEdges_;  // link edges of one tet: under a boundary face
+  std::vector<std::uint32_t> rimNodes_;
   std::vector<std::uint8_t> leftBox_;  // by star position: the move took the node out of the tet's box
 };
 
