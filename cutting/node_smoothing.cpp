@@ -12,6 +12,10 @@ namespace {
 // rounding of points computed on one swept triangle (~1e-15 relative), with room; a move within
 // such a fan changes the volume by at most ~this x edge^3.
 constexpr double kFlatSine = 1e-10;
+// A node on a crease (its boundary faces in two planes) slides along the planes' line only when
+// they meet at more than ~6 deg: the line's direction then carries the planes' rounding into at
+// most ~10 x kFlatSine off either plane.
+constexpr double kCreaseSine = 0.1;
 
 // Positive with the same margin for rounding as the flips ask of a new tet.
 bool positiveAt(const std::vector<Double3>& x, const Tet& t, std::uint32_t node, Double3 at) {
@@ -79,6 +83,8 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
   // still tile the same polygon (the star's tets stay positive, so none folds over), so the shape,
   // the crack and the volume are kept.
   Double3 normal{0, 0, 0};  // of the plane a boundary node slides in
+  bool crease = false;       // two planes: the node slides along their line, `line`
+  Double3 line{0, 0, 0};
   if (boundaryEdges_.empty()) {
     if (node < onCut.size() && onCut[node] > 0) return false;
     if (vertices + star_.size() != distinctEdges + 2) return false;
@@ -97,6 +103,7 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
     // Every boundary face through the node: its unit normal (outward: from the node's tet side)
     // must agree with the first to kFlatSine (rounding of points computed on a plane).
     bool first = true;
+    Double3 second{0, 0, 0};
     for (std::uint32_t s : star_) {
       const Tet& t = topology.tet(s);
       int local = 0;
@@ -117,10 +124,20 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
         if (first) {
           normal = n;
           first = false;
-        } else if (dot(n, normal) <= 0 || length(cross(n, normal)) > kFlatSine) {
+        } else if (dot(n, normal) > 0 && length(cross(n, normal)) <= kFlatSine) {
+          continue;
+        } else if (!crease) {
+          second = n;  // a second plane: the node may only slide along the line of both
+          crease = true;
+          if (length(cross(normal, second)) < kCreaseSine) return false;
+        } else if (dot(n, second) <= 0 || length(cross(n, second)) > kFlatSine) {
           return false;
         }
       }
+    }
+    if (crease) {
+      line = cross(normal, second);
+      line = line * (1.0 / length(line));
     }
   }
   double current = 1e300;
@@ -146,7 +163,7 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
   Double3 away = cross(fb - fa, fc - fa);  // kTetFaces are outward: the node is on the inner side
   away = away * (-1.0 / std::max(length(away), 1e-300));
   // A boundary node's candidates are projected into its plane (a direction: its in-plane part).
-  auto inPlane = [&](Double3 d) { return d - normal * dot(d, normal); };
+  auto inPlane = [&](Double3 d) { return crease ? line * dot(d, line) : d - normal * dot(d, normal); };
   const Double3 toCentroid = inPlane(centroid - from);
   Double3 opening = inPlane(away);
   if (!boundaryEdges_.empty()) opening = opening * (1.0 / std::max(length(opening), 1e-300));

@@ -122,13 +122,14 @@ mesh::TetMesh pushedFaceNode(std::uint32_t& pushed, mesh::Double3 at) {
   return m;
 }
 
-// Every node that was on a face of the 4^3 block is still on it (to rounding).
-void expectOnTheBlocksFaces(const std::vector<mesh::Double3>& before, const std::vector<mesh::Double3>& after) {
+// Every node that was on a face of the n^3 block is still on it (to rounding).
+void expectOnTheBlocksFaces(const std::vector<mesh::Double3>& before, const std::vector<mesh::Double3>& after,
+                            double n = 4) {
   for (std::uint32_t v = 0; v < before.size(); ++v)
     for (int axis = 0; axis < 3; ++axis) {
       const double p = axis == 0 ? before[v].x : axis == 1 ? before[v].y : before[v].z;
       const double q = axis == 0 ? after[v].x : axis == 1 ? after[v].y : after[v].z;
-      if (p == 0 || p == 4) {
+      if (p == 0 || p == n) {
         EXPECT_NEAR(q, p, 1e-12) << "node " << v << ", axis " << axis;
       }
     }
@@ -212,20 +213,64 @@ TEST(NodeSmoothing, ANodeOfAnOpenPlanarCrackSlidesWithinIt) {
   EXPECT_EQ(disjointParts(topology).size(), 1u);
 }
 
-// A node on an edge of the block (its boundary faces in two planes) pushed along the edge: it
-// may not move (that would bend a face), so the slivers stay.
-TEST(NodeSmoothing, ANodeOnABoundaryCreaseStays) {
+// A node on an edge of the block (its boundary faces in the two planes y = 0 and z = 0) pushed
+// along the edge: a node of the edge slides along the line of both planes (y and z stay 0 to
+// rounding), so both faces and the volume are kept.
+TEST(NodeSmoothing, ANodeOnABoundaryCreaseSlidesAlongIt) {
   mesh::TetMesh m = test::cubeMesh(4);
   std::uint32_t pushed = 0;
   for (std::uint32_t i = 0; i < m.nodeCount(); ++i)
     if (m.restPositions[i].x == 2 && m.restPositions[i].y == 0 && m.restPositions[i].z == 0) pushed = i;
   m.restPositions[pushed] = m.positions[pushed] = {1.12, 0, 0};
-  ASSERT_LT(minAngle(m), 15.0);
+  const double angleBefore = minAngle(m);
+  ASSERT_LT(angleBefore, 15.0);
   CutTopology topology(m);
+  ASSERT_TRUE(topology.selfCheck().ok());
+  const double volume = topology.totalRestVolume();
   const Smoothed run = smooth(topology, std::vector<double>(m.nodeCount(), 0.0));
-  for (const MovedNode& mv : run.moved) EXPECT_NE(mv.index, pushed);
-  EXPECT_EQ(topology.mesh().restPositions[pushed].x, 1.12);
-  expectOnTheBlocksFaces(m.restPositions, topology.mesh().restPositions);
+  ASSERT_FALSE(run.moved.empty());
+  const double angleAfter = minAngle(topology.mesh());
+  std::printf("min dihedral %.2f -> %.2f deg, %zu moves\n", angleBefore, angleAfter, run.moved.size());
+  EXPECT_GT(angleAfter, angleBefore + 1.0);
+  // A node of the edge moved (the pushed one or its neighbour on the edge), along the edge.
+  const auto& rest = topology.mesh().restPositions;
+  bool alongTheEdge = false;
+  for (const MovedNode& mv : run.moved) {
+    const mesh::Double3 p = m.restPositions[mv.index];
+    if (p.y != 0 || p.z != 0) continue;
+    alongTheEdge = true;
+    EXPECT_NE(rest[mv.index].x, p.x);
+    EXPECT_LE(std::fabs(rest[mv.index].y), 1e-12);
+    EXPECT_LE(std::fabs(rest[mv.index].z), 1e-12);
+  }
+  EXPECT_TRUE(alongTheEdge);
+  EXPECT_NEAR(topology.totalRestVolume(), volume, 1e-12 * volume);
+  EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
+  expectOnTheBlocksFaces(m.restPositions, rest);
+}
+
+// A corner of the block (three planes) never moves, whatever its tets: here every tet is below
+// the threshold, so every node is tried.
+TEST(NodeSmoothing, ACornerOfTheBlockStays) {
+  const mesh::TetMesh m = test::cubeMesh(2);
+  CutTopology topology(m);
+  SpatialGrid grid;
+  grid.rebuild(topology);
+  std::vector<std::uint32_t> seeds(topology.slotCount());
+  std::iota(seeds.begin(), seeds.end(), 0u);
+  Smoothed run;
+  NodeSmoothing smoothing;
+  smoothing.improve(topology, grid, seeds, 90.0, std::vector<double>(m.nodeCount(), 0.0),
+                    {run.removed, run.removedNodes, run.added}, run.moved);
+  for (std::uint32_t v = 0; v < m.nodeCount(); ++v) {
+    const mesh::Double3 p = m.restPositions[v];
+    const bool corner = (p.x == 0 || p.x == 2) && (p.y == 0 || p.y == 2) && (p.z == 0 || p.z == 2);
+    if (corner) {
+      EXPECT_EQ(topology.mesh().restPositions[v], p) << "node " << v;
+    }
+  }
+  expectOnTheBlocksFaces(m.restPositions, topology.mesh().restPositions, 2);
+  EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
 }
 
 }  // namespace
