@@ -95,7 +95,7 @@ const mesh::TetMesh& ball(double maxVolume, int subdivisions) {
 }
 
 // Other seeds on the ~12.7k-tet ball (seed 12 is not among them: it ends at 4.88 deg, a tet with
-// three boundary faces whose nodes all lie on bends of the crack, docs/cutting.md).
+// three boundary faces that no allowed move or flip improves, docs/cutting.md).
 class SmallBallStrokes : public ::testing::TestWithParam<unsigned> {};
 TEST_P(SmallBallStrokes, KeepTheBallConformingItsVolumeAndFiveDegrees) {
   if (!fem::tetgenAvailable()) GTEST_SKIP() << "built without TetGen";
