@@ -101,7 +101,8 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
           (i + 2 < rimNodes_.size() && rimNodes_[i + 2] == rimNodes_[i]))
         return false;
     // Every boundary face through the node: its unit normal (outward: from the node's tet side)
-    // must agree with the first to kFlatSine (rounding of points computed on a plane).
+    // must agree to kFlatSine (rounding of points computed on a plane) with the first face's, or
+    // with a second plane's (a crease), and there may be no third.
     bool first = true;
     Double3 second{0, 0, 0};
     for (std::uint32_t s : star_) {
@@ -162,7 +163,8 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
   const Double3 fa = rest[w[std::size_t(face[0])]], fb = rest[w[std::size_t(face[1])]], fc = rest[w[std::size_t(face[2])]];
   Double3 away = cross(fb - fa, fc - fa);  // kTetFaces are outward: the node is on the inner side
   away = away * (-1.0 / std::max(length(away), 1e-300));
-  // A boundary node's candidates are projected into its plane (a direction: its in-plane part).
+  // A boundary node's candidates are projected into its plane, a crease node's onto its line (a
+  // direction: the part of it that keeps the node on its planes).
   auto inPlane = [&](Double3 d) { return crease ? line * dot(d, line) : d - normal * dot(d, normal); };
   const Double3 toCentroid = inPlane(centroid - from);
   Double3 opening = inPlane(away);
