@@ -41,9 +41,13 @@ using bench::stroke;
 
 
 // The cutter's options with the snap fraction given in hundredths (a benchmark argument).
+// The snap fraction in %; BLOBVK_SMOOTH_BELOW_DEG, when set, replaces the node smoothing's
+// threshold (0: off), for comparing the quality and time with and without it.
 cutting::CutOptions snapOptions(std::int64_t percent) {
   cutting::CutOptions options;
   options.snapFraction = double(percent) / 100.0;
+  if (const char* text = std::getenv("BLOBVK_SMOOTH_BELOW_DEG"); text && *text)
+    options.smoothBelowDeg = std::strtod(text, nullptr);
   return options;
 }
 

@@ -8,6 +8,15 @@
 namespace blobvk::cutting {
 namespace {
 
+// Boundary faces around a node are one plane when their unit normals agree to this sine: the
+// rounding of points computed on one swept triangle (~1e-15 relative), with room; a move within
+// such a fan changes the volume by at most ~this x edge^3.
+constexpr double kFlatSine = 1e-10;
+// A node on a crease (its boundary faces in two planes) slides along the planes' line only when
+// they meet at more than ~6 deg: the line's direction then carries the planes' rounding into at
+// most ~10 x kFlatSine off either plane.
+constexpr double kCreaseSine = 0.1;
+
 // Positive with the same margin for rounding as the flips ask of a new tet.
 bool positiveAt(const std::vector<Double3>& x, const Tet& t, std::uint32_t node, Double3 at) {
   auto p = [&](std::uint32_t v) { return v == node ? at : x[v]; };
@@ -24,10 +33,9 @@ double qualityAt(const std::vector<Double3>& x, const Tet& t, std::uint32_t node
 }  // namespace
 
 bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std::vector<double>& onCut, MovedNode& move) {
-  if (node < onCut.size() && onCut[node] > 0) return false;
   const mesh::TetMesh& m = topology.mesh();
   const auto incident = topology.tetsOfNode(node);
-  if (incident.size() < 4) return false;
+  if (incident.empty()) return false;
   star_.assign(incident.begin(), incident.end());
   const std::uint32_t region = m.regions.empty() ? 0u : m.regions[star_[0]];
   for (std::uint32_t s : star_)
@@ -35,6 +43,104 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
   const auto& rest = m.restPositions;
   const auto& pos = m.positions;
   const Double3 from = rest[node];
+  // The link (the faces opposite the node). In a conforming mesh each of its edges is used by one
+  // or two tets of the star: two for an interior face through the node, one for a boundary face
+  // (crack faces included) through it.
+  linkEdges_.clear();
+  for (std::uint32_t s : star_) {
+    const Tet& t = topology.tet(s);
+    std::array<std::uint32_t, 3> o{};
+    std::size_t k = 0;
+    for (std::uint32_t v : t)
+      if (v != node) o[k++] = v;
+    linkEdges_.push_back(edgeKey(o[0], o[1]));
+    linkEdges_.push_back(edgeKey(o[0], o[2]));
+    linkEdges_.push_back(edgeKey(o[1], o[2]));
+  }
+  std::sort(linkEdges_.begin(), linkEdges_.end());
+  std::size_t distinctEdges = 0;
+  boundaryEdges_.clear();
+  for (std::size_t i = 0; i < linkEdges_.size();) {
+    std::size_t j = i + 1;
+    while (j < linkEdges_.size() && linkEdges_[j] == linkEdges_[i]) ++j;
+    if (j - i > 2) return false;
+    if (j - i == 1) boundaryEdges_.push_back(linkEdges_[i]);
+    ++distinctEdges;
+    i = j;
+  }
+  linkNodes_.clear();
+  for (std::uint32_t s : star_)
+    for (std::uint32_t v : topology.tet(s))
+      if (v != node) linkNodes_.push_back(v);
+  std::sort(linkNodes_.begin(), linkNodes_.end());
+  const std::size_t vertices = std::size_t(std::unique(linkNodes_.begin(), linkNodes_.end()) - linkNodes_.begin());
+  // Interior: the link is one sphere (V - E + F = 2), not several touching at the node; only then
+  // is the union of the star a ball around the node that a move keeps. A node on a cut surface
+  // whose crack is not open stays: moving it would move the crack.
+  // On the boundary: the link is one disk (V - E + F = 1, its rim one cycle: every rim node on two
+  // rim edges) and the boundary faces around the node lie in one plane (a flat piece of the
+  // surface or of a crack sheet). The node may then slide within that plane: the boundary faces
+  // still tile the same polygon (the star's tets stay positive, so none folds over), so the shape,
+  // the crack and the volume are kept.
+  Double3 normal{0, 0, 0};  // of the plane a boundary node slides in
+  bool crease = false;       // two planes: the node slides along their line, `line`
+  Double3 line{0, 0, 0};
+  if (boundaryEdges_.empty()) {
+    if (node < onCut.size() && onCut[node] > 0) return false;
+    if (vertices + star_.size() != distinctEdges + 2) return false;
+  } else {
+    if (vertices + star_.size() != distinctEdges + 1) return false;
+    rimNodes_.clear();
+    for (std::uint64_t e : boundaryEdges_) {
+      rimNodes_.push_back(std::uint32_t(e >> 32));
+      rimNodes_.push_back(std::uint32_t(e & 0xffffffffu));
+    }
+    std::sort(rimNodes_.begin(), rimNodes_.end());
+    for (std::size_t i = 0; i < rimNodes_.size(); i += 2)
+      if (i + 1 >= rimNodes_.size() || rimNodes_[i] != rimNodes_[i + 1] ||
+          (i + 2 < rimNodes_.size() && rimNodes_[i + 2] == rimNodes_[i]))
+        return false;
+    // Every boundary face through the node: its unit normal (outward: from the node's tet side)
+    // must agree to kFlatSine (rounding of points computed on a plane) with the first face's, or
+    // with a second plane's (a crease), and there may be no third.
+    bool first = true;
+    Double3 second{0, 0, 0};
+    for (std::uint32_t s : star_) {
+      const Tet& t = topology.tet(s);
+      int local = 0;
+      while (t[std::size_t(local)] != node) ++local;
+      for (int f = 0; f < 4; ++f) {
+        if (f == local) continue;
+        const auto& face = kTetFaces[std::size_t(f)];
+        std::uint32_t a = kNone, b = kNone;
+        for (int c : face)
+          if (c != local) (a == kNone ? a : b) = t[std::size_t(c)];
+        if (!std::binary_search(boundaryEdges_.begin(), boundaryEdges_.end(), edgeKey(a, b))) continue;
+        const Double3 pa = rest[t[std::size_t(face[0])]], pb = rest[t[std::size_t(face[1])]],
+                      pc = rest[t[std::size_t(face[2])]];
+        Double3 n = cross(pb - pa, pc - pa);
+        const double len = length(n);
+        if (!(len > 0)) return false;
+        n = n * (1.0 / len);
+        if (first) {
+          normal = n;
+          first = false;
+        } else if (dot(n, normal) > 0 && length(cross(n, normal)) <= kFlatSine) {
+          continue;
+        } else if (!crease) {
+          second = n;  // a second plane: the node may only slide along the line of both
+          crease = true;
+          if (length(cross(normal, second)) < kCreaseSine) return false;
+        } else if (dot(n, second) <= 0 || length(cross(n, second)) > kFlatSine) {
+          return false;
+        }
+      }
+    }
+    if (crease) {
+      line = cross(normal, second);
+      line = line * (1.0 / length(line));
+    }
+  }
   double current = 1e300;
   std::uint32_t worst = star_[0];
   Double3 centroid{0, 0, 0};
@@ -55,11 +161,17 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
   while (w[std::size_t(local)] != node) ++local;
   const auto& face = kTetFaces[std::size_t(local)];
   const Double3 fa = rest[w[std::size_t(face[0])]], fb = rest[w[std::size_t(face[1])]], fc = rest[w[std::size_t(face[2])]];
-  Double3 normal = cross(fb - fa, fc - fa);  // kTetFaces are outward: the node is on the inner side
-  normal = normal * (-1.0 / std::max(length(normal), 1e-300));
-  const std::array<Double3, 6> candidates{lerp(from, centroid, 1.0),       lerp(from, centroid, 0.5),
-                                          lerp(from, centroid, 0.25),      from + normal * (0.3 * edge),
-                                          from + normal * (0.15 * edge),   from + normal * (0.05 * edge)};
+  Double3 away = cross(fb - fa, fc - fa);  // kTetFaces are outward: the node is on the inner side
+  away = away * (-1.0 / std::max(length(away), 1e-300));
+  // A boundary node's candidates are projected into its plane, a crease node's onto its line (a
+  // direction: the part of it that keeps the node on its planes).
+  auto inPlane = [&](Double3 d) { return crease ? line * dot(d, line) : d - normal * dot(d, normal); };
+  const Double3 toCentroid = inPlane(centroid - from);
+  Double3 opening = inPlane(away);
+  if (!boundaryEdges_.empty()) opening = opening * (1.0 / std::max(length(opening), 1e-300));
+  const std::array<Double3, 6> candidates{from + toCentroid,          from + toCentroid * 0.5,
+                                          from + toCentroid * 0.25,   from + opening * (0.3 * edge),
+                                          from + opening * (0.15 * edge), from + opening * (0.05 * edge)};
   double bestQuality = current + 1e-9;
   const Double3* best = nullptr;
   for (const Double3& to : candidates) {
@@ -76,34 +188,6 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
     best = &to;
   }
   if (best == nullptr) return false;
-  // Interior: every face through the node has a tet on each side, i.e. every edge of the link
-  // (the faces opposite the node) is used by exactly two tets of the star (a conforming mesh
-  // has at most two). Checked only for a node that would move.
-  linkEdges_.clear();
-  for (std::uint32_t s : star_) {
-    const Tet& t = topology.tet(s);
-    std::array<std::uint32_t, 3> o{};
-    std::size_t k = 0;
-    for (std::uint32_t v : t)
-      if (v != node) o[k++] = v;
-    linkEdges_.push_back(edgeKey(o[0], o[1]));
-    linkEdges_.push_back(edgeKey(o[0], o[2]));
-    linkEdges_.push_back(edgeKey(o[1], o[2]));
-  }
-  std::sort(linkEdges_.begin(), linkEdges_.end());
-  for (std::size_t i = 0; i < linkEdges_.size(); i += 2)
-    if (i + 1 >= linkEdges_.size() || linkEdges_[i] != linkEdges_[i + 1] ||
-        (i + 2 < linkEdges_.size() && linkEdges_[i + 2] == linkEdges_[i]))
-      return false;
-  // One sphere, not several touching at the node (V - E + F = 2): only then is the union of the
-  // star a ball around the node that the move keeps.
-  linkNodes_.clear();
-  for (std::uint32_t s : star_)
-    for (std::uint32_t v : topology.tet(s))
-      if (v != node) linkNodes_.push_back(v);
-  std::sort(linkNodes_.begin(), linkNodes_.end());
-  const std::size_t vertices = std::size_t(std::unique(linkNodes_.begin(), linkNodes_.end()) - linkNodes_.begin());
-  if (vertices + star_.size() != linkEdges_.size() / 2 + 2) return false;
   // The tet of the star that holds the new position (the largest smallest barycentric weight):
   // its weights carry the move to the current positions, as the FEM will apply it.
   double inside = -1e300;
@@ -162,12 +246,8 @@ std::size_t NodeSmoothing::improve(CutTopology& topology, SpatialGrid& grid, std
   for (std::uint32_t slot : seeds) {
     if (slot >= topology.slotCount() || !topology.alive(slot)) continue;
     const Tet t = topology.tet(slot);
-    // Only a node no cut surface holds can move; most nodes of a bad child are cut points.
-    bool any = false;
-    for (std::uint32_t node : t) any = any || node >= onCut.size() || onCut[node] <= 0;
-    if (!any) continue;
     for (std::uint32_t node : t) {
-      if ((node < onCut.size() && onCut[node] > 0) || tried_[node]) continue;
+      if (tried_[node]) continue;
       if (dihedralQuality(rest[t[0]], rest[t[1]], rest[t[2]], rest[t[3]]) >= bar) break;
       tried_[node] = 1;
       triedNodes_.push_back(node);

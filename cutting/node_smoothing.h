@@ -3,11 +3,18 @@
 // tets around the node is largest among a few candidates (towards the centroid of its star, and
 // away from the face opposite it in the worst tet). Flips cannot reach a tet whose bad angle needs
 // a node moved; this can, without adding or removing a tet.
-// A node is free when the crack never touched it (it lies on no cut surface: moving it would move
-// the crack), no face around it is on the boundary (crack faces included: the shape and parts are
-// kept), and all its tets have one region (each region keeps its volume: the union of the star is
-// unchanged, only the node inside it moves). A move is taken only when every tet around the node
-// stays positive at rest and in the current positions and the star's smallest angle rises.
+// A node is free to move, all its tets in one region (each region keeps its volume: the union of
+// the star is unchanged, only the node inside it moves), when
+//   - it is interior (its link is one sphere) and on no cut surface (moving a node of a closed
+//     cut surface would move the crack), or
+//   - it is on the boundary (crack faces included) with a link that is one disk, and all the
+//     boundary faces around it lie in one plane: it slides within that plane (a flat piece of the
+//     surface or of a crack sheet), or in two planes (a crease: a crack sheet meeting another or
+//     the surface): it slides along their line. The boundary, the crack and the volume are kept
+//     (the star stays positive, so the boundary faces still tile the same pieces of their planes).
+// A node where three planes meet, on a curved boundary or on a crack's rim stays. A move is taken
+// only when every tet around the node stays positive at rest and in the current positions and
+// the star's smallest angle rises.
 // The FEM takes a move as a change of the rest shape of the node's tets (fem::TopologyChange::
 // movedNodes): the node's new rest position is a barycentric combination of the tet that held it,
 // so its position and velocity in a deformed body follow from the same weights.
@@ -37,10 +44,10 @@ struct MovedNode {
 class NodeSmoothing {
  public:
   // Tries the free nodes of the tets of `seeds` (sorted slots) below `belowDeg`. `onCut[n] > 0`
-  // marks a node on a cut surface (the cutter's snap reach), never moved. Every tet around a moved
-  // node is appended to the change set (listed as removed with its unchanged nodes when the event
-  // had not written it) and registered in the grid; each move is appended to `moved`, in order.
-  // Returns the number of moves.
+  // marks a node on a cut surface (the cutter's snap reach): it moves only within a flat
+  // boundary. Every tet around a moved node is appended to the change set (listed as removed with
+  // its unchanged nodes when the event had not written it) and registered in the grid; each move
+  // is appended to `moved`, in order. Returns the number of moves.
   std::size_t improve(CutTopology& topology, SpatialGrid& grid, std::span<const std::uint32_t> seeds, double belowDeg,
                       const std::vector<double>& onCut, FlipChangeSet change, std::vector<MovedNode>& moved);
 
@@ -53,6 +60,8 @@ class NodeSmoothing {
   std::vector<std::uint32_t> star_;
   std::vector<std::uint64_t> linkEdges_;
   std::vector<std::uint32_t> linkNodes_;
+  std::vector<std::uint64_t> boundaryEdges_;  // link edges of one tet: under a boundary face
+  std::vector<std::uint32_t> rimNodes_;
   std::vector<std::uint8_t> leftBox_;  // by star position: the move took the node out of the tet's box
 };
 

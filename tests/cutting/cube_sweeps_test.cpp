@@ -28,6 +28,7 @@ TEST(CubeSweeps, HundredRandomSweepsKeepTheMeshValid) {
   // A mirror of the mesh kept only through the change sets, as an incremental FEM would.
   std::map<std::uint32_t, Tet> mirror;
   for (std::uint32_t s = 0; s < cutter.topology().slotCount(); ++s) mirror[s] = cutter.topology().tet(s);
+  std::vector<Double3> mirrorRest = cutter.topology().mesh().restPositions;
   std::array<std::size_t, 11> cases{};
   std::size_t splitTotal = 0;
   double seconds = 0;
@@ -52,13 +53,23 @@ TEST(CubeSweeps, HundredRandomSweepsKeepTheMeshValid) {
       mirror.erase(it);
     }
     for (std::uint32_t s : r.addedTets) mirror[s] = cutter.topology().tet(s);
-    const auto& rest = cutter.topology().mesh().restPositions;
+    // The rest positions kept only through the change sets: new nodes appended from their
+    // sources, then the smoothing's moves in order, each from the values before it.
+    ASSERT_EQ(mirrorRest.size() + r.newNodes.size(), cutter.topology().mesh().nodeCount());
     for (const NewNode& nn : r.newNodes) {
-      Double3 expected{};
+      ASSERT_EQ(nn.index, mirrorRest.size());
+      Double3 at{};
       for (int k = 0; k < 4; ++k)
-        if (nn.sources[k] != kNone) expected = expected + rest[nn.sources[k]] * nn.weights[k];
-      EXPECT_NEAR(length(expected - rest[nn.index]), 0.0, 1e-12);
+        if (nn.sources[k] != kNone) at = at + mirrorRest[nn.sources[k]] * nn.weights[k];
+      mirrorRest.push_back(at);
     }
+    for (const MovedNode& m : r.movedNodes) {
+      Double3 at{};
+      for (int k = 0; k < 4; ++k) at = at + mirrorRest[m.sources[k]] * m.weights[k];
+      mirrorRest[m.index] = at;
+    }
+    const auto& rest = cutter.topology().mesh().restPositions;
+    for (std::size_t v = 0; v < rest.size(); ++v) EXPECT_NEAR(length(mirrorRest[v] - rest[v]), 0.0, 1e-12) << "node " << v;
     if (sweep % 10 == 9) {
       const SelfCheckReport check = cutter.topology().selfCheck();
       ASSERT_TRUE(check.ok()) << "sweep " << sweep << ": " << check.summary();

@@ -4,6 +4,8 @@
 // moved), the topology self-check, and each move's weights reproducing the new rest position
 // from the positions before it.
 #include "blobvk/cutting/node_smoothing.h"
+#include "blobvk/cutting/cutter.h"
+#include "blobvk/cutting/parts.h"
 #include "blobvk/cutting/quality.h"
 #include "blobvk/cutting/spatial_grid.h"
 #include "blobvk/cutting/topology.h"
@@ -13,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <numeric>
 
@@ -69,7 +72,8 @@ TEST(NodeSmoothing, AFreeInteriorNodeMovesAndRaisesTheSmallestAngle) {
   EXPECT_GT(minAngle(topology.mesh()), angleBefore + 1.0);
   EXPECT_NEAR(topology.totalRestVolume(), volume, 1e-12 * volume);
   EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
-  // Boundary nodes never move; a move's weights give its new place from the values before it.
+  // No node of the block's boundary moves (none is in a bad tet); a move's weights give its new
+  // place from the values before it.
   std::vector<mesh::Double3> rest = before.restPositions;
   for (const MovedNode& m : run.moved) {
     const mesh::Double3 p = rest[m.index];
@@ -104,6 +108,169 @@ TEST(NodeSmoothing, ANodeOnACutSurfaceStays) {
   const Smoothed run = smooth(topology, onCut);
   for (const MovedNode& m : run.moved) EXPECT_NE(m.index, pushed);
   EXPECT_EQ(topology.mesh().restPositions[pushed].x, 1.98);
+}
+
+// A node of the block's face z = 0 (flat: every boundary face around it lies in that plane)
+// pushed within the face towards a neighbour, which flattens the tets of its star. Interior
+// smoothing cannot reach it; sliding within the face can, and keeps the face (the node stays on
+// z = 0 to rounding, every other node where it was) and the volume.
+mesh::TetMesh pushedFaceNode(std::uint32_t& pushed, mesh::Double3 at) {
+  mesh::TetMesh m = test::cubeMesh(4);
+  for (std::uint32_t i = 0; i < m.nodeCount(); ++i)
+    if (m.restPositions[i].x == 2 && m.restPositions[i].y == 2 && m.restPositions[i].z == 0) pushed = i;
+  m.restPositions[pushed] = m.positions[pushed] = at;
+  return m;
+}
+
+// Every node that was on a face of the n^3 block is still on it (to rounding).
+void expectOnTheBlocksFaces(const std::vector<mesh::Double3>& before, const std::vector<mesh::Double3>& after,
+                            double n = 4) {
+  for (std::uint32_t v = 0; v < before.size(); ++v)
+    for (int axis = 0; axis < 3; ++axis) {
+      const double p = axis == 0 ? before[v].x : axis == 1 ? before[v].y : before[v].z;
+      const double q = axis == 0 ? after[v].x : axis == 1 ? after[v].y : after[v].z;
+      if (p == 0 || p == n) {
+        EXPECT_NEAR(q, p, 1e-12) << "node " << v << ", axis " << axis;
+      }
+    }
+}
+
+void expectSlidesWithinTheFace(const std::vector<double>& onCut) {
+  std::uint32_t pushed = 0;
+  const mesh::TetMesh before = pushedFaceNode(pushed, {1.12, 1.97, 0});
+  const double angleBefore = minAngle(before);
+  ASSERT_LT(angleBefore, 15.0);
+  CutTopology topology(before);
+  ASSERT_TRUE(topology.selfCheck().ok());  // still positive
+  const double volume = topology.totalRestVolume();
+  const Smoothed run = smooth(topology, onCut);
+  ASSERT_FALSE(run.moved.empty());
+  const double angleAfter = minAngle(topology.mesh());
+  std::printf("min dihedral %.2f -> %.2f deg, %zu moves\n", angleBefore, angleAfter, run.moved.size());
+  EXPECT_GT(angleAfter, angleBefore + 1.0);
+  EXPECT_NEAR(topology.totalRestVolume(), volume, 1e-12 * volume);
+  EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
+  const auto& rest = topology.mesh().restPositions;
+  EXPECT_NE(rest[pushed].x, 1.12);
+  EXPECT_LE(std::fabs(rest[pushed].z), 1e-12);
+  // Whatever else moved stayed on its face of the block: the box is unchanged.
+  expectOnTheBlocksFaces(before.restPositions, rest);
+}
+
+TEST(NodeSmoothing, ABoundaryNodeSlidesWithinItsFlatFace) {
+  expectSlidesWithinTheFace(std::vector<double>(test::cubeMesh(4).nodeCount(), 0.0));
+}
+
+// The same node marked as lying on a cut surface: an open crack is a flat boundary like the
+// face, so the node slides within it (the crack's faces keep their plane).
+TEST(NodeSmoothing, ANodeOnAFlatCrackSlidesWithinIt) {
+  std::uint32_t pushed = 0;
+  const mesh::TetMesh m = pushedFaceNode(pushed, {1.12, 1.97, 0});
+  std::vector<double> onCut(m.nodeCount(), 0.0);
+  onCut[pushed] = 1e-3;
+  expectSlidesWithinTheFace(onCut);
+}
+
+// A real open crack: a half stroke along the node plane x = 2 of the block opens a planar crack
+// (its nodes duplicated, one copy per side). One copy of the crack node (2, 1, 2) is pushed within
+// the crack plane, which flattens tets on its side; it slides back within the plane (the crack's
+// faces keep their plane), the other copy stays, the block stays one part with its volume.
+TEST(NodeSmoothing, ANodeOfAnOpenPlanarCrackSlidesWithinIt) {
+  CutOptions options;
+  options.improveBelowDeg = 0;
+  options.smoothBelowDeg = 0;
+  Cutter cutter(test::cubeMesh(4), options);
+  const CutResult cut = cutter.cut(sweptTriangles({0, {2, -0.5, -0.5}, {2, -0.5, 4.5}}, {1, {2, 2.5, -0.5}, {2, 2.5, 4.5}}));
+  ASSERT_GT(cut.duplicatedNodes, 0u);
+  CutTopology& topology = cutter.topology();
+  ASSERT_EQ(disjointParts(topology).size(), 1u);
+  std::vector<std::uint32_t> copies;
+  for (std::uint32_t v = 0; v < topology.mesh().nodeCount(); ++v)
+    if (topology.mesh().restPositions[v] == mesh::Double3{2, 1, 2}) copies.push_back(v);
+  ASSERT_EQ(copies.size(), 2u);
+  const std::uint32_t pushed = copies[1];
+  const mesh::Double3 at{2, 1.9, 2};
+  topology.moveNode(pushed, at, at);
+  ASSERT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();  // still positive
+  const double angleBefore = minAngle(topology.toTetMesh());
+  ASSERT_LT(angleBefore, 15.0);
+  const double volume = topology.totalRestVolume();
+  // The crack's nodes, as the cutter marks them (its snap reach: on a cut surface).
+  std::vector<double> onCut(topology.mesh().nodeCount(), 0.0);
+  for (std::uint32_t v = 0; v < onCut.size(); ++v)
+    if (topology.mesh().restPositions[v].x == 2) onCut[v] = 1e-9;
+  const Smoothed run = smooth(topology, onCut);
+  ASSERT_FALSE(run.moved.empty());
+  const double angleAfter = minAngle(topology.toTetMesh());
+  std::printf("min dihedral %.2f -> %.2f deg, %zu moves\n", angleBefore, angleAfter, run.moved.size());
+  EXPECT_GT(angleAfter, angleBefore + 1.0);
+  const auto& rest = topology.mesh().restPositions;
+  EXPECT_NE(rest[pushed].y, at.y);
+  EXPECT_NEAR(rest[pushed].x, 2.0, 1e-12);
+  EXPECT_EQ(rest[copies[0]], (mesh::Double3{2, 1, 2}));
+  EXPECT_NEAR(topology.totalRestVolume(), volume, 1e-12 * volume);
+  EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
+  EXPECT_EQ(disjointParts(topology).size(), 1u);
+}
+
+// A node on an edge of the block (its boundary faces in the two planes y = 0 and z = 0) pushed
+// along the edge: a node of the edge slides along the line of both planes (y and z stay 0 to
+// rounding), so both faces and the volume are kept.
+TEST(NodeSmoothing, ANodeOnABoundaryCreaseSlidesAlongIt) {
+  mesh::TetMesh m = test::cubeMesh(4);
+  std::uint32_t pushed = 0;
+  for (std::uint32_t i = 0; i < m.nodeCount(); ++i)
+    if (m.restPositions[i].x == 2 && m.restPositions[i].y == 0 && m.restPositions[i].z == 0) pushed = i;
+  m.restPositions[pushed] = m.positions[pushed] = {1.12, 0, 0};
+  const double angleBefore = minAngle(m);
+  ASSERT_LT(angleBefore, 15.0);
+  CutTopology topology(m);
+  ASSERT_TRUE(topology.selfCheck().ok());
+  const double volume = topology.totalRestVolume();
+  const Smoothed run = smooth(topology, std::vector<double>(m.nodeCount(), 0.0));
+  ASSERT_FALSE(run.moved.empty());
+  const double angleAfter = minAngle(topology.mesh());
+  std::printf("min dihedral %.2f -> %.2f deg, %zu moves\n", angleBefore, angleAfter, run.moved.size());
+  EXPECT_GT(angleAfter, angleBefore + 1.0);
+  // A node of the edge moved (the pushed one or its neighbour on the edge), along the edge.
+  const auto& rest = topology.mesh().restPositions;
+  bool alongTheEdge = false;
+  for (const MovedNode& mv : run.moved) {
+    const mesh::Double3 p = m.restPositions[mv.index];
+    if (p.y != 0 || p.z != 0) continue;
+    alongTheEdge = true;
+    EXPECT_NE(rest[mv.index].x, p.x);
+    EXPECT_LE(std::fabs(rest[mv.index].y), 1e-12);
+    EXPECT_LE(std::fabs(rest[mv.index].z), 1e-12);
+  }
+  EXPECT_TRUE(alongTheEdge);
+  EXPECT_NEAR(topology.totalRestVolume(), volume, 1e-12 * volume);
+  EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
+  expectOnTheBlocksFaces(m.restPositions, rest);
+}
+
+// A corner of the block (three planes) never moves, whatever its tets: here every tet is below
+// the threshold, so every node is tried.
+TEST(NodeSmoothing, ACornerOfTheBlockStays) {
+  const mesh::TetMesh m = test::cubeMesh(2);
+  CutTopology topology(m);
+  SpatialGrid grid;
+  grid.rebuild(topology);
+  std::vector<std::uint32_t> seeds(topology.slotCount());
+  std::iota(seeds.begin(), seeds.end(), 0u);
+  Smoothed run;
+  NodeSmoothing smoothing;
+  smoothing.improve(topology, grid, seeds, 90.0, std::vector<double>(m.nodeCount(), 0.0),
+                    {run.removed, run.removedNodes, run.added}, run.moved);
+  for (std::uint32_t v = 0; v < m.nodeCount(); ++v) {
+    const mesh::Double3 p = m.restPositions[v];
+    const bool corner = (p.x == 0 || p.x == 2) && (p.y == 0 || p.y == 2) && (p.z == 0 || p.z == 2);
+    if (corner) {
+      EXPECT_EQ(topology.mesh().restPositions[v], p) << "node " << v;
+    }
+  }
+  expectOnTheBlocksFaces(m.restPositions, topology.mesh().restPositions, 2);
+  EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
 }
 
 }  // namespace

@@ -75,9 +75,13 @@ void slabQueryFindsEveryTetNearRandomTriangles(Update update) {
     const CutResult r = cutter.cut({tri});
     std::vector<std::uint32_t> reused(r.removedTets);
     std::sort(reused.begin(), reused.end());
-    if (update != Update::InsertAll)  // split children and renumbered tets stay in their old box
+    if (update != Update::InsertAll) {  // split children and renumbered tets stay in their old box
       for (std::size_t i = 0; i < r.removedTets.size(); ++i)
         grid.shrink(cutter.topology(), r.removedTets[i], r.removedTetNodes[i]);
+      // A node the smoothing moved takes its tets (same nodes) out of their old boxes.
+      for (const MovedNode& m : r.movedNodes)
+        for (std::uint32_t slot : cutter.topology().tetsOfNode(m.index)) grid.insert(cutter.topology(), slot);
+    }
     if (update == Update::CoverChildren) {
       // addedTets lists each split's parent slot (reused by its first child) before its other
       // children; removedTets lists the parents in the same order.
