@@ -1,5 +1,6 @@
 #include "blobvk/vk/eval/field.h"
 
+#include "blobvk/vk/device/concurrent_builds.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
 
 #include <algorithm>
@@ -76,18 +77,21 @@ FieldPass::FieldPass(Device& device, const blobtree::Program& program, const Gpu
   }
   // Specialization constant 0 of field_grid is the work group's rows, not its size.
   const std::uint32_t rows = gridGroupRows(workgroupSize);
+  // Each tile's kernel (code generation, SPIR-V, pipeline) on every core: they are independent.
+  std::vector<std::function<KernelPtr()>> builds;
   for (const FieldTile& t : tiles_) {
-    // A whole-grid tile uses the program's own kernel (the one other passes share); a program
-    // too large to specialise whole may still fit once pruned to a tile.
-    const bool ownKernel = specialised && !(tiles_.size() == 1 && gpu.specialised) && specialiseTile(program, t.region, gpu.codegen.loops);
-    if (!ownKernel) {
-      kernels_.push_back(evaluatorKernel(device, gpu, "field_grid", rows, traversal));
-      continue;
-    }
-    CodegenOptions c = gpu.codegen;
-    c.region = t.region;
-    kernels_.push_back(specialisedKernel(device, program, programPrint, c, "field_grid", rows));
+    builds.push_back([&, region = t.region]() -> KernelPtr {
+      // A whole-grid tile uses the program's own kernel (the one other passes share); a program
+      // too large to specialise whole may still fit once pruned to a tile.
+      const bool ownKernel =
+          specialised && !(tiles_.size() == 1 && gpu.specialised) && specialiseTile(program, region, gpu.codegen.loops);
+      if (!ownKernel) return evaluatorKernel(device, gpu, "field_grid", rows, traversal);
+      CodegenOptions c = gpu.codegen;
+      c.region = region;
+      return specialisedKernel(device, program, programPrint, c, "field_grid", rows);
+    });
   }
+  kernels_ = buildConcurrently(builds);
 }
 
 void FieldPass::record(Recorder& rec, std::uint32_t k0, std::uint32_t layers, const Buffer& out) const {

@@ -1,5 +1,6 @@
 #include "blobvk/vk/extract/sparse_batches.h"
 
+#include "blobvk/vk/device/concurrent_builds.h"
 #include "blobvk/vk/device/device_timer.h"
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/field_tiles.h"
@@ -204,48 +205,56 @@ struct SparseBatchRunner::State {
     const std::string backgroundKey = std::string(vertexShader) + ":" +
                                       std::to_string(evaluatorFingerprint(gpu.fingerprint, gpu.codegen)) + ":" +
                                       std::to_string(o.workgroupSize);
+    // The kernels this job builds before its first submit, on every core at once
+    // (concurrent_builds.h): the vertex kernel, unless it builds on a thread of its own, and the
+    // field kernel of each tile.
+    std::vector<std::function<KernelPtr()>> builds;
+    const std::uint32_t wg = o.workgroupSize;
     if (generated && o.interpretVertexPassUntilBuilt &&
-        !specialisedKernelBuilt(device, gpu.fingerprint, gpu.codegen, vertexShader, o.workgroupSize) &&
+        !specialisedKernelBuilt(device, gpu.fingerprint, gpu.codegen, vertexShader, wg) &&
         !device.backgroundBuildStarted(backgroundKey)) {
       // Not built, and no earlier job started it: this job interprets its vertex pass (quick to
       // create, the same bytes) and, if more jobs are expected, the generated kernel builds in
       // the background for them. A later job waits for that build (below) rather than
       // interpreting again: the cost model found the kernel worth building over the expected runs.
-      vertexKernel = evaluatorKernel(device, gpu, vertexShader, o.workgroupSize, Traversal::Stackless);
+      builds.push_back([&, vertexShader] { return evaluatorKernel(device, gpu, vertexShader, wg, Traversal::Stackless); });
       interpretedVertexPass = true;
       if (o.expectedRuns > 1) {
         device.buildInBackground(backgroundKey, [&d = device, program = gpu.specialised, print = gpu.fingerprint,
-                                                 codegen = gpu.codegen, shader = std::string(vertexShader),
-                                                 wg = o.workgroupSize] {
+                                                 codegen = gpu.codegen, shader = std::string(vertexShader), wg] {
           specialisedKernel(d, *program, print, codegen, shader, wg);
         });
       }
     } else if (traversal == Traversal::Specialised) {
-      vertexKernelBuild = std::async(std::launch::async, [this, vertexShader, wg = o.workgroupSize, traversal,
-                                                          backgroundKey] {
+      vertexKernelBuild = std::async(std::launch::async, [this, vertexShader, wg, traversal, backgroundKey] {
         device.waitForBackgroundBuild(backgroundKey);  // an earlier job's: then a cache hit here
         return evaluatorKernel(device, gpu, vertexShader, wg, traversal);
       });
     } else {  // the embedded interpreter: its pipeline is quick to create
-      vertexKernel = evaluatorKernel(device, gpu, vertexShader, o.workgroupSize, traversal);
+      builds.push_back([&, vertexShader] { return evaluatorKernel(device, gpu, vertexShader, wg, traversal); });
     }
+    const std::size_t vertexBuilds = builds.size();
     if (traversal == Traversal::Specialised && o.maxFieldTiles > 1) tiles = planBrickTiles(program, g, bg, o.maxFieldTiles);
+    std::uint64_t print = 0;  // the tiles' kernels are named after the program's fingerprint
     if (tiles.size() <= 1) {
       tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
-      fieldKernels.push_back(evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal));
+      builds.push_back([&] { return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal); });
     } else {
-      const std::uint64_t print = gpu.fingerprint ? gpu.fingerprint : programFingerprint(program);
+      print = gpu.fingerprint ? gpu.fingerprint : programFingerprint(program);
       for (const BrickTile& t : tiles) {
-        // A program too large to specialise whole may still fit once pruned to a tile.
-        if (!specialiseTile(program, t.region, gpu.codegen.loops)) {
-          fieldKernels.push_back(evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal));
-          continue;
-        }
-        CodegenOptions c = gpu.codegen;
-        c.region = t.region;
-        fieldKernels.push_back(specialisedKernel(device, program, print, c, "brick_field", fieldGroupSize));
+        builds.push_back([&, region = t.region]() -> KernelPtr {
+          // A program too large to specialise whole may still fit once pruned to a tile.
+          if (!specialiseTile(program, region, gpu.codegen.loops))
+            return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal);
+          CodegenOptions c = gpu.codegen;
+          c.region = region;
+          return specialisedKernel(device, program, print, c, "brick_field", fieldGroupSize);
+        });
       }
     }
+    std::vector<KernelPtr> built = buildConcurrently(builds);
+    if (vertexBuilds) vertexKernel = built.front();
+    fieldKernels.assign(built.begin() + std::ptrdiff_t(vertexBuilds), built.end());
     counts = device.createBuffer(16, MemoryUse::Readback);
   }
 };
