@@ -56,9 +56,9 @@ void addMeshCommand(CLI::App& app) {
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("mesh", "Polygonize a scene into a mesh (.ply, .obj, .stl, .gltf, .glb)");
   cmd->footer(
-      "Under mpirun -n N (cpu backend, streamed): the layers are shared over the ranks and rank 0 writes the "
-      "one-process file. Rank 0 computes a share of the layers besides joining them (with 2 ranks 0.45, 0.25 "
-      "when it checks the mesh; none with 3 or more); BLOBVK_MPI_ROOT_SHARE=0..1 sets it.");
+      "Under mpirun -n N (cpu backend, streamed): the layers are shared over the ranks, each rank writes its own "
+      "layers into the one-process file. The shares are equal; when rank 0 checks the mesh it computes less "
+      "(0.4 of the layers with 2 ranks, 0.2 with 3, none from 6); BLOBVK_MPI_ROOT_SHARE=0..1 sets its share.");
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
   cmd->add_option("-o,--output", a->out, "Output mesh (.ply, .obj, .stl, .gltf, .glb; - for standard output)")->required();
   cmd->add_option("--format", a->format, "Format for -o - (ply, obj, stl, gltf, glb; default ply)")

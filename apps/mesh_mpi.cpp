@@ -1,72 +1,41 @@
-// MPI ranks for streamed meshing (see mesh_mpi.h). A layer travels as messages tagged with its
-// index, in a fixed order: its counts, then each non-empty array straight from the vector that
-// holds it (no packing: with shared memory Open MPI copies a large contiguous message once, from
-// the sender's memory into the receiver's). The ranks run the same binary on hosts of one byte
-// order.
+// MPI ranks for streamed meshing (see mesh_mpi.h). Every message is one buffer of 64-bit counts
+// followed by raw arrays; a receiver takes a sender's messages of one tag in the order they were
+// sent (MPI's non-overtaking rule), and the ranks run the same binary on hosts of one byte order.
+// Nothing waits in a blocking MPI call: every rank polls and sleeps between polls, because MPI's
+// blocking calls spin and, with more processes than cores (mpirun --oversubscribe, or other work
+// beside the job), would take the CPU from the rank being waited for.
 #include "mesh_mpi.h"
 
-#include <mpi.h>
+#include "progress.h"
 
+#include "blobvk/mesh/streamed_check.h"
+
+#include <fcntl.h>
+#include <mpi.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <array>
+#include <cerrno>
 #include <chrono>
 #include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <map>
+#include <optional>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace blobvk::app {
 namespace {
 
 bool started = false;
-
-// The arrays of a layer in the order they travel; the counts say which are empty.
-template <class Layer, class Visit>
-void forEachArray(Layer& l, Visit&& visit) {
-  visit(l.positions), visit(l.normals), visit(l.colours), visit(l.keys), visit(l.triangles), visit(l.above);
-}
-
-std::array<std::uint64_t, 6> countsOf(const cpu::MeshLayer& l) {
-  return {std::uint64_t(l.z), l.positions.size(), l.normals.size(), l.colours.size(), l.triangles.size(), l.above.size()};
-}
-
-template <class T>
-int byteCount(const std::vector<T>& v, int z) {
-  if (v.size() * sizeof(T) > std::size_t(INT_MAX))
-    throw std::length_error("MPI: an array of layer " + std::to_string(z) + " is over 2 GiB; use a smaller --mpu");
-  return int(v.size() * sizeof(T));
-}
-
-cpu::MeshLayer receiveLayer(int owner, int z) {
-  std::array<std::uint64_t, 6> n{};
-  MPI_Recv(n.data(), int(n.size()), MPI_UINT64_T, owner, z, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-  const std::uint64_t vertices = n[1];
-  if (n[0] != std::uint64_t(z) || (n[2] != 0 && n[2] != vertices) || (n[3] != 0 && n[3] != vertices))
-    throw std::runtime_error("MPI: rank " + std::to_string(owner) + " sent inconsistent counts for layer " + std::to_string(z));
-  cpu::MeshLayer l;
-  l.z = z;
-  l.positions.resize(vertices), l.normals.resize(n[2]), l.colours.resize(n[3]), l.keys.resize(vertices);
-  l.triangles.resize(n[4]), l.above.resize(n[5]);
-  forEachArray(l, [&](auto& v) {
-    if (!v.empty()) MPI_Recv(v.data(), byteCount(v, z), MPI_BYTE, owner, z, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-  });
-  return l;
-}
-
-// Waits until `done()` is true, testing it at most every millisecond and sleeping in between.
-// MPI's blocking calls spin, which on a machine with more processes than cores (mpirun
-// --oversubscribe, or other work beside the job) takes the CPU from the rank being waited for.
-// A layer takes tenths of a second to compute, so a millisecond of latency costs nothing.
-template <class Done>
-void waitSleeping(Done&& done) {
-  auto pause = std::chrono::microseconds(50);
-  while (!done()) {
-    std::this_thread::sleep_for(pause);
-    pause = std::min(pause * 2, std::chrono::microseconds(1000));
-  }
-}
 
 double parseRootShare(const char* text) {
   char* end = nullptr;
@@ -80,8 +49,9 @@ double parseRootShare(const char* text) {
 
 double mpiRootShare(int ranks, bool rootChecks) {
   if (const char* text = std::getenv("BLOBVK_MPI_ROOT_SHARE"); text && *text) return parseRootShare(text);
-  if (ranks != 2) return 0.0;
-  return rootChecks ? 0.25 : 0.45;
+  if (ranks <= 1) return 1.0;
+  const double checkCost = rootChecks ? 0.2 : 0.0;  // of computing a layer
+  return std::max(0.0, (1.0 - checkCost * double(ranks - 1)) / double(ranks));
 }
 
 MpiWorld mpiStart(bool rootChecks) {
@@ -127,109 +97,559 @@ int mpiLayerOwner(int z, int ranks, double rootShare) {
   return 1 + int((std::int64_t(z) - rootBelow(z)) % (ranks - 1));
 }
 
-MpiRootLayers::MpiRootLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers)
-    : world_(world), layers_(layers) {}
-
 namespace {
-// Own layers rank 0 may hold computed ahead of the join: enough to fill the waits for the next
-// received layer, few enough to bound the memory (a layer is about 12 MB at 1024^3).
-constexpr std::size_t kLayersAhead = 2;
-}  // namespace
 
-bool MpiRootLayers::computeAhead(int z) {
-  if (ahead_.size() >= kLayersAhead) return false;
-  for (int n = std::max(z, computedUpTo_) + 1; n < layers_.layerCount(); ++n)
-    if (owner(n) == 0) {
-      ahead_.emplace_back(n, layers_.layer(n));
-      computedUpTo_ = n;
-      return true;
-    }
-  return false;
-}
+using Triangle = std::array<std::uint32_t, 3>;
 
-cpu::MeshLayer MpiRootLayers::take(int z) {
-  if (owner(z) == 0) {
-    if (!ahead_.empty() && ahead_.front().first == z) {
-      cpu::MeshLayer l = std::move(ahead_.front().second);
-      ahead_.pop_front();
-      return l;
-    }
-    computedUpTo_ = z;
-    return layers_.layer(z);
+constexpr int kCountsTag = 1;  // {z, vertices, triangles} of a layer, to every other rank
+constexpr int kBottomTag = 2;  // {z, n, keys, positions} of a layer's bottom plane, to the owner of the layer below
+constexpr int kCheckTag = 3;   // {z, first, n, t, positions, triangles} of a resolved layer, to rank 0 (its check)
+
+// Layers a rank holds computed but not yet written (waiting for another rank's counts or bottom
+// plane), and resolved layers' check data rank 0 has not taken yet: enough to run ahead of the
+// other ranks, few enough to bound the memory (a layer is about 12 MB at 1024^3).
+constexpr std::size_t kLayersHeld = 4;
+
+// One message's bytes: 64-bit counts, then arrays.
+class Packet {
+ public:
+  template <class T>
+  void put(const T* data, std::size_t n) {
+    if (n == 0) return;
+    const std::size_t at = bytes_.size();
+    bytes_.resize(at + n * sizeof(T));
+    std::memcpy(bytes_.data() + at, static_cast<const void*>(data), n * sizeof(T));
   }
-  // Compute own layers while this one is on its way; take it as soon as its counts are here.
-  const auto arrived = [this, z] {
-    int flag = 0;
-    MPI_Iprobe(owner(z), z, MPI_COMM_WORLD, &flag, MPI_STATUS_IGNORE);
-    return flag != 0;
-  };
-  while (!arrived())
-    if (!computeAhead(z)) {
-      waitSleeping(arrived);
-      break;
-    }
-  return receiveLayer(owner(z), z);
-}
+  void word(std::uint64_t w) { put(&w, 1); }
+  std::vector<char>& bytes() { return bytes_; }
 
-namespace {
-// Layers a rank keeps in flight before it waits for rank 0 to take the oldest: enough to run
-// ahead of rank 0 while it joins and writes, few enough to bound the memory (a layer is about
-// 12 MB at 1024^3, 48 MB at 4096^3).
-constexpr std::size_t kLayersInFlight = 4;
-
-struct LayerInFlight {
-  cpu::MeshLayer layer;
-  std::array<std::uint64_t, 6> counts{};
-  std::vector<MPI_Request> requests;
+ private:
+  std::vector<char> bytes_;
 };
 
-void send(LayerInFlight& f) {
-  const int z = f.layer.z;
-  f.counts = countsOf(f.layer);
-  std::vector<std::pair<void*, int>> parts;
-  forEachArray(f.layer, [&](auto& v) {
-    if (!v.empty()) parts.emplace_back(v.data(), byteCount(v, z));
-  });
-  f.requests.assign(parts.size() + 1, MPI_REQUEST_NULL);
-  MPI_Isend(f.counts.data(), int(f.counts.size()), MPI_UINT64_T, 0, z, MPI_COMM_WORLD, &f.requests[0]);
-  for (std::size_t i = 0; i < parts.size(); ++i)
-    MPI_Isend(parts[i].first, parts[i].second, MPI_BYTE, 0, z, MPI_COMM_WORLD, &f.requests[i + 1]);
-}
-
-bool sent(LayerInFlight& f) {
-  int done = 0;
-  MPI_Testall(int(f.requests.size()), f.requests.data(), &done, MPI_STATUSES_IGNORE);
-  return done != 0;
-}
-
-void serveLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers, std::deque<LayerInFlight>& inFlight) {
-  auto finishOldest = [&inFlight] {
-    waitSleeping([&inFlight] { return sent(inFlight.front()); });
-    inFlight.pop_front();
-  };
-  for (int z = 0; z < layers.layerCount(); ++z) {
-    if (mpiLayerOwner(z, world.size, world.rootShare) != world.rank) continue;
-    inFlight.push_back(LayerInFlight{layers.layer(z), {}, {}});
-    send(inFlight.back());
-    // Let the earlier sends progress, and free those rank 0 has taken.
-    while (!inFlight.empty() && sent(inFlight.front())) inFlight.pop_front();
-    while (inFlight.size() > kLayersInFlight) finishOldest();
+class Unpacker {
+ public:
+  explicit Unpacker(const std::vector<char>& bytes) : bytes_(bytes) {}
+  template <class T>
+  void get(T* data, std::size_t n) {
+    if (n * sizeof(T) > bytes_.size() - at_) throw std::runtime_error("MPI: a message shorter than its counts say");
+    if (n == 0) return;
+    std::memcpy(static_cast<void*>(data), bytes_.data() + at_, n * sizeof(T));
+    at_ += n * sizeof(T);
   }
-  while (!inFlight.empty()) finishOldest();
+  std::uint64_t word() {
+    std::uint64_t w = 0;
+    get(&w, 1);
+    return w;
+  }
+  template <class T>
+  std::vector<T> array(std::uint64_t n) {
+    if (n > (bytes_.size() - at_) / sizeof(T)) throw std::runtime_error("MPI: a message shorter than its counts say");
+    std::vector<T> v(n);
+    get(v.data(), n);
+    return v;
+  }
+
+ private:
+  const std::vector<char>& bytes_;
+  std::size_t at_ = 0;
+};
+
+int messageBytes(std::size_t n) {
+  if (n > std::size_t(INT_MAX)) throw std::length_error("MPI: a layer's message is over 2 GiB; use a smaller --mpu");
+  return int(n);
 }
+
+// A non-blocking send and the buffer it reads, kept until MPI is done with it.
+struct Send {
+  std::vector<char> bytes;
+  std::vector<MPI_Request> requests;
+  bool done() {
+    int flag = 0;
+    MPI_Testall(int(requests.size()), requests.data(), &flag, MPI_STATUSES_IGNORE);
+    return flag != 0;
+  }
+};
+
+// Seconds a rank spends in each phase, printed on stderr when BLOBVK_MPI_TIMES is set (where
+// the time goes when the ranks do not scale).
+struct PhaseTimes {
+  double compute = 0, spool = 0, check = 0, waiting = 0, place = 0, agree = 0, copy = 0;
+  template <class F>
+  static auto timed(double& into, F&& f) {
+    struct Add {
+      double& into;
+      std::chrono::steady_clock::time_point start;
+      ~Add() { into += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); }
+    } add{into, std::chrono::steady_clock::now()};
+    return f();
+  }
+};
+
+// Sleeps between polls: 50 us at first, doubling up to a millisecond (a layer takes tenths of a
+// second to compute, so a millisecond of latency costs nothing).
+class Backoff {
+ public:
+  void wait() {
+    std::this_thread::sleep_for(pause_);
+    pause_ = std::min(pause_ * 2, std::chrono::microseconds(1000));
+  }
+  void reset() { pause_ = std::chrono::microseconds(50); }
+
+ private:
+  std::chrono::microseconds pause_{50};
+};
+
+class LayerJob {
+ private:
+  struct Pending {  // an own layer computed, its vertices spooled, its triangles not yet
+    int z;
+    std::vector<mesh::Float3> positions;  // kept for the check or STL facets
+    std::vector<Triangle> triangles;
+    std::vector<cpu::MeshLayer::AboveCorner> above;
+  };
+  struct Bottom {  // a layer's bottom plane of vertices (layers_.bottomVertices)
+    std::vector<std::uint64_t> keys;
+    std::vector<mesh::Float3> positions;
+  };
+  struct CheckLayer {  // a resolved layer, for rank 0's check
+    std::uint64_t first = 0;
+    std::vector<mesh::Float3> positions;
+    std::vector<Triangle> triangles;
+  };
+
+ public:
+  LayerJob(const MpiWorld& world, cpu::LayerPolygonizer& layers, const MpiMeshOutput& output)
+      : world_(world), layers_(layers), output_(output), L_(layers.layerCount()), file_(output.path, output.file) {
+    MPI_Comm_dup(MPI_COMM_WORLD, &comm_);
+    MPI_Comm_dup(MPI_COMM_WORLD, &checkComm_);
+    S_ = file_.sectionBytes().size();
+    sectionLength_.assign(std::size_t(L_) * S_, 0);
+    vertices_.assign(std::size_t(L_), -1), triangles_.assign(std::size_t(L_), -1);
+    first_.assign(std::size_t(L_) + 1, 0);
+    checks_ = output.check && world.rank == 0;
+    keepPositions_ = output.check || output.file.format == "stl";  // the check's and STL's facets need them
+  }
+  ~LayerJob() {
+    MPI_Comm_free(&checkComm_);
+    MPI_Comm_free(&comm_);
+  }
+
+  MpiMeshResult run(const Limits& limits) {
+    std::optional<Progress> progress;
+    if (world_.rank == 0) progress.emplace("mesh", L_);
+    std::vector<int> own;
+    for (int z = 0; z < L_; ++z)
+      if (owner(z) == world_.rank) own.push_back(z);
+    Backoff backoff;
+    const auto step = [&] {
+      bool any = poll();
+      any = resolve() || any;
+      if (checks_) any = PhaseTimes::timed(times_.check, [&] { return feedCheck(); }) || any;
+      any = reapSends() || any;
+      if (progress) progress->update(prefix_);
+      if (any) backoff.reset();
+      return any;
+    };
+    for (const int z : own) {
+      while (mustWait(z))
+        if (!step()) PhaseTimes::timed(times_.waiting, [&] { backoff.wait(); });
+      compute(z);
+      step();
+    }
+    while (!finished())
+      if (!step()) PhaseTimes::timed(times_.waiting, [&] { backoff.wait(); });
+    progress.reset();
+    MpiMeshResult result = PhaseTimes::timed(times_.place, [&] { return place(limits); });
+    if (const char* t = std::getenv("BLOBVK_MPI_TIMES"); t && *t)
+      std::fprintf(stderr,
+                   "blobvk: rank %d: %zu layers, compute %.3f s, spool %.3f s, check %.3f s, waiting %.3f s, "
+                   "placing %.3f s (of which agreeing %.3f s, copying %.3f s)\n",
+                   world_.rank, own.size(), times_.compute, times_.spool, times_.check, times_.waiting, times_.place,
+                   times_.agree, times_.copy);
+    return result;
+  }
+
+ private:
+  int owner(int z) const { return mpiLayerOwner(z, world_.size, world_.rootShare); }
+
+  // Before computing own layer `next`: hold no more than kLayersHeld layers, unless the oldest
+  // waits for `next` itself (its bottom plane), which only this rank can make.
+  bool mustWait(int next) {
+    if (checkSends_.size() >= kLayersHeld) return true;
+    return pending_.size() >= kLayersHeld && pending_.front().z + 1 < next;
+  }
+
+  bool finished() const {
+    return pending_.empty() && prefix_ == L_ && (!checks_ || checkDone_) && sends_.empty() && checkSends_.empty();
+  }
+
+  void record(int z, const std::vector<std::uint64_t>& before) {
+    const std::vector<std::uint64_t> after = file_.sectionBytes();
+    for (std::size_t s = 0; s < S_; ++s) sectionLength_[std::size_t(z) * S_ + s] += after[s] - before[s];
+  }
+
+  void setCounts(int z, std::uint64_t vertices, std::uint64_t triangles) {
+    if (z < 0 || z >= L_ || vertices_[std::size_t(z)] >= 0)
+      throw std::runtime_error("MPI: counts of layer " + std::to_string(z) + " twice or out of range");
+    vertices_[std::size_t(z)] = std::int64_t(vertices), triangles_[std::size_t(z)] = std::int64_t(triangles);
+    while (prefix_ < L_ && vertices_[std::size_t(prefix_)] >= 0) {
+      first_[std::size_t(prefix_) + 1] = first_[std::size_t(prefix_)] + std::uint64_t(vertices_[std::size_t(prefix_)]);
+      if (first_[std::size_t(prefix_) + 1] >= (1ull << 31))
+        throw std::length_error("polygonizeMpuStreamed: more than 2^31 vertices (the mesh's and PLY's index limit)");
+      ++prefix_;
+    }
+  }
+
+  void compute(int z) {
+    cpu::MeshLayer l = PhaseTimes::timed(times_.compute, [&] { return layers_.layer(z); });
+    {  // counts to every other rank
+      Send s;
+      Packet p;
+      for (std::uint64_t w : {std::uint64_t(z), std::uint64_t(l.positions.size()), std::uint64_t(l.triangles.size())}) p.word(w);
+      s.bytes = std::move(p.bytes());
+      s.requests.assign(std::size_t(world_.size - 1), MPI_REQUEST_NULL);
+      for (int r = 0, i = 0; r < world_.size; ++r)
+        if (r != world_.rank)
+          MPI_Isend(s.bytes.data(), int(s.bytes.size()), MPI_BYTE, r, kCountsTag, comm_, &s.requests[std::size_t(i++)]);
+      sends_.push_back(std::move(s));
+    }
+    if (z > 0) {  // the bottom plane, to whoever joins the layer below
+      const std::size_t n = layers_.bottomVertices(l);
+      if (owner(z - 1) == world_.rank) {
+        bottoms_[z] = Bottom{{l.keys.begin(), l.keys.begin() + std::ptrdiff_t(n)},
+                             {l.positions.begin(), l.positions.begin() + std::ptrdiff_t(n)}};
+      } else {
+        Packet p;
+        p.word(std::uint64_t(z)), p.word(n);
+        p.put(l.keys.data(), n), p.put(l.positions.data(), n);
+        Send s{std::move(p.bytes()), {MPI_REQUEST_NULL}};
+        MPI_Isend(s.bytes.data(), messageBytes(s.bytes.size()), MPI_BYTE, owner(z - 1), kBottomTag, comm_, &s.requests[0]);
+        sends_.push_back(std::move(s));
+      }
+    }
+    const std::vector<std::uint64_t> before = file_.sectionBytes();
+    PhaseTimes::timed(times_.spool, [&] { file_.vertices(l.positions, l.normals, l.colours); });
+    record(z, before);
+    setCounts(z, l.positions.size(), l.triangles.size());
+    Pending p{z, {}, std::move(l.triangles), std::move(l.above)};
+    if (keepPositions_) p.positions = std::move(l.positions);
+    pending_.push_back(std::move(p));
+  }
+
+  // Counts and bottom planes from the other ranks.
+  bool poll() {
+    bool any = false;
+    for (;;) {
+      int flag = 0;
+      MPI_Status status;
+      MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, comm_, &flag, &status);
+      if (!flag) return any;
+      any = true;
+      int n = 0;
+      MPI_Get_count(&status, MPI_BYTE, &n);
+      std::vector<char> bytes(std::size_t(std::max(n, 0)));
+      MPI_Recv(bytes.data(), n, MPI_BYTE, status.MPI_SOURCE, status.MPI_TAG, comm_, MPI_STATUS_IGNORE);
+      Unpacker u(bytes);
+      const std::uint64_t z = u.word();
+      if (status.MPI_TAG == kCountsTag) {
+        const std::uint64_t vertices = u.word();
+        setCounts(int(z), vertices, u.word());
+      } else if (status.MPI_TAG == kBottomTag) {
+        const std::uint64_t count = u.word();
+        Bottom b;
+        b.keys = u.array<std::uint64_t>(count);
+        b.positions = u.array<mesh::Float3>(count);
+        bottoms_[int(z)] = std::move(b);
+      } else {
+        throw std::runtime_error("MPI: a message with an unknown tag");
+      }
+    }
+  }
+
+  // Own layers whose counts below and bottom plane above are here: global corner indices, their
+  // triangles encoded into the spools (in layer order, as their vertices were).
+  bool resolve() {
+    bool any = false;
+    while (!pending_.empty()) {
+      Pending& p = pending_.front();
+      const int z = p.z;
+      if (prefix_ <= z) break;  // a lower layer's count is still on its way
+      const bool top = z + 1 == L_;
+      const auto b = bottoms_.find(z + 1);
+      if (!top && b == bottoms_.end()) break;
+      const std::uint64_t first = first_[std::size_t(z)], firstAbove = first_[std::size_t(z) + 1];
+      for (Triangle& t : p.triangles)
+        for (std::uint32_t& v : t) v += std::uint32_t(first);
+      for (const cpu::MeshLayer::AboveCorner& c : p.above) {
+        if (top) throw std::logic_error("polygonizeMpuStreamed: the top layer refers to a layer above it");
+        const std::vector<std::uint64_t>& keys = b->second.keys;
+        const auto it = std::lower_bound(keys.begin(), keys.end(), c.key);
+        if (it == keys.end() || *it != c.key)
+          throw std::logic_error("polygonizeMpuStreamed: a triangle refers to an edge the layer above has no vertex for");
+        p.triangles[c.slot / 3][c.slot % 3] = std::uint32_t(firstAbove + std::uint64_t(it - keys.begin()));
+      }
+      mesh::VertexWindow window;
+      window.first = first;
+      window.a = p.positions;
+      if (!top) window.b = b->second.positions;
+      const std::vector<std::uint64_t> before = file_.sectionBytes();
+      PhaseTimes::timed(times_.spool, [&] { file_.triangles(p.triangles, window); });
+      record(z, before);
+      if (output_.check) handOverCheck(z, first, p);
+      if (!top) bottoms_.erase(b);
+      pending_.pop_front();
+      any = true;
+    }
+    return any;
+  }
+
+  // A resolved layer's positions and triangles, to rank 0's check.
+  void handOverCheck(int z, std::uint64_t first, Pending& p) {
+    if (world_.rank == 0) {
+      ownChecks_[z] = CheckLayer{first, std::move(p.positions), std::move(p.triangles)};
+      return;
+    }
+    Packet packet;
+    packet.word(std::uint64_t(z)), packet.word(first), packet.word(p.positions.size()), packet.word(p.triangles.size());
+    packet.put(p.positions.data(), p.positions.size());
+    packet.put(p.triangles.data(), p.triangles.size());
+    Send s{std::move(packet.bytes()), {MPI_REQUEST_NULL}};
+    MPI_Isend(s.bytes.data(), messageBytes(s.bytes.size()), MPI_BYTE, 0, kCheckTag, checkComm_, &s.requests[0]);
+    checkSends_.push_back(std::move(s));
+  }
+
+  // Rank 0: the check fed in layer order, as the single process's join feeds it: a layer's
+  // vertices, then the triangles of the layer below (whose corners reach into this one).
+  bool feedCheck() {
+    bool any = false;
+    while (nextCheck_ < L_) {
+      const int z = nextCheck_;
+      CheckLayer current;
+      if (owner(z) == 0) {
+        const auto it = ownChecks_.find(z);
+        if (it == ownChecks_.end()) break;
+        current = std::move(it->second);
+        ownChecks_.erase(it);
+      } else {
+        int flag = 0;
+        MPI_Status status;
+        MPI_Iprobe(owner(z), kCheckTag, checkComm_, &flag, &status);
+        if (!flag) break;
+        int n = 0;
+        MPI_Get_count(&status, MPI_BYTE, &n);
+        std::vector<char> bytes(std::size_t(std::max(n, 0)));
+        MPI_Recv(bytes.data(), n, MPI_BYTE, owner(z), kCheckTag, checkComm_, MPI_STATUS_IGNORE);
+        Unpacker u(bytes);
+        if (u.word() != std::uint64_t(z))
+          throw std::runtime_error("MPI: rank " + std::to_string(owner(z)) + " sent layers out of order");
+        // The first vertex's index travels along: this rank may not have every count below z yet.
+        current.first = u.word();
+        const std::uint64_t vertices = u.word(), triangles = u.word();
+        current.positions = u.array<mesh::Float3>(vertices);
+        current.triangles = u.array<Triangle>(triangles);
+      }
+      check_.vertices(current.positions, {}, {});
+      if (previous_) checkLayerBelow(&current);
+      previous_ = std::move(current);
+      ++nextCheck_;
+      any = true;
+    }
+    if (nextCheck_ == L_ && !checkDone_) {
+      if (previous_) checkLayerBelow(nullptr);
+      previous_.reset();
+      checkDone_ = true;
+      any = true;
+    }
+    return any;
+  }
+
+  void checkLayerBelow(const CheckLayer* above) {
+    mesh::VertexWindow window;
+    window.first = previous_->first;
+    window.a = previous_->positions;
+    if (above) window.b = above->positions;
+    check_.triangles(previous_->triangles, window);
+  }
+
+  bool reapSends() {
+    bool any = false;
+    for (std::deque<Send>* d : {&sends_, &checkSends_})
+      while (!d->empty() && d->front().done()) d->pop_front(), any = true;
+    return any;
+  }
+
+  // Every rank knows every layer's section sizes: each copies its runs to their offsets in one
+  // temporary file rank 0 made, rank 0 writes the header and renames the file into place.
+  MpiMeshResult place(const Limits& limits) {
+    PhaseTimes::timed(times_.agree, [&] {
+      MPI_Allreduce(MPI_IN_PLACE, sectionLength_.data(), int(sectionLength_.size()), MPI_UINT64_T, MPI_SUM, comm_);
+    });
+    MpiMeshResult result;
+    result.vertices = first_[std::size_t(L_)];
+    for (std::int64_t t : triangles_) result.triangles += std::uint64_t(t);
+    if (world_.rank == 0) checkTriangles(result.triangles, limits);  // throws before anything is written
+    const std::string head = file_.headerFor(result.vertices, result.triangles);
+    std::vector<std::uint64_t> sectionStart(S_ + 1, head.size());
+    for (std::size_t s = 0; s < S_; ++s) {
+      std::uint64_t total = 0;
+      for (int z = 0; z < L_; ++z) total += sectionLength_[std::size_t(z) * S_ + s];
+      sectionStart[s + 1] = sectionStart[s] + total;
+    }
+    result.bytes = sectionStart[S_];
+    std::vector<mesh::StreamedMeshFile::Placement> placements;
+    for (std::size_t s = 0; s < S_; ++s) {
+      std::uint64_t to = sectionStart[s], from = 0;  // in the file; in this rank's spool
+      for (int z = 0; z < L_; ++z) {
+        const std::uint64_t n = sectionLength_[std::size_t(z) * S_ + s];
+        if (owner(z) == world_.rank && n > 0) placements.push_back({int(s), from, n, to}), from += n;
+        to += n;
+      }
+    }
+
+    std::string name;  // rank 0's temporary file, told to every rank
+    int fd = -1;
+    std::string failure;
+    if (world_.rank == 0) {
+      try {
+        fd = makeTemporary(name);
+      } catch (const std::exception& e) {
+        failure = e.what();
+      }
+    }
+    std::uint64_t length = name.size();
+    MPI_Bcast(&length, 1, MPI_UINT64_T, 0, comm_);
+    if (length == 0) throw std::runtime_error(world_.rank == 0 ? failure : "rank 0 could not create the output");
+    name.resize(length);
+    MPI_Bcast(name.data(), int(length), MPI_CHAR, 0, comm_);
+    try {
+      if (world_.rank != 0) {
+        fd = ::open(name.c_str(), O_WRONLY | O_CLOEXEC);
+        if (fd < 0) throw std::runtime_error(name + ": cannot open the output another rank made: " + std::strerror(errno));
+      } else {
+        writeAt(fd, head, 0);
+      }
+      PhaseTimes::timed(times_.copy, [&] { file_.place(fd, placements); });
+      if (world_.rank != 0 && ::close(std::exchange(fd, -1)) != 0)
+        throw std::runtime_error(output_.path + ": write error: " + std::strerror(errno));
+    } catch (const std::exception& e) {
+      failure = e.what();
+    }
+    if (fd >= 0 && world_.rank != 0) ::close(fd);
+    int ok = failure.empty() ? 1 : 0;
+    MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_MIN, comm_);
+    if (world_.rank == 0) {
+      if (ok) {
+        try {
+          finishOutput(fd, name);
+        } catch (const std::exception& e) {
+          failure = e.what();
+        }
+      } else {
+        if (fd >= 0) ::close(fd);
+        ::unlink(name.c_str());
+      }
+    }
+    if (!failure.empty()) throw std::runtime_error(failure);
+    if (!ok) throw std::runtime_error("another rank could not write its part of " + output_.path);
+    if (checks_) result.report = check_.finish();
+    return result;
+  }
+
+  std::string outputDirectory() const {
+    if (output_.path == "-") {
+      const char* tmp = std::getenv("TMPDIR");
+      return tmp && *tmp ? tmp : "/tmp";
+    }
+    const std::size_t slash = output_.path.rfind('/');
+    if (slash == std::string::npos) return ".";
+    return slash == 0 ? "/" : output_.path.substr(0, slash);
+  }
+
+  int makeTemporary(std::string& name) const {
+    name = outputDirectory() + "/.blobvk-out-XXXXXX";
+    const int fd = ::mkstemp(name.data());
+    if (fd < 0) throw std::runtime_error(outputDirectory() + ": cannot create a temporary file: " + std::strerror(errno));
+    return fd;
+  }
+
+  void writeAt(int fd, const std::string& bytes, std::uint64_t offset) const {
+    for (std::size_t done = 0; done < bytes.size();) {
+      const ssize_t w = ::pwrite(fd, bytes.data() + done, bytes.size() - done, off_t(offset + done));
+      if (w < 0 && errno == EINTR) continue;
+      if (w <= 0) throw std::runtime_error(output_.path + ": write error: " + std::strerror(errno));
+      done += std::size_t(w);
+    }
+  }
+
+  // Rank 0, once every rank has placed its runs: the file into place (or onto standard output).
+  void finishOutput(int fd, const std::string& name) {
+    try {
+      if (output_.path == "-") {
+        std::vector<char> buffer(1 << 20);
+        for (off_t at = 0;;) {
+          const ssize_t n = ::pread(fd, buffer.data(), buffer.size(), at);
+          if (n < 0 && errno == EINTR) continue;
+          if (n < 0) throw std::runtime_error("standard output: cannot read the assembled mesh: " + std::string(std::strerror(errno)));
+          if (n == 0) break;
+          for (ssize_t done = 0; done < n;) {
+            const ssize_t w = ::write(STDOUT_FILENO, buffer.data() + done, std::size_t(n - done));
+            if (w < 0 && errno == EINTR) continue;
+            if (w <= 0) throw std::runtime_error("standard output: write error: " + std::string(std::strerror(errno)));
+            done += w;
+          }
+          at += n;
+        }
+        ::close(fd);
+        ::unlink(name.c_str());
+        return;
+      }
+      // mkstemp makes 0600; give the file the mode an ordinary create would (0666 less umask).
+      const mode_t mask = ::umask(0);
+      ::umask(mask);
+      ::fchmod(fd, 0666 & ~mask);
+      const int closed = ::close(std::exchange(fd, -1));
+      if (closed != 0) throw std::runtime_error(output_.path + ": write error: " + std::strerror(errno));
+      if (::rename(name.c_str(), output_.path.c_str()) != 0)
+        throw std::runtime_error(output_.path + ": cannot write: " + std::strerror(errno));
+    } catch (...) {
+      if (fd >= 0) ::close(fd);
+      ::unlink(name.c_str());
+      throw;
+    }
+  }
+
+  MpiWorld world_;
+  cpu::LayerPolygonizer& layers_;
+  const MpiMeshOutput& output_;
+  const int L_;
+  std::size_t S_ = 0;  // sections of the file format
+  mesh::StreamedMeshFile file_;  // this rank's spools; never finished, placed instead
+  MPI_Comm comm_ = MPI_COMM_NULL, checkComm_ = MPI_COMM_NULL;
+  bool checks_ = false, keepPositions_ = false;
+  PhaseTimes times_;
+
+  std::vector<std::uint64_t> sectionLength_;  // [z * S_ + s]: bytes of layer z in section s
+  std::vector<std::int64_t> vertices_, triangles_;  // per layer; -1 until known
+  std::vector<std::uint64_t> first_;  // global index of each layer's first vertex, for z <= prefix_
+  int prefix_ = 0;                    // the counts of layers below prefix_ are known
+  std::deque<Pending> pending_;
+  std::map<int, Bottom> bottoms_;
+  std::deque<Send> sends_, checkSends_;
+
+  mesh::StreamedMeshCheck check_;  // rank 0, when checking
+  std::map<int, CheckLayer> ownChecks_;
+  std::optional<CheckLayer> previous_;
+  int nextCheck_ = 0;
+  bool checkDone_ = false;
+};
+
 }  // namespace
 
-// Non-blocking sends, so that a rank computes its next layer while rank 0 is still joining the
-// previous ones. With shared memory (Open MPI's vader and its single-copy CMA) rank 0 pulls a
-// large message itself once it asks for it; elsewhere the transfer moves on each time this rank
-// enters MPI, i.e. after each layer it computes.
-void mpiServeLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers) {
-  std::deque<LayerInFlight> inFlight;
-  try {
-    serveLayers(world, layers, inFlight);
-  } catch (const std::exception& e) {
-    // Abort while the buffers of the sends in flight still exist: rank 0 may be reading them.
-    mpiAbort(e.what());
-  }
+MpiMeshResult mpiMeshLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers, const MpiMeshOutput& output,
+                            const Limits& limits) {
+  LayerJob job(world, layers, output);
+  return job.run(limits);
 }
+
 }  // namespace blobvk::app

@@ -1,18 +1,26 @@
-// `mpirun -n N blobvk mesh ...`: the streamed job's layers shared out over MPI ranks. Each
-// layer has a fixed owner (mpiLayerOwner); a rank computes its layers in order and sends each to
-// rank 0 as soon as it is done, without waiting for rank 0 to take it (a few layers in flight);
-// rank 0 takes the layers in order, its own or received, and joins them into the file exactly as
-// one process would. While the next layer has not arrived, rank 0 computes its own next layers
-// ahead instead of waiting. No scheduler of our own: who computes a layer is fixed by its index,
-// MPI carries the bytes, and who computes a layer never changes its bytes. Built when CMake
-// finds MPI.
+// `mpirun -n N blobvk mesh ...`: the streamed job's layers shared out over MPI ranks, each rank
+// writing its own layers into the one file. Each layer has a fixed owner (mpiLayerOwner); a rank
+// computes its layers in order and spools their encoded bytes (StreamedMeshFile's sections, its
+// own spools), so no layer's bytes travel to another rank. What the ranks exchange is small:
+// every layer's vertex and triangle counts (so that each rank knows the global index of every
+// layer's first vertex) and, to the owner of the layer below, a layer's bottom plane of vertices
+// (keys and positions: the only vertices the layer below refers to, its `above` corners). At the
+// end the ranks agree on every layer's place in the file (a sum of the per-layer section sizes),
+// and each copies its spooled runs into place in the one shared file while rank 0 writes the
+// header. With the streamed check, rank 0 checks the whole mesh in layer order, from its own
+// layers and the positions and resolved triangles the other ranks send it. The bytes are the
+// one-process file's whoever computes a layer. Built when CMake finds MPI.
 #pragma once
 
-#include "blobvk/cpu_simd/streaming_polygonizer.h"
+#include "resource_limits.h"
 
-#include <deque>
+#include "blobvk/cpu_simd/streaming_polygonizer.h"
+#include "blobvk/mesh/checks.h"
+#include "blobvk/mesh/streamed_writer.h"
+
+#include <cstdint>
+#include <optional>
 #include <string>
-#include <utility>
 
 namespace blobvk::app {
 
@@ -32,37 +40,34 @@ void mpiStop();  // MPI_Finalize, when started
 // Ends every rank after an error on one (MPI_Abort), with the message on this rank's stderr.
 [[noreturn]] void mpiAbort(const std::string& message);
 
-// The fraction of the layers rank 0 computes besides joining and writing all of them (and,
-// when `rootChecks`, checking the mesh as it is written). Joining and writing cost about a tenth
-// of computing, the streamed check about a fifth (tower_L6P8I4 at 1024^3, one thread; CPU
-// profiles), so with 2 ranks rank 0 takes 0.45 of the layers, 0.25 when it checks; with 3 or
-// more, none (its joining is about a share when the others' shares are a third or less).
-// BLOBVK_MPI_ROOT_SHARE (0 to 1) overrides it, for clusters where rank 0's host or disk differs
-// from the others'; only rank 0's environment counts. Throws std::runtime_error naming the
-// variable for a value that is not a number from 0 to 1.
+// The fraction of the layers rank 0 computes. Every rank encodes and writes its own layers, so
+// without the check the shares are equal (1/N). With it rank 0 also checks every layer, about a
+// fifth of computing one (tower_L6P8I4 at 1024^3, one thread; CPU profiles), so it takes
+// (1 - 0.2 (N - 1)) / N: 0.4 with 2 ranks, 0.2 with 3, none from 6.
+// BLOBVK_MPI_ROOT_SHARE (0 to 1) overrides it, for clusters where rank 0's host differs from the
+// others'; only rank 0's environment counts. Throws std::runtime_error naming the variable for a
+// value that is not a number from 0 to 1.
 double mpiRootShare(int ranks, bool rootChecks);
 
 // The rank that computes layer z on `ranks` ranks when rank 0 takes `rootShare` of the layers:
 // rank 0's layers spread evenly over z, the others round-robin over ranks 1..N-1.
 int mpiLayerOwner(int z, int ranks, double rootShare);
 
-// Rank 0's side: the layers in order 0, 1, 2, ..., computed here or received.
-class MpiRootLayers {
- public:
-  MpiRootLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers);
-  cpu::MeshLayer take(int z);  // z must be the previous call's z + 1 (0 first)
-
- private:
-  int owner(int z) const { return mpiLayerOwner(z, world_.size, world_.rootShare); }
-  bool computeAhead(int z);  // computes rank 0's next own layer after z, if it may; false if not
-
-  MpiWorld world_;
-  cpu::LayerPolygonizer& layers_;
-  std::deque<std::pair<int, cpu::MeshLayer>> ahead_;  // own layers computed early, ascending z
-  int computedUpTo_ = -1;                             // highest own layer computed so far
+struct MpiMeshOutput {
+  std::string path;  // "-": standard output (through a temporary file beside $TMPDIR)
+  mesh::StreamedFileOptions file;
+  bool check = false;  // rank 0 runs the streamed check
 };
 
-// Ranks > 0: computes this rank's layers and sends them to rank 0; returns when all are sent.
-void mpiServeLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers);
+struct MpiMeshResult {  // rank 0's figures; the other ranks' are zero
+  std::uint64_t vertices = 0, triangles = 0, bytes = 0;
+  std::optional<mesh::MeshReport> report;  // when checked
+};
+
+// Every rank of `world` (size > 1): computes its layers, writes them into place and returns once
+// the file is complete. Throws (on the rank that failed; the caller aborts the others) on errors,
+// and past --max-triangles before anything is written into the file.
+MpiMeshResult mpiMeshLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers, const MpiMeshOutput& output,
+                            const Limits& limits);
 
 }  // namespace blobvk::app

@@ -14,10 +14,8 @@ void mpiStop() {}
 void mpiAbort(const std::string& message) { throw std::runtime_error(message); }
 double mpiRootShare(int, bool) { return 1.0; }
 int mpiLayerOwner(int, int, double) { return 0; }
-MpiRootLayers::MpiRootLayers(const MpiWorld& world, cpu::LayerPolygonizer& layers)
-    : world_(world), layers_(layers) {}
-cpu::MeshLayer MpiRootLayers::take(int z) { return layers_.layer(z); }
-bool MpiRootLayers::computeAhead(int) { return false; }
-void mpiServeLayers(const MpiWorld&, cpu::LayerPolygonizer&) {}
+MpiMeshResult mpiMeshLayers(const MpiWorld&, cpu::LayerPolygonizer&, const MpiMeshOutput&, const Limits&) {
+  throw std::logic_error("mpiMeshLayers: this blobvk was built without MPI");
+}
 
 }  // namespace blobvk::app

@@ -144,25 +144,26 @@ StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree
   result.ranks = world.size;
   try {
     cpu::LayerPolygonizer layers(program, grid, options);
-    if (world.rank != 0) {
-      mpiServeLayers(world, layers);
-      mpiStop();
-      result.worker = true;
-      return result;
-    }
-    StreamedOutput output(out, format, asciiPly, check);
-    {
-      Progress progress("mesh", layers.layerCount());
-      cpu::LayerJoiner join(output.tee);
-      MpiRootLayers source(world, layers);  // one process: every layer computed here, in order
-      for (int z = 0; z < layers.layerCount(); ++z) {
-        join.push(source.take(z));
-        progress.update(z + 1);
+    if (world.size > 1) {  // every rank writes its own layers into the file (mesh_mpi.h)
+      const MpiMeshResult r = mpiMeshLayers(world, layers, {out, StreamedOutput::fileOptions(format, asciiPly), check}, limits);
+      result.vertices = r.vertices, result.triangles = r.triangles, result.bytes = r.bytes;
+      result.report = r.report;
+      result.pointEvaluations = double(layers.stats().pointEvaluations);  // this rank's
+      result.worker = world.rank != 0;
+    } else {
+      StreamedOutput output(out, format, asciiPly, check);
+      {
+        Progress progress("mesh", layers.layerCount());
+        cpu::LayerJoiner join(output.tee);
+        for (int z = 0; z < layers.layerCount(); ++z) {
+          join.push(layers.layer(z));
+          progress.update(z + 1);
+        }
+        join.finish();
       }
-      join.finish();
+      result.pointEvaluations = double(layers.stats().pointEvaluations);
+      output.finish(result, limits);
     }
-    result.pointEvaluations = double(layers.stats().pointEvaluations);  // this rank's
-    output.finish(result, limits);
   } catch (const std::exception& e) {
     if (mpi && world.size > 1) mpiAbort(e.what());  // the other ranks would wait for ever
     throw;

@@ -67,6 +67,12 @@ int LayerPolygonizer::layerCount() const { return state_->mpus.z; }
 
 const MpuStats& LayerPolygonizer::stats() const { return state_->stats; }
 
+std::size_t LayerPolygonizer::bottomVertices(const MeshLayer& layer) const {
+  const State& s = *state_;
+  const std::uint64_t planeEnd = s.grid.edgeKey(0, 0, layer.z * s.D + 1, 0);  // first key of the next plane
+  return std::size_t(std::lower_bound(layer.keys.begin(), layer.keys.end(), planeEnd) - layer.keys.begin());
+}
+
 namespace {
 
 std::uint64_t exclusiveScan(std::vector<std::uint32_t>& counts) {

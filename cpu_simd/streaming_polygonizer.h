@@ -48,6 +48,10 @@ class LayerPolygonizer {
 
   int layerCount() const;  // MPUs along z (0 for an empty grid)
   MeshLayer layer(int z);  // 0 <= z < layerCount(), in any order
+  // How many of `layer`'s first vertices lie on its bottom plane of grid points: the only ones
+  // the layer below refers to (its `above` corners), so whoever joins that layer needs these
+  // keys and positions, not the whole layer (keys are z-major, so the plane is a prefix).
+  std::size_t bottomVertices(const MeshLayer& layer) const;
   // Evaluation and MPU counts summed over the layers computed so far (no phase times).
   const MpuStats& stats() const;
 

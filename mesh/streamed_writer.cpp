@@ -212,6 +212,7 @@ class StreamedMeshFile::Spool {
   }
   int fd() const { return fd_; }
   std::uint64_t size() const { return size_; }
+  std::uint64_t bytes() const { return size_ + buffer_.size(); }  // written and buffered
 
  private:
   static constexpr std::size_t kBuffer = 4u << 20;
@@ -339,29 +340,48 @@ void StreamedMeshFile::triangles(std::span<const std::array<std::uint32_t, 3>> t
   }
 }
 
-std::string StreamedMeshFile::header() const {
+std::vector<std::uint64_t> StreamedMeshFile::sectionBytes() const {
+  std::vector<std::uint64_t> bytes;
+  for (const auto& s : sections_) bytes.push_back(s->bytes());
+  return bytes;
+}
+
+void StreamedMeshFile::place(int fd, const std::vector<Placement>& placements) {
+  for (auto& s : sections_) s->flush();
+  const std::uint64_t kPiece = std::max<std::uint64_t>(1, options_.copyPieceBytes);
+  std::vector<CopyPiece> pieces;
+  for (const Placement& p : placements) {
+    if (p.section < 0 || std::size_t(p.section) >= sections_.size() || p.from + p.length > sections_[std::size_t(p.section)]->size())
+      throw std::out_of_range("streamed mesh file: a placement outside the spooled sections");
+    for (std::uint64_t done = 0; done < p.length; done += kPiece)
+      pieces.push_back({sections_[std::size_t(p.section)]->fd(), p.from + done, p.to + done, std::min(kPiece, p.length - done)});
+  }
+  copyPieces(pieces, fd, path_);
+}
+
+std::string StreamedMeshFile::headerFor(std::uint64_t vertices, std::uint64_t triangles) const {
   const std::string& f = options_.format;
   std::string out;
   if (f == "ply") {  // ply.cpp's header
     out += "ply\nformat ";
     out += options_.asciiPly ? "ascii" : "binary_little_endian";
     out += " 1.0\ncomment written by blobvk\nelement vertex ";
-    detail::appendUint(out, vertices_);
+    detail::appendUint(out, vertices);
     out += "\nproperty float x\nproperty float y\nproperty float z\n";
     if (options_.normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
     if (options_.colours) out += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     out += "element face ";
-    detail::appendUint(out, triangles_);
+    detail::appendUint(out, triangles);
     out += "\nproperty list uchar int vertex_indices\nend_header\n";
   } else if (f == "obj") {
     out = "# written by blobvk\n";
   } else {
-    if (triangles_ > std::numeric_limits<std::uint32_t>::max())
+    if (triangles > std::numeric_limits<std::uint32_t>::max())
       throw std::invalid_argument("writeStl: too many triangles for STL");
     char text[80] = {};
     std::snprintf(text, sizeof text, "binary STL written by blobvk");
     out.append(text, sizeof text);
-    detail::appendRaw(out, std::uint32_t(triangles_));
+    detail::appendRaw(out, std::uint32_t(triangles));
   }
   return out;
 }

@@ -46,9 +46,26 @@ class StreamedMeshFile final : public MeshSink {
   std::uint64_t vertexCount() const { return vertices_; }
   std::uint64_t triangleCount() const { return triangles_; }
 
+  // A file written by several processes, each holding the runs of some layers (apps/mesh_mpi.h):
+  // each process's object spools its own runs and never calls finish(); the processes agree on
+  // where every run goes and each copies its runs into one shared file.
+  //
+  // Bytes each section (PLY: vertices, faces; OBJ: v, [vn,] f; STL: facets) holds so far.
+  std::vector<std::uint64_t> sectionBytes() const;
+  // The header finish() would write for a mesh of these counts.
+  std::string headerFor(std::uint64_t vertices, std::uint64_t triangles) const;
+  struct Placement {
+    int section;
+    std::uint64_t from, length;  // bytes of the section
+    std::uint64_t to;            // offset in the file
+  };
+  // Copies the ranges into `fd` at their offsets (leaving its file position alone, so that other
+  // processes can fill the rest of the file at once), on a few threads.
+  void place(int fd, const std::vector<Placement>& placements);
+
  private:
   class Spool;
-  std::string header() const;
+  std::string header() const { return headerFor(vertices_, triangles_); }
 
   std::string path_;
   StreamedFileOptions options_;

@@ -1,9 +1,10 @@
 #!/bin/sh
-# mpirun -n N blobvk mesh: for 1, 2 and 4 ranks (oversubscribed, one thread each) the file is the
-# one-process in-memory file byte for byte (binary PLY and OBJ), and rank 0's streamed check
-# reports it watertight. Usage: mpi_mesh.sh BLOBVK MPIEXEC SCENE
+# mpirun -n N blobvk mesh: for 1 to 4 ranks (oversubscribed, one thread each) the file every rank
+# writes its layers into is the one-process in-memory file byte for byte (binary and ASCII PLY,
+# OBJ, STL, standard output), and rank 0's streamed check reports what the one-process check
+# reports. Usage: mpi_mesh.sh BLOBVK MPIEXEC SCENE GAPS_SCENE
 set -eu
-blobvk=$1 mpiexec=$2 scene=$3
+blobvk=$1 mpiexec=$2 scene=$3 gaps=$4
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 root=""
@@ -21,6 +22,37 @@ for ext in ply obj; do
     if [ $n -gt 1 ]; then grep -q "$n MPI ranks" "$dir/log" || { cat "$dir/log"; echo "not $n ranks"; exit 1; }; fi
   done
 done
+# Every layer boundary cuts triangles (2-cell MPUs: 21 layers, each with corners on the next
+# one's vertices), the ranks' shares are uneven (3 ranks) and the formats' sections differ (STL
+# facets need the next layer's positions, ASCII records vary in length).
+"$blobvk" mesh "$scene" --resolution 40 --mpu 2 -o "$dir/fine.ply" --stream >"$dir/one.log"
+for ext in stl ply; do
+  ascii=""
+  if [ $ext = ply ]; then ascii=--ascii; fi
+  "$blobvk" mesh "$scene" --resolution 40 --mpu 2 $ascii -o "$dir/fine1.$ext" -q
+  "$mpiexec" $root --oversubscribe -n 3 "$blobvk" mesh "$scene" --resolution 40 --mpu 2 $ascii --threads 1 \
+    -o "$dir/fine3.$ext" >"$dir/log" 2>&1 || { cat "$dir/log"; echo "3 ranks, fine $ext failed"; exit 1; }
+  cmp "$dir/fine1.$ext" "$dir/fine3.$ext" || { echo "3 ranks, 2-cell MPUs: $ext differs from one process"; exit 1; }
+done
+# The check's line (counts, components, volume, area) is the one process's, not only "watertight".
+grep "watertight (" "$dir/one.log" >"$dir/one.check"
+"$mpiexec" $root --oversubscribe -n 3 "$blobvk" mesh "$scene" --resolution 40 --mpu 2 --threads 1 -o "$dir/fine3.ply" \
+  >"$dir/log" 2>&1 || { cat "$dir/log"; echo "3 ranks with the check failed"; exit 1; }
+cmp "$dir/fine.ply" "$dir/fine3.ply" || { echo "3 ranks, checked: ply differs"; exit 1; }
+grep "watertight (" "$dir/log" | cmp - "$dir/one.check" || { cat "$dir/log"; echo "3 ranks: the check's report differs"; exit 1; }
+# Standard output: the ranks assemble the file beside \$TMPDIR, rank 0 copies it out.
+"$mpiexec" $root --oversubscribe -n 2 "$blobvk" mesh "$scene" $grid --threads 1 -o - -q >"$dir/stdout.ply" 2>"$dir/log" ||
+  { cat "$dir/log"; echo "2 ranks to standard output failed"; exit 1; }
+cmp "$dir/one.ply" "$dir/stdout.ply" || { echo "2 ranks: standard output differs from one process"; exit 1; }
+# Empty layers (two blobs far apart along z, the grid's bounds around both) and ranks that own
+# no layer at all: 3 layers of 16-cell MPUs over 4 ranks, and 2 layers of 32-cell MPUs.
+for mpu in 2 16 32; do
+  "$blobvk" mesh "$gaps" --resolution 40 --mpu $mpu -o "$dir/gaps1.ply" -q
+  "$mpiexec" $root --oversubscribe -n 4 "$blobvk" mesh "$gaps" --resolution 40 --mpu $mpu --threads 1 \
+    -o "$dir/gaps4.ply" >"$dir/log" 2>&1 || { cat "$dir/log"; echo "4 ranks, gaps, --mpu $mpu failed"; exit 1; }
+  cmp "$dir/gaps1.ply" "$dir/gaps4.ply" || { echo "4 ranks, gaps, --mpu $mpu: ply differs from one process"; exit 1; }
+  grep -q "2 components, .*; watertight (" "$dir/log" || { cat "$dir/log"; echo "4 ranks, gaps: not 2 watertight components"; exit 1; }
+done
 # Rank 0's share of the layers, from none to all: the same bytes whoever computes a layer.
 for share in 0 0.7 1; do
   BLOBVK_MPI_ROOT_SHARE=$share "$mpiexec" $root --oversubscribe -n 2 "$blobvk" mesh "$scene" $grid --threads 1 \
@@ -35,4 +67,4 @@ fi
 grep -q "blobvk: error: BLOBVK_MPI_ROOT_SHARE: expected a number from 0 to 1, got '1.5'" "$dir/log" ||
   { cat "$dir/log"; echo "no clear line for a bad share"; exit 1; }
 [ ! -e "$dir/bad.ply" ] || { echo "a bad share left a file"; exit 1; }
-echo "1, 2 and 4 ranks, rank 0 shares 0 to 1: identical files"
+echo "1 to 4 ranks, every format, empty layers, ranks without layers, rank 0 shares 0 to 1: identical files"
