@@ -47,14 +47,14 @@ struct Smoothed {
   std::vector<Tet> removedNodes;
 };
 
-Smoothed smooth(CutTopology& topology, const std::vector<double>& onCut) {
+Smoothed smooth(CutTopology& topology, const std::vector<double>& onCut, double belowDeg = 15.0) {
   SpatialGrid grid;
   grid.rebuild(topology);
   std::vector<std::uint32_t> seeds(topology.slotCount());
   std::iota(seeds.begin(), seeds.end(), 0u);
   Smoothed run;
   NodeSmoothing smoothing;
-  smoothing.improve(topology, grid, seeds, 15.0, onCut, {run.removed, run.removedNodes, run.added}, run.moved);
+  smoothing.improve(topology, grid, seeds, belowDeg, onCut, {run.removed, run.removedNodes, run.added}, run.moved);
   return run;
 }
 
@@ -254,14 +254,7 @@ TEST(NodeSmoothing, ANodeOnABoundaryCreaseSlidesAlongIt) {
 TEST(NodeSmoothing, ACornerOfTheBlockStays) {
   const mesh::TetMesh m = test::cubeMesh(2);
   CutTopology topology(m);
-  SpatialGrid grid;
-  grid.rebuild(topology);
-  std::vector<std::uint32_t> seeds(topology.slotCount());
-  std::iota(seeds.begin(), seeds.end(), 0u);
-  Smoothed run;
-  NodeSmoothing smoothing;
-  smoothing.improve(topology, grid, seeds, 90.0, std::vector<double>(m.nodeCount(), 0.0),
-                    {run.removed, run.removedNodes, run.added}, run.moved);
+  smooth(topology, std::vector<double>(m.nodeCount(), 0.0), 90.0);
   for (std::uint32_t v = 0; v < m.nodeCount(); ++v) {
     const mesh::Double3 p = m.restPositions[v];
     const bool corner = (p.x == 0 || p.x == 2) && (p.y == 0 || p.y == 2) && (p.z == 0 || p.z == 2);
