@@ -527,7 +527,7 @@ class LayerJob {
         fd = ::open(name.c_str(), O_WRONLY | O_CLOEXEC);
         if (fd < 0) throw std::runtime_error(name + ": cannot open the output another rank made: " + std::strerror(errno));
       } else {
-        writeAt(fd, head, 0);
+        mesh::StreamedMeshFile::writeAt(fd, head, 0, output_.path);
       }
       PhaseTimes::timed(times_.copy, [&] { file_.place(fd, placements); });
       if (world_.rank != 0 && ::close(std::exchange(fd, -1)) != 0)
@@ -541,7 +541,7 @@ class LayerJob {
     if (world_.rank == 0) {
       if (ok) {
         try {
-          finishOutput(fd, name);
+          finishOutput(fd, name, result.bytes);
         } catch (const std::exception& e) {
           failure = e.what();
         }
@@ -573,33 +573,12 @@ class LayerJob {
     return fd;
   }
 
-  void writeAt(int fd, const std::string& bytes, std::uint64_t offset) const {
-    for (std::size_t done = 0; done < bytes.size();) {
-      const ssize_t w = ::pwrite(fd, bytes.data() + done, bytes.size() - done, off_t(offset + done));
-      if (w < 0 && errno == EINTR) continue;
-      if (w <= 0) throw std::runtime_error(output_.path + ": write error: " + std::strerror(errno));
-      done += std::size_t(w);
-    }
-  }
-
-  // Rank 0, once every rank has placed its runs: the file into place (or onto standard output).
-  void finishOutput(int fd, const std::string& name) {
+  // Rank 0, once every rank has placed its runs: the file (`bytes` long) into place, or onto
+  // standard output.
+  void finishOutput(int fd, const std::string& name, std::uint64_t bytes) {
     try {
       if (output_.path == "-") {
-        std::vector<char> buffer(1 << 20);
-        for (off_t at = 0;;) {
-          const ssize_t n = ::pread(fd, buffer.data(), buffer.size(), at);
-          if (n < 0 && errno == EINTR) continue;
-          if (n < 0) throw std::runtime_error("standard output: cannot read the assembled mesh: " + std::string(std::strerror(errno)));
-          if (n == 0) break;
-          for (ssize_t done = 0; done < n;) {
-            const ssize_t w = ::write(STDOUT_FILENO, buffer.data() + done, std::size_t(n - done));
-            if (w < 0 && errno == EINTR) continue;
-            if (w <= 0) throw std::runtime_error("standard output: write error: " + std::string(std::strerror(errno)));
-            done += w;
-          }
-          at += n;
-        }
+        mesh::StreamedMeshFile::append(fd, STDOUT_FILENO, bytes, "standard output");
         ::close(fd);
         ::unlink(name.c_str());
         return;

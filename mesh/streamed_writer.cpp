@@ -58,6 +58,16 @@ void copyAll(int in, int out, std::uint64_t length, const std::string& what) {
   }
 }
 
+// Writes n bytes into `fd` at `offset`, leaving its file position alone.
+void writeAllAt(int fd, const char* data, std::size_t n, std::uint64_t offset, const std::string& what) {
+  while (n > 0) {
+    const ssize_t w = ::pwrite(fd, data, n, off_t(offset));
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) throw std::runtime_error(what + ": write error: " + reason());
+    data += w, n -= std::size_t(w), offset += std::uint64_t(w);
+  }
+}
+
 // Copies `length` bytes of `in` from inOffset to `out` at outOffset, leaving both file positions
 // alone (so that several threads can fill one file): in the kernel where it can, else through a
 // buffer.
@@ -76,13 +86,8 @@ void copyRange(int in, std::uint64_t inOffset, int out, std::uint64_t outOffset,
     const ssize_t n = ::pread(in, buffer.data(), std::min<std::uint64_t>(buffer.size(), std::uint64_t(end - from)), from);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) throw std::runtime_error(what + ": cannot copy a spooled section: " + reason());
-    for (ssize_t done = 0; done < n;) {
-      const ssize_t w = ::pwrite(out, buffer.data() + done, std::size_t(n - done), to);
-      if (w < 0 && errno == EINTR) continue;
-      if (w <= 0) throw std::runtime_error(what + ": write error: " + reason());
-      done += w, to += w;
-    }
-    from += n;
+    writeAllAt(out, buffer.data(), std::size_t(n), std::uint64_t(to), what);
+    from += n, to += n;
   }
 }
 
@@ -344,6 +349,14 @@ std::vector<std::uint64_t> StreamedMeshFile::sectionBytes() const {
   std::vector<std::uint64_t> bytes;
   for (const auto& s : sections_) bytes.push_back(s->bytes());
   return bytes;
+}
+
+void StreamedMeshFile::writeAt(int fd, const std::string& bytes, std::uint64_t offset, const std::string& what) {
+  writeAllAt(fd, bytes.data(), bytes.size(), offset, what);
+}
+
+void StreamedMeshFile::append(int in, int out, std::uint64_t length, const std::string& what) {
+  copyAll(in, out, length, what);
 }
 
 void StreamedMeshFile::place(int fd, const std::vector<Placement>& placements) {

@@ -63,6 +63,12 @@ class StreamedMeshFile final : public MeshSink {
   // processes can fill the rest of the file at once), on a few threads.
   void place(int fd, const std::vector<Placement>& placements);
 
+  // For the process that assembles such a file: `bytes` written into `fd` at `offset` (its file
+  // position left alone), and the file's first `length` bytes appended to `out` (standard
+  // output); `what` names the file in the error thrown.
+  static void writeAt(int fd, const std::string& bytes, std::uint64_t offset, const std::string& what);
+  static void append(int in, int out, std::uint64_t length, const std::string& what);
+
  private:
   class Spool;
   std::string header() const { return headerFor(vertices_, triangles_); }
