@@ -36,6 +36,7 @@ namespace blobvk::app {
 namespace {
 
 bool started = false;
+double initSeconds = 0.0;
 
 double parseRootShare(const char* text) {
   char* end = nullptr;
@@ -57,10 +58,13 @@ double mpiRootShare(int ranks, bool rootChecks) {
 MpiWorld mpiStart(bool rootChecks) {
   if (!started) {
     int provided = 0;
+    const auto start = std::chrono::steady_clock::now();
     MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+    initSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     started = true;
   }
   MpiWorld w;
+  w.initSeconds = initSeconds;
   MPI_Comm_rank(MPI_COMM_WORLD, &w.rank);
   MPI_Comm_size(MPI_COMM_WORLD, &w.size);
   // Rank 0 decides the split and tells the others, so that ranks started with different
@@ -263,9 +267,9 @@ class LayerJob {
     MpiMeshResult result = PhaseTimes::timed(times_.place, [&] { return place(limits); });
     if (const char* t = std::getenv("BLOBVK_MPI_TIMES"); t && *t)
       std::fprintf(stderr,
-                   "blobvk: rank %d: %zu layers, compute %.3f s, spool %.3f s, check %.3f s, waiting %.3f s, "
-                   "placing %.3f s (of which agreeing %.3f s, copying %.3f s)\n",
-                   world_.rank, own.size(), times_.compute, times_.spool, times_.check, times_.waiting, times_.place,
+                   "blobvk: rank %d: MPI_Init %.3f s, %zu layers, compute %.3f s, spool %.3f s, check %.3f s, "
+                   "waiting %.3f s, placing %.3f s (of which agreeing %.3f s, copying %.3f s)\n",
+                   world_.rank, world_.initSeconds, own.size(), times_.compute, times_.spool, times_.check, times_.waiting, times_.place,
                    times_.agree, times_.copy);
     return result;
   }

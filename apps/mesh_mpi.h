@@ -31,6 +31,7 @@ bool launchedByMpi();
 struct MpiWorld {
   int rank = 0, size = 1;
   double rootShare = 0.0;  // mpiRootShare, as rank 0 decided it (sent to every rank)
+  double initSeconds = 0.0;  // this process's MPI_Init (BLOBVK_MPI_TIMES prints it)
 };
 
 // MPI_Init (once), the world's rank and size, and rank 0's share of the layers
