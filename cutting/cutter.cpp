@@ -136,6 +136,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   CutResult result;
   if (swept.empty()) return result;
   if (grid_.needsRebuild(topology_)) grid_.rebuild(topology_);
+  const std::size_t slotsBefore = topology_.slotCount();  // the FEM's tet count
   const auto& pos = topology_.mesh().positions;
   const double tolAbs = options_.onSurfaceTolerance * meanEdge_;
   const double tau = options_.snapFraction;
@@ -683,7 +684,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     radixSort(seeds, scratch.sortScratch32, std::uint32_t(topology_.slotCount()), [](std::uint32_t x) { return x; });
     seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
     const FlipStats flips = flips_.improve(topology_, grid_, seeds, options_.improveBelowDeg, 2 * seeds.size() + 16,
-                                           {result.removedTets, result.removedTetNodes, result.addedTets});
+                                           slotsBefore, {result.removedTets, result.removedTetNodes, result.addedTets});
     result.faceRemovals = flips.faceRemovals;
     result.edgeRemovals = flips.edgeRemovals;
     result.flipAttempts = flips.attempts;

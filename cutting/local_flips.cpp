@@ -112,6 +112,22 @@ double quality(const mesh::TetMesh& m, const Tet& t) {
   return cosineQuality(r[t[0]], r[t[1]], r[t[2]], r[t[3]]);
 }
 
+// Whether the boundary edge (a, b) lies inside one flat piece of the boundary: its two boundary
+// faces (a, b, first) and (a, b, last), whose tets have `afterFirst` and `beforeLast` as their
+// other nodes, have outward unit normals that agree to kFlatSine (node_smoothing.cpp's bound for
+// points computed on one plane). Then re-triangulating the ring moves no boundary point: the two
+// faces become (a, first, last) and (b, last, first), the same piece of the plane.
+constexpr double kFlatSine = 1e-10;
+bool flatBoundaryEdge(const std::vector<Double3>& r, std::uint32_t a, std::uint32_t b, std::uint32_t first,
+                      std::uint32_t afterFirst, std::uint32_t beforeLast, std::uint32_t last) {
+  Double3 n0 = cross(r[b] - r[a], r[first] - r[a]), n1 = cross(r[b] - r[a], r[last] - r[a]);
+  if (dot(n0, r[afterFirst] - r[a]) > 0) n0 = n0 * -1.0;
+  if (dot(n1, r[beforeLast] - r[a]) > 0) n1 = n1 * -1.0;
+  const double l0 = length(n0), l1 = length(n1);
+  if (!(l0 > 0 && l1 > 0)) return false;
+  return dot(n0, n1) > 0 && length(cross(n0, n1)) <= kFlatSine * l0 * l1;
+}
+
 }  // namespace
 
 double dihedralQuality(Double3 a, Double3 b, Double3 c, Double3 d) { return cosineQuality(a, b, c, d); }
@@ -141,17 +157,15 @@ std::uint32_t LocalFlips::append(CutTopology& topology, const Tet& nodes, std::u
   return slot;
 }
 
-bool LocalFlips::freeable(std::uint32_t region) const {
+bool LocalFlips::freeable() const {
   const std::size_t slots = topology_->slotCount();
-  if (slots == 0 || slots - 1 < firstFlipSlot_ || topology_->liveTetCount() != slots) return false;
-  const auto& regions = topology_->mesh().regions;
-  return regions.empty() || regions[slots - 1] == region;
+  return slots > eventFirstSlot_ && topology_->liveTetCount() == slots;
 }
 
-void LocalFlips::releaseLast(CutTopology& topology, const std::vector<std::uint32_t>& ring, const std::vector<Tet>& made) {
-  // The two new tets go into two ring slots; the last slot (appended by a flip of this call: not
-  // in any family of the spatial hash, listed only as added) moves into the third ring slot,
-  // unless it is one of the ring, and is given back.
+void LocalFlips::freeSlot(CutTopology& topology, const std::vector<std::uint32_t>& ring, const std::vector<Tet>& made) {
+  // The two new tets go into two ring slots; the last slot (appended in this event: the FEM has
+  // not seen it, and it is listed only as added) moves into the third ring slot, content and
+  // region, unless it is one of the ring, and is given back.
   const std::uint32_t last = std::uint32_t(topology.slotCount() - 1);
   std::array<std::uint32_t, 3> keep{};
   std::size_t kept = 0;
@@ -159,16 +173,25 @@ void LocalFlips::releaseLast(CutTopology& topology, const std::vector<std::uint3
   for (std::uint32_t s : ring)
     if (s != last && kept < 2) keep[kept++] = s;
   const std::uint32_t spare = lastInRing ? last : ring[2];
-  const Tet lastNodes = topology.tet(last);
   write(topology, keep[0], made[0]);
   write(topology, keep[1], made[1]);
-  if (!lastInRing) write(topology, spare, lastNodes);
+  if (!lastInRing) {
+    // Listed as written (with its content before the event) before it takes the last slot's.
+    if (!listed_[spare]) {
+      change_->removedTets.push_back(spare);
+      change_->removedTetNodes.push_back(topology.tet(spare));
+      listed_[spare] = 1;
+    }
+    change_->addedTets.push_back(spare);
+    written_.push_back(spare);
+  }
   auto& added = change_->addedTets;
   added.erase(std::remove(added.begin(), added.end(), last), added.end());
   written_.erase(std::remove(written_.begin(), written_.end(), last), written_.end());
   listed_[last] = 0;
-  topology.removeTet(last);
-  topology.compact();  // the only hole is the last slot: a truncation, no move
+  grid_->release(topology, last);
+  topology.removeTet(spare);
+  topology.compact();  // the only hole is `spare`: the last slot moves into it (or is cut off)
 }
 
 bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double belowCosine, FlipStats& stats) {
@@ -184,6 +207,7 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
   double bestQuality = own;  // an operation must raise the minimum of what it replaces
   enum class Op { None, Face, Edge } bestOp = Op::None;
   std::uint32_t bestOther = kNone;
+  bool bestOpen = false;  // the edge removal's ring is open (a boundary edge)
   std::vector<std::uint32_t> bestRing;
   best_.clear();
 
@@ -220,8 +244,9 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     }
   }
 
-  // Edge removal: the ring of tets around edge (a, b) (closed, 4..7 tets) becomes the cones from a
-  // and b over a triangulation of the ring polygon. Every edge of the tet is tried: restricting
+  // Edge removal: the ring of tets around edge (a, b) (closed, 3..7 tets; or open, 2..6 tets, in a
+  // flat piece of the boundary) becomes the cones from a and b over a triangulation of the ring
+  // polygon (an open ring's closed by the new boundary edge). Every edge of the tet is tried: restricting
   // the tries to the edges where its dihedral angle is bad halved the gain on the random strokes.
   const auto& r = m.restPositions;
   for (const auto& e : kTetEdges) {
@@ -232,8 +257,9 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
       if (std::find(u.begin(), u.end(), b) != u.end()) ring_.push_back(s);
     }
     const int n = int(ring_.size());
-    // Three tets (the 3-2 flip) only when a slot can be given back (see freeableSlot).
-    if (n < 3 || n > 7 || (n == 3 && !freeable(region))) continue;
+    // Closed rings of 3..7 tets (3 only when a slot can be given back, see freeable); open rings
+    // (a boundary edge) of 2..6 tets, whose polygon then has n + 1 vertices.
+    if (n < 2 || n > 7) continue;
     bool sameRegion = true;
     // Cycle: for the tet with other nodes {p, q}, (a, b, p, q) positive means q follows p.
     std::array<std::uint32_t, 7> from{}, to{};
@@ -247,23 +273,36 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
       from[std::size_t(k)] = p, to[std::size_t(k)] = q;
     }
     if (!sameRegion) continue;
-    std::array<std::uint32_t, 7> cycle{};
-    cycle[0] = from[0];
-    bool closed = true;
-    for (int k = 1; k <= n && closed; ++k) {
+    // An open ring starts at the one `from` that no tet's `to` reaches (the edge is then on the
+    // boundary, between the boundary faces (a, b, first) and (a, b, last)); a closed ring anywhere.
+    std::uint32_t start = from[0];
+    int starts = 0;
+    for (int k = 0; k < n; ++k) {
+      bool reached = false;
+      for (int j = 0; j < n; ++j) reached = reached || to[std::size_t(j)] == from[std::size_t(k)];
+      if (!reached) start = from[std::size_t(k)], ++starts;
+    }
+    const bool open = starts > 0;
+    if (starts > 1 || (!open && (n == 2 || (n == 3 && !freeable()))) || (open && n == 7)) continue;
+    const int corners = open ? n + 1 : n;  // vertices of the ring's polygon
+    std::array<std::uint32_t, 8> cycle{};
+    cycle[0] = start;
+    bool chained = true;
+    for (int k = 1; k <= n && chained; ++k) {
       const std::uint32_t prev = cycle[std::size_t(k - 1)];
       int next = -1;
       for (int j = 0; j < n; ++j)
         if (from[std::size_t(j)] == prev) next = j;
-      if (next < 0) closed = false;
-      else if (k < n) cycle[std::size_t(k)] = to[std::size_t(next)];
-      else closed = to[std::size_t(next)] == cycle[0];
+      if (next < 0) chained = false;
+      else if (k < corners) cycle[std::size_t(k)] = to[std::size_t(next)];
+      else chained = to[std::size_t(next)] == cycle[0];
     }
-    if (!closed) continue;
-    for (int x = 0; x < n && closed; ++x)
-      for (int y = x + 1; y < n; ++y)
-        if (cycle[std::size_t(x)] == cycle[std::size_t(y)]) closed = false;
-    if (!closed) continue;
+    if (!chained) continue;
+    for (int x = 0; x < corners && chained; ++x)
+      for (int y = x + 1; y < corners; ++y)
+        if (cycle[std::size_t(x)] == cycle[std::size_t(y)]) chained = false;
+    if (!chained || (open && !flatBoundaryEdge(r, a, b, cycle[0], cycle[1], cycle[std::size_t(n - 1)], cycle[std::size_t(n)])))
+      continue;
     // Quality of the two cones over a triangle of the polygon, evaluated when a triangulation
     // first needs it and kept (kInvalid: invalid, or no better than the bar every triangulation
     // must clear). Most triangulations fail on their first bad triangle, so most of the
@@ -272,10 +311,10 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     // that beats bestQuality raises the minimum of what it replaces.
     const double bar = bestQuality + 1e-9;
     constexpr double kUnknown = 4.0;
-    std::array<std::array<std::array<double, 7>, 7>, 7> cone;  // only i < j < k < n are reset and read
-    for (int i = 0; i < n; ++i)
-      for (int j = i + 1; j < n; ++j)
-        for (int k = j + 1; k < n; ++k) cone[std::size_t(i)][std::size_t(j)][std::size_t(k)] = kUnknown;
+    std::array<std::array<std::array<double, 7>, 7>, 7> cone;  // only i < j < k < corners are reset and read
+    for (int i = 0; i < corners; ++i)
+      for (int j = i + 1; j < corners; ++j)
+        for (int k = j + 1; k < corners; ++k) cone[std::size_t(i)][std::size_t(j)][std::size_t(k)] = kUnknown;
     auto coneQuality = [&](int i, int j, int k) {
       double& q = cone[std::size_t(i)][std::size_t(j)][std::size_t(k)];
       if (q != kUnknown) return q;
@@ -289,18 +328,19 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     };
     // A diagonal that is already an edge elsewhere rules its triangulation out; checked only for
     // a triangulation that would be taken (a few incidence scans instead of one per triangle).
+    // An open ring's polygon has no side from its last corner back to its first: that edge is new.
     auto diagonalsFree = [&](const Triangulation& tri) {
       for (const auto& [i, j, k] : tri)
         if ((j - i > 1 && topology.hasEdge(cycle[i], cycle[j])) || (k - j > 1 && topology.hasEdge(cycle[j], cycle[k])) ||
-            (!(i == 0 && k == n - 1) && topology.hasEdge(cycle[i], cycle[k])))
+            ((open || !(i == 0 && k == corners - 1)) && topology.hasEdge(cycle[i], cycle[k])))
           return false;
       return true;
     };
     const Triangulation* chosen = nullptr;
     double chosenQuality = bar;
     // With three tets the two new ones share the face of the ring's nodes: it must not exist.
-    if (n == 3 && topology.tetsOfFace(cycle[0], cycle[1], cycle[2])[0] != kNone) continue;
-    for (const Triangulation& tri : triangulations(n)) {
+    if (!open && n == 3 && topology.tetsOfFace(cycle[0], cycle[1], cycle[2])[0] != kNone) continue;
+    for (const Triangulation& tri : triangulations(corners)) {
       double worst = 1e300;
       for (const auto& [i, j, k] : tri) {
         worst = std::min(worst, coneQuality(i, j, k));
@@ -311,6 +351,7 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     if (chosen == nullptr) continue;
     bestQuality = chosenQuality;
     bestOp = Op::Edge;
+    bestOpen = open;
     bestRing.assign(ring_.begin(), ring_.end());
     best_.clear();
     for (const auto& [i, j, k] : *chosen) {
@@ -327,10 +368,11 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
     append(topology, best_[2], region);
   } else {
     ++stats.edgeRemovals;
+    stats.boundaryEdgeRemovals += bestOpen;
     std::sort(bestRing.begin(), bestRing.end());
-    if (bestRing.size() == 3) {
+    if (bestRing.size() == 3 && !bestOpen) {
       ++stats.threeTwo;
-      releaseLast(topology, bestRing, best_);
+      freeSlot(topology, bestRing, best_);
       return true;
     }
     for (std::size_t k = 0; k < best_.size(); ++k)
@@ -341,13 +383,15 @@ bool LocalFlips::improveTet(CutTopology& topology, std::uint32_t slot, double be
 }
 
 FlipStats LocalFlips::improve(CutTopology& topology, SpatialGrid& grid, std::span<const std::uint32_t> seeds,
-                              double belowDeg, std::size_t maxAttempts, FlipChangeSet change) {
+                              double belowDeg, std::size_t maxAttempts, std::size_t eventFirstSlot,
+                              FlipChangeSet change) {
   FlipStats stats;
   change_ = &change;
+  grid_ = &grid;
+  eventFirstSlot_ = eventFirstSlot;
   if (listed_.size() < topology.slotCount()) listed_.resize(topology.slotCount() + topology.slotCount() / 2, 0);
   for (std::uint32_t s : change.addedTets) listed_[s] = 1;
   topology_ = &topology;
-  firstFlipSlot_ = topology.slotCount();
   queue_.assign(seeds.begin(), seeds.end());
   const double belowCosine = std::cos(belowDeg * (3.14159265358979323846 / 180.0));
   for (std::size_t q = 0; q < queue_.size() && stats.attempts < maxAttempts; ++q) {
@@ -363,6 +407,7 @@ FlipStats LocalFlips::improve(CutTopology& topology, SpatialGrid& grid, std::spa
   for (std::uint32_t s : change.addedTets) listed_[s] = 0;
   change_ = nullptr;
   topology_ = nullptr;
+  grid_ = nullptr;
   return stats;
 }
 

@@ -90,12 +90,15 @@ void SpatialGrid::rebuild(const CutTopology& topology) {
     boxes_.reserve(room);
     familyHead_.reserve(room);
     familyNext_.reserve(room);
+    familyPrev_.reserve(room);
+    familyOwner_.reserve(room);
     joinBox_.reserve(room);
     stamp_.reserve(room);
     growSlotArrays(room);
     prefaultCapacity(stamp_);
   }
   std::fill(familyHead_.begin(), familyHead_.end(), kNone);
+  std::fill(familyOwner_.begin(), familyOwner_.end(), kNone);
   for (std::uint32_t s = 0; s < topology.slotCount(); ++s)
     if (topology.alive(s)) insert(topology, s);
   for (Cell& c : cells_) c.cleanSize = c.entries.size();
@@ -107,6 +110,8 @@ void SpatialGrid::growSlotArrays(std::size_t slots) {
   boxes_.resize(size);
   familyHead_.resize(size, kNone);
   familyNext_.resize(size, kNone);
+  familyPrev_.resize(size, kNone);
+  familyOwner_.resize(size, kNone);
   joinBox_.resize(size);
 }
 
@@ -197,8 +202,40 @@ void SpatialGrid::cover(const CutTopology& topology, std::span<const std::uint32
     }
     if (slot >= boxes_.size()) growSlotArrays(std::size_t(slot) + 1);
     joinBox_[slot] = box;
-    familyNext_[slot] = familyHead_[coveringSlot];
+    const std::uint32_t head = familyHead_[coveringSlot];
+    familyNext_[slot] = head;
+    familyPrev_[slot] = kNone;
+    if (head != kNone) familyPrev_[head] = slot;
+    familyOwner_[slot] = coveringSlot;
     familyHead_[coveringSlot] = slot;
+  }
+}
+
+void SpatialGrid::release(const CutTopology& topology, std::uint32_t slot) {
+  if (slot >= boxes_.size()) return;
+  if (const std::uint32_t owner = familyOwner_[slot]; owner != kNone) {
+    const std::uint32_t prev = familyPrev_[slot], next = familyNext_[slot];
+    (prev == kNone ? familyHead_[owner] : familyNext_[prev]) = next;
+    if (next != kNone) familyPrev_[next] = prev;
+    familyOwner_[slot] = kNone;
+  }
+  // The members lie inside boxes that only the slot's entries (and, below them, the members')
+  // stood for: each gets its own, and leaves its family.
+  std::vector<std::uint32_t>& pending = familyStack_;
+  pending.clear();
+  if (familyHead_[slot] != kNone) pending.push_back(familyHead_[slot]);
+  familyHead_[slot] = kNone;
+  while (!pending.empty()) {
+    std::uint32_t m = pending.back();
+    pending.pop_back();
+    while (m != kNone) {
+      const std::uint32_t next = familyNext_[m];
+      familyOwner_[m] = kNone;
+      if (familyHead_[m] != kNone) pending.push_back(familyHead_[m]);
+      familyHead_[m] = kNone;
+      if (m < topology.slotCount() && topology.alive(m)) insert(topology, m);
+      m = next;
+    }
   }
 }
 

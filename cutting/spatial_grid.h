@@ -42,6 +42,12 @@ class SpatialGrid {
   void cover(const CutTopology& topology, std::span<const std::uint32_t> slots, std::uint32_t coveringSlot,
              const Tet& coveringPrevious);
 
+  // For a slot about to be removed from the end of the topology (its content moved into a hole,
+  // see LocalFlips): it leaves the family it is in (a later tet in that slot must not continue
+  // that family's list), and the members of its own family, and theirs, get entries of their
+  // own (the slot's entries no longer lead to them). Cost: the slot's family, not the grid.
+  void release(const CutTopology& topology, std::uint32_t slot);
+
   // A thin region around a swept triangle: its box, its plane (unit normal through origin)
   // thickened by pad on both sides, and the three planes through its edges perpendicular to it
   // (outward unit normals through the edges' first vertices), moved out by pad: the prism over
@@ -105,8 +111,9 @@ class SpatialGrid {
   std::vector<Box> boxes_;  // by slot, as of the slot's last insert (the current box)
   // Families (cover()): by slot, its first member and the next member of the family it belongs
   // to (kNone: none), and the box it joined with. A member's own family is a sub-family: it is
-  // tested when the member is found.
-  std::vector<std::uint32_t> familyHead_, familyNext_;
+  // tested when the member is found. The previous member and the family's slot (kNone: in no
+  // family) let release() unlink a member in O(1).
+  std::vector<std::uint32_t> familyHead_, familyNext_, familyPrev_, familyOwner_;
   std::vector<Box> joinBox_;
   std::vector<std::uint32_t> familyStack_, sortScratch_;  // query scratch
   void growSlotArrays(std::size_t slots);

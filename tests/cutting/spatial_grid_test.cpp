@@ -117,5 +117,71 @@ TEST(SpatialGrid, CoveredChildrenKeepTheQueryComplete) {
   slabQueryFindsEveryTetNearRandomTriangles(Update::CoverChildren);
 }
 
+// A slot given back (a 3-2 flip's freed slot takes the last one's content, and the last slot goes):
+// release() must take it out of its family, or a tet that later reuses the slot and joins
+// another family cuts the first family's list short, and must hand its own family's members
+// entries of their own, or they are found through nothing once the slot is gone. Splits into
+// four around the centroid stand for the cutter's (children inside the parent's box).
+TEST(SpatialGrid, ReleasedSlotLeavesItsFamilyAndHandsOverItsMembers) {
+  CutTopology topo(test::cubeMesh(4));
+  SpatialGrid grid;
+  grid.rebuild(topo);
+  auto split = [&](std::uint32_t slot) {
+    const Tet t = topo.tet(slot);
+    const auto& r = topo.mesh().restPositions;
+    const Double3 c = (r[t[0]] + r[t[1]] + r[t[2]] + r[t[3]]) * 0.25;
+    const std::uint32_t centre = topo.addNode(c, c);
+    std::vector<std::uint32_t> others;
+    for (int i = 0; i < 4; ++i) {
+      Tet child = t;
+      child[std::size_t(i)] = centre;
+      if (i == 0) topo.setTet(slot, child);
+      else others.push_back(topo.addTet(child, topo.mesh().regions[slot]));
+    }
+    grid.shrink(topo, slot, t);
+    grid.cover(topo, others, slot, t);
+    return others;
+  };
+  const std::uint32_t last = std::uint32_t(topo.slotCount() - 1);
+  const std::vector<std::uint32_t> kids = split(0);  // slot 0's family lists kids[2], kids[1], kids[0]
+  const std::uint32_t released = kids[1];
+  const std::vector<std::uint32_t> grandkids = split(released);
+  grid.release(topo, released);
+  topo.removeTet(released);
+  // A split far away reuses the slot (addTet takes the free slot first) for a child of another family.
+  const std::vector<std::uint32_t> farKids = split(last);
+  ASSERT_EQ(farKids[0], released);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> coord(-0.5, 4.5);
+  std::size_t checked = 0;
+  std::vector<std::uint8_t> met(topo.slotCount(), 0);
+  // Every other triangle is centred on one of the slots the release concerns.
+  std::vector<std::uint32_t> targets(grandkids);
+  targets.push_back(kids[0]);
+  for (int round = 0; round < 200; ++round) {
+    Triangle tri{Double3{coord(rng), coord(rng), coord(rng)}, Double3{coord(rng), coord(rng), coord(rng)},
+                 Double3{coord(rng), coord(rng), coord(rng)}};
+    if (length(cross(tri[1] - tri[0], tri[2] - tri[0])) < 1e-3) continue;
+    if (round % 2) {
+      const Tet& t = topo.tet(targets[std::size_t(round / 2) % targets.size()]);
+      const auto& p = topo.mesh().positions;
+      const Double3 shift = (p[t[0]] + p[t[1]] + p[t[2]] + p[t[3]]) * 0.25 - (tri[0] + tri[1] + tri[2]) * (1.0 / 3.0);
+      for (Double3& v : tri) v = v + shift;
+    }
+    std::vector<std::uint32_t> hits;
+    grid.querySlabs(topo, {SpatialGrid::slabAround(tri, 0.01)}, hits);
+    for (std::uint32_t s = 0; s < topo.slotCount(); ++s) {
+      if (!topo.alive(s) || !tetNearTriangle(topo, s, tri, 0.01)) continue;
+      ++checked;
+      met[s] = 1;
+      ASSERT_TRUE(std::binary_search(hits.begin(), hits.end(), s)) << "round " << round << " missed slot " << s;
+    }
+  }
+  EXPECT_GT(checked, 1000u);
+  // The family's member after the released slot, and the released slot's own family, were met.
+  EXPECT_TRUE(met[kids[0]]);
+  for (std::uint32_t s : grandkids) EXPECT_TRUE(met[s]) << "slot " << s;
+}
+
 }  // namespace
 }  // namespace blobvk::cutting
