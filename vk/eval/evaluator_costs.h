@@ -9,6 +9,7 @@
 // machine code): lavapipe builds the LLVM variant there, not in vkCreateComputePipelines.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 namespace blobvk::vk::costs {
@@ -60,6 +61,22 @@ inline constexpr double kGradientVertexKernelMemoryCopies = 6.5;
 // and 1.6 s generated (1.6 evaluations), tower 2.7 s and 1.0 s (2.1)
 // (`blobvk bench S --resolution 256 --backend vk`, `vk_phases`).
 inline constexpr double kInterpretedGradientEvaluations = 2.0;
+// The sparse path's brick classification (vk/extract/classify_kernel.h), per step of
+// classifyWork (an instruction run by a vector of 8 lanes): the interpreter's seconds (random128
+// at 512 cells: 1.2 M steps, 0.17-0.18 s), the generated code's cost relative to it (measured
+// 0.1-0.6 on the shipped scenes but tower; the least gain, random128's 0.6, comes from its one
+// primitive type, which makes the interpreter's steps cheap), and the margin it must beat the
+// interpreter by. Each skip costs the generated code far more than a step: tower (69 skips, its
+// walk predicting as many steps either way) classifies 1.3-1.5x slower generated (every branch is
+// a loop llvmpipe leaves by a vote, and the registers written in it go through memory), while
+// programs of up to 5 skips gain 2-15x; a program with more than kClassifyGeneratedMaxSkips stays
+// interpreted (`bench_vk --benchmark_filter=classify/`).
+inline constexpr double kClassifyInterpretedSecondsPerStep = 1.5e-7;
+inline constexpr double kClassifyGeneratedStepCost = 0.6;
+inline constexpr double kClassifyGeneratedMargin = 0.8;
+inline constexpr std::size_t kClassifyGeneratedMaxSkips = 16;
+// Its build: glslang, NIR and LLVM on one copy of the program (the field kernel's constants).
+inline constexpr double kClassifyKernelCopies = 1.0;
 // Peak memory of the build grows about linearly (808 instructions x 10 copies: +570 MB); a
 // candidate predicted above kMaxBuildMegabytes is not taken whatever its time.
 inline constexpr double kBuildMegabytesPerInstruction = 0.15;
