@@ -69,6 +69,39 @@ vec2 fieldBounds(Box query, out bool gaveUp) {
     }
     reg[dst] = d;
     ++at;
+    // A second, cheap slot: the next instruction when it is an operator (no primitive, warp or
+    // skip) and no pending skip ends before it. llvmpipe runs every branch of the slot above under
+    // a mask, the primitive's included; post-order code alternates primitives and operators
+    // (random128: 128 of each), so a lane's vector of lanes in step takes half the passes.
+    // The same operations in the same order: the same bound bit for bit.
+    if (at < n && (pendingCount == 0u || pending[pendingCount - 1u].x > at)) {
+      uvec4 next = programCode[at].code;
+      uint op2 = next.x & 0xffu, dst2 = min(next.x >> 8, MAX_FIELD_REGISTERS - 1u);
+      vec2 e = reg[min(next.y, MAX_FIELD_REGISTERS - 1u)];
+      vec2 d2 = reg[dst2];
+      bool cheap = true;
+      if (HAS_OP(OP_ADD) && op2 == OP_ADD) {
+        d2 += e;
+      } else if (HAS_OP(OP_MAX) && op2 == OP_MAX) {
+        d2 = max(d2, e);
+      } else if (HAS_OP(OP_MIN) && op2 == OP_MIN) {
+        d2 = min(d2, e);
+      } else if (HAS_OP(OP_DIFF) && op2 == OP_DIFF) {
+        d2 = diffInterval(d2, e);
+      } else if (HAS_OP(OP_SDIFF) && op2 == OP_SDIFF) {
+        d2 = sdiffInterval(d2, e);
+      } else if (HAS_OP(OP_ONE_MINUS) && op2 == OP_ONE_MINUS) {
+        d2 = oneMinusInterval(d2);
+      } else if (HAS_OP(OP_MUL) && op2 == OP_MUL) {
+        d2 = mulInterval(d2, e);
+      } else {
+        cheap = false;
+      }
+      if (cheap) {
+        reg[dst2] = d2;
+        ++at;
+      }
+    }
   }
   return n > 0u ? reg[0] : vec2(0.0);
 }

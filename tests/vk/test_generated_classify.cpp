@@ -44,9 +44,11 @@ class GeneratedClassification : public VulkanTest, public ::testing::WithParamIn
 
 TEST_P(GeneratedClassification, GivesTheInterpretersFlags) {
   const ShippedScene s = shipped(GetParam(), 64);
-  if (s.program.code.size() > vk::kMaxIntervalInstructions) {
+  if (s.program.code.size() > vk::kMaxIntervalInstructions) {  // tower_L6P8I4: refused, interpreted
     EXPECT_FALSE(vk::canGenerateIntervalBounds(s.program)) << GetParam();
-    GTEST_SKIP() << GetParam() << ": " << s.program.code.size() << " instructions, over the generator's limit";
+    EXPECT_EQ(vk::classifyBricks(device(), s.program, s.grid, 16, true, vk::ClassifyCode::Generated),
+              vk::classifyBricks(device(), s.program, s.grid, 16, true, vk::ClassifyCode::Interpreter));
+    return;
   }
   expectSameFlags(device(), s.program, s.grid, GetParam());
 }
@@ -85,11 +87,11 @@ TEST_F(VulkanTest, GeneratedClassificationGivesTheReferenceMesh) {
 // Auto: a job expecting more runs interprets and builds the generated kernel in the background;
 // a later job of the same program takes it.
 TEST_F(VulkanTest, LaterJobsTakeTheClassificationBuiltInTheBackground) {
-  ShippedScene s = shipped("random128", 128);
+  ShippedScene s = shipped("twisted_column", 64);  // a short program: a quick build
   // max(r0, r0) at the end: the same field, a program no other test has built a kernel for.
   s.program.code.push_back({{layout::OP_MAX, 0, 0, 0}});
   vk::GpuPolygonizeOptions options;
-  options.expectedRuns = 1000;  // enough runs for the build to pay (classifyCodePays)
+  options.expectedRuns = 1000000;  // enough runs for the build to pay (classifyCodePays)
   ASSERT_TRUE(vk::classifyCodePays(s.program, s.grid, options.brickCells, options.expectedRuns - 1));
   EXPECT_FALSE(vk::classifyCodePays(s.program, s.grid, options.brickCells, 1));
   vk::GpuStats first, second;
@@ -98,7 +100,7 @@ TEST_F(VulkanTest, LaterJobsTakeTheClassificationBuiltInTheBackground) {
   device().waitForBackgroundBuilds();
   const mesh::TriMesh b = vk::polygonize(device(), s.program, s.grid, options, &second);
   EXPECT_TRUE(second.generatedClassification);
-  expectSameBytes(a, b, "random128, the second job");
+  expectSameBytes(a, b, "twisted_column, the second job");
 }
 
 // The cost model keeps the interpreter for a program of many skips (tower, where the generated

@@ -142,9 +142,30 @@ std::string generateIntervalBounds(const blobtree::Program& program) {
   }
   // A loop the lanes' vector leaves at once when no lane runs (bricks in dropped parents
   // returned before the call): llvmpipe runs straight-line code under a mask, but leaves a loop.
-  g += "  while (!subgroupAll(false)) {\n";
+  // Its condition is false for every running lane but not a constant: NIR folds a vote on a
+  // constant and then drops the loop.
+  const char* kOnePass = "  while (!subgroupAll(pc.cells.w == 0xffffffffu)) {\n";
+  g += kOnePass;
 
+  // Straight-line code in blocks of kIntervalBlockInstructions, each in such a loop: LLVM's
+  // back end (its instruction scheduler above all) grows faster than a basic block's length, and
+  // random128's 256 instructions in one block took 40 s of CPU to build (9 s in blocks of 8; 25 s
+  // in blocks of 2, where the loops' own cost takes over).
+  std::size_t blockLength = 0;
+  bool blockOpen = false;
+  auto endBlock = [&] {
+    if (blockOpen) g += "  break;\n  }\n";
+    blockOpen = false;
+    blockLength = 0;
+  };
+  auto inBlock = [&] {
+    if (blockOpen && blockLength >= kIntervalBlockInstructions) endBlock();
+    if (!blockOpen) g += kOnePass;
+    blockOpen = true;
+    ++blockLength;
+  };
   auto close = [&](std::size_t at) {
+    if (!endingAt[at].empty()) endBlock();
     // Innermost first, as the interpreter pops its pending skips.
     for (auto it = endingAt[at].rbegin(); it != endingAt[at].rend(); ++it) {
       const Skip& s = skips[*it];
@@ -158,6 +179,7 @@ std::string generateIntervalBounds(const blobtree::Program& program) {
   std::size_t nextSkip = 0;
   for (std::size_t i = 0; i < n; ++i) {
     close(i);
+    inBlock();
     const Decoded d = decode(program.code[i]);
     const std::string r = reg(d.dst), y = reg(d.y), idx = std::to_string(i);
     switch (d.op) {
@@ -201,13 +223,17 @@ std::string generateIntervalBounds(const blobtree::Program& program) {
         for (std::uint32_t f : s.fields) emit({"  s", idx, "_", reg(f), " = ", reg(f), ";\n"});
         for (std::uint32_t q : s.points) emit({"  s", idx, "_", pt(q), " = ", pt(q), ";\n"});
         // Long regions in a loop the vector leaves when all its lanes missed the box.
-        if (branches(s)) emit({"  while (!subgroupAll(o", idx, ")) {\n"});
+        if (branches(s)) {
+          endBlock();
+          emit({"  while (!subgroupAll(o", idx, ")) {\n"});
+        }
         break;
       }
       default: break;  // the interpreter leaves the registers as they are
     }
   }
   close(n);
+  endBlock();
   g += "  break;\n  }\n";
   g += n > 0 ? "  return r0;\n}\n#endif\n" : "  return vec2(0.0);\n}\n#endif\n";
   return g;

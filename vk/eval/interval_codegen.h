@@ -29,6 +29,9 @@ inline constexpr std::size_t kMaxIntervalInstructions = 2048;
 // run masked.
 inline constexpr std::size_t kIntervalBranchInstructions = 3;
 
+// Straight-line runs are cut into blocks of at most this many instructions (see the .cpp).
+inline constexpr std::size_t kIntervalBlockInstructions = 8;
+
 // True when generateIntervalBounds gives the interpreter's bound exactly: at most
 // kMaxIntervalInstructions, record indices in range, skips that jump forward within the code
 // and nest, and at most MAX_PENDING (16) skips nested (past it the interpreter gives up at run

@@ -1,7 +1,6 @@
 #include "blobvk/vk/extract/classify_kernel.h"
 
 #include "blobvk/vk/device/cache_file_bytes.h"
-#include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/eval/interval_codegen.h"
 #include "blobvk/vk/eval/spirv_cache.h"
@@ -96,8 +95,9 @@ bool classifyCodePays(const blobtree::Program& program, const blobtree::GridSpec
   const double interpreted = costs::kClassifyInterpretedSecondsPerStep * w.interpreted;
   const double generated = costs::kClassifyInterpretedSecondsPerStep * costs::kClassifyGeneratedStepCost * w.generated;
   if (generated > costs::kClassifyGeneratedMargin * interpreted) return false;
+  const double n = double(program.code.size());
   return (interpreted - generated) * double(runs) >
-         specialisedKernelSeconds(double(program.code.size()), costs::kClassifyKernelCopies);
+         costs::kClassifyBuildSecondsPerInstruction * n + costs::kClassifyBuildSecondsPerInstruction2 * n * n;
 }
 
 ClassifyKernel classifyKernel(Device& device, const blobtree::Program& program, const GpuProgram& gpu,
@@ -117,8 +117,8 @@ ClassifyKernel classifyKernel(Device& device, const blobtree::Program& program, 
   }
   if (KernelPtr k = device.findKernel(name, specs)) return {k, true};
   // This job interprets (the build would delay it by more than it saves on one run: random128 at
-  // 512 cells classifies in 0.17 s, its generated kernel builds in about 0.4 s); the later jobs
-  // take the generated kernel once it is built.
+  // 512 cells classifies in 0.1-0.2 s, its generated kernel builds in 8 s of CPU); later jobs take
+  // the generated kernel once it is built, where the cost model expects enough of them.
   if (choice.expectedRuns > 1 && !device.backgroundBuildStarted(name) &&
       classifyCodePays(program, grid, brickCells, choice.expectedRuns - 1)) {
     device.buildInBackground(name, [&d = device, program = blobtree::Program(program), name,
