@@ -132,7 +132,7 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.traversal == vk::Traversal::Auto ? std::string() : std::string(vk::traversalName(gpu.traversal)),
           gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds,
           gpu.edgesSeconds, gpu.scansSeconds, gpu.sourcesSeconds, gpu.verticesSeconds, gpu.trianglesSeconds,
-          gpu.fieldTiles};
+          gpu.fieldTiles, gpu.generatedClassification};
 }
 
 void checkValidation(const std::vector<vk::StandaloneContext*>& contexts, std::uint64_t messagesBefore) {

@@ -85,6 +85,7 @@ struct PolygonizeStats {
     // extract by pass (device time): masks and edges, scans, sources, vertices, triangles
     double edges = 0.0, scans = 0.0, sources = 0.0, vertices = 0.0, triangles = 0.0;
     std::uint64_t fieldTiles = 0;  // field kernels of the sparse extraction (pruned per tile of bricks)
+    bool generatedClassification = false;  // the bricks classified by generated code (vk/extract/classify_kernel.h)
   } gpu;
 };
 

@@ -171,7 +171,8 @@ void addBenchCommand(CLI::App& app) {
                     {"host_s", r.gpu.host}, {"device_timed", r.gpu.deviceTimed}, {"submits", r.gpu.submits},
                     {"batches", r.gpu.batches}, {"devices", r.gpu.devices},
                     {"bricks", r.gpu.bricks}, {"active_bricks", r.gpu.activeBricks},
-                    {"brick_cells", r.gpu.brickCells}, {"field_tiles", r.gpu.fieldTiles}, {"device_bytes", r.gpu.deviceBytes},
+                    {"brick_cells", r.gpu.brickCells}, {"field_tiles", r.gpu.fieldTiles},
+                    {"generated_classification", r.gpu.generatedClassification}, {"device_bytes", r.gpu.deviceBytes},
                     {"extraction_passes_s", {{"edges", r.gpu.edges}, {"scans", r.gpu.scans},
                                              {"sources", r.gpu.sources}, {"vertices", r.gpu.vertices},
                                              {"triangles", r.gpu.triangles}}}};

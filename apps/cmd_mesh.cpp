@@ -35,7 +35,8 @@ namespace {
 nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
   return {{"batches", gpu.batches}, {"active_bricks", gpu.activeBricks}, {"device_bytes", gpu.deviceBytes},
           {"devices", gpu.devices}, {"evaluator", gpu.evaluator}, {"generated_gradient", gpu.vertexGradient},
-          {"brick_cells", gpu.brickCells}, {"field_tiles", gpu.fieldTiles}};
+          {"brick_cells", gpu.brickCells}, {"field_tiles", gpu.fieldTiles},
+          {"generated_classification", gpu.generatedClassification}};
 }
 }  // namespace
 

@@ -10,6 +10,7 @@
 //   LP_NUM_THREADS=2 bench_vk --benchmark_filter='field'      # evals/s, both traversals
 //   LP_NUM_THREADS=2 bench_vk --benchmark_filter='polygonize/.*/128'
 //   LP_NUM_THREADS=2 bench_vk --benchmark_filter='field/specialised|cpu_avx'  # the ratio
+//   LP_NUM_THREADS=2 bench_vk --benchmark_filter='classify/'  # the sparse path's classification
 // Run from the repository root (scenes/ is read relative to it) or set BLOBVK_SCENES.
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/blobtree/grid.h"
@@ -21,6 +22,7 @@
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/runtime_compiler.h"
 #include "blobvk/vk/extract/scan.h"
+#include "blobvk/vk/extract/sparse_polygonizer.h"
 #include "blobvk/vk/device/standalone.h"
 
 #include <benchmark/benchmark.h>
@@ -162,6 +164,28 @@ void polygonize(benchmark::State& state, const std::string& scene, vk::Traversal
   state.counters["tiles"] = s.fieldTiles;
 }
 
+// The sparse path's brick classification and compaction alone (bricks of 16 cells, the default),
+// interpreted or generated (vk/extract/classify_kernel.h): device time per job (the timer's
+// figure, GpuStats::classifySeconds), the kernel built before timing.
+void classify(benchmark::State& state, const std::string& scene, vk::ClassifyCode code) {
+  const Model& m = model(scene);
+  const auto grid = gridFor(m, int(state.range(0)));
+  vk::Device& device = context().device();
+  const vk::BrickGrid bricks = vk::brickGridFor(grid, 16);
+  vk::GpuStats s;
+  vk::classifyAndCompact(device, m.program, grid, bricks, s, nullptr, 0, {code, 1});  // build, JIT
+  for (auto _ : state) {
+    vk::classifyAndCompact(device, m.program, grid, bricks, s, nullptr, 0, {code, 1});
+    state.SetIterationTime(s.classifySeconds);
+  }
+  state.counters["active_bricks"] = s.activeBricks;
+  state.counters["generated"] = s.generatedClassification;
+  // The cost model's walk (classify_kernel.h): steps of the finest level, in thousands.
+  const vk::ClassifyWork work = vk::classifyWork(m.program, grid, 16);
+  state.counters["ksteps_interpreted"] = work.interpreted * 1e-3;
+  state.counters["ksteps_generated"] = work.generated * 1e-3;
+}
+
 // Host side of the specialised path's first use: GLSL generation and glslang to SPIR-V for the
 // field kernel (the driver's own JIT at the first dispatch comes on top; see `first_s` of
 // `blobvk bench --backend vk`).
@@ -201,6 +225,14 @@ void scan(benchmark::State& state) {
 
 void registerAll() {
   benchmark::RegisterBenchmark("scan", scan)->Arg(1 << 21)->Unit(benchmark::kMillisecond)->UseRealTime();
+  for (const char* scene : {"tower", "random128", "eggshell", "dice", "creature", "craniotomy", "twisted_column"}) {
+    for (auto code : {vk::ClassifyCode::Interpreter, vk::ClassifyCode::Generated}) {
+      const std::string name = std::string("classify/") +
+                               (code == vk::ClassifyCode::Generated ? "generated/" : "interpreter/") + scene;
+      benchmark::RegisterBenchmark(name.c_str(), classify, std::string(scene), code)
+          ->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseManualTime();
+    }
+  }
   for (const char* scene : {"tower", "random128"}) {
     const std::string s = scene;
     benchmark::RegisterBenchmark(("specialise_compile/" + s).c_str(), specialiseAndCompile, s)

@@ -31,7 +31,6 @@ layout(push_constant) uniform Push {
 } pc;
 
 const float INF = 1.0 / 0.0;  // +infinity
-const uint MAX_PENDING = 16u;
 
 struct Box {
   vec3 lo, hi;
@@ -69,6 +68,23 @@ vec2 mulInterval(vec2 a, vec2 b) {
   vec2 r = vec2(min(min(p.x, p.y), min(p.z, p.w)), max(max(p.x, p.y), max(p.z, p.w)));
   if (any(isnan(r))) r = vec2(-INF, INF);
   return r;
+}
+
+// The operators on intervals, shared by the interpreter and generated code (one formula each).
+vec2 diffInterval(vec2 d, vec2 y) { return vec2(min(d.x, 1.0 - y.y), min(d.y, 1.0 - y.x)); }
+vec2 sdiffInterval(vec2 d, vec2 y) { return mulInterval(d, vec2(1.0 - y.y, 1.0 - y.x)); }
+vec2 oneMinusInterval(vec2 d) { return vec2(1.0 - d.y, 1.0 - d.x); }
+vec2 powInterval(vec2 d, float e) {
+  // pow's precision is the driver's: widen by a relative margin.
+  return e > 0.0 ? vec2(pow(max(d.x, 0.0), e) * (1.0 - 1e-4), pow(max(d.y, 0.0), e) * (1.0 + 1e-4)) : vec2(0.0, INF);
+}
+
+// A skip's box against the query box: missed (the subtree is 0 there) or held whole (no widening).
+bool skipMisses(BoxRecord s, Box q) {
+  return any(lessThan(q.hi, vec3(s.lo.x, s.lo.y, s.lo.z))) || any(greaterThan(q.lo, vec3(s.hi.x, s.hi.y, s.hi.z)));
+}
+bool skipHolds(BoxRecord s, Box q) {
+  return all(greaterThanEqual(q.lo, vec3(s.lo.x, s.lo.y, s.lo.z))) && all(lessThanEqual(q.hi, vec3(s.hi.x, s.hi.y, s.hi.z)));
 }
 
 // Smallest and largest squared distance between the box and the skeleton box [slo, shi].
@@ -110,11 +126,11 @@ void skeletonBox(uint index, uint type, out vec3 lo, out vec3 hi) {
   hi += vec3(1e-4);
 }
 
-vec2 primitiveBounds(uint index, Box world) {
-  uvec4 meta = programPrims[index].meta;
-  uint type = meta.x;
+// Primitive `index` of `type` (its meta.x) with matrix `matrix` (its meta.y, 0: none): the type and
+// matrix as arguments so that generated code, passing them as literals, keeps only its type's code.
+vec2 primitiveBounds(uint index, uint type, uint matrix, Box world) {
   if (type > PRIM_QUADRIC) return vec2(0.0);  // the reference gives 0 for unknown types
-  Box local = (PRIM_MASK & MASK_HAS_MATRIX) != 0u && meta.y != 0u ? transformBox(programMatrices[meta.y], world) : world;
+  Box local = (PRIM_MASK & MASK_HAS_MATRIX) != 0u && matrix != 0u ? transformBox(programMatrices[matrix], world) : world;
   float scale = type == PRIM_QUADRIC ? programPrims[index].p0.w : 1.0;
   if (!finiteBox(local)) return vec2(min(0.0, scale), max(0.0, scale));
   vec3 slo, shi;
@@ -128,12 +144,13 @@ vec2 primitiveBounds(uint index, Box world) {
   return vec2(tLo * tLo * tLo, tHi * tHi * tHi);
 }
 
-Box warpBox(WarpRecord w, Box b) {
-  if ((WARP_MASK & MASK_HAS_MATRIX) != 0u && w.meta.w != 0u) b = transformBox(programMatrices[w.meta.w], b);
+// Warp `index` whose record's meta word is `meta` (an argument, as primitiveBounds' type).
+Box warpBox(uint index, uvec4 meta, Box b) {
+  if ((WARP_MASK & MASK_HAS_MATRIX) != 0u && meta.w != 0u) b = transformBox(programMatrices[meta.w], b);
   if (!finiteBox(b)) return b;
-  uint a = min(w.meta.y, 2u), c = min(w.meta.z, 2u);
-  float k = w.params.x;
-  if (HAS_WARP(WARP_TWIST) && w.meta.x == WARP_TWIST) {
+  uint a = min(meta.y, 2u), c = min(meta.z, 2u);
+  float k = programWarps[index].params.x;
+  if (HAS_WARP(WARP_TWIST) && meta.x == WARP_TWIST) {
     // A rotation about axis a keeps the coordinate along a and the distance from the axis.
     uint u = (a + 1u) % 3u, v = (a + 2u) % 3u;
     float mu = max(abs(b.lo[u]), abs(b.hi[u])), mv = max(abs(b.lo[v]), abs(b.hi[v]));
@@ -144,13 +161,13 @@ Box warpBox(WarpRecord w, Box b) {
     b.hi[v] = r;
     return padBox(b);
   }
-  if (HAS_WARP(WARP_TAPER) && w.meta.x == WARP_TAPER) {
+  if (HAS_WARP(WARP_TAPER) && meta.x == WARP_TAPER) {
     vec2 f = mulInterval(vec2(b.lo[c], b.hi[c]), vec2(1.0 + min(k * b.lo[a], k * b.hi[a]), 1.0 + max(k * b.lo[a], k * b.hi[a])));
     b.lo[c] = f.x;
     b.hi[c] = f.y;
     return padBox(b);
   }
-  if (HAS_WARP(WARP_SHEAR) && w.meta.x == WARP_SHEAR) {
+  if (HAS_WARP(WARP_SHEAR) && meta.x == WARP_SHEAR) {
     vec2 s = mulInterval(vec2(b.lo[c], b.hi[c]), vec2(k));
     b.lo[a] += s.x;
     b.hi[a] += s.y;
@@ -159,74 +176,11 @@ Box warpBox(WarpRecord w, Box b) {
   return everything();  // bend: not worth a tight bound
 }
 
-// Interval of the field over `query`; sets `exact` false when the bound gave up (too many
-// partially covered skips nested).
-vec2 fieldBounds(Box query, out bool gaveUp) {
-  vec2 reg[MAX_FIELD_REGISTERS];
-  Box pts[MAX_POINT_REGISTERS];
-  uvec2 pending[MAX_PENDING];  // (skip target, register): the register also takes 0 there
-  uint pendingCount = 0u;
-  for (uint r = 0u; r < MAX_FIELD_REGISTERS; ++r) reg[r] = vec2(0.0);
-  for (uint r = 0u; r < MAX_POINT_REGISTERS; ++r) pts[r] = query;
-  pts[0] = padBox(query);
-  gaveUp = false;
-  uint n = pc.bricks.w;
-  uint at = 0u;
-  for (;;) {
-    while (pendingCount > 0u && pending[pendingCount - 1u].x <= at) {
-      uint dst = pending[pendingCount - 1u].y;
-      reg[dst] = vec2(min(reg[dst].x, 0.0), max(reg[dst].y, 0.0));
-      --pendingCount;
-    }
-    if (at >= n) break;
-    uvec4 in_ = programCode[at].code;
-    uint op = in_.x & 0xffu, dst = min(in_.x >> 8, MAX_FIELD_REGISTERS - 1u);
-    uint y = min(in_.y, MAX_FIELD_REGISTERS - 1u);
-    vec2 d = reg[dst];
-    if (HAS_OP(OP_PRIM) && op == OP_PRIM) {
-      d = primitiveBounds(in_.y, pts[min(in_.z, MAX_POINT_REGISTERS - 1u)]);
-    } else if (HAS_OP(OP_ADD) && op == OP_ADD) {
-      d += reg[y];
-    } else if (HAS_OP(OP_MAX) && op == OP_MAX) {
-      d = max(d, reg[y]);
-    } else if (HAS_OP(OP_MIN) && op == OP_MIN) {
-      d = min(d, reg[y]);
-    } else if (HAS_OP(OP_DIFF) && op == OP_DIFF) {
-      d = vec2(min(d.x, 1.0 - reg[y].y), min(d.y, 1.0 - reg[y].x));
-    } else if (HAS_OP(OP_SDIFF) && op == OP_SDIFF) {
-      d = mulInterval(d, vec2(1.0 - reg[y].y, 1.0 - reg[y].x));
-    } else if (HAS_OP(OP_ONE_MINUS) && op == OP_ONE_MINUS) {
-      d = vec2(1.0 - d.y, 1.0 - d.x);
-    } else if (HAS_OP(OP_MUL) && op == OP_MUL) {
-      d = mulInterval(d, reg[y]);
-    } else if (HAS_OP(OP_POW) && op == OP_POW) {
-      float e = uintBitsToFloat(in_.w);
-      // pow's precision is the driver's: widen by a relative margin.
-      d = e > 0.0 ? vec2(pow(max(d.x, 0.0), e) * (1.0 - 1e-4), pow(max(d.y, 0.0), e) * (1.0 + 1e-4)) : vec2(0.0, INF);
-    } else if (HAS_OP(OP_WARP) && op == OP_WARP) {
-      pts[min(dst, MAX_POINT_REGISTERS - 1u)] = warpBox(programWarps[in_.y], pts[min(in_.z, MAX_POINT_REGISTERS - 1u)]);
-    } else if (HAS_OP(OP_SKIP) && op == OP_SKIP) {
-      BoxRecord s = programBoxes[in_.y];
-      Box q = pts[min(in_.z, MAX_POINT_REGISTERS - 1u)];
-      vec3 slo = vec3(s.lo.x, s.lo.y, s.lo.z), shi = vec3(s.hi.x, s.hi.y, s.hi.z);
-      if (any(lessThan(q.hi, slo)) || any(greaterThan(q.lo, shi))) {
-        reg[dst] = vec2(0.0);
-        at = in_.w;
-        continue;
-      }
-      if (!(all(greaterThanEqual(q.lo, slo)) && all(lessThanEqual(q.hi, shi)))) {
-        if (pendingCount == MAX_PENDING) {
-          gaveUp = true;
-          return vec2(-INF, INF);
-        }
-        pending[pendingCount++] = uvec2(in_.w, dst);
-      }
-    }
-    reg[dst] = d;
-    ++at;
-  }
-  return n > 0u ? reg[0] : vec2(0.0);
-}
+// fieldBounds(Box query, out bool gaveUp): the interval of the field over `query`. Embedded: the
+// interpreter of the register code (brick_classify_bounds.glsl); a generated kernel replaces that
+// file with the Program spelled out (vk/eval/interval_codegen.h), the same helpers called with
+// the same records, so both give the same bound bit for bit.
+#include "brick_classify_bounds.glsl"
 
 void main() {
   uvec3 b = gl_GlobalInvocationID + pc.first.xyz;

@@ -3,6 +3,8 @@
 // vk::classifyUniformFits): brick_classify.comp with the records in uniform buffers, read by
 // llvmpipe as vector gathers instead of per-lane loops. The same bound, bit for bit.
 #extension GL_GOOGLE_include_directive : require
+// Generated bounds (vk/eval/interval_codegen.h) leave loops by subgroup votes.
+#extension GL_KHR_shader_subgroup_vote : require
 #include "program_layout.h"
 
 // Each block is 64 KB (the host binds buffers of that size, the records at their start).

@@ -9,6 +9,7 @@
 // machine code): lavapipe builds the LLVM variant there, not in vkCreateComputePipelines.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 namespace blobvk::vk::costs {
@@ -60,6 +61,28 @@ inline constexpr double kGradientVertexKernelMemoryCopies = 6.5;
 // and 1.6 s generated (1.6 evaluations), tower 2.7 s and 1.0 s (2.1)
 // (`blobvk bench S --resolution 256 --backend vk`, `vk_phases`).
 inline constexpr double kInterpretedGradientEvaluations = 2.0;
+// The sparse path's brick classification (vk/extract/classify_kernel.h), per step of
+// classifyWork (an instruction run by a vector of 8 lanes): the interpreter's seconds (random128
+// at 512 cells: 1.2 M steps, 0.17-0.18 s), the generated code's cost relative to it (measured
+// 0.11-0.79 on the shipped scenes but tower; the least gain, random128's 0.63-0.79, comes from
+// its one primitive type and its alternating primitives and sums, which make the interpreter's
+// steps cheap), and the margin it must beat the interpreter by. Each skip costs the generated
+// code far more than a step: tower (69 skips, its walk predicting as many steps either way)
+// classifies 1.6-1.8x slower generated (every branch is a loop llvmpipe leaves by a vote, and
+// the registers written in it go through memory), while programs of up to 5 skips gain 1.3-9x;
+// a program with more than kClassifyGeneratedMaxSkips stays interpreted
+// (`bench_vk --benchmark_filter=classify/`, docs/performance.md).
+inline constexpr double kClassifyInterpretedSecondsPerStep = 1.5e-7;
+inline constexpr double kClassifyGeneratedStepCost = 0.6;
+inline constexpr double kClassifyGeneratedMargin = 0.8;
+inline constexpr std::size_t kClassifyGeneratedMaxSkips = 16;
+// Its build, far slower per instruction than a field kernel's (each instruction an interval bound
+// of boxes, in blocks of vk/eval/interval_codegen.h's loops): CPU seconds of a fresh process,
+// caches off, less the interpreter's (`MESA_SHADER_CACHE_DISABLE=true XDG_CACHE_HOME=<empty>
+// /usr/bin/time bench_vk --benchmark_filter=classify/generated/S/512 --benchmark_min_time=0.001`
+// against classify/interpreter/S): dice (48 instructions) 0.4-1.2 s, random128 (256) 8.3 s.
+inline constexpr double kClassifyBuildSecondsPerInstruction = 2.8e-3;
+inline constexpr double kClassifyBuildSecondsPerInstruction2 = 1.16e-4;
 // Peak memory of the build grows about linearly (808 instructions x 10 copies: +570 MB); a
 // candidate predicted above kMaxBuildMegabytes is not taken whatever its time.
 inline constexpr double kBuildMegabytesPerInstruction = 0.15;

@@ -13,6 +13,16 @@
 
 namespace blobvk::vk {
 
+// The sparse path's brick classification: which kernel runs the bound (vk/extract/classify_kernel.h).
+enum class ClassifyCode {
+  // The generated kernel where the device already holds it (an earlier job's), else the
+  // interpreter; and where more runs are expected and the generated kernel pays for its build
+  // over them (classifyCodePays), it builds in the background for the later jobs.
+  Auto,
+  Interpreter,  // always the interpreter
+  Generated,    // the generated kernel wherever it can be (built now if need be): tests
+};
+
 struct GpuPolygonizeOptions {
   // Sparse extraction over bricks (vk/extract/sparse_polygonizer.h); false: the dense z-slab
   // pipeline of vk/extract/slab_polygonizer.h (also used with tiledVertexPass).
@@ -61,6 +71,8 @@ struct GpuPolygonizeOptions {
   // vertex pass runs the embedded interpreter (the same bytes) instead of waiting for the build;
   // with expectedRuns > 1 the kernel builds in the background (Device::buildInBackground).
   bool interpretVertexPassUntilBuilt = false;
+  // Sparse: the classification's kernel; every choice gives the same flags.
+  ClassifyCode classifyCode = ClassifyCode::Auto;
 };
 
 struct GpuStats {
@@ -95,6 +107,7 @@ struct GpuStats {
   // (vk/eval/evaluator_choice.h) predicted for it (seconds; < 0 where it made no prediction).
   Traversal traversal = Traversal::Auto;
   bool vertexGradient = false;  // false too where the vertex pass interpreted while it built
+  bool generatedClassification = false;  // sparse: the bricks classified by generated code (classify_kernel.h)
   double modelBuildSeconds = -1.0, modelRunSeconds = -1.0;
 };
 

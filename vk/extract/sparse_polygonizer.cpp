@@ -6,6 +6,7 @@
 #include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/extract/brick_tiles.h"
+#include "blobvk/vk/extract/classify_kernel.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/scan.h"
 
@@ -64,7 +65,7 @@ FlagsWindow wholeFlags(const BrickGrid& bg) { return {0, bg.count()}; }
 // (the last word 0 when the box holds the window's first brick; the caller zeroes the flags
 // otherwise); with `parents` (flags of bricks twice the size, parents[0] being parent brick
 // `parentBase`), bricks in dropped parents are dropped.
-void dispatchClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
+void dispatchClassify(Recorder& rec, const Kernel& kernel, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
                       const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags, FlagsWindow window,
                       const BrickGrid* parentGrid, const Buffer& parents, std::uint64_t parentBase, const BrickBox& box) {
   if (box.empty()) return;
@@ -89,10 +90,7 @@ void dispatchClassify(Recorder& rec, const GpuProgram& gpu, const ClassifyUnifor
                                uniform ? BufferRange(uniforms.buffers[4]) : pb[4],
                                flags,
                                parents};
-  // Constants 3-5: the program's opcode, primitive and warp masks (the others are not used).
-  const auto specs = gpu.specs(64, Traversal::Stackless);
-  rec.dispatch(*rec.device().kernel(uniform ? "brick_classify_uniform" : "brick_classify", specs), bind, &push,
-               sizeof(push), (box.end[0] - box.first[0] + 3) / 4, (box.end[1] - box.first[1] + 3) / 4,
+  rec.dispatch(kernel, bind, &push, sizeof(push), (box.end[0] - box.first[0] + 3) / 4, (box.end[1] - box.first[1] + 3) / 4,
                (box.end[2] - box.first[2] + 3) / 4);
 }
 
@@ -146,7 +144,7 @@ std::uint64_t parentBase(const ClassifyParents& parents, std::size_t level, std:
 
 // brick_classify over the coarser levels under the finest layers [first, end), coarsest first,
 // each skipping the bricks its parents dropped.
-void recordParents(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
+void recordParents(Recorder& rec, const Kernel& kernel, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
                    const blobtree::GridSpec& grid, const ClassifyParents& parents, std::uint32_t first,
                    std::uint32_t end) {
   for (std::size_t i = parents.grids.size(); i-- > 0;) {
@@ -154,7 +152,7 @@ void recordParents(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms&
     const BrickGrid& g = parents.grids[i];
     const auto [lo, hi] = parentLayers(first, end, i);
     const FlagsWindow window{std::uint64_t(lo) * g.x * g.y, std::uint64_t(hi - lo) * g.x * g.y};
-    dispatchClassify(rec, gpu, uniforms, grid, g, parents.flags[i], window, top ? nullptr : &parents.grids[i + 1],
+    dispatchClassify(rec, kernel, gpu, uniforms, grid, g, parents.flags[i], window, top ? nullptr : &parents.grids[i + 1],
                      top ? parents.none : parents.flags[i + 1], top ? 0 : parentBase(parents, i + 1, first),
                      BrickBox{{0, 0, lo}, {g.x, g.y, hi}});
     rec.computeBarrier();
@@ -164,11 +162,12 @@ void recordParents(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms&
 // brick_classify over `box` of the grid's own bricks into `flags` (`window` of the grid's),
 // skipping the bricks the finest coarser level (recorded before, for finest layers from
 // box.first[2]) dropped.
-void recordFinest(Recorder& rec, const GpuProgram& gpu, const ClassifyUniforms& uniforms, const blobtree::GridSpec& grid,
+void recordFinest(Recorder& rec, const Kernel& kernel, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
+                  const blobtree::GridSpec& grid,
                   const BrickGrid& bg, const Buffer& flags, FlagsWindow window, const ClassifyParents& parents,
                   const BrickBox& box) {
   const bool any = !parents.grids.empty();
-  dispatchClassify(rec, gpu, uniforms, grid, bg, flags, window, any ? &parents.grids[0] : nullptr,
+  dispatchClassify(rec, kernel, gpu, uniforms, grid, bg, flags, window, any ? &parents.grids[0] : nullptr,
                    any ? parents.flags[0] : parents.none, any ? parentBase(parents, 0, box.first[2]) : 0, box);
 }
 
@@ -202,17 +201,19 @@ std::uint64_t ClassifiedBricks::peakBytes(std::uint64_t batchBytes) const {
 
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
                                           const blobtree::GridSpec& grid, std::uint32_t brickCells,
-                                          bool uniformRecords) {
+                                          bool uniformRecords, ClassifyCode code) {
   const BrickGrid bg = brickGridFor(grid, brickCells);
   const GpuProgram gpu = uploadProgram(device, program, Traversal::Stackless);
   const ClassifyUniforms uniforms = uniformRecords ? classifyUniforms(device, program) : ClassifyUniforms{};
+  const ClassifyKernel kernel =
+      classifyKernel(device, program, gpu, !uniforms.buffers.empty(), {code, 1}, grid, 1u << bg.log2B);
   Buffer flags = device.createBuffer((bg.count() + 1) * 4);
   std::uint64_t bytes = 0;
   const std::array<std::uint32_t, 2> all{0, bg.z};
   const ClassifyParents parents = classifyParents(device, bg, {&all, 1}, bytes);
   device.run([&](Recorder& rec) {
-    recordParents(rec, gpu, uniforms, grid, parents, 0, bg.z);
-    recordFinest(rec, gpu, uniforms, grid, bg, flags, wholeFlags(bg), parents, wholeGrid(bg));
+    recordParents(rec, *kernel.kernel, gpu, uniforms, grid, parents, 0, bg.z);
+    recordFinest(rec, *kernel.kernel, gpu, uniforms, grid, bg, flags, wholeFlags(bg), parents, wholeGrid(bg));
     rec.hostBarrier();
   });
   std::vector<std::uint32_t> out(bg.count());
@@ -383,13 +384,18 @@ std::vector<std::uint32_t> ClassifiedBricks::downloadList(Device& device, std::u
 }
 
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                    const BrickGrid& bg, GpuStats& s, const BrickBox* only, std::uint32_t windowLayers) {
+                                    const BrickGrid& bg, GpuStats& s, const BrickBox* only, std::uint32_t windowLayers,
+                                    const ClassifyChoice& choice) {
   ClassifiedBricks c;
   c.bricks = bg;
-  // The classification interprets the register code (whatever evaluator the batches use).
+  // The classification interprets the register code, or runs it generated once that kernel is
+  // built (classify_kernel.h), whatever evaluator the batches use.
   UploadBatch uploads(device);  // the program rides in the classification's first submit
   const GpuProgram gpu = uploadProgram(device, program, Traversal::Stackless);
   const ClassifyUniforms uniforms = classifyUniforms(device, program);
+  const ClassifyKernel kernel =
+      classifyKernel(device, program, gpu, !uniforms.buffers.empty(), choice, grid, 1u << bg.log2B);
+  s.generatedClassification = kernel.generated;
   const std::uint32_t layers = bg.z;
   const std::uint64_t layerBricks = std::uint64_t(bg.x) * bg.y;
   const std::vector<std::array<std::uint32_t, 2>> planned =
@@ -435,8 +441,8 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
         rec.fill(scan, 0);
         rec.computeBarrier();
       }
-      recordParents(rec, gpu, uniforms, grid, parents, first, scanEnd);
-      recordFinest(rec, gpu, uniforms, grid, bg, scan, flags, parents, box);
+      recordParents(rec, *kernel.kernel, gpu, uniforms, grid, parents, first, scanEnd);
+      recordFinest(rec, *kernel.kernel, gpu, uniforms, grid, bg, scan, flags, parents, box);
       rec.computeBarrier();
       recordExclusiveScan(rec, scan.handle(), 0, std::uint32_t(words + 1), scratch.handle(), 0, totals.handle(), 0);
       rec.computeBarrier();
@@ -515,12 +521,12 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
 
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
-                               GpuStats& stats, std::uint32_t windowLayers) {
+                               GpuStats& stats, std::uint32_t windowLayers, const ClassifyChoice& choice) {
   constexpr std::uint32_t kSmallestFallbackCells = 4;
   double classifySeconds = 0.0;
   for (;;) {
     ClassifiedBricks c =
-        classifyAndCompact(device, program, grid, brickGridFor(grid, brickCells), stats, nullptr, windowLayers);
+        classifyAndCompact(device, program, grid, brickGridFor(grid, brickCells), stats, nullptr, windowLayers, choice);
     classifySeconds += stats.classifySeconds;
     stats.classifySeconds = classifySeconds;
     const std::uint64_t range = rangeBricks(c.bricks);
@@ -592,7 +598,7 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
   // (sparse_batches.h). The evaluator is chosen once the active bricks are known.
   const ClassifiedBricks classified = classifyToFit(
       device, program, grid, options.brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s,
-      options.windowLayers);
+      options.windowLayers, {options.classifyCode, options.expectedRuns});
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());

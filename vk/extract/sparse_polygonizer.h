@@ -24,6 +24,7 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/mesh/trimesh.h"
 #include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/extract/classify_kernel.h"
 #include "blobvk/vk/extract/polygonize.h"
 
 #include <array>
@@ -74,9 +75,12 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
 // for one whose (B+1)^3 grid samples provably lie on one side of the iso value. The Program's
 // records go in uniform buffers where they fit (64 KB per record array; brick_classify_uniform),
 // else, or with `uniformRecords` false, in storage buffers (brick_classify): the same flags.
+// `code`: the interpreter, or the kernel generated for the program (classify_kernel.h, uniform
+// records only): the same flags.
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
                                           const blobtree::GridSpec& grid, std::uint32_t brickCells,
-                                          bool uniformRecords = true);
+                                          bool uniformRecords = true,
+                                          ClassifyCode code = ClassifyCode::Interpreter);
 
 struct ClassifiedBricks;
 
@@ -152,7 +156,7 @@ struct ClassifiedBricks {
 };
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                     const BrickGrid& bricks, GpuStats& stats, const BrickBox* only = nullptr,
-                                    std::uint32_t windowLayers = 0);
+                                    std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {});
 
 // classifyAndCompact with bricks of `brickCells`, halved (down to 4) while two adjacent brick
 // layers hold more active bricks than `rangeBricks(bricks)` (what one storage buffer holds, the
@@ -162,7 +166,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
 // size; the result's `bricks` is the grid used.
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
-                               GpuStats& stats, std::uint32_t windowLayers = 0);
+                               GpuStats& stats, std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {});
 
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);

@@ -1,0 +1,242 @@
+#include "blobvk/vk/eval/interval_codegen.h"
+
+#include "blobvk/vk/device/cache_file_bytes.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <initializer_list>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace blobvk::vk {
+namespace {
+
+using namespace layout;
+
+constexpr std::uint32_t kMaxPending = 16;
+// Skips over at least this many instructions branch (a loop the vector leaves when all its
+// lanes missed the box); shorter ones run masked.
+constexpr std::size_t kMinBranchInstructions = 3;  // MAX_PENDING in shaders/brick_classify_bounds.glsl
+
+// One instruction as the interpreter reads it: registers clamped as it clamps them.
+struct Decoded {
+  std::uint32_t op, dst, y, z, w;
+  std::uint32_t rawY;
+};
+
+Decoded decode(const Instruction& in) {
+  const auto& c = in.code;
+  return {c.x & 0xffu, std::min(c.x >> 8, MAX_FIELD_REGISTERS - 1u), std::min(c.y, MAX_FIELD_REGISTERS - 1u),
+          std::min(c.z, MAX_POINT_REGISTERS - 1u), c.w, c.y};
+}
+
+// The checks of canGenerateIntervalBounds; an empty string when the program can be generated.
+std::string refusal(const blobtree::Program& p) {
+  const std::size_t n = p.code.size();
+  if (n > kMaxIntervalInstructions) return "more than kMaxIntervalInstructions instructions";
+  std::vector<std::uint32_t> open;  // targets of the skips enclosing an instruction
+  for (std::size_t i = 0; i < n; ++i) {
+    while (!open.empty() && open.back() <= i) open.pop_back();
+    const Decoded d = decode(p.code[i]);
+    if (d.op == OP_PRIM) {
+      if (d.rawY >= p.primitives.size()) return "a primitive index out of range";
+      const auto& meta = p.primitives[d.rawY].meta;
+      if (meta.x <= PRIM_QUADRIC && meta.y >= p.matrices.size()) return "a matrix index out of range";
+    } else if (d.op == OP_WARP) {
+      if (d.rawY >= p.warps.size()) return "a warp index out of range";
+      if (p.warps[d.rawY].meta.w >= p.matrices.size()) return "a matrix index out of range";
+    } else if (d.op == OP_SKIP) {
+      if (d.rawY >= p.boxes.size()) return "a box index out of range";
+      if (d.w <= i || d.w > n) return "a skip that does not jump forward within the code";
+      if (!open.empty() && d.w > open.back()) return "skips that do not nest";
+      open.push_back(d.w);
+      if (open.size() > kMaxPending) return "more than MAX_PENDING skips nested";
+    }
+  }
+  return {};
+}
+
+// Names of registers (appended, not `"r" + ...`: GCC 12 warns falsely on that form).
+std::string named(char prefix, std::uint32_t r) {
+  std::string s(1, prefix);
+  s += std::to_string(r);
+  return s;
+}
+std::string reg(std::uint32_t r) { return named('r', r); }
+std::string pt(std::uint32_t r) { return named('q', r); }
+
+}  // namespace
+
+bool canGenerateIntervalBounds(const blobtree::Program& program) { return refusal(program).empty(); }
+
+std::uint64_t intervalBoundsFingerprint(const blobtree::Program& program) {
+  std::uint64_t h = detail::kFnvOffset;
+  const std::uint64_t n = program.code.size();
+  h = detail::fnv1a(h, &n, sizeof n);
+  h = detail::fnv1a(h, program.code.data(), program.code.size() * sizeof(program.code[0]));
+  for (const auto& prim : program.primitives) h = detail::fnv1a(h, &prim.meta, sizeof prim.meta);
+  for (const auto& warp : program.warps) h = detail::fnv1a(h, &warp.meta, sizeof warp.meta);
+  return h;
+}
+
+std::string generateIntervalBounds(const blobtree::Program& program) {
+  if (const std::string why = refusal(program); !why.empty())
+    throw std::invalid_argument(std::string("interval code generation: ").append(why));
+  const std::size_t n = program.code.size();
+  // Per skip: the registers its region writes besides its own, which take back their values
+  // where the box missed (the interpreter jumped over the writes).
+  struct Skip {
+    std::size_t at;
+    Decoded d;
+    std::vector<std::uint32_t> fields, points;
+  };
+  std::vector<Skip> skips;
+  std::vector<std::vector<std::size_t>> endingAt(n + 1);  // skips by target, outermost first
+  for (std::size_t i = 0; i < n; ++i) {
+    const Decoded d = decode(program.code[i]);
+    if (d.op != OP_SKIP) continue;
+    Skip s{i, d, {}, {}};
+    for (std::size_t k = i + 1; k < d.w; ++k) {
+      const Decoded e = decode(program.code[k]);
+      if (e.op == OP_WARP) {
+        s.points.push_back(std::min(e.dst, MAX_POINT_REGISTERS - 1u));
+      } else if (e.op >= OP_PRIM && e.op <= OP_MUL && e.dst != d.dst) {
+        s.fields.push_back(e.dst);
+      }
+    }
+    for (auto* v : {&s.fields, &s.points}) {
+      std::sort(v->begin(), v->end());
+      v->erase(std::unique(v->begin(), v->end()), v->end());
+    }
+    endingAt[d.w].push_back(skips.size());
+    skips.push_back(std::move(s));
+  }
+
+  auto branches = [](const Skip& s) { return s.d.w - s.at - 1 >= kIntervalBranchInstructions; };
+  std::string g;
+  g.reserve(n * 96 + 1024);
+  auto emit = [&g](std::initializer_list<std::string_view> parts) {
+    for (std::string_view p : parts) g += p;
+  };
+  g += "// Generated by blobvk (vk/eval/interval_codegen.cpp): the brick classification's bound, ";
+  emit({std::to_string(n), " instructions.\n"});
+  g += "#ifndef BLOBVK_BRICK_CLASSIFY_BOUNDS_GLSL\n#define BLOBVK_BRICK_CLASSIFY_BOUNDS_GLSL\n";
+  g += "vec2 fieldBounds(Box query, out bool gaveUp) {\n  gaveUp = false;\n";
+  // The interpreter's initial registers: fields 0, points the query (the root's padded).
+  std::uint32_t fields = 1, points = 1;
+  for (const Instruction& in : program.code) {
+    const Decoded d = decode(in);
+    fields = std::max({fields, d.dst + 1, d.y + 1});
+    points = std::max({points, d.z + 1, std::min(d.dst, MAX_POINT_REGISTERS - 1u) + 1});
+  }
+  for (std::uint32_t r = 0; r < fields; ++r) emit({"  vec2 ", reg(r), " = vec2(0.0);\n"});
+  g += "  Box q0 = padBox(query);\n";
+  for (std::uint32_t r = 1; r < points; ++r) emit({"  Box ", pt(r), " = query;\n"});
+  // Every skip's state at the top: a skip's target may lie outside the loop its test is in.
+  for (const Skip& s : skips) {
+    const std::string k = std::to_string(s.at);
+    emit({"  bool o", k, " = false, p", k, " = false;\n"});
+    for (std::uint32_t f : s.fields) emit({"  vec2 s", k, "_", reg(f), ";\n"});
+    for (std::uint32_t q : s.points) emit({"  Box s", k, "_", pt(q), ";\n"});
+  }
+  // A loop the lanes' vector leaves at once when no lane runs (bricks in dropped parents
+  // returned before the call): llvmpipe runs straight-line code under a mask, but leaves a loop.
+  // Its condition is false for every running lane but not a constant: NIR folds a vote on a
+  // constant and then drops the loop.
+  const char* kOnePass = "  while (!subgroupAll(pc.cells.w == 0xffffffffu)) {\n";
+  g += kOnePass;
+
+  // Straight-line code in blocks of kIntervalBlockInstructions, each in such a loop: LLVM's
+  // back end (its instruction scheduler above all) grows faster than a basic block's length, and
+  // random128's 256 instructions in one block took 40 s of CPU to build (9 s in blocks of 8; 25 s
+  // in blocks of 2, where the loops' own cost takes over).
+  std::size_t blockLength = 0;
+  bool blockOpen = false;
+  auto endBlock = [&] {
+    if (blockOpen) g += "  break;\n  }\n";
+    blockOpen = false;
+    blockLength = 0;
+  };
+  auto inBlock = [&] {
+    if (blockOpen && blockLength >= kIntervalBlockInstructions) endBlock();
+    if (!blockOpen) g += kOnePass;
+    blockOpen = true;
+    ++blockLength;
+  };
+  auto close = [&](std::size_t at) {
+    if (!endingAt[at].empty()) endBlock();
+    // Innermost first, as the interpreter pops its pending skips.
+    for (auto it = endingAt[at].rbegin(); it != endingAt[at].rend(); ++it) {
+      const Skip& s = skips[*it];
+      const std::string k = std::to_string(s.at), r = reg(s.d.dst);
+      if (branches(s)) g += "  break;\n  }\n";
+      emit({"  ", r, " = o", k, " ? vec2(0.0) : (p", k, " ? vec2(min(", r, ".x, 0.0), max(", r, ".y, 0.0)) : ", r, ");\n"});
+      for (std::uint32_t f : s.fields) emit({"  ", reg(f), " = o", k, " ? s", k, "_", reg(f), " : ", reg(f), ";\n"});
+      for (std::uint32_t q : s.points) emit({"  ", pt(q), " = o", k, " ? s", k, "_", pt(q), " : ", pt(q), ";\n"});
+    }
+  };
+  std::size_t nextSkip = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    close(i);
+    inBlock();
+    const Decoded d = decode(program.code[i]);
+    const std::string r = reg(d.dst), y = reg(d.y), idx = std::to_string(i);
+    switch (d.op) {
+      case OP_PRIM: {
+        const auto& meta = program.primitives[d.rawY].meta;
+        emit({"  ", r, " = primitiveBounds(", std::to_string(d.rawY), "u, ", std::to_string(meta.x), "u, ",
+              std::to_string(meta.x <= PRIM_QUADRIC ? meta.y : 0u), "u, ", pt(d.z), ");\n"});
+        break;
+      }
+      case OP_ADD: emit({"  ", r, " += ", y, ";\n"});
+        break;
+      case OP_MAX: emit({"  ", r, " = max(", r, ", ", y, ");\n"});
+        break;
+      case OP_MIN: emit({"  ", r, " = min(", r, ", ", y, ");\n"});
+        break;
+      case OP_DIFF: emit({"  ", r, " = diffInterval(", r, ", ", y, ");\n"});
+        break;
+      case OP_SDIFF: emit({"  ", r, " = sdiffInterval(", r, ", ", y, ");\n"});
+        break;
+      case OP_ONE_MINUS: emit({"  ", r, " = oneMinusInterval(", r, ");\n"});
+        break;
+      case OP_MUL: emit({"  ", r, " = mulInterval(", r, ", ", y, ");\n"});
+        break;
+      // The exponent is loaded, not a literal: NIR would rewrite pow by some constants.
+      case OP_POW: emit({"  ", r, " = powInterval(", r, ", uintBitsToFloat(programCode[", idx, "].code.w));\n"});
+        break;
+      case OP_WARP: {
+        const auto& m = program.warps[d.rawY].meta;
+        emit({"  ", pt(std::min(d.dst, MAX_POINT_REGISTERS - 1u)), " = warpBox(", std::to_string(d.rawY), "u, uvec4(",
+              std::to_string(m.x), "u, ", std::to_string(m.y), "u, ", std::to_string(m.z), "u, ", std::to_string(m.w),
+              "u), ", pt(d.z), ");\n"});
+        break;
+      }
+      case OP_SKIP: {
+        const Skip& s = skips[nextSkip++];
+        std::string box = "programBoxes[";
+        box += std::to_string(d.rawY);
+        box += ']';
+        emit({"  o", idx, " = skipMisses(", box, ", ", pt(d.z), ");\n"});
+        emit({"  p", idx, " = !skipHolds(", box, ", ", pt(d.z), ");\n"});
+        for (std::uint32_t f : s.fields) emit({"  s", idx, "_", reg(f), " = ", reg(f), ";\n"});
+        for (std::uint32_t q : s.points) emit({"  s", idx, "_", pt(q), " = ", pt(q), ";\n"});
+        // Long regions in a loop the vector leaves when all its lanes missed the box.
+        if (branches(s)) {
+          endBlock();
+          emit({"  while (!subgroupAll(o", idx, ")) {\n"});
+        }
+        break;
+      }
+      default: break;  // the interpreter leaves the registers as they are
+    }
+  }
+  close(n);
+  endBlock();
+  g += "  break;\n  }\n";
+  g += n > 0 ? "  return r0;\n}\n#endif\n" : "  return vec2(0.0);\n}\n#endif\n";
+  return g;
+}
+
+}  // namespace blobvk::vk
