@@ -113,6 +113,13 @@ class Cutter {
   // its tets split) and put a second crack beside the first, cutting the sliver between them off
   // as a chip. Grown with the nodes; a duplicate inherits its source's reach.
   std::vector<double> snapReach_;
+  // By node with snapReach_ > 0: the unit normal of the swept triangle it was snapped to, NaN
+  // when it was snapped to two surfaces that are not parallel (kSnapPlaneSine). Node smoothing
+  // lets an interior snapped node slide parallel to that plane: its distance to the cut surface,
+  // and so every later snap decision about it (snapReach_), stays what it was.
+  std::vector<mesh::Double3> snapPlane_;
+  static constexpr double kSnapPlaneSine = 1e-10;
+  void recordSnapPlane(std::uint32_t node, mesh::Double3 normal);
   // Per-event buffers reused across events (defined in cutter.cpp); makes Cutter move-only.
   struct Scratch;
   struct ScratchDeleter {
