@@ -35,8 +35,9 @@ struct CutOptions {
   // this (degrees) are improved by flips (local_flips.h); 0: no flips.
   double improveBelowDeg = 15.0;
   // After the flips, the nodes of the tets the event wrote that are still below this (degrees)
-  // are moved at rest where they are free to (interior nodes on no cut surface; boundary and
-  // crack nodes within a flat fan of boundary faces, or along a crease of two planes;
+  // are moved at rest where they are free to (interior nodes on no cut surface, or parallel to
+  // the one cut plane they were snapped to; boundary and crack nodes within a flat fan of
+  // boundary faces, or along a crease of two planes;
   // node_smoothing.h); the FEM takes the moves as rest-shape changes (CutResult::movedNodes).
   // With 15 deg seeds 1-16 of the 100 random strokes through the 100k-tet ball all end at or
   // above 5 deg (docs/cutting.md "Quality after cuts"). 0: none.
