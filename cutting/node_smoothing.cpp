@@ -95,6 +95,11 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
       if (node >= snapPlane.size()) return false;
       normal = snapPlane[node];
       if (!(std::fabs(length(normal) - 1.0) < 1e-6)) return false;  // none known (0) or two planes (NaN)
+      // The plane was taken in the positions the cutter cut in; a slide at rest keeps the
+      // distance to it only where the star is undeformed (as when surgery::SoftBody cuts at rest).
+      for (std::uint32_t s : star_)
+        for (std::uint32_t v : topology.tet(s))
+          if (rest[v].x != pos[v].x || rest[v].y != pos[v].y || rest[v].z != pos[v].z) return false;
       planar = true;
     }
     if (vertices + star_.size() != distinctEdges + 2) return false;

@@ -6,8 +6,9 @@
 // A node is free to move, all its tets in one region (each region keeps its volume: the union of
 // the star is unchanged, only the node inside it moves), when
 //   - it is interior (its link is one sphere) and on no cut surface, or interior and snapped to
-//     one planar cut surface: it slides parallel to that plane, so its distance to the cut (what
-//     the cutter's later snap decisions about it read) is kept, or
+//     one planar cut surface, its star undeformed (rest = current positions, where the cutter
+//     took the plane): it slides parallel to that plane, so its distance to the cut (what the
+//     cutter's later snap decisions about it read) is kept, or
 //   - it is on the boundary (crack faces included) with a link that is one disk, and all the
 //     boundary faces around it lie in one plane: it slides within that plane (a flat piece of the
 //     surface or of a crack sheet), or in two planes (a crease: a crack sheet meeting another or
