@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <utility>
 
@@ -54,6 +55,30 @@ double distanceToSurface(Double3 p, const std::vector<Triangle>& swept) {
   double best = 1e300;
   for (const auto& t : swept) best = std::min(best, length(p - closestPointOnTriangle(p, t[0], t[1], t[2])));
   return best;
+}
+
+// The plane of the cut surface at p: the unit normal of the swept triangle nearest p; NaN when
+// another triangle within `tie` of that distance is not parallel to it (p at a kink of the blade's
+// path, where no one plane holds it), zero for a degenerate triangle.
+Double3 snapPlaneAt(Double3 p, const std::vector<Triangle>& swept, double tie) {
+  auto unitNormal = [](const Triangle& t) {
+    const Double3 n = cross(t[1] - t[0], t[2] - t[0]);
+    const double len = length(n);
+    return len > 0 ? n * (1.0 / len) : Double3{0, 0, 0};
+  };
+  double best = 1e300;
+  const Triangle* nearest = nullptr;
+  for (const auto& t : swept) {
+    const double d = length(p - closestPointOnTriangle(p, t[0], t[1], t[2]));
+    if (d < best) best = d, nearest = &t;
+  }
+  if (nearest == nullptr) return {0, 0, 0};
+  const Double3 normal = unitNormal(*nearest);
+  for (const auto& t : swept)
+    if (&t != nearest && length(p - closestPointOnTriangle(p, t[0], t[1], t[2])) <= best + tie &&
+        length(cross(unitNormal(t), normal)) > 1e-10)
+      return {std::nan(""), 0, 0};
+  return normal;
 }
 
 // Position of node n in tet t, -1 when absent.
@@ -129,6 +154,21 @@ Cutter::Cutter(mesh::TetMesh mesh, CutOptions options) : topology_(std::move(mes
   grid_.rebuild(topology_);
   meanEdge_ = grid_.cellSize() / 2.0;
   snapReach_.assign(topology_.mesh().nodeCount() + topology_.mesh().nodeCount() / 2 + 4096, 0.0);
+  snapPlane_.assign(snapReach_.size(), Double3{0, 0, 0});
+}
+
+void Cutter::recordSnapPlane(std::uint32_t node, Double3 normal) {
+  if (snapPlane_.size() <= node) snapPlane_.resize(std::max(snapReach_.size(), std::size_t(node) + node / 2 + 1), Double3{0, 0, 0});
+  Double3& plane = snapPlane_[node];
+  if (std::isnan(plane.x)) return;  // already on two planes: stays
+  if (plane.x == 0 && plane.y == 0 && plane.z == 0) {
+    plane = normal;
+    return;
+  }
+  // The same plane again (a resweep or a final pass over the same blade): kept; another: the node
+  // is where two cut surfaces meet and may not slide in either.
+  if (!(length(cross(plane, normal)) <= kSnapPlaneSine) || (normal.x == 0 && normal.y == 0 && normal.z == 0))
+    plane = {std::nan(""), 0, 0};
 }
 
 CutResult Cutter::cut(const std::vector<Triangle>& swept) {
@@ -272,6 +312,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     const double distance = distanceToSurface(pos[n], swept);
     cutNodeDistance.insert(n, distance);
     snapReach_[n] = std::max(snapReach_[n], distance);
+    recordSnapPlane(n, snapPlaneAt(pos[n], swept, tolAbs));
   });
   auto& kept = scratch.kept;
   kept.clear();
@@ -311,6 +352,7 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
                                                       topology_.mesh().restPositions[ce.b], ce.t));
     edgePoint.insert(edgeKey(ce.a, ce.b), node);
     markOnCut(node, tolAbs);
+    recordSnapPlane(node, snapPlaneAt(topology_.mesh().positions[node], swept, tolAbs));
     NewNode nn;
     nn.index = node;
     nn.kind = NewNode::Kind::EdgePoint;
@@ -490,7 +532,10 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       NewNode nn;
       nn.index = global[kSteinerLocal];
       nn.kind = NewNode::Kind::Steiner;
-      if (lambda != std::array<double, 4>{0.25, 0.25, 0.25, 0.25}) markOnCut(global[kSteinerLocal], tolAbs);  // on the surface
+      if (lambda != std::array<double, 4>{0.25, 0.25, 0.25, 0.25}) {  // on the surface
+        markOnCut(global[kSteinerLocal], tolAbs);
+        recordSnapPlane(global[kSteinerLocal], snapPlaneAt(p[global[kSteinerLocal]], swept, tolAbs));
+      }
       nn.sources = parent;
       nn.weights = lambda;
       result.newNodes.push_back(nn);
@@ -639,6 +684,8 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
         result.newNodes.push_back(nn);
         ++result.duplicatedNodes;
         markOnCut(copyOfRoot[root], v < snapReach_.size() ? snapReach_[v] : 0.0);
+        if (snapPlane_.size() < snapReach_.size()) snapPlane_.resize(snapReach_.size(), Double3{0, 0, 0});
+        snapPlane_[copyOfRoot[root]] = v < snapPlane_.size() ? snapPlane_[v] : Double3{std::nan(""), 0, 0};
       }
       renames.push_back({around[i], v, copyOfRoot[root]});
     }
@@ -692,7 +739,8 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
       seeds.assign(result.addedTets.begin(), result.addedTets.end());
       std::sort(seeds.begin(), seeds.end());
       seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
-      smoothing_.improve(topology_, grid_, seeds, options_.smoothBelowDeg, snapReach_,
+      if (snapPlane_.size() < snapReach_.size()) snapPlane_.resize(snapReach_.size(), Double3{0, 0, 0});
+      smoothing_.improve(topology_, grid_, seeds, options_.smoothBelowDeg, snapReach_, snapPlane_,
                          {result.removedTets, result.removedTetNodes, result.addedTets}, result.movedNodes);
     }
     result.flipSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - flipStart).count();

@@ -35,8 +35,9 @@ struct CutOptions {
   // this (degrees) are improved by flips (local_flips.h); 0: no flips.
   double improveBelowDeg = 15.0;
   // After the flips, the nodes of the tets the event wrote that are still below this (degrees)
-  // are moved at rest where they are free to (interior nodes on no cut surface; boundary and
-  // crack nodes within a flat fan of boundary faces, or along a crease of two planes;
+  // are moved at rest where they are free to (interior nodes on no cut surface, or parallel to
+  // the one cut plane they were snapped to; boundary and crack nodes within a flat fan of
+  // boundary faces, or along a crease of two planes;
   // node_smoothing.h); the FEM takes the moves as rest-shape changes (CutResult::movedNodes).
   // With 15 deg seeds 1-16 of the 100 random strokes through the 100k-tet ball all end at or
   // above 5 deg (docs/cutting.md "Quality after cuts"). 0: none.
@@ -113,6 +114,13 @@ class Cutter {
   // its tets split) and put a second crack beside the first, cutting the sliver between them off
   // as a chip. Grown with the nodes; a duplicate inherits its source's reach.
   std::vector<double> snapReach_;
+  // By node with snapReach_ > 0: the unit normal of the swept triangle it was snapped to, NaN
+  // when it was snapped to two surfaces that are not parallel (kSnapPlaneSine). Node smoothing
+  // lets an interior snapped node slide parallel to that plane: its distance to the cut surface,
+  // and so every later snap decision about it (snapReach_), stays what it was.
+  std::vector<mesh::Double3> snapPlane_;
+  static constexpr double kSnapPlaneSine = 1e-10;
+  void recordSnapPlane(std::uint32_t node, mesh::Double3 normal);
   // Per-event buffers reused across events (defined in cutter.cpp); makes Cutter move-only.
   struct Scratch;
   struct ScratchDeleter {

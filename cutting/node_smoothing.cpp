@@ -32,7 +32,8 @@ double qualityAt(const std::vector<Double3>& x, const Tet& t, std::uint32_t node
 
 }  // namespace
 
-bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std::vector<double>& onCut, MovedNode& move) {
+bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std::vector<double>& onCut,
+                            const std::vector<Double3>& snapPlane, MovedNode& move) {
   const mesh::TetMesh& m = topology.mesh();
   const auto incident = topology.tetsOfNode(node);
   if (incident.empty()) return false;
@@ -85,8 +86,22 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
   Double3 normal{0, 0, 0};  // of the plane a boundary node slides in
   bool crease = false;       // two planes: the node slides along their line, `line`
   Double3 line{0, 0, 0};
+  bool planar = !boundaryEdges_.empty();  // candidates are projected into `normal`'s plane
   if (boundaryEdges_.empty()) {
-    if (node < onCut.size() && onCut[node] > 0) return false;
+    if (node < onCut.size() && onCut[node] > 0) {
+      // Snapped to a cut surface that has not opened here (the crack's front, or a partial
+      // split's Steiner side): it may slide parallel to the plane it was snapped to, never
+      // towards or away from it.
+      if (node >= snapPlane.size()) return false;
+      normal = snapPlane[node];
+      if (!(std::fabs(length(normal) - 1.0) < 1e-6)) return false;  // none known (0) or two planes (NaN)
+      // The plane was taken in the positions the cutter cut in; a slide at rest keeps the
+      // distance to it only where the star is undeformed (as when surgery::SoftBody cuts at rest).
+      for (std::uint32_t s : star_)
+        for (std::uint32_t v : topology.tet(s))
+          if (rest[v].x != pos[v].x || rest[v].y != pos[v].y || rest[v].z != pos[v].z) return false;
+      planar = true;
+    }
     if (vertices + star_.size() != distinctEdges + 2) return false;
   } else {
     if (vertices + star_.size() != distinctEdges + 1) return false;
@@ -168,7 +183,7 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
   auto inPlane = [&](Double3 d) { return crease ? line * dot(d, line) : d - normal * dot(d, normal); };
   const Double3 toCentroid = inPlane(centroid - from);
   Double3 opening = inPlane(away);
-  if (!boundaryEdges_.empty()) opening = opening * (1.0 / std::max(length(opening), 1e-300));
+  if (planar) opening = opening * (1.0 / std::max(length(opening), 1e-300));
   const std::array<Double3, 6> candidates{from + toCentroid,          from + toCentroid * 0.5,
                                           from + toCentroid * 0.25,   from + opening * (0.3 * edge),
                                           from + opening * (0.15 * edge), from + opening * (0.05 * edge)};
@@ -235,7 +250,8 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
 }
 
 std::size_t NodeSmoothing::improve(CutTopology& topology, SpatialGrid& grid, std::span<const std::uint32_t> seeds,
-                                   double belowDeg, const std::vector<double>& onCut, FlipChangeSet change,
+                                   double belowDeg, const std::vector<double>& onCut,
+                                   const std::vector<Double3>& snapPlane, FlipChangeSet change,
                                    std::vector<MovedNode>& moved) {
   if (listed_.size() < topology.slotCount()) listed_.resize(topology.slotCount() + topology.slotCount() / 2, 0);
   for (std::uint32_t s : change.addedTets) listed_[s] = 1;
@@ -252,7 +268,7 @@ std::size_t NodeSmoothing::improve(CutTopology& topology, SpatialGrid& grid, std
       tried_[node] = 1;
       triedNodes_.push_back(node);
       MovedNode move;
-      if (!tryNode(topology, node, onCut, move)) continue;
+      if (!tryNode(topology, node, onCut, snapPlane, move)) continue;
       ++moves;
       moved.push_back(move);
       for (std::size_t i = 0; i < star_.size(); ++i) {

@@ -5,8 +5,10 @@
 // a node moved; this can, without adding or removing a tet.
 // A node is free to move, all its tets in one region (each region keeps its volume: the union of
 // the star is unchanged, only the node inside it moves), when
-//   - it is interior (its link is one sphere) and on no cut surface (moving a node of a closed
-//     cut surface would move the crack), or
+//   - it is interior (its link is one sphere) and on no cut surface, or interior and snapped to
+//     one planar cut surface, its star undeformed (rest = current positions, where the cutter
+//     took the plane): it slides parallel to that plane, so its distance to the cut (what the
+//     cutter's later snap decisions about it read) is kept, or
 //   - it is on the boundary (crack faces included) with a link that is one disk, and all the
 //     boundary faces around it lie in one plane: it slides within that plane (a flat piece of the
 //     surface or of a crack sheet), or in two planes (a crease: a crack sheet meeting another or
@@ -44,15 +46,19 @@ struct MovedNode {
 class NodeSmoothing {
  public:
   // Tries the free nodes of the tets of `seeds` (sorted slots) below `belowDeg`. `onCut[n] > 0`
-  // marks a node on a cut surface (the cutter's snap reach): it moves only within a flat
-  // boundary. Every tet around a moved node is appended to the change set (listed as removed with
+  // marks a node on a cut surface (the cutter's snap reach): on the boundary it moves only within
+  // a flat fan or along a crease; an interior one only parallel to `snapPlane[n]`, the unit
+  // normal of the one cut plane it was snapped to (zero or NaN: it stays; shorter than onCut:
+  // none known). Every tet around a moved node is appended to the change set (listed as removed with
   // its unchanged nodes when the event had not written it) and registered in the grid; each move
   // is appended to `moved`, in order. Returns the number of moves.
   std::size_t improve(CutTopology& topology, SpatialGrid& grid, std::span<const std::uint32_t> seeds, double belowDeg,
-                      const std::vector<double>& onCut, FlipChangeSet change, std::vector<MovedNode>& moved);
+                      const std::vector<double>& onCut, const std::vector<mesh::Double3>& snapPlane,
+                      FlipChangeSet change, std::vector<MovedNode>& moved);
 
  private:
-  bool tryNode(CutTopology& topology, std::uint32_t node, const std::vector<double>& onCut, MovedNode& move);
+  bool tryNode(CutTopology& topology, std::uint32_t node, const std::vector<double>& onCut,
+               const std::vector<mesh::Double3>& snapPlane, MovedNode& move);
 
   std::vector<std::uint8_t> listed_;  // by slot: in the change set's addedTets
   std::vector<std::uint8_t> tried_;   // by node: tried in this call (a node is tried once)

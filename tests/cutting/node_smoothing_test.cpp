@@ -47,14 +47,15 @@ struct Smoothed {
   std::vector<Tet> removedNodes;
 };
 
-Smoothed smooth(CutTopology& topology, const std::vector<double>& onCut, double belowDeg = 15.0) {
+Smoothed smooth(CutTopology& topology, const std::vector<double>& onCut, double belowDeg = 15.0,
+                const std::vector<mesh::Double3>& snapPlane = {}) {
   SpatialGrid grid;
   grid.rebuild(topology);
   std::vector<std::uint32_t> seeds(topology.slotCount());
   std::iota(seeds.begin(), seeds.end(), 0u);
   Smoothed run;
   NodeSmoothing smoothing;
-  smoothing.improve(topology, grid, seeds, belowDeg, onCut, {run.removed, run.removedNodes, run.added}, run.moved);
+  smoothing.improve(topology, grid, seeds, belowDeg, onCut, snapPlane, {run.removed, run.removedNodes, run.added}, run.moved);
   return run;
 }
 
@@ -108,6 +109,38 @@ TEST(NodeSmoothing, ANodeOnACutSurfaceStays) {
   const Smoothed run = smooth(topology, onCut);
   for (const MovedNode& m : run.moved) EXPECT_NE(m.index, pushed);
   EXPECT_EQ(topology.mesh().restPositions[pushed].x, 1.98);
+}
+
+// The pushed node snapped to a planar cut x = 1.98 that has not opened (a crack's front, a
+// partial split): it may slide parallel to that plane only, so its x (its distance to the cut,
+// which the cutter's later snap decisions read) is kept while the star's smallest angle rises;
+// snapped to two planes (NaN) it stays.
+TEST(NodeSmoothing, ANodeSnappedToOnePlanarCutSlidesParallelToIt) {
+  std::uint32_t pushed = 0;
+  const mesh::TetMesh before = pushedBlock(pushed);
+  const double angleBefore = minAngle(before);
+  CutTopology topology(before);
+  const double volume = topology.totalRestVolume();
+  std::vector<double> onCut(before.nodeCount(), 0.0);
+  onCut[pushed] = 1e-3;
+  std::vector<mesh::Double3> plane(before.nodeCount(), mesh::Double3{0, 0, 0});
+  plane[pushed] = {1, 0, 0};
+  const Smoothed run = smooth(topology, onCut, 15.0, plane);
+  ASSERT_FALSE(run.moved.empty());
+  const auto& rest = topology.mesh().restPositions;
+  std::printf("min dihedral %.2f -> %.2f deg, node at (%.4f, %.4f, %.4f)\n", angleBefore, minAngle(topology.mesh()),
+              rest[pushed].x, rest[pushed].y, rest[pushed].z);
+  EXPECT_NE(rest[pushed].z, 1.15);
+  EXPECT_NEAR(rest[pushed].x, 1.98, 1e-12);
+  EXPECT_GT(minAngle(topology.mesh()), angleBefore + 1.0);
+  EXPECT_NEAR(topology.totalRestVolume(), volume, 1e-12 * volume);
+  EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
+
+  CutTopology twoPlanes(before);
+  plane[pushed] = {std::nan(""), 0, 0};
+  const Smoothed stays = smooth(twoPlanes, onCut, 15.0, plane);
+  for (const MovedNode& m : stays.moved) EXPECT_NE(m.index, pushed);
+  EXPECT_EQ(twoPlanes.mesh().restPositions[pushed].z, 1.15);
 }
 
 // A node of the block's face z = 0 (flat: every boundary face around it lies in that plane)
