@@ -120,6 +120,10 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {
   if (settings.brickCells > 0) options.brickCells = std::uint32_t(settings.brickCells);
   options.sparse = !settings.dense;
   options.tiledVertexPass = settings.tiledVertices;
+  using VertexTiles = vk::GpuPolygonizeOptions::VertexTiles;
+  options.sparseVertexTiles = settings.vertexTiles == "on"    ? VertexTiles::On
+                              : settings.vertexTiles == "off" ? VertexTiles::Off
+                                                              : VertexTiles::Auto;
   if (settings.batchesPerDevice > 0) options.batchesPerDevice = std::uint32_t(settings.batchesPerDevice);
   options.expectedRuns = std::uint32_t(std::max(settings.expectedRuns, 1));
   return options;
@@ -132,7 +136,7 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.traversal == vk::Traversal::Auto ? std::string() : std::string(vk::traversalName(gpu.traversal)),
           gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds,
           gpu.edgesSeconds, gpu.scansSeconds, gpu.sourcesSeconds, gpu.verticesSeconds, gpu.trianglesSeconds,
-          gpu.fieldTiles};
+          gpu.fieldTiles, gpu.vertexTiles};
 }
 
 void checkValidation(const std::vector<vk::StandaloneContext*>& contexts, std::uint64_t messagesBefore) {
