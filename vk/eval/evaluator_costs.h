@@ -53,6 +53,13 @@ inline constexpr double kVertexKernelMemoryCopies = 2.5;
 // switch over every primitive type at each primitive; tower's vertex kernel now creates in about
 // a fifth less time, so this over-estimates, on the side of the interpreted gradient.)
 inline constexpr double kGradientVertexKernelCopies = 4.0;
+// With warm caches (Mesa's machine code, blobvk's SPIR-V) a kernel still costs lavapipe's NIR
+// translation and optimisation in vkCreateComputePipelines and LLVM IR at its first dispatch,
+// which nothing caches on Mesa 22.3: about half its cold build (tower's whole generated-gradient
+// vertex kernel, 0.73-0.86 s of CPU warm against the 1.65 s the constants above predict cold).
+// Extra kernels that build in no more time than the ones they replace on cold caches still cost
+// this much more on warm ones.
+inline constexpr double kWarmBuildFraction = 0.5;
 inline constexpr double kGradientVertexKernelMemoryCopies = 6.5;
 // The interpreted gradient at a vertex costs about this many interpreter evaluations of the field
 // (vec3 gradient and colour registers selected by index) per vertex of the model's estimate
