@@ -119,5 +119,12 @@ inline constexpr double kVerticesPerSurfacePoint = 10.0;
 // 1.5 (`blobvk bench S --resolution 64 --backend vk --json`: vertices / vk_phases.active_bricks).
 inline constexpr double kVerticesPerBrickFaceCell = 1.5;
 inline constexpr double kEvaluationsPerVertex = 8.0;
+// The sparse vertex pass with the generated gradient (brick_vertices_direct) costs far less a
+// vertex than that: about 0.8 field evaluations' worth at kSpecialisedSecondsPerCost per vertex
+// of the brick estimate above (fitted to the `vertices` device time of docs/performance.md's
+// lavapipe table: at 8 evaluations the model said 0.23, 1.31 and 1.77 s for tower at 256 and 512
+// cells and random128 at 512, measured 0.026, 0.100 and 0.205 s). What the vertex tiles' choice
+// (sparse_polygonizer.cpp, vertexTilesPay) weighs a vertex's pruned work by.
+inline constexpr double kGeneratedVertexEvaluations = 0.8;
 
 }  // namespace blobvk::vk::costs

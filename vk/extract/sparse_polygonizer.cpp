@@ -283,8 +283,11 @@ namespace {
 // than the one whole kernel (tower at 256 cells, cold caches: 3.07 s of CPU for the mesh with
 // them against 3.24 s without), while weakly pruned ones (random128) cost several times more.
 // Warm caches still pay part of every kernel (costs::kWarmBuildFraction): the tiles' kernels
-// cost at least that part of their build, whatever they replace (tower at 512 cells, warm:
-// 0.2-0.5 s more start-up with them, 0.04-0.08 s less vertex pass a run).
+// cost at least that part of their build, whatever they replace (warm caches, `bench --repeats
+// 3`: tower at 512 cells 0.6 s more start-up with them, random128 at 512 3 s, for a vertex pass
+// 0.4-0.8 times as long). A vertex's work is costs::kGeneratedVertexEvaluations field
+// evaluations' worth, so the break-even is tens of runs (tower at 512: about 20), an engine's
+// re-meshing, not a mesh or a benchmark's few runs.
 bool vertexTilesPay(const blobtree::Program& program, std::span<const BrickTile> tiles,
                     std::span<const std::uint64_t> tileBricks, std::uint32_t brickCells,
                     const GpuPolygonizeOptions& options, std::uint32_t repeats, const LoopOptions& loops) {
@@ -293,7 +296,7 @@ bool vertexTilesPay(const blobtree::Program& program, std::span<const BrickTile>
   double tilesBuild = 0.0, saved = 0.0;
   // Vertices per active brick (the model's estimate) and evaluations per vertex.
   const double vertices = costs::kVerticesPerBrickFaceCell * double(brickCells) * double(brickCells);
-  const double evaluations = costs::kEvaluationsPerVertex + double(std::max(options.refineSteps, 0));
+  const double evaluations = costs::kGeneratedVertexEvaluations + double(std::max(options.refineSteps, 0));
   for (std::size_t t = 0; t < tiles.size(); ++t) {
     tilesBuild += specialisedKernelSeconds(double(specialisedCodeSize(program, tiles[t].region, loops)), copies);
     saved += costs::kSpecialisedSecondsPerCost * (wholeCost - double(prunedEvaluationCost(program, tiles[t].region))) *
