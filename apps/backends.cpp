@@ -120,10 +120,7 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {
   if (settings.brickCells > 0) options.brickCells = std::uint32_t(settings.brickCells);
   options.sparse = !settings.dense;
   options.tiledVertexPass = settings.tiledVertices;
-  using VertexTiles = vk::GpuPolygonizeOptions::VertexTiles;
-  options.sparseVertexTiles = settings.vertexTiles == "on"    ? VertexTiles::On
-                              : settings.vertexTiles == "off" ? VertexTiles::Off
-                                                              : VertexTiles::Auto;
+  options.sparseVertexTiles = settings.vertexTiles;
   if (settings.batchesPerDevice > 0) options.batchesPerDevice = std::uint32_t(settings.batchesPerDevice);
   options.expectedRuns = std::uint32_t(std::max(settings.expectedRuns, 1));
   return options;

@@ -54,9 +54,8 @@ struct PolygonizeSettings {
   int brickCells = 0;           // vk: cells per brick edge of the sparse extraction (0: default)
   bool dense = false;           // vk: the dense z-slab extraction instead of the sparse one
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
-  // vk sparse, specialised with field tiles: the vertex pass per tile of bricks too: auto (the
-  // cost model decides), on or off.
-  std::string vertexTiles = "auto";
+  // vk sparse, specialised with field tiles: the vertex pass per tile of bricks too.
+  bool vertexTiles = false;
   int expectedRuns = 1;         // vk: runs of this job the caller makes (bench: warm-up + repeats)
   // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads; vk streamed:
   // after each batch of brick layers.

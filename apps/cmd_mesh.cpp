@@ -94,10 +94,9 @@ void addMeshCommand(CLI::App& app) {
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--tiled-vertices", a->settings.tiledVertices,
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
-  cmd->add_option("--vertex-tiles", a->settings.vertexTiles,
-                  "vk sparse, specialised: the vertex pass per field tile with pruned kernels: auto (the cost model; "
-                  "default), on, off; the mesh does not depend on it")
-      ->check(CLI::IsMember({"auto", "on", "off"}));
+  cmd->add_flag("--vertex-tiles", a->settings.vertexTiles,
+                "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (faster when repeated, "
+                "slower to start; the same mesh)");
   cmd->add_option("--max-memory", a->maxMemory,
                   "Memory budget (e.g. 2G; default: available): a cpu or vk job whose mesh may not fit is streamed to the file layer by layer");
   cmd->add_flag("--stream", a->stream,

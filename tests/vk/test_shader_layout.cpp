@@ -108,7 +108,7 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
     vk::GpuPolygonizeOptions sparseTiles;
     sparseTiles.traversal = vk::Traversal::Specialised;
     sparseTiles.brickCells = 8;
-    sparseTiles.sparseVertexTiles = vk::GpuPolygonizeOptions::VertexTiles::On;
+    sparseTiles.sparseVertexTiles = true;
     for (int refine : {0, 1}) {
       sparseTiles.refineSteps = refine;
       EXPECT_GT(vk::polygonize(dev, program, grid, sparseTiles, &stats).triangleCount(), 0u);

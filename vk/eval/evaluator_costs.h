@@ -53,13 +53,6 @@ inline constexpr double kVertexKernelMemoryCopies = 2.5;
 // switch over every primitive type at each primitive; tower's vertex kernel now creates in about
 // a fifth less time, so this over-estimates, on the side of the interpreted gradient.)
 inline constexpr double kGradientVertexKernelCopies = 4.0;
-// With warm caches (Mesa's machine code, blobvk's SPIR-V) a kernel still costs lavapipe's NIR
-// translation and optimisation in vkCreateComputePipelines and LLVM IR at its first dispatch,
-// which nothing caches on Mesa 22.3: about half its cold build (tower's whole generated-gradient
-// vertex kernel, 0.73-0.86 s of CPU warm against the 1.65 s the constants above predict cold).
-// Extra kernels that build in no more time than the ones they replace on cold caches still cost
-// this much more on warm ones.
-inline constexpr double kWarmBuildFraction = 0.5;
 inline constexpr double kGradientVertexKernelMemoryCopies = 6.5;
 // The interpreted gradient at a vertex costs about this many interpreter evaluations of the field
 // (vec3 gradient and colour registers selected by index) per vertex of the model's estimate
@@ -119,12 +112,5 @@ inline constexpr double kVerticesPerSurfacePoint = 10.0;
 // 1.5 (`blobvk bench S --resolution 64 --backend vk --json`: vertices / vk_phases.active_bricks).
 inline constexpr double kVerticesPerBrickFaceCell = 1.5;
 inline constexpr double kEvaluationsPerVertex = 8.0;
-// The sparse vertex pass with the generated gradient (brick_vertices_direct) costs far less a
-// vertex than that: about 0.8 field evaluations' worth at kSpecialisedSecondsPerCost per vertex
-// of the brick estimate above (fitted to the `vertices` device time of docs/performance.md's
-// lavapipe table: at 8 evaluations the model said 0.23, 1.31 and 1.77 s for tower at 256 and 512
-// cells and random128 at 512, measured 0.026, 0.100 and 0.205 s). What the vertex tiles' choice
-// (sparse_polygonizer.cpp, vertexTilesPay) weighs a vertex's pruned work by.
-inline constexpr double kGeneratedVertexEvaluations = 0.8;
 
 }  // namespace blobvk::vk::costs

@@ -121,18 +121,6 @@ class GradientGenerator {
     const std::uint32_t matrix = prim.meta.y;
     const std::string at = matrix ? "toLocalRows(" + rows(matrix) + ", " + point(z) + ")" : point(z);
     const std::string d = named('r', dst), g = named('g', dst);
-    // Pruned to the region as the field code prunes it (program_codegen.cpp): outside its support
-    // box a primitive's formula gives field +0 and gradient +0 (primitiveGradientOf's `inside`
-    // test), so the statements below would leave r = 0, g = M^T (+0) or +0, c = its colour. The
-    // matrix product is kept, with the loaded zero Z, for its signs of zero (-0 where a column's
-    // entries are all negative), which a normal that is 0 along an axis keeps.
-    if (in.z == 0 && in.y < p_.primitiveBoxes.size() && regionMissesBox(options_.region, p_.primitiveBoxes[in.y])) {
-      line(depth, "{ " + d + " = 0.0;  // pruned: the primitive is 0 in the region");
-      line(depth + 1, g + " = " + (matrix ? "transposeTimesRows(" + rows(matrix) + ", vec3(Z))" : std::string("vec3(0.0)")) +
-                          ";");
-      line(depth + 1, "if (wantColour) " + named('c', dst) + " = unpackColour(" + std::to_string(prim.meta.z) + "u); }");
-      return;
-    }
     line(depth, "{ precise vec3 gl;");
     line(depth + 1, d + " = " + primitiveGradientName(prim.meta.x) + "(" + at + ", " + v4(prim.p0) + ", " +
                         v4(prim.p1) + ", " + v4(prim.p2) + ", gl);");

@@ -22,9 +22,7 @@ namespace blobvk::vk {
 //   precise float evaluateGradient(vec3 p, uint n, bool wantColour, out vec3 gradient, out vec3 colour)
 // (n ignored), to follow the unrolled field evaluator, whose instruction-buffer view `codeArray`
 // it reads OP_POW's exponents from (as the field code does: a literal exponent lets NIR rewrite
-// pow). Skips whose box misses options.region have no code (the interpreter writes 0 there too),
-// nor have primitives of the point register 0 whose support box misses it (field 0, gradient the
-// +0 the formula gives there, through the primitive's matrix for its signs of zero; its colour);
+// pow). Skips whose box misses options.region have no code (the interpreter writes 0 there too);
 // skips branch or run masked as options.branchOnSkips says. Record values are literals except
 // zeros, which are loaded (NIR folds x * 0.0 + y into y, which can change the sign of a zero).
 // Empty when the program's matrices[0] is not the identity (the vertex kernels then interpret).

@@ -58,11 +58,10 @@ struct GpuPolygonizeOptions {
   bool tiledVertexPass = false;
   // Sparse path, specialised code with the generated gradient and field tiles: the vertex pass
   // per field tile too, each tile's vertices run by a vertex kernel pruned to its box of bricks
-  // (docs/vulkan.md, "Sparse extraction"); the same bytes either way. Auto: where the cost model
-  // (resolveSparseEvaluator, Traversal::Auto on CPU drivers) finds the pruned kernels' builds
-  // paid back by the job's runs; off otherwise.
-  enum class VertexTiles : std::uint8_t { Auto, Off, On };
-  VertexTiles sparseVertexTiles = VertexTiles::Auto;
+  // (docs/vulkan.md, "Sparse extraction"); the same mesh byte for byte. Off by default: its
+  // kernels cost more start-up than they save in a few runs (warm caches, bench --repeats 3:
+  // tower at 512 cells +0.6 s, random128 at 512 +3 s, for a vertex pass 0.56-0.8 as long).
+  bool sparseVertexTiles = false;
   // Sparse path, specialised code (set by the cost model for Auto, EvaluatorEstimate::
   // interpretVertexPassUntilBuilt): while the generated-gradient vertex kernel is not built, the
   // vertex pass runs the embedded interpreter (the same bytes) instead of waiting for the build;

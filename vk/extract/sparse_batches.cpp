@@ -215,7 +215,7 @@ struct SparseBatchRunner::State {
     // The vertex pass per field tile: only with the generated gradient (an interpreted one gains
     // nothing from a pruned field) and more than one tile.
     const bool tiledVertices =
-        generated && tiles.size() > 1 && o.sparseVertexTiles == GpuPolygonizeOptions::VertexTiles::On;
+        generated && tiles.size() > 1 && o.sparseVertexTiles;
     const std::uint64_t print = tiles.size() > 1 ? (gpu.fingerprint ? gpu.fingerprint : programFingerprint(program)) : 0;
     const std::uint32_t wg = o.workgroupSize;
     // Tile t's vertex kernel: pruned to its box where the generator takes the pruned program,

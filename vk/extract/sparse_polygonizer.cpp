@@ -274,39 +274,6 @@ EvaluatedBricks activeBricks(Device& device, const ClassifiedBricks& classified)
 }
 }  // namespace
 
-namespace {
-// Whether the vertex pass per field tile (GpuPolygonizeOptions::sparseVertexTiles) pays over
-// `repeats` runs: its tiles' vertex kernels (the field and the generated gradient, both pruned to
-// the tile) replace the whole program's, and save per vertex what the field tiles save per point,
-// for every evaluation a vertex makes. Builds by the model's constants for generated-gradient
-// vertex kernels: with the quadratic term, eight strongly pruned kernels can build in less time
-// than the one whole kernel (tower at 256 cells, cold caches: 3.07 s of CPU for the mesh with
-// them against 3.24 s without), while weakly pruned ones (random128) cost several times more.
-// Warm caches still pay part of every kernel (costs::kWarmBuildFraction): the tiles' kernels
-// cost at least that part of their build, whatever they replace (warm caches, `bench --repeats
-// 3`: tower at 512 cells 0.6 s more start-up with them, random128 at 512 3 s, for a vertex pass
-// 0.4-0.8 times as long). A vertex's work is costs::kGeneratedVertexEvaluations field
-// evaluations' worth, so the break-even is tens of runs (tower at 512: about 20), an engine's
-// re-meshing, not a mesh or a benchmark's few runs.
-bool vertexTilesPay(const blobtree::Program& program, std::span<const BrickTile> tiles,
-                    std::span<const std::uint64_t> tileBricks, std::uint32_t brickCells,
-                    const GpuPolygonizeOptions& options, std::uint32_t repeats, const LoopOptions& loops) {
-  const double wholeCost = double(prunedEvaluationCost(program, {}));
-  const double copies = costs::kGradientVertexKernelCopies;
-  double tilesBuild = 0.0, saved = 0.0;
-  // Vertices per active brick (the model's estimate) and evaluations per vertex.
-  const double vertices = costs::kVerticesPerBrickFaceCell * double(brickCells) * double(brickCells);
-  const double evaluations = costs::kGeneratedVertexEvaluations + double(std::max(options.refineSteps, 0));
-  for (std::size_t t = 0; t < tiles.size(); ++t) {
-    tilesBuild += specialisedKernelSeconds(double(specialisedCodeSize(program, tiles[t].region, loops)), copies);
-    saved += costs::kSpecialisedSecondsPerCost * (wholeCost - double(prunedEvaluationCost(program, tiles[t].region))) *
-             double(tileBricks[t]) * vertices * evaluations * double(repeats);
-  }
-  const double wholeBuild = specialisedKernelSeconds(double(specialisedCodeSize(program, {}, loops)), copies);
-  return saved > std::max(tilesBuild - wholeBuild, costs::kWarmBuildFraction * tilesBuild);
-}
-}  // namespace
-
 SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                        const GpuPolygonizeOptions& options, const ClassifiedBricks* classified) {
   SparseEvaluator e;
@@ -355,16 +322,13 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
     if (tiles.size() > 1) {
       const double R = double(evaluated.cells) + 1.0, pointsPerBrick = R * R * R;
       const double wholeCost = double(prunedEvaluationCost(program, {}));
-      const double wholeSize = double(specialisedCodeSize(program, {}, codegen.loops));
-      double extraBuild = -specialisedKernelSeconds(wholeSize, 1.0);
+      double extraBuild = -specialisedKernelSeconds(double(specialisedCodeSize(program, {}, codegen.loops)), 1.0);
       double saved = 0.0;
-      std::vector<std::uint64_t> tileBricks;
       for (const BrickTile& t : tiles) {
         std::uint64_t bricks = 0;
         for (const auto& b : evaluated.bricks)
           bricks += b[0] >= t.first[0] && b[0] <= t.last[0] && b[1] >= t.first[1] && b[1] <= t.last[1] &&
                     b[2] >= t.first[2] && b[2] <= t.last[2];
-        tileBricks.push_back(bricks);
         extraBuild += specialisedKernelSeconds(double(specialisedCodeSize(program, t.region, codegen.loops)), 1.0);
         saved += costs::kSpecialisedSecondsPerCost * (wholeCost - double(prunedEvaluationCost(program, t.region))) *
                  double(bricks) * pointsPerBrick * double(job.repeats);
@@ -373,8 +337,6 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
       // whole mesh kernels) say: tower at 256 cells, predicted +0.67 s for 8 tiles, measured no
       // slower a first run with the field's 0.14-0.2 s saved; dice at 64 cells +0.1-0.15 s.
       e.fieldTiles = saved > 0.3 * extraBuild;
-      if (e.fieldTiles && e.codegen->gradient && !specialisedCodeLoops(program, {}, codegen.loops))
-        e.vertexTiles = vertexTilesPay(program, tiles, tileBricks, evaluated.cells, options, job.repeats, codegen.loops);
     }
   }
   return e;
@@ -392,8 +354,6 @@ GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options)
   resolved.traversal = traversal;
   if (codegen) resolved.codegen = &*codegen;
   if (!fieldTiles) resolved.maxFieldTiles = 1;
-  using VertexTiles = GpuPolygonizeOptions::VertexTiles;
-  if (resolved.sparseVertexTiles == VertexTiles::Auto) resolved.sparseVertexTiles = vertexTiles ? VertexTiles::On : VertexTiles::Off;
   resolved.interpretVertexPassUntilBuilt = options.interpretVertexPassUntilBuilt || interpretVertexPassUntilBuilt;
   return resolved;
 }

@@ -94,9 +94,6 @@ struct SparseEvaluator {
   // to build than they save over the job's active bricks: the field is then one kernel.
   bool fieldTiles = true;
   bool interpretVertexPassUntilBuilt = false;  // EvaluatorEstimate's
-  // On CPU drivers, with Traversal::Auto: whether the vertex pass runs per field tile
-  // (GpuPolygonizeOptions::sparseVertexTiles Auto), its pruned kernels' builds paid back.
-  bool vertexTiles = false;
   void report(GpuStats& stats) const;
   // `options` with this evaluator; its codegen points into this object, which must outlive it.
   GpuPolygonizeOptions apply(const GpuPolygonizeOptions& options) const;
