@@ -88,8 +88,8 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--tiled-vertices", a->tiledVertices,
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
   cmd->add_flag("--vertex-tiles", a->vertexTiles,
-                "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (faster when repeated, "
-                "slower to start; the same mesh)");
+                "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (slower to start; "
+                "the same mesh)");
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a] {
     std::vector<Row> rows;

@@ -95,8 +95,8 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_flag("--tiled-vertices", a->settings.tiledVertices,
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
   cmd->add_flag("--vertex-tiles", a->settings.vertexTiles,
-                "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (faster when repeated, "
-                "slower to start; the same mesh)");
+                "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (slower to start; "
+                "the same mesh)");
   cmd->add_option("--max-memory", a->maxMemory,
                   "Memory budget (e.g. 2G; default: available): a cpu or vk job whose mesh may not fit is streamed to the file layer by layer");
   cmd->add_flag("--stream", a->stream,
