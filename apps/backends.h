@@ -54,6 +54,8 @@ struct PolygonizeSettings {
   int brickCells = 0;           // vk: cells per brick edge of the sparse extraction (0: default)
   bool dense = false;           // vk: the dense z-slab extraction instead of the sparse one
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
+  // vk sparse, specialised with field tiles: the vertex pass per tile of bricks too.
+  bool vertexTiles = false;
   int expectedRuns = 1;         // vk: runs of this job the caller makes (bench: warm-up + repeats)
   // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads; vk streamed:
   // after each batch of brick layers.
@@ -85,6 +87,7 @@ struct PolygonizeStats {
     // extract by pass (device time): masks and edges, scans, sources, vertices, triangles
     double edges = 0.0, scans = 0.0, sources = 0.0, vertices = 0.0, triangles = 0.0;
     std::uint64_t fieldTiles = 0;  // field kernels of the sparse extraction (pruned per tile of bricks)
+    std::uint64_t vertexTiles = 0;  // its vertex kernels (0: one, unpruned)
     bool generatedClassification = false;  // the bricks classified by generated code (vk/extract/classify_kernel.h)
   } gpu;
 };

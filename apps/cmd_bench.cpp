@@ -48,6 +48,7 @@ void addBenchCommand(CLI::App& app) {
     int repeats = 5, warmup = 1, mpuSize = 0, subBlock = -1, fieldTiles = 8, brickCells = 0;
     bool dense = false;
     bool tiledVertices = false;
+    bool vertexTiles = false;
     std::string device;
     std::vector<std::string> deviceLists{""};
     std::vector<std::string> traversals{"auto"};
@@ -86,6 +87,9 @@ void addBenchCommand(CLI::App& app) {
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--tiled-vertices", a->tiledVertices,
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
+  cmd->add_flag("--vertex-tiles", a->vertexTiles,
+                "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (slower to start; "
+                "the same mesh)");
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a] {
     std::vector<Row> rows;
@@ -119,6 +123,7 @@ void addBenchCommand(CLI::App& app) {
             settings.brickCells = a->brickCells;
             settings.dense = a->dense;
             settings.tiledVertices = a->tiledVertices;
+            settings.vertexTiles = a->vertexTiles;
             settings.expectedRuns = a->warmup + a->repeats;
             // Repeats mesh again with one polygonizer into the last mesh's arrays, as a host
             // re-meshing does; the first run (first_s) pays for allocation and page faults.
@@ -171,7 +176,7 @@ void addBenchCommand(CLI::App& app) {
                     {"host_s", r.gpu.host}, {"device_timed", r.gpu.deviceTimed}, {"submits", r.gpu.submits},
                     {"batches", r.gpu.batches}, {"devices", r.gpu.devices},
                     {"bricks", r.gpu.bricks}, {"active_bricks", r.gpu.activeBricks},
-                    {"brick_cells", r.gpu.brickCells}, {"field_tiles", r.gpu.fieldTiles},
+                    {"brick_cells", r.gpu.brickCells}, {"field_tiles", r.gpu.fieldTiles}, {"vertex_tiles", r.gpu.vertexTiles},
                     {"generated_classification", r.gpu.generatedClassification}, {"device_bytes", r.gpu.deviceBytes},
                     {"extraction_passes_s", {{"edges", r.gpu.edges}, {"scans", r.gpu.scans},
                                              {"sources", r.gpu.sources}, {"vertices", r.gpu.vertices},

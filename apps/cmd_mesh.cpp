@@ -35,7 +35,7 @@ namespace {
 nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
   return {{"batches", gpu.batches}, {"active_bricks", gpu.activeBricks}, {"device_bytes", gpu.deviceBytes},
           {"devices", gpu.devices}, {"evaluator", gpu.evaluator}, {"generated_gradient", gpu.vertexGradient},
-          {"brick_cells", gpu.brickCells}, {"field_tiles", gpu.fieldTiles},
+          {"brick_cells", gpu.brickCells}, {"field_tiles", gpu.fieldTiles}, {"vertex_tiles", gpu.vertexTiles},
           {"generated_classification", gpu.generatedClassification}};
 }
 }  // namespace
@@ -95,6 +95,9 @@ void addMeshCommand(CLI::App& app) {
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--tiled-vertices", a->settings.tiledVertices,
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
+  cmd->add_flag("--vertex-tiles", a->settings.vertexTiles,
+                "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (slower to start; "
+                "the same mesh)");
   cmd->add_option("--max-memory", a->maxMemory,
                   "Memory budget (e.g. 2G; default: available): a cpu or vk job whose mesh may not fit is streamed to the file layer by layer");
   cmd->add_flag("--stream", a->stream,

@@ -1,4 +1,5 @@
-// The sparse vertex kernels' body (brick_vertices.comp, brick_vertices_direct.comp).
+// The sparse vertex kernels' body (brick_vertices.comp, brick_vertices_direct.comp, and their
+// per-tile forms with BRICK_VERTICES_TILED: a lane per entry of one tile's vertex list).
 #ifndef BLOBVK_BRICK_VERTICES_BODY_GLSL
 #define BLOBVK_BRICK_VERTICES_BODY_GLSL
 #define PROGRAM_SET 0
@@ -14,6 +15,10 @@ layout(std430, set = 0, binding = 8) writeonly buffer Positions { float position
 layout(std430, set = 0, binding = 9) writeonly buffer Normals { float normals[]; };
 layout(std430, set = 0, binding = 10) writeonly buffer Colours { float colours[]; };
 layout(std430, set = 0, binding = 11) writeonly buffer Keys { uvec2 keys[]; };
+#ifdef BRICK_VERTICES_TILED
+layout(std430, set = 0, binding = 12) readonly buffer TileVertices { uint tileVertices[]; };  // brick_vertex_tile_lists
+layout(std430, set = 0, binding = 13) readonly buffer TileArgs { uint tileArgs[]; };  // brick_vertex_tile_args
+#endif
 
 layout(push_constant) uniform Push {
   vec4 originCell;
@@ -25,13 +30,22 @@ layout(push_constant) uniform Push {
   uint vertices;    // the batch's vertex count
   uint nx, ny;      // grid points per axis (edge keys)
   uint tailBase;    // the samples' tail (brick_layout.glsl, fieldIndex)
+#ifdef BRICK_VERTICES_TILED
+  uint tile;        // its count and first list entry: tileArgs[tile * 8 + 3], [tile * 8 + 4]
+#endif
 } pc;
 
 #include "edge_vertex.glsl"
 
 void main() {
+#ifdef BRICK_VERTICES_TILED
+  uint i = linearInvocation();
+  if (i >= tileArgs[pc.tile * 8u + 3u]) return;
+  uint v = tileVertices[tileArgs[pc.tile * 8u + 4u] + i];
+#else
   uint v = linearInvocation();
   if (v >= pc.vertices) return;
+#endif
   uvec2 source = vertexSources[v];
   uint R = (1u << pc.log2B) + 1u;
   uint r = source.y >> 7, x0 = (source.y >> 2) & 31u, axis = source.y & 3u;

@@ -103,6 +103,17 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
     vk::GpuStats stats;
     EXPECT_GT(vk::polygonize(dev, program, grid, tiled, &stats).triangleCount(), 0u);
     EXPECT_GT(stats.fieldTiles, 1u);
+    // The sparse vertex pass per tile, without and with the sample loop (its tile lists, counts
+    // and indirect dispatches).
+    vk::GpuPolygonizeOptions sparseTiles;
+    sparseTiles.traversal = vk::Traversal::Specialised;
+    sparseTiles.brickCells = 8;
+    sparseTiles.sparseVertexTiles = true;
+    for (int refine : {0, 1}) {
+      sparseTiles.refineSteps = refine;
+      EXPECT_GT(vk::polygonize(dev, program, grid, sparseTiles, &stats).triangleCount(), 0u);
+      EXPECT_GT(stats.vertexTiles, 1u);
+    }
   }
   const auto program = blobtree::compile(testModels()[1].root);
   blobtree::GridRequest request;

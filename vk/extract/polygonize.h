@@ -66,6 +66,13 @@ struct GpuPolygonizeOptions {
   // 128 cells: 57 -> 40 ms) — worth it only when a polygonizer is used many times (an engine
   // re-extracting every frame), not for one mesh.
   bool tiledVertexPass = false;
+  // Sparse path, specialised code with the generated gradient and field tiles: the vertex pass
+  // per field tile too, each tile's vertices run by a vertex kernel pruned to its box of bricks
+  // (docs/vulkan.md, "Sparse extraction"); the same mesh byte for byte. Off by default: with the
+  // gradient pruned by skips only it does not pay on lavapipe (warm caches, bench --repeats 3:
+  // tower at 512 cells +1 s of start-up for a vertex pass 0.94 as long, random128 +10 s for one
+  // 1.5 times as long; docs/performance.md).
+  bool sparseVertexTiles = false;
   // Sparse path, specialised code (set by the cost model for Auto, EvaluatorEstimate::
   // interpretVertexPassUntilBuilt): while the generated-gradient vertex kernel is not built, the
   // vertex pass runs the embedded interpreter (the same bytes) instead of waiting for the build;
@@ -102,6 +109,7 @@ struct GpuStats {
   std::uint32_t brickCells = 0;    // sparse: cells per brick edge
   std::uint64_t deviceBytes = 0;   // sparse: device memory of the extraction's buffers
   std::uint32_t fieldTiles = 0;        // field and vertex passes run per tile (vk/eval/field_tiles.h)
+  std::uint32_t vertexTiles = 0;       // sparse: vertex kernels pruned per field tile (0: one kernel)
   std::uint64_t fieldEvaluations = 0;  // grid samples (normals/colours/refinement excluded)
   // Sparse: the evaluator the batches ran, and on CPU drivers what the cost model
   // (vk/eval/evaluator_choice.h) predicted for it (seconds; < 0 where it made no prediction).

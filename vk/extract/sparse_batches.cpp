@@ -142,9 +142,7 @@ struct SparseBatchRunner::State {
   std::uint32_t fieldGroupSize = 0;  // brick_field's work group: one brick's rows of points
   // The field pass per tile of bricks, each kernel pruned to its tile (brick_tiles.h); one tile
   // with the program's kernel when the evaluator is not specialised or pruning gains too little.
-  // The vertex pass stays one kernel: vertex kernels with the generated gradient pruned per tile
-  // took tens of seconds to build on lavapipe (random128 at 256 cells: 89 s of start-up against
-  // 4 s) for a fraction of a second per run.
+  // The vertex pass may run per tile too (vertexTileKernels below).
   std::vector<BrickTile> tiles;
   std::vector<KernelPtr> fieldKernels;
   // The vertex kernel, built on a thread of its own while the field kernels are built and the
@@ -155,9 +153,20 @@ struct SparseBatchRunner::State {
   KernelPtr vertexKernel;
   std::future<KernelPtr> vertexKernelBuild;
   bool interpretedVertexPass = false;  // the embedded interpreter while the generated kernel builds
+  // The vertex pass per field tile (GpuPolygonizeOptions::sparseVertexTiles): tile t's vertices
+  // by vertexTileKernels[t], pruned to its box; empty: one kernel for every vertex. Built on a
+  // thread of their own as the one kernel is, joined first for the same reason.
+  std::vector<KernelPtr> vertexTileKernels;
+  std::future<std::vector<KernelPtr>> vertexTileBuild;
+  Buffer brickTiles, tileCounters, tileArgs;  // per batch brick its tile; counts and cursors; dispatches
+  std::vector<std::uint32_t> batchTiles;
   const KernelPtr& vertices() {
     if (vertexKernelBuild.valid()) vertexKernel = vertexKernelBuild.get();  // rethrows a failed build
     return vertexKernel;
+  }
+  const std::vector<KernelPtr>& vertexTiles() {
+    if (vertexTileBuild.valid()) vertexTileKernels = vertexTileBuild.get();
+    return vertexTileKernels;
   }
   std::vector<std::uint32_t> batchPacked;  // host copy of a batch's brick list (tiles only)
   DeviceTimer timer;
@@ -200,19 +209,55 @@ struct SparseBatchRunner::State {
     // sample loop, whose field evaluator llvmpipe would run once per vertex anyway.
     const bool samples = o.refineSteps > 0 || traversal == Traversal::StackBased;
     const char* vertexShader = samples ? "brick_vertices" : "brick_vertices_direct";
+    const char* tiledVertexShader = samples ? "brick_vertices_tiled" : "brick_vertices_direct_tiled";
     const bool generated = traversal == Traversal::Specialised && gpu.specialised && gpu.codegen.gradient;
-    // Background builds of the generated vertex kernel are known by this key.
-    const std::string backgroundKey = std::string(vertexShader) + ":" +
-                                      std::to_string(evaluatorFingerprint(gpu.fingerprint, gpu.codegen)) + ":" +
-                                      std::to_string(o.workgroupSize);
+    if (traversal == Traversal::Specialised && o.maxFieldTiles > 1) tiles = planBrickTiles(program, g, bg, o.maxFieldTiles);
+    // The vertex pass per field tile: only with the generated gradient (an interpreted one gains
+    // nothing from a pruned field) and more than one tile.
+    const bool tiledVertices =
+        generated && tiles.size() > 1 && o.sparseVertexTiles;
+    const std::uint64_t print = tiles.size() > 1 ? (gpu.fingerprint ? gpu.fingerprint : programFingerprint(program)) : 0;
+    const std::uint32_t wg = o.workgroupSize;
+    // Tile t's vertex kernel: pruned to its box where the generator takes the pruned program,
+    // else the whole program's code with the tiled shader.
+    auto tileCodegen = [this](std::size_t t) {
+      CodegenOptions c = gpu.codegen;
+      c.region = tiles[t].region;
+      return c;
+    };
+    std::vector<char> ownTile(tiles.size());
+    for (std::size_t t = 0; t < tiles.size(); ++t) ownTile[t] = specialiseTile(program, tiles[t].region, gpu.codegen.loops);
+    auto ownTileKernel = [ownTile](std::size_t t) { return ownTile[t] != 0; };
+    // Runs on the vertex kernels' thread, after this constructor: the program is gpu's copy.
+    auto buildVertexTile = [this, print, tiledVertexShader, wg, traversal, ownTileKernel,
+                            tileCodegen](std::size_t t) -> KernelPtr {
+      if (!ownTileKernel(t)) return evaluatorKernel(device, gpu, tiledVertexShader, wg, traversal);
+      return specialisedKernel(device, *gpu.specialised, print, tileCodegen(t), tiledVertexShader, wg);
+    };
+    // The vertex kernels this job runs when they are generated: the whole program's, or every tile's.
+    auto vertexKernelsBuilt = [&] {
+      if (!tiledVertices) return specialisedKernelBuilt(device, gpu.fingerprint, gpu.codegen, vertexShader, wg);
+      for (std::size_t t = 0; t < tiles.size(); ++t) {
+        const bool own = ownTileKernel(t);
+        if (!specialisedKernelBuilt(device, own ? print : gpu.fingerprint, own ? tileCodegen(t) : gpu.codegen,
+                                    tiledVertexShader, wg))
+          return false;
+      }
+      return true;
+    };
+    // Background builds of the generated vertex kernels are known by this key.
+    std::string backgroundKey = std::string(tiledVertices ? tiledVertexShader : vertexShader) + ":" +
+                                std::to_string(evaluatorFingerprint(gpu.fingerprint, gpu.codegen)) + ":" +
+                                std::to_string(o.workgroupSize);
+    if (tiledVertices) {
+      for (std::size_t t = 0; t < tiles.size(); ++t)
+        backgroundKey.append(":").append(std::to_string(evaluatorFingerprint(print, tileCodegen(t))));
+    }
     // The kernels this job builds before its first submit, on every core at once
     // (concurrent_builds.h): the vertex kernel, unless it builds on a thread of its own, and the
     // field kernel of each tile.
     std::vector<std::function<KernelPtr()>> builds;
-    const std::uint32_t wg = o.workgroupSize;
-    if (generated && o.interpretVertexPassUntilBuilt &&
-        !specialisedKernelBuilt(device, gpu.fingerprint, gpu.codegen, vertexShader, wg) &&
-        !device.backgroundBuildStarted(backgroundKey)) {
+    if (generated && o.interpretVertexPassUntilBuilt && !vertexKernelsBuilt() && !device.backgroundBuildStarted(backgroundKey)) {
       // Not built, and no earlier job started it: this job interprets its vertex pass (quick to
       // create, the same bytes) and, if more jobs are expected, the generated kernel builds in
       // the background for them. A later job waits for that build (below) rather than
@@ -220,11 +265,25 @@ struct SparseBatchRunner::State {
       builds.push_back([&, vertexShader] { return evaluatorKernel(device, gpu, vertexShader, wg, Traversal::Stackless); });
       interpretedVertexPass = true;
       if (o.expectedRuns > 1) {
-        device.buildInBackground(backgroundKey, [&d = device, program = gpu.specialised, print = gpu.fingerprint,
-                                                 codegen = gpu.codegen, shader = std::string(vertexShader), wg] {
-          specialisedKernel(d, *program, print, codegen, shader, wg);
+        std::vector<CodegenOptions> codegens;  // one kernel, or one per tile with a kernel of its own
+        if (!tiledVertices) codegens.push_back(gpu.codegen);
+        for (std::size_t t = 0; tiledVertices && t < tiles.size(); ++t)
+          if (ownTileKernel(t)) codegens.push_back(tileCodegen(t));
+        device.buildInBackground(backgroundKey, [&d = device, program = gpu.specialised,
+                                                 print = tiledVertices ? print : gpu.fingerprint, codegens,
+                                                 shader = std::string(tiledVertices ? tiledVertexShader : vertexShader), wg] {
+          for (const CodegenOptions& c : codegens) specialisedKernel(d, *program, print, c, shader, wg);
         });
       }
+    } else if (tiledVertices) {
+      // The tiles' vertex kernels on a thread of their own as the one kernel below, each tile's
+      // build on every core at once (they are independent).
+      vertexTileBuild = std::async(std::launch::async, [this, buildVertexTile, backgroundKey] {
+        device.waitForBackgroundBuild(backgroundKey);  // an earlier job's: then cache hits here
+        std::vector<std::function<KernelPtr()>> tileBuilds;
+        for (std::size_t t = 0; t < tiles.size(); ++t) tileBuilds.push_back([&buildVertexTile, t] { return buildVertexTile(t); });
+        return buildConcurrently(tileBuilds);
+      });
     } else if (traversal == Traversal::Specialised) {
       vertexKernelBuild = std::async(std::launch::async, [this, vertexShader, wg, traversal, backgroundKey] {
         device.waitForBackgroundBuild(backgroundKey);  // an earlier job's: then a cache hit here
@@ -234,13 +293,10 @@ struct SparseBatchRunner::State {
       builds.push_back([&, vertexShader] { return evaluatorKernel(device, gpu, vertexShader, wg, traversal); });
     }
     const std::size_t vertexBuilds = builds.size();
-    if (traversal == Traversal::Specialised && o.maxFieldTiles > 1) tiles = planBrickTiles(program, g, bg, o.maxFieldTiles);
-    std::uint64_t print = 0;  // the tiles' kernels are named after the program's fingerprint
     if (tiles.size() <= 1) {
       tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
       builds.push_back([&] { return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal); });
     } else {
-      print = gpu.fingerprint ? gpu.fingerprint : programFingerprint(program);
       for (const BrickTile& t : tiles) {
         builds.push_back([&, region = t.region]() -> KernelPtr {
           // A program too large to specialise whole may still fit once pruned to a tile.
@@ -255,6 +311,12 @@ struct SparseBatchRunner::State {
     std::vector<KernelPtr> built = buildConcurrently(builds);
     if (vertexBuilds) vertexKernel = built.front();
     fieldKernels.assign(built.begin() + std::ptrdiff_t(vertexBuilds), built.end());
+    if (tiledVertices && !interpretedVertexPass) {
+      brickTiles = make(std::uint64_t(maxLoaded) * 4, "brick tiles");
+      tileCounters = make(tiles.size() * 8, "vertex tile counters");
+      tileArgs = device.createBuffer(tiles.size() * 32, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+      bytes += tiles.size() * 32;
+    }
     counts = device.createBuffer(16, MemoryUse::Readback);
   }
 };
@@ -326,6 +388,15 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     tileOrder.starts = {0, loaded};
   }
   device.upload(st.fieldOrder, tileOrder.order.data(), 4ull * loaded);
+  // The vertex pass per tile: each batch brick's tile, for brick_vertex_tile_counts and _lists.
+  const std::vector<KernelPtr>& vertexTiles = st.vertexTiles();
+  s.vertexTiles = std::uint32_t(vertexTiles.size());
+  if (!vertexTiles.empty()) {
+    st.batchTiles.resize(loaded);
+    for (std::uint32_t t = 0; t + 1 < tileOrder.starts.size(); ++t)
+      for (std::uint32_t i = tileOrder.starts[t]; i < tileOrder.starts[t + 1]; ++i) st.batchTiles[tileOrder.order[i]] = t;
+    device.upload(st.brickTiles, st.batchTiles.data(), 4ull * loaded);
+  }
   auto submit = [&](const std::function<void(Recorder&)>& record) {
     device.run(record);
     ++s.submits;
@@ -420,6 +491,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   Buffer indices = make(triangleQuads * 4 * cornerBytes, "triangle indices");
   Buffer vertexSources = make(std::uint64_t(vertices) * 8, "vertex sources");
   Buffer triangleSources = make(triangleQuads * 4 * 8, "triangle sources");
+  Buffer tileVertices = vertexTiles.empty() ? Buffer{} : make(std::uint64_t(vertices) * 4, "vertex tile lists");
   // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
   static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
   auto append = [](auto& vec, std::uint64_t count) {
@@ -479,10 +551,36 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
              std::uint32_t(st.grid.cells.x + 1),
              std::uint32_t(st.grid.cells.y + 1),
              std::uint32_t(st.fieldTailBase)};
-      const BufferRange bind[12] = {pb[0],    pb[1],          pb[2],         pb[3],     pb[4],   st.field,
-                                    st.batchBricks, vertexSources, positions, normals, colours, keys};
+      const BufferRange bind[14] = {pb[0],          pb[1],         pb[2],     pb[3],   pb[4],   st.field,     st.batchBricks,
+                                    vertexSources, positions, normals, colours, keys, tileVertices, st.tileArgs};
       const Groups g = groupsFor(vertices, wg);
-      rec.dispatch(*vertexKernel, bind, &push, sizeof(push), g.x, g.y);
+      if (vertexTiles.empty()) {
+        rec.dispatch(*vertexKernel, std::span(bind, 12), &push, sizeof(push), g.x, g.y);
+      } else {
+        // Each vertex listed under its brick's tile (counts, runs, lists), then each tile's
+        // vertices by its pruned kernel, dispatched with the counts left on the device.
+        const std::uint32_t tileCount = std::uint32_t(st.tiles.size());
+        rec.fill(st.tileCounters, 0);
+        rec.computeBarrier();
+        const std::uint32_t listPush[2] = {vertices, tileCount};
+        const BufferRange listBind[4] = {vertexSources, st.brickTiles, st.tileCounters, tileVertices};
+        rec.dispatch(*device.kernel("brick_vertex_tile_counts", wgSpec), std::span(listBind, 3), listPush, 4, g.x, g.y);
+        rec.computeBarrier();
+        const std::uint32_t argsPush[2] = {tileCount, wg};
+        const BufferRange argsBind[2] = {st.tileCounters, st.tileArgs};
+        rec.dispatch(*device.kernel("brick_vertex_tile_args", {}), argsBind, argsPush, sizeof(argsPush), 1);
+        rec.computeBarrier();
+        rec.dispatch(*device.kernel("brick_vertex_tile_lists", wgSpec), listBind, listPush, sizeof(listPush), g.x, g.y);
+        rec.computeBarrier();
+        struct {
+          decltype(push) vertex;
+          std::uint32_t tile;
+        } tilePush{push, 0};
+        for (std::uint32_t t = 0; t < tileCount; ++t) {
+          tilePush.tile = t;
+          rec.dispatchIndirect(*vertexTiles[t], bind, &tilePush, sizeof(tilePush), st.tileArgs, 32ull * t);
+        }
+      }
     }
     st.timer.mark(rec, mark + 6);
     if (triangles && cornerKeys) {
