@@ -133,11 +133,7 @@ TEST_F(VulkanTest, FieldTilesGiveTheBytesOfOneKernel) {
       const auto m = vk::polygonize(device(), sc.program, sc.grid, o, &st);
       const std::string what = std::string(name) + ", batches of " + std::to_string(batchBricks) + " bricks";
       EXPECT_GT(st.fieldTiles, 1u) << what;
-      EXPECT_TRUE(sameBytes(m.positions, one.positions)) << what;
-      EXPECT_TRUE(sameBytes(m.normals, one.normals)) << what;
-      EXPECT_TRUE(sameBytes(m.colours, one.colours)) << what;
-      EXPECT_TRUE(sameBytes(m.edgeKeys, one.edgeKeys)) << what;
-      EXPECT_TRUE(sameBytes(m.triangles, one.triangles)) << what;
+      expectSameBytes(m, one, what);
     }
   }
 }

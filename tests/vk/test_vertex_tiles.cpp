@@ -46,14 +46,6 @@ std::vector<Case> cases() {
   return out;
 }
 
-void expectSameBytes(const mesh::TriMesh& m, const mesh::TriMesh& one, const std::string& what) {
-  EXPECT_TRUE(sameBytes(m.positions, one.positions)) << what;
-  EXPECT_TRUE(sameBytes(m.normals, one.normals)) << what;
-  EXPECT_TRUE(sameBytes(m.colours, one.colours)) << what;
-  EXPECT_TRUE(sameBytes(m.edgeKeys, one.edgeKeys)) << what;
-  EXPECT_TRUE(sameBytes(m.triangles, one.triangles)) << what;
-}
-
 // Tiled against untiled and the CPU reference, in one batch and in batches of a few bricks (each
 // batch lists its own vertices by tile), without and with refinement steps (the kernel with the
 // sample loop, whose field evaluations are pruned by primitive boxes too).
