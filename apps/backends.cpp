@@ -121,6 +121,7 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {
   options.sparse = !settings.dense;
   options.tiledVertexPass = settings.tiledVertices;
   options.sparseVertexTiles = settings.vertexTiles;
+  options.brickTapes = settings.brickTapes;
   if (settings.batchesPerDevice > 0) options.batchesPerDevice = std::uint32_t(settings.batchesPerDevice);
   options.expectedRuns = std::uint32_t(std::max(settings.expectedRuns, 1));
   return options;
@@ -133,7 +134,8 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.traversal == vk::Traversal::Auto ? std::string() : std::string(vk::traversalName(gpu.traversal)),
           gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds,
           gpu.edgesSeconds, gpu.scansSeconds, gpu.sourcesSeconds, gpu.verticesSeconds, gpu.trianglesSeconds,
-          gpu.fieldTiles, gpu.vertexTiles, gpu.generatedClassification};
+          gpu.fieldTiles, gpu.vertexTiles, gpu.generatedClassification, gpu.tapeInstructions, gpu.tapeWords,
+          gpu.tapeSeconds};
 }
 
 void checkValidation(const std::vector<vk::StandaloneContext*>& contexts, std::uint64_t messagesBefore) {

@@ -56,6 +56,7 @@ struct PolygonizeSettings {
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too
   // vk sparse, specialised with field tiles: the vertex pass per tile of bricks too.
   bool vertexTiles = false;
+  bool brickTapes = false;      // vk sparse: the field pass per brick, the program pruned to each brick
   int expectedRuns = 1;         // vk: runs of this job the caller makes (bench: warm-up + repeats)
   // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads; vk streamed:
   // after each batch of brick layers.
@@ -89,6 +90,10 @@ struct PolygonizeStats {
     std::uint64_t fieldTiles = 0;  // field kernels of the sparse extraction (pruned per tile of bricks)
     std::uint64_t vertexTiles = 0;  // its vertex kernels (0: one, unpruned)
     bool generatedClassification = false;  // the bricks classified by generated code (vk/extract/classify_kernel.h)
+    // Per-brick tapes (vk/extract/brick_tapes.h): instructions run per point summed over the
+    // bricks, instructions stored, host seconds building them (0 without tapes).
+    std::uint64_t tapeInstructions = 0, tapeWords = 0;
+    double tapeSeconds = 0.0;
   } gpu;
 };
 

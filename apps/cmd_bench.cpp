@@ -49,6 +49,7 @@ void addBenchCommand(CLI::App& app) {
     bool dense = false;
     bool tiledVertices = false;
     bool vertexTiles = false;
+    bool brickTapes = false;
     std::string device;
     std::vector<std::string> deviceLists{""};
     std::vector<std::string> traversals{"auto"};
@@ -90,6 +91,8 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--vertex-tiles", a->vertexTiles,
                 "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (slower to start; "
                 "the same mesh)");
+  cmd->add_flag("--brick-tapes", a->brickTapes,
+                "vk sparse: the field pass interprets, per brick, the program pruned to the brick (the same mesh)");
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a] {
     std::vector<Row> rows;
@@ -124,6 +127,7 @@ void addBenchCommand(CLI::App& app) {
             settings.dense = a->dense;
             settings.tiledVertices = a->tiledVertices;
             settings.vertexTiles = a->vertexTiles;
+            settings.brickTapes = a->brickTapes;
             settings.expectedRuns = a->warmup + a->repeats;
             // Repeats mesh again with one polygonizer into the last mesh's arrays, as a host
             // re-meshing does; the first run (first_s) pays for allocation and page faults.
@@ -177,6 +181,8 @@ void addBenchCommand(CLI::App& app) {
                     {"batches", r.gpu.batches}, {"devices", r.gpu.devices},
                     {"bricks", r.gpu.bricks}, {"active_bricks", r.gpu.activeBricks},
                     {"brick_cells", r.gpu.brickCells}, {"field_tiles", r.gpu.fieldTiles}, {"vertex_tiles", r.gpu.vertexTiles},
+                    {"tape_instructions", r.gpu.tapeInstructions}, {"tape_words", r.gpu.tapeWords},
+                    {"tape_s", r.gpu.tapeSeconds},
                     {"generated_classification", r.gpu.generatedClassification}, {"device_bytes", r.gpu.deviceBytes},
                     {"extraction_passes_s", {{"edges", r.gpu.edges}, {"scans", r.gpu.scans},
                                              {"sources", r.gpu.sources}, {"vertices", r.gpu.vertices},

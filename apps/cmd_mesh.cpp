@@ -36,6 +36,7 @@ nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
   return {{"batches", gpu.batches}, {"active_bricks", gpu.activeBricks}, {"device_bytes", gpu.deviceBytes},
           {"devices", gpu.devices}, {"evaluator", gpu.evaluator}, {"generated_gradient", gpu.vertexGradient},
           {"brick_cells", gpu.brickCells}, {"field_tiles", gpu.fieldTiles}, {"vertex_tiles", gpu.vertexTiles},
+          {"tape_instructions", gpu.tapeInstructions},
           {"generated_classification", gpu.generatedClassification}};
 }
 }  // namespace
@@ -98,6 +99,8 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_flag("--vertex-tiles", a->settings.vertexTiles,
                 "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (slower to start; "
                 "the same mesh)");
+  cmd->add_flag("--brick-tapes", a->settings.brickTapes,
+                "vk sparse: the field pass interprets, per brick, the program pruned to the brick (the same mesh)");
   cmd->add_option("--max-memory", a->maxMemory,
                   "Memory budget (e.g. 2G; default: available): a cpu or vk job whose mesh may not fit is streamed to the file layer by layer");
   cmd->add_flag("--stream", a->stream,

@@ -20,7 +20,7 @@ precise float EVAL_NAME(EVAL_PARAMS) {
   vec3 pts[MAX_POINT_REGISTERS];  // only read when the program has warps
   pts[0] = p;
   uint resume = 0u;  // this lane skips the instructions before `resume`
-  for (uint pc = 0u; pc < n; ++pc) {
+  for (uint pc = EVAL_CODE_BEGIN; pc < n; ++pc) {
     uvec4 in_ = programCode[pc].code;
     uint op = in_.x & 0xffu;
     uint dst = in_.x >> 8;

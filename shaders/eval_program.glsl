@@ -26,6 +26,16 @@
 
 #extension GL_KHR_shader_subgroup_vote : require
 
+// Where the code starts: 0, or with EVAL_TAPES the first instruction of the tape the kernel set in
+// evalTapeBegin (per-brick tapes, vk/eval/region_tape.h; the `n` the evaluators take is then the
+// tape's end). It must be the same across a subgroup (the instruction counter is uniform).
+#ifdef EVAL_TAPES
+uint evalTapeBegin = 0u;
+#define EVAL_CODE_BEGIN evalTapeBegin
+#else
+#define EVAL_CODE_BEGIN 0u
+#endif
+
 #include "program_layout.h"
 
 layout(constant_id = 1) const uint TRAVERSAL = 0u;  // 0 stackless, 1 stack-based

@@ -2,6 +2,7 @@
 
 #include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/eval/region_tape.h"
 #include "blobvk/vk/eval/spirv_cache.h"
 #include "blobvk/vk/eval/stack_program.h"
 
@@ -90,7 +91,10 @@ GpuProgram uploadProgram(Device& device, const blobtree::Program& program, Trave
   }
   g.primitives = uploadArray(device, program.primitives);
   g.matrices = uploadArray(device, program.matrices);
-  g.boxes = uploadArray(device, program.boxes);
+  std::vector<layout::BoxRecord> boxes = program.boxes;
+  g.emptyBox = std::uint32_t(boxes.size());
+  boxes.push_back(emptySkipBox());
+  g.boxes = uploadArray(device, boxes);
   g.warps = uploadArray(device, program.warps);
   return g;
 }

@@ -42,6 +42,9 @@ struct GpuProgram {
   CodegenOptions codegen;
   std::shared_ptr<const blobtree::Program> specialised;
   std::uint64_t fingerprint = 0;  // programFingerprint of the uploaded program (Specialised)
+  // The box record after the program's that holds no point (region_tape.h, emptySkipBox): the
+  // "write 0" of per-brick tapes tests it.
+  std::uint32_t emptyBox = 0;
 
   // Specialization constants 0-5 of every kernel that includes eval_program.glsl.
   std::array<std::uint32_t, 6> specs(std::uint32_t workgroupSize, Traversal traversal) const {

@@ -262,6 +262,9 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     s.trianglesSeconds += share.trianglesSeconds;
     s.verticesSeconds += share.verticesSeconds;
     s.readbackSeconds += share.readbackSeconds;
+    s.tapeInstructions += share.tapeInstructions;
+    s.tapeWords += share.tapeWords;
+    s.tapeSeconds += share.tapeSeconds;
     s.deviceBytes = std::max(s.deviceBytes, share.deviceBytes);
   }
   s.seconds = since(wallStart);

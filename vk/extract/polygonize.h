@@ -80,6 +80,10 @@ struct GpuPolygonizeOptions {
   bool interpretVertexPassUntilBuilt = false;
   // Sparse: the classification's kernel; every choice gives the same flags.
   ClassifyCode classifyCode = ClassifyCode::Auto;
+  // Sparse: the field pass interprets, per brick, the program pruned to the brick on the host
+  // (vk/extract/brick_tapes.h) instead of the traversal's field kernel or field tiles; the vertex
+  // pass keeps the traversal's kernel. The same mesh byte for byte.
+  bool brickTapes = false;
 };
 
 struct GpuStats {
@@ -110,6 +114,9 @@ struct GpuStats {
   std::uint64_t deviceBytes = 0;   // sparse: device memory of the extraction's buffers
   std::uint32_t fieldTiles = 0;        // field and vertex passes run per tile (vk/eval/field_tiles.h)
   std::uint32_t vertexTiles = 0;       // sparse: vertex kernels pruned per field tile (0: one kernel)
+  std::uint64_t tapeInstructions = 0;  // sparse, brick tapes: sum of the bricks' tape lengths
+  std::uint64_t tapeWords = 0;         // ... instructions stored (equal tapes once)
+  double tapeSeconds = 0.0;            // ... host time building them
   std::uint64_t fieldEvaluations = 0;  // grid samples (normals/colours/refinement excluded)
   // Sparse: the evaluator the batches ran, and on CPU drivers what the cost model
   // (vk/eval/evaluator_choice.h) predicted for it (seconds; < 0 where it made no prediction).

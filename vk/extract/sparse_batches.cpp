@@ -5,6 +5,7 @@
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/gpu_program.h"
+#include "blobvk/vk/extract/brick_tapes.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/host_copy.h"
@@ -168,7 +169,13 @@ struct SparseBatchRunner::State {
     if (vertexTileBuild.valid()) vertexTileKernels = vertexTileBuild.get();
     return vertexTileKernels;
   }
-  std::vector<std::uint32_t> batchPacked;  // host copy of a batch's brick list (tiles only)
+  std::vector<std::uint32_t> batchPacked;  // host copy of a batch's brick list (tiles, tapes)
+  // Per-brick tapes (GpuPolygonizeOptions::brickTapes): the program the tapes are pruned from, the
+  // batch's tapes on the host and on the device (grown as batches need), each brick's range.
+  const blobtree::Program* tapeProgram = nullptr;
+  BrickTapes tapes;
+  Buffer tapeCode, tapeRanges;
+  std::uint64_t tapeCodeCapacity = 0;
   DeviceTimer timer;
   std::uint32_t runs = 0, maxBatches = 0;
 
@@ -211,7 +218,8 @@ struct SparseBatchRunner::State {
     const char* vertexShader = samples ? "brick_vertices" : "brick_vertices_direct";
     const char* tiledVertexShader = samples ? "brick_vertices_tiled" : "brick_vertices_direct_tiled";
     const bool generated = traversal == Traversal::Specialised && gpu.specialised && gpu.codegen.gradient;
-    if (traversal == Traversal::Specialised && o.maxFieldTiles > 1) tiles = planBrickTiles(program, g, bg, o.maxFieldTiles);
+    if (traversal == Traversal::Specialised && o.maxFieldTiles > 1 && !o.brickTapes)
+      tiles = planBrickTiles(program, g, bg, o.maxFieldTiles);
     // The vertex pass per field tile: only with the generated gradient (an interpreted one gains
     // nothing from a pruned field) and more than one tile.
     const bool tiledVertices =
@@ -293,7 +301,18 @@ struct SparseBatchRunner::State {
       builds.push_back([&, vertexShader] { return evaluatorKernel(device, gpu, vertexShader, wg, traversal); });
     }
     const std::size_t vertexBuilds = builds.size();
-    if (tiles.size() <= 1) {
+    if (o.brickTapes) {
+      // The interpreter over tapes, whatever the traversal: a tape's "write 0" is a skip on the
+      // empty box, so the kernel keeps the skip case even where the program has none.
+      tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
+      tapeProgram = &program;
+      tapeRanges = make(std::uint64_t(maxLoaded) * 8, "brick tape ranges");
+      builds.push_back([&] {
+        std::array<std::uint32_t, 6> specs = gpu.specs(fieldGroupSize, Traversal::Stackless);
+        specs[3] |= 1u << layout::OP_SKIP;
+        return device.kernel("brick_field_tapes", specs);
+      });
+    } else if (tiles.size() <= 1) {
       tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
       builds.push_back([&] { return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal); });
     } else {
@@ -388,6 +407,25 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     tileOrder.starts = {0, loaded};
   }
   device.upload(st.fieldOrder, tileOrder.order.data(), 4ull * loaded);
+  if (st.tapeProgram) {
+    const auto tapesStart = Clock::now();
+    st.batchPacked.resize(loaded);
+    device.download(window->list, st.batchPacked.data(), 4ull * loaded, 4ull * windowActive);
+    buildBrickTapes(*st.tapeProgram, st.grid, bg, st.batchPacked, gpu.emptyBox, st.tapes);
+    const std::uint64_t codeBytes = std::max<std::uint64_t>(st.tapes.code.size(), 1) * sizeof(layout::Instruction);
+    if (codeBytes > st.tapeCodeCapacity) {  // the last batch's submits have completed (device.run waits)
+      const std::uint64_t capacity = std::max(codeBytes, st.tapeCodeCapacity * 3 / 2);
+      st.bytes -= st.tapeCodeCapacity;
+      st.tapeCode = Buffer();
+      st.tapeCode = makeSparseBuffer(device, capacity, "brick tapes", st.bytes);
+      st.tapeCodeCapacity = std::max<std::uint64_t>(capacity, 16);
+    }
+    device.upload(st.tapeCode, st.tapes.code.data(), st.tapes.code.size() * sizeof(layout::Instruction));
+    device.upload(st.tapeRanges, st.tapes.ranges.data(), 4ull * st.tapes.ranges.size());
+    s.tapeInstructions += st.tapes.instructions;
+    s.tapeWords += st.tapes.code.size();
+    s.tapeSeconds += std::chrono::duration<double>(Clock::now() - tapesStart).count();
+  }
   // The vertex pass per tile: each batch brick's tile, for brick_vertex_tile_counts and _lists.
   const std::vector<KernelPtr>& vertexTiles = st.vertexTiles();
   s.vertexTiles = std::uint32_t(vertexTiles.size());
@@ -427,10 +465,16 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
              bg.x,
              bg.y};
       // Bindings 6 and 9: the samples' runs (vec4) and their tail (float), one buffer.
-      const BufferRange bind[10] = {pb[0],    pb[1],          pb[2], pb[3], pb[4], st.batchBricks, st.field, st.masks,
-                                    st.fieldOrder, st.field};
       const std::uint32_t groups = (R * R + st.fieldGroupSize - 1) / st.fieldGroupSize;
       const BrickGroups tg = brickGroups(count);
+      if (st.tapeProgram) {  // binding 0: the tapes in place of the program's code
+        const BufferRange bind[11] = {st.tapeCode,    pb[1],    pb[2],    pb[3],         pb[4],   st.batchBricks,
+                                      st.field,       st.masks, st.fieldOrder, st.field, st.tapeRanges};
+        rec.dispatch(*st.fieldKernels[t], bind, &push, sizeof(push), groups, tg.y, tg.z);
+        continue;
+      }
+      const BufferRange bind[10] = {pb[0],    pb[1],          pb[2], pb[3], pb[4], st.batchBricks, st.field, st.masks,
+                                    st.fieldOrder, st.field};
       rec.dispatch(*st.fieldKernels[t], bind, &push, sizeof(push), groups, tg.y, tg.z);
     }
     {

@@ -1,0 +1,168 @@
+// Per-brick tapes (vk/eval/region_tape.h, vk/extract/brick_tapes.h): the program pruned on the
+// host to the points of one region. Checked against the whole program on the CPU evaluator at
+// points of the region (the tape runs as a Program with the same records plus the empty box),
+// and on the device: the sparse extraction with tapes gives the CPU reference's mesh, index by
+// index, and the bytes of the run without them.
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/gradient.h"
+#include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/eval/field_tiles.h"
+#include "blobvk/vk/eval/region_tape.h"
+#include "blobvk/vk/extract/brick_tapes.h"
+#include "blobvk/vk/extract/polygonize.h"
+#include "reference_checks.h"
+#include "shipped_scenes.h"
+#include "vk_fixture.h"
+
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace blobvk::testing {
+namespace {
+
+// The tape as a Program: the same records, the empty box appended where uploadProgram puts it.
+blobtree::Program tapeProgram(const blobtree::Program& program, std::vector<layout::Instruction> tape) {
+  blobtree::Program p = program;
+  p.code = std::move(tape);
+  p.boxes.push_back(vk::emptySkipBox());
+  return p;
+}
+
+std::vector<std::string> tapeScenes() { return {"random128", "tower", "tower_L6P8I4", "eggshell", "dice"}; }
+
+// Regions of 16 cells at random places of the scene's grid at 128 cells (and one at each
+// corner of the grid, mostly empty), with points drawn inside each, corners included.
+TEST(RegionTape, GivesTheProgramsFieldAtEveryPointOfItsRegion) {
+  std::mt19937 rng(7);
+  for (const std::string& name : tapeScenes()) {
+    const ShippedScene s = shipped(name, 128);
+    const std::uint32_t emptyBox = std::uint32_t(s.program.boxes.size());
+    std::uint64_t tapeLength = 0, programLength = 0;
+    for (int r = 0; r < 24; ++r) {
+      std::array<std::uint32_t, 3> lo{}, hi{};
+      for (int a = 0; a < 3; ++a) {
+        const std::uint32_t n = std::uint32_t(s.grid.cells[a]);
+        lo[a] = r == 0 ? 0 : std::uniform_int_distribution<std::uint32_t>(0, n > 16 ? n - 16 : 0)(rng);
+        hi[a] = lo[a] + 16;
+      }
+      const vk::PointRegion region = vk::regionOfPoints(s.grid, lo, hi);
+      for (vk::TapeUse use : {vk::TapeUse::Field, vk::TapeUse::Exact}) {
+        std::vector<layout::Instruction> tape;
+        const std::uint32_t length = vk::appendRegionTape(s.program.code, s.program, region, emptyBox, use, tape);
+        ASSERT_EQ(length, tape.size());
+        // A tape of a tape is the same tape (the walk keeps nothing it could prune again).
+        std::vector<layout::Instruction> again;
+        vk::appendRegionTape(tape, s.program, region, emptyBox, use, again);
+        EXPECT_EQ(again.size(), tape.size()) << name;
+        if (use == vk::TapeUse::Field) {
+          tapeLength += tape.size();
+          programLength += s.program.code.size();
+        }
+        const blobtree::Program t = tapeProgram(s.program, tape);
+        for (int k = 0; k < 64; ++k) {
+          glm::vec3 p;
+          for (int a = 0; a < 3; ++a) {
+            // Grid points (what the field pass evaluates) and points between them (the vertex pass).
+            const float i = k < 8 ? float((k >> a & 1) ? hi[a] : lo[a])
+                                  : std::uniform_real_distribution<float>(float(lo[a]), float(hi[a]))(rng);
+            p[a] = s.grid.origin[a] + s.grid.cellSize * (k < 32 ? std::round(i) : i);
+          }
+          const std::string what = name + " region " + std::to_string(r) + " point " + std::to_string(k);
+          if (use == vk::TapeUse::Field) {
+            EXPECT_EQ(blobtree::evaluate(t, p), blobtree::evaluate(s.program, p)) << what;
+          } else {  // bit for bit: field, colour and gradient
+            const auto a = blobtree::evaluateWithColour(t, p), b = blobtree::evaluateWithColour(s.program, p);
+            EXPECT_EQ(std::bit_cast<std::uint32_t>(a.field), std::bit_cast<std::uint32_t>(b.field)) << what;
+            for (int c = 0; c < 3; ++c)
+              EXPECT_EQ(std::bit_cast<std::uint32_t>(a.colour[c]), std::bit_cast<std::uint32_t>(b.colour[c])) << what;
+            const auto ga = blobtree::evaluateGradientColour(t, p), gb = blobtree::evaluateGradientColour(s.program, p);
+            for (int c = 0; c < 3; ++c)
+              EXPECT_EQ(std::bit_cast<std::uint32_t>(ga.gradient[c]), std::bit_cast<std::uint32_t>(gb.gradient[c]))
+                  << what;
+          }
+        }
+      }
+    }
+    // What the tapes are for: in a scene of many primitives, a region of 16 cells runs a fraction
+    // of the program (eggshell and dice are a few primitives all near every region).
+    if (name == "random128" || name == "tower" || name == "tower_L6P8I4") {
+      EXPECT_LT(tapeLength * 4, programLength) << name << ": tapes of " << tapeLength << " instructions";
+    }
+  }
+}
+
+// A skip whose box misses the region leaves one "write 0" (its subtree gone); a skip whose box
+// holds the region leaves its subtree without the test; a missing primitive added to another
+// goes with its addition (field tapes only).
+TEST(RegionTape, PrunesSubtreesSkipsAndAddedZeros) {
+  const ShippedScene s = shipped("random128", 128);
+  const std::uint32_t emptyBox = std::uint32_t(s.program.boxes.size());
+  vk::PointRegion far;  // beyond every primitive
+  far.valid = true;
+  for (int a = 0; a < 3; ++a) far.lo[a] = far.hi[a] = 1000.0f;
+  std::vector<layout::Instruction> tape;
+  ASSERT_EQ(vk::appendRegionTape(s.program.code, s.program, far, emptyBox, vk::TapeUse::Field, tape), 1u);
+  EXPECT_EQ(tape[0].code.x & 0xffu, layout::OP_SKIP);
+  EXPECT_EQ(tape[0].code.y, emptyBox);
+  EXPECT_EQ(tape[0].code.w, 1u);
+  // The whole grid: nothing to prune but the root skip, whose box holds every grid point.
+  vk::PointRegion all;
+  all.valid = true;
+  for (int a = 0; a < 3; ++a) {
+    all.lo[a] = s.program.bounds.lo[a] + 0.01f;
+    all.hi[a] = s.program.bounds.hi[a] - 0.01f;
+  }
+  tape.clear();
+  vk::appendRegionTape(s.program.code, s.program, all, emptyBox, vk::TapeUse::Exact, tape);
+  EXPECT_EQ(tape.size(), s.program.code.size() - 1);
+}
+
+// The device: with tapes, the mesh of every case is the CPU reference's and the bytes of the
+// whole program's field pass, in one batch and in batches of a few bricks.
+TEST_F(VulkanTest, BrickTapesGiveTheMeshOfTheWholeProgram) {
+  struct Case {
+    std::string what;
+    blobtree::Program program;
+    blobtree::GridSpec grid;
+  };
+  std::vector<Case> cases;
+  for (const char* name : {"random128", "tower", "tower_L6P8I4", "dice", "craniotomy"}) {
+    ShippedScene s = shipped(name, name == std::string("tower_L6P8I4") ? 40 : 48);
+    cases.push_back({name, std::move(s.program), s.grid});
+  }
+  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/legacy/tower_fragment.blob");
+  Case legacy{"tower_fragment.blob", blobtree::compile(scene.root), {}};
+  blobtree::GridRequest request;
+  request.resolution = 64;
+  legacy.grid = blobtree::chooseGrid(legacy.program, scene.grid, request);
+  cases.push_back(std::move(legacy));
+  for (const Case& c : cases) {
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Stackless;
+    o.brickCells = 8;
+    const mesh::TriMesh whole = vk::polygonize(device(), c.program, c.grid, o);
+    expectSameMeshAsReference(whole, cpu::polygonizeReference(c.program, c.grid, {}), 1e-4f * c.grid.cellSize, c.what);
+    o.brickTapes = true;
+    for (std::uint32_t batchBricks : {0u, 9u}) {
+      o.maxBatchBricks = batchBricks;
+      vk::GpuStats st;
+      const mesh::TriMesh m = vk::polygonize(device(), c.program, c.grid, o, &st);
+      const std::string what = c.what + ", batches of " + std::to_string(batchBricks) + " bricks";
+      EXPECT_GT(st.tapeInstructions, 0u) << what;
+      // One batch: each active brick's tape counted once; a scene of many primitives runs a fraction.
+      if (batchBricks == 0 && (c.what == "random128" || c.what == "tower" || c.what == "tower_L6P8I4")) {
+        EXPECT_LT(st.tapeInstructions * 2, std::uint64_t(st.activeBricks) * c.program.code.size()) << what;
+      }
+      expectSameBytes(m, whole, what);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace blobvk::testing
