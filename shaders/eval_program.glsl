@@ -44,6 +44,16 @@ layout(constant_id = 2) const uint FIELD_REGS = 32u;
 
 #include "eval_registers.glsl"
 
+#ifdef EVAL_RECORDS_UNIFORM
+// The code and records in uniform blocks of 64 KB (the host binds ranges of that size): llvmpipe
+// reads a uniform block with a vector gather, a storage buffer with a loop over the lanes with a
+// branch per lane and component (per-brick tapes, whose code and records fit: brick_tapes.h).
+layout(std140, set = PROGRAM_SET, binding = PROGRAM_BINDING + 0) uniform ProgramCode { Instruction programCode[4096]; };
+layout(std140, set = PROGRAM_SET, binding = PROGRAM_BINDING + 1) uniform ProgramPrims { PrimitiveRecord programPrims[1024]; };
+layout(std140, set = PROGRAM_SET, binding = PROGRAM_BINDING + 2) uniform ProgramMatrices { MatrixRecord programMatrices[1365]; };
+layout(std140, set = PROGRAM_SET, binding = PROGRAM_BINDING + 3) uniform ProgramBoxes { BoxRecord programBoxes[2048]; };
+layout(std140, set = PROGRAM_SET, binding = PROGRAM_BINDING + 4) uniform ProgramWarps { WarpRecord programWarps[2048]; };
+#else
 layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 0) readonly buffer ProgramCode {
   Instruction programCode[];
 };
@@ -59,6 +69,8 @@ layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 3) readonly buffer
 layout(std430, set = PROGRAM_SET, binding = PROGRAM_BINDING + 4) readonly buffer ProgramWarps {
   WarpRecord programWarps[];
 };
+
+#endif
 
 #include "eval_formulas.glsl"
 

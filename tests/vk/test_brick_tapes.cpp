@@ -123,6 +123,61 @@ TEST(RegionTape, PrunesSubtreesSkipsAndAddedZeros) {
   EXPECT_EQ(tape.size(), s.program.code.size() - 1);
 }
 
+// Windows of uniform blocks: each brick's tape, run with its window's renumbered records, gives
+// the program's field at the brick's points; tower_L6P8I4's records (2,400 primitives) are over a
+// block, so they only fit once pruned, and its bricks take several windows.
+TEST(UniformTapes, EachWindowsRecordsGiveTheProgramsFieldInItsBricks) {
+  const ShippedScene s = shipped("tower_L6P8I4", 96);
+  vk::BrickGrid bg;
+  bg.log2B = 3;
+  bg.x = std::uint32_t(s.grid.cells.x + 7) / 8;
+  bg.y = std::uint32_t(s.grid.cells.y + 7) / 8;
+  bg.z = std::uint32_t(s.grid.cells.z + 7) / 8;
+  std::vector<std::uint32_t> bricks;
+  for (std::uint32_t z = 0; z < bg.z; ++z)
+    for (std::uint32_t y = 0; y < bg.y; ++y)
+      for (std::uint32_t x = 0; x < bg.x; ++x)
+        if ((x + 3 * y + 5 * z) % 4 == 0) bricks.push_back(bg.pack({x, y, z}));
+  vk::UniformTapes u;
+  ASSERT_TRUE(vk::buildUniformTapes(s.program, s.grid, bg, bricks, u));
+  ASSERT_GT(u.windows.size(), 1u);
+  EXPECT_EQ(u.windows.front().firstBrick, 0u);
+  EXPECT_EQ(u.windows.back().endBrick, bricks.size());
+  std::mt19937 rng(3);
+  for (std::size_t w = 0; w < u.windows.size(); ++w) {
+    EXPECT_LT(u.windows[w].firstBrick, u.windows[w].endBrick);
+    if (w + 1 < u.windows.size()) {
+      EXPECT_EQ(u.windows[w].endBrick, u.windows[w + 1].firstBrick);
+    }
+    blobtree::Program local = s.program;
+    auto block = [w](const auto& all, std::size_t n) {
+      return std::vector(all.begin() + std::ptrdiff_t(w * n), all.begin() + std::ptrdiff_t((w + 1) * n));
+    };
+    local.primitives = block(u.primitives, vk::kUniformTapePrims);
+    local.matrices = block(u.matrices, vk::kUniformTapeMatrices);
+    local.boxes = block(u.boxes, vk::kUniformTapeBoxes);
+    local.warps = block(u.warps, vk::kUniformTapeWarps);
+    const std::vector<layout::Instruction> code = block(u.code, vk::kUniformTapeCode);
+    for (std::uint32_t a = u.windows[w].firstBrick; a < u.windows[w].endBrick; a += 7) {
+      const std::uint32_t begin = u.ranges[2 * a], end = u.ranges[2 * a + 1];
+      ASSERT_LE(end, vk::kUniformTapeCode);
+      // The tape with its skip targets counted from its first instruction, as a Program.
+      local.code.assign(code.begin() + begin, code.begin() + end);
+      for (layout::Instruction& in : local.code)
+        if ((in.code.x & 0xffu) == layout::OP_SKIP) in.code.w -= begin;
+      const std::array<std::uint32_t, 3> b = bg.unpack(bricks[a]);
+      for (int k = 0; k < 12; ++k) {
+        glm::vec3 p;
+        for (int i = 0; i < 3; ++i) {
+          const std::uint32_t step = k < 8 ? ((k >> i & 1) ? 8u : 0u) : std::uniform_int_distribution<std::uint32_t>(0, 8)(rng);
+          p[i] = s.grid.origin[i] + s.grid.cellSize * float(b[i] * 8 + step);
+        }
+        EXPECT_EQ(blobtree::evaluate(local, p), blobtree::evaluate(s.program, p)) << "window " << w << " brick " << a;
+      }
+    }
+  }
+}
+
 // The device: with tapes, the mesh of every case is the CPU reference's and the bytes of the
 // whole program's field pass, in one batch and in batches of a few bricks.
 TEST_F(VulkanTest, BrickTapesGiveTheMeshOfTheWholeProgram) {
@@ -149,11 +204,14 @@ TEST_F(VulkanTest, BrickTapesGiveTheMeshOfTheWholeProgram) {
     const mesh::TriMesh whole = vk::polygonize(device(), c.program, c.grid, o);
     expectSameMeshAsReference(whole, cpu::polygonizeReference(c.program, c.grid, {}), 1e-4f * c.grid.cellSize, c.what);
     o.brickTapes = true;
-    for (std::uint32_t batchBricks : {0u, 9u}) {
+    for (std::uint32_t batchBricks : {0u, 9u})
+    for (bool uniforms : {true, false}) {
       o.maxBatchBricks = batchBricks;
+      o.brickTapeUniforms = uniforms;
       vk::GpuStats st;
       const mesh::TriMesh m = vk::polygonize(device(), c.program, c.grid, o, &st);
-      const std::string what = c.what + ", batches of " + std::to_string(batchBricks) + " bricks";
+      const std::string what = c.what + ", batches of " + std::to_string(batchBricks) + " bricks, " +
+                               (uniforms ? "uniform blocks" : "storage buffer");
       EXPECT_GT(st.tapeInstructions, 0u) << what;
       // One batch: each active brick's tape counted once; a scene of many primitives runs a fraction.
       if (batchBricks == 0 && (c.what == "random128" || c.what == "tower" || c.what == "tower_L6P8I4")) {

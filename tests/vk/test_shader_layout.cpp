@@ -125,10 +125,14 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
   vk::GpuPolygonizeOptions stackless;  // the sparse vertex kernel without the sample loop
   stackless.traversal = vk::Traversal::Stackless;
   EXPECT_GT(vk::polygonize(dev, program, grid, stackless).triangleCount(), 0u);
-  {  // The field pass over per-brick tapes (brick_field_tapes).
+  {  // The field pass over per-brick tapes, in uniform blocks and in a storage buffer
+     // (brick_field_tapes_uniform, brick_field_tapes).
     vk::GpuPolygonizeOptions tapes = stackless;
     tapes.brickTapes = true;
-    EXPECT_GT(vk::polygonize(dev, program, grid, tapes).triangleCount(), 0u);
+    for (bool uniforms : {true, false}) {
+      tapes.brickTapeUniforms = uniforms;
+      EXPECT_GT(vk::polygonize(dev, program, grid, tapes).triangleCount(), 0u);
+    }
   }
   {  // An edit's re-run gives its triangles' corners as edge keys (brick_triangle_keys).
     vk::GpuPolygonizeOptions small = stackless;

@@ -84,6 +84,10 @@ struct GpuPolygonizeOptions {
   // (vk/extract/brick_tapes.h) instead of the traversal's field kernel or field tiles; the vertex
   // pass keeps the traversal's kernel. The same mesh byte for byte.
   bool brickTapes = false;
+  // With brickTapes: the tapes and the records they use in uniform blocks by windows of bricks
+  // where the device's uniform range allows (vk/extract/brick_tapes.h); false: in one storage
+  // buffer beside the program's records (what a batch whose tape is over a block falls back to).
+  bool brickTapeUniforms = true;
 };
 
 struct GpuStats {

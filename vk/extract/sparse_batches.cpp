@@ -15,6 +15,7 @@
 #include <array>
 #include <bit>
 #include <chrono>
+#include <cstring>
 #include <functional>
 #include <future>
 #include <string>
@@ -176,8 +177,30 @@ struct SparseBatchRunner::State {
   BrickTapes tapes;
   Buffer tapeCode, tapeRanges;
   std::uint64_t tapeCodeCapacity = 0;
+  // The same packed for uniform blocks (brick_tapes.h, UniformTapes), where the device's uniform
+  // range allows: five buffers of a 64 KB block per window, grown as batches need.
+  bool uniformTapes = false;
+  UniformTapes windowTapes;
+  std::array<Buffer, 5> tapeBlocks;
+  std::uint64_t tapeWindowCapacity = 0;
+  std::vector<std::uint8_t> blockBytes;
+  // The storage-buffer tape kernel, for a batch whose tapes do not fit uniform blocks.
+  KernelPtr storageTapes;
+  const KernelPtr& storageTapeKernel() {
+    if (!uniformTapes) return fieldKernels.front();
+    if (!storageTapes) storageTapes = device.kernel("brick_field_tapes", tapeSpecs());
+    return storageTapes;
+  }
   DeviceTimer timer;
   std::uint32_t runs = 0, maxBatches = 0;
+
+  // The tape kernels' specialization constants: the interpreter's, with the skip case kept (a
+  // tape's "write 0" is a skip on the empty box even where the program has none).
+  std::array<std::uint32_t, 6> tapeSpecs() const {
+    std::array<std::uint32_t, 6> specs = gpu.specs(fieldGroupSize, Traversal::Stackless);
+    specs[3] |= 1u << layout::OP_SKIP;
+    return specs;
+  }
 
   State(Device& d, const blobtree::Program& program, const blobtree::GridSpec& g, const GpuPolygonizeOptions& o,
         Traversal traversal, const BrickGrid& b, std::span<const ScanWindow> w, std::uint32_t maxLoaded,
@@ -307,11 +330,8 @@ struct SparseBatchRunner::State {
       tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
       tapeProgram = &program;
       tapeRanges = make(std::uint64_t(maxLoaded) * 8, "brick tape ranges");
-      builds.push_back([&] {
-        std::array<std::uint32_t, 6> specs = gpu.specs(fieldGroupSize, Traversal::Stackless);
-        specs[3] |= 1u << layout::OP_SKIP;
-        return device.kernel("brick_field_tapes", specs);
-      });
+      uniformTapes = o.brickTapeUniforms && limits.maxUniformBufferRange >= kUniformTapeBlock;
+      builds.push_back([&] { return device.kernel(uniformTapes ? "brick_field_tapes_uniform" : "brick_field_tapes", tapeSpecs()); });
     } else if (tiles.size() <= 1) {
       tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
       builds.push_back([&] { return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal); });
@@ -407,10 +427,46 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     tileOrder.starts = {0, loaded};
   }
   device.upload(st.fieldOrder, tileOrder.order.data(), 4ull * loaded);
+  // Per-brick tapes: in uniform blocks by windows of bricks where they fit, else in one storage
+  // buffer beside the program's records.
+  bool uniformTapes = false;
+  const auto tapesStart = Clock::now();
   if (st.tapeProgram) {
-    const auto tapesStart = Clock::now();
     st.batchPacked.resize(loaded);
     device.download(window->list, st.batchPacked.data(), 4ull * loaded, 4ull * windowActive);
+    uniformTapes = st.uniformTapes && buildUniformTapes(*st.tapeProgram, st.grid, bg, st.batchPacked, st.windowTapes);
+  }
+  if (uniformTapes) {
+    const UniformTapes& u = st.windowTapes;
+    const std::uint64_t windows = u.windows.size();
+    if (windows > st.tapeWindowCapacity) {
+      st.tapeWindowCapacity = std::max<std::uint64_t>(windows, st.tapeWindowCapacity * 3 / 2);
+      for (Buffer& b : st.tapeBlocks) {
+        st.bytes -= b.size();
+        b = Buffer();
+        b = device.createBuffer(st.tapeWindowCapacity * kUniformTapeBlock, MemoryUse::DeviceLocal,
+                                VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+        st.bytes += b.size();
+      }
+    }
+    // Each window's records at the start of its 64 KB block (any uniform offset alignment).
+    auto uploadBlocks = [&](Buffer& dst, const void* records, std::size_t recordBytes, std::size_t perWindow) {
+      st.blockBytes.assign(windows * kUniformTapeBlock, 0);
+      for (std::uint64_t w = 0; w < windows; ++w)
+        std::memcpy(st.blockBytes.data() + w * kUniformTapeBlock,
+                    static_cast<const std::uint8_t*>(records) + w * perWindow * recordBytes, perWindow * recordBytes);
+      device.upload(dst, st.blockBytes.data(), st.blockBytes.size());
+    };
+    uploadBlocks(st.tapeBlocks[0], u.code.data(), sizeof(layout::Instruction), kUniformTapeCode);
+    uploadBlocks(st.tapeBlocks[1], u.primitives.data(), sizeof(layout::PrimitiveRecord), kUniformTapePrims);
+    uploadBlocks(st.tapeBlocks[2], u.matrices.data(), sizeof(layout::MatrixRecord), kUniformTapeMatrices);
+    uploadBlocks(st.tapeBlocks[3], u.boxes.data(), sizeof(layout::BoxRecord), kUniformTapeBoxes);
+    uploadBlocks(st.tapeBlocks[4], u.warps.data(), sizeof(layout::WarpRecord), kUniformTapeWarps);
+    device.upload(st.tapeRanges, u.ranges.data(), 4ull * u.ranges.size());
+    s.tapeInstructions += u.instructions;
+    s.tapeWords += windows * kUniformTapeCode;
+    s.tapeSeconds += std::chrono::duration<double>(Clock::now() - tapesStart).count();
+  } else if (st.tapeProgram) {
     buildBrickTapes(*st.tapeProgram, st.grid, bg, st.batchPacked, gpu.emptyBox, st.tapes);
     const std::uint64_t codeBytes = std::max<std::uint64_t>(st.tapes.code.size(), 1) * sizeof(layout::Instruction);
     if (codeBytes > st.tapeCodeCapacity) {  // the last batch's submits have completed (device.run waits)
@@ -467,10 +523,25 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       // Bindings 6 and 9: the samples' runs (vec4) and their tail (float), one buffer.
       const std::uint32_t groups = (R * R + st.fieldGroupSize - 1) / st.fieldGroupSize;
       const BrickGroups tg = brickGroups(count);
+      if (uniformTapes) {  // a dispatch per window of bricks, its blocks in place of the program
+        for (std::size_t w = 0; w < st.windowTapes.windows.size(); ++w) {
+          const UniformTapes::Window& win = st.windowTapes.windows[w];
+          auto block = [&](const Buffer& b) { return BufferRange(b.handle(), w * kUniformTapeBlock, kUniformTapeBlock); };
+          auto wpush = push;
+          wpush.orderBase = first + win.firstBrick;
+          wpush.activeBricks = win.endBrick - win.firstBrick;
+          const BrickGroups wg = brickGroups(wpush.activeBricks);
+          const BufferRange bind[11] = {block(st.tapeBlocks[0]), block(st.tapeBlocks[1]), block(st.tapeBlocks[2]),
+                                        block(st.tapeBlocks[3]), block(st.tapeBlocks[4]), st.batchBricks,
+                                        st.field, st.masks, st.fieldOrder, st.field, st.tapeRanges};
+          rec.dispatch(*st.fieldKernels[t], bind, &wpush, sizeof(wpush), groups, wg.y, wg.z);
+        }
+        continue;
+      }
       if (st.tapeProgram) {  // binding 0: the tapes in place of the program's code
         const BufferRange bind[11] = {st.tapeCode,    pb[1],    pb[2],    pb[3],         pb[4],   st.batchBricks,
                                       st.field,       st.masks, st.fieldOrder, st.field, st.tapeRanges};
-        rec.dispatch(*st.fieldKernels[t], bind, &push, sizeof(push), groups, tg.y, tg.z);
+        rec.dispatch(*st.storageTapeKernel(), bind, &push, sizeof(push), groups, tg.y, tg.z);
         continue;
       }
       const BufferRange bind[10] = {pb[0],    pb[1],          pb[2], pb[3], pb[4], st.batchBricks, st.field, st.masks,
