@@ -18,6 +18,7 @@
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/simd_evaluator.h"
 #include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/extract/brick_tapes.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/runtime_compiler.h"
@@ -202,6 +203,32 @@ void specialiseAndCompile(benchmark::State& state, const std::string& scene) {
   state.counters["glsl_chars"] = double(chars);
 }
 
+// Host side of per-brick tapes (vk/extract/brick_tapes.h): the tapes of every brick of 16 cells
+// of the grid (an upper bound of a job's active bricks), packed for a storage buffer or for
+// uniform blocks; counters give the instructions per brick and the windows.
+void brickTapes(benchmark::State& state, const std::string& scene, bool uniform) {
+  const Model& m = model(scene);
+  const auto grid = gridFor(m, int(state.range(0)));
+  const vk::BrickGrid bricks = vk::brickGridFor(grid, 16);
+  std::vector<std::uint32_t> packed;
+  for (std::uint32_t z = 0; z < bricks.z; ++z)
+    for (std::uint32_t y = 0; y < bricks.y; ++y)
+      for (std::uint32_t x = 0; x < bricks.x; ++x) packed.push_back(bricks.pack({x, y, z}));
+  vk::BrickTapes tapes;
+  vk::UniformTapes windows;
+  for (auto _ : state) {
+    if (uniform) {
+      if (!vk::buildUniformTapes(m.program, grid, bricks, packed, windows)) state.SkipWithError("a tape over a block");
+    } else {
+      vk::buildBrickTapes(m.program, grid, bricks, packed, std::uint32_t(m.program.boxes.size()), tapes);
+    }
+  }
+  const std::uint64_t instructions = uniform ? windows.instructions : tapes.instructions;
+  state.counters["bricks"] = double(packed.size());
+  state.counters["instructions_per_brick"] = double(instructions) / double(packed.size());
+  state.counters["windows"] = double(windows.windows.size());
+}
+
 // The exclusive scan the polygonizer runs twice per slab (points, cells), on `range(0)` values.
 void scan(benchmark::State& state) {
   vk::Device& device = context().device();
@@ -225,6 +252,12 @@ void scan(benchmark::State& state) {
 
 void registerAll() {
   benchmark::RegisterBenchmark("scan", scan)->Arg(1 << 21)->Unit(benchmark::kMillisecond)->UseRealTime();
+  for (const char* scene : {"tower", "random128", "tower_L6P8I4"}) {
+    for (bool uniform : {false, true})
+      benchmark::RegisterBenchmark((std::string("brick_tapes/") + (uniform ? "uniform/" : "storage/") + scene).c_str(),
+                                   brickTapes, std::string(scene), uniform)
+          ->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
+  }
   for (const char* scene : {"tower", "random128", "eggshell", "dice", "creature", "craniotomy", "twisted_column"}) {
     for (auto code : {vk::ClassifyCode::Interpreter, vk::ClassifyCode::Generated}) {
       const std::string name = std::string("classify/") +
