@@ -90,9 +90,9 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, double th
   // A spike: the node is in one tet, all three faces through it on the boundary, and all four
   // nodes of that tet on cut surfaces (a piece between crack sheets that the cuts left hanging
   // off the body; a face with a node of the body's own surface, as where a case-A split's small
-  // tet meets it, is never moved). It may
-  // slide parallel to its opposite face: the tet's height over that face, so its volume, is kept;
-  // the spike's own three boundary faces move (the only faces through the node), no other tet.
+  // tet meets it, is never moved). It may slide parallel to its opposite face: the tet's height
+  // over that face, so its volume, is kept; the spike's own three boundary faces move (the only
+  // faces through the node), no other tet.
   auto cutNode = [&](std::uint32_t v) { return v < onCut.size() && onCut[v] > 0; };
   const bool spike = star_.size() == 1 && boundaryEdges_.size() == 3 &&
                      std::all_of(topology.tet(star_[0]).begin(), topology.tet(star_[0]).end(), cutNode);

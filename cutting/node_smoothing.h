@@ -55,7 +55,8 @@ class NodeSmoothing {
  public:
   // Tries the free nodes of the tets of `seeds` (sorted slots) below `belowDeg`. `onCut[n] > 0`
   // marks a node on a cut surface (the cutter's snap reach): on the boundary it moves only within
-  // a flat fan or along a crease; an interior one only parallel to `snapPlane[n]`, the unit
+  // a flat fan or along a crease, or parallel to the base of a spike all of whose nodes are
+  // marked; an interior one only parallel to `snapPlane[n]`, the unit
   // normal of the one cut plane it was snapped to (zero or NaN: it stays; shorter than onCut:
   // none known). Every tet around a moved node is appended to the change set (listed as removed with
   // its unchanged nodes when the event had not written it) and registered in the grid; each move
