@@ -180,6 +180,9 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
   const auto& pos = topology_.mesh().positions;
   const double tolAbs = options_.onSurfaceTolerance * meanEdge_;
   const double tau = options_.snapFraction;
+  const double diagonalCosine = options_.crackDiagonalBelowDeg > 0
+                                    ? std::cos(options_.crackDiagonalBelowDeg * (3.14159265358979323846 / 180.0))
+                                    : 0.0;
 
   // 1. Candidate tets near the swept surface: those registered in the spatial-hash cells that
   // the triangles' planes cross inside the triangles' boxes.
@@ -514,6 +517,43 @@ CutResult Cutter::cut(const std::vector<Triangle>& swept) {
     };
     const Decomposition* decomposition = &decompositions_.get(codes.edges, codes.nodes, keys);
     double ratio = minRatio(*decomposition);
+    if (decomposition->kind == CutCase::B && diagonalCosine > 0) {
+      // A quad crack is fanned from its smallest-key cut point; that diagonal is the key rule's
+      // only free choice (every other polygon of a quad slice is fanned from an existing node,
+      // whose key is below every cut point's), and neither neighbours nor the faces see it. When
+      // it leaves a child below crackDiagonalBelowDeg, the other diagonal is taken if its worst
+      // child is better: the quad of three nearly collinear cut points otherwise makes a flat
+      // crack triangle, and the cones over it the flattest tets of a stroke.
+      auto worstChild = [&](const Decomposition& d) {
+        double worst = 1.0;
+        for (int i = 0; i < d.tetCount; ++i) {
+          const auto& c = d.tets[i];
+          worst = std::min(worst, dihedralQuality(restOf(c[0]), restOf(c[1]), restOf(c[2]), restOf(c[3])));
+        }
+        return worst;
+      };
+      const double quality = worstChild(*decomposition);
+      if (quality < -diagonalCosine) {
+        // The other diagonal: the smallest key moves to a quad neighbour of its cut point (a cut
+        // edge sharing a node with it; the opposite one shares none).
+        int smallest = -1;
+        for (int e = 0; e < 6; ++e)
+          if ((codes.edges >> e & 1) && (smallest < 0 || keys[kEdgePointBase + e] < keys[kEdgePointBase + smallest]))
+            smallest = e;
+        int neighbour = -1;
+        for (int e = 0; e < 6 && neighbour < 0; ++e)
+          if (e != smallest && (codes.edges >> e & 1) &&
+              (kTetEdges[e][0] == kTetEdges[smallest][0] || kTetEdges[e][0] == kTetEdges[smallest][1] ||
+               kTetEdges[e][1] == kTetEdges[smallest][0] || kTetEdges[e][1] == kTetEdges[smallest][1]))
+            neighbour = e;
+        std::array<std::uint64_t, 11> otherKeys = keys;
+        std::swap(otherKeys[kEdgePointBase + smallest], otherKeys[kEdgePointBase + neighbour]);
+        const Decomposition& other = decompositions_.get(codes.edges, codes.nodes, otherKeys);
+        const double otherRatio = minRatio(other);
+        if (otherRatio > 1e-12 && worstChild(other) > quality) decomposition = &other, ratio = otherRatio;
+        else decomposition = &decompositions_.get(codes.edges, codes.nodes, keys);  // a hit: `other` may have moved it
+      }
+    }
     if (decomposition->separating && !(ratio > 1e-12)) {
       // A strongly non-planar crack quad would invert a child: split without opening instead.
       decomposition = &decompositions_.get(codes.edges, codes.nodes, keys, true);

@@ -42,6 +42,10 @@ struct CutOptions {
   // With 15 deg seeds 1-16 of the 100 random strokes through the 100k-tet ball all end at or
   // above 5 deg (docs/cutting.md "Quality after cuts"). 0: none.
   double smoothBelowDeg = 15.0;
+  // A quad crack (4 cut edges) is split into two triangles along the diagonal of the key rule
+  // (decompose.h); when that leaves a child whose smallest dihedral angle at rest is below this
+  // (degrees), the other diagonal is taken if its worst child is better. 0: the key rule alone.
+  double crackDiagonalBelowDeg = 15.0;
 };
 
 struct NewNode {

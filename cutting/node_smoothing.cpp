@@ -32,7 +32,7 @@ double qualityAt(const std::vector<Double3>& x, const Tet& t, std::uint32_t node
 
 }  // namespace
 
-bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std::vector<double>& onCut,
+bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, double threshold, const std::vector<double>& onCut,
                             const std::vector<Double3>& snapPlane, MovedNode& move) {
   const mesh::TetMesh& m = topology.mesh();
   const auto incident = topology.tetsOfNode(node);
@@ -87,7 +87,32 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
   bool crease = false;       // two planes: the node slides along their line, `line`
   Double3 line{0, 0, 0};
   bool planar = !boundaryEdges_.empty();  // candidates are projected into `normal`'s plane
-  if (boundaryEdges_.empty()) {
+  // A spike: the node is in one tet, all three faces through it on the boundary, and all four
+  // nodes of that tet on cut surfaces (a piece between crack sheets that the cuts left hanging
+  // off the body; a face with a node of the body's own surface, as where a case-A split's small
+  // tet meets it, is never moved). It may slide parallel to its opposite face: the tet's height
+  // over that face, so its volume, is kept; the spike's own three boundary faces move (the only
+  // faces through the node), no other tet.
+  auto cutNode = [&](std::uint32_t v) { return v < onCut.size() && onCut[v] > 0; };
+  const bool spike = star_.size() == 1 && boundaryEdges_.size() == 3 &&
+                     std::all_of(topology.tet(star_[0]).begin(), topology.tet(star_[0]).end(), cutNode);
+  Double3 incentre = from;  // a spike's best place: over its base's incentre (below)
+  if (spike) {
+    const Tet& t = topology.tet(star_[0]);
+    int local = 0;
+    while (t[std::size_t(local)] != node) ++local;
+    const auto& face = kTetFaces[std::size_t(local)];
+    const Double3 a = rest[t[std::size_t(face[0])]], b = rest[t[std::size_t(face[1])]], c = rest[t[std::size_t(face[2])]];
+    normal = cross(b - a, c - a);
+    const double len = length(normal);
+    if (!(len > 0)) return false;
+    normal = normal * (1.0 / len);
+    // The smallest dihedral angle at a base edge is atan(height / distance of the apex's foot to
+    // that edge): largest with the foot at the incentre, where the three distances are equal.
+    const double la = length(c - b), lb = length(a - c), lc = length(b - a);
+    const Double3 foot = (a * la + b * lb + c * lc) * (1.0 / (la + lb + lc));
+    incentre = from + (foot - from) - normal * dot(foot - from, normal);
+  } else if (boundaryEdges_.empty()) {
     if (node < onCut.size() && onCut[node] > 0) {
       // Snapped to a cut surface that has not opened here (the crack's front, or a partial
       // split's Steiner side): it may slide parallel to the plane it was snapped to, never
@@ -184,12 +209,19 @@ bool NodeSmoothing::tryNode(CutTopology& topology, std::uint32_t node, const std
   const Double3 toCentroid = inPlane(centroid - from);
   Double3 opening = inPlane(away);
   if (planar) opening = opening * (1.0 / std::max(length(opening), 1e-300));
-  const std::array<Double3, 6> candidates{from + toCentroid,          from + toCentroid * 0.5,
-                                          from + toCentroid * 0.25,   from + opening * (0.3 * edge),
-                                          from + opening * (0.15 * edge), from + opening * (0.05 * edge)};
+  std::array<Double3, 6> candidates{from + toCentroid,          from + toCentroid * 0.5,
+                                    from + toCentroid * 0.25,   from + opening * (0.3 * edge),
+                                    from + opening * (0.15 * edge), from + opening * (0.05 * edge)};
+  // A spike moves the surface: the shortest step towards the incentre that reaches the threshold
+  // (the best of them when none does), so its faces move as little as the angle needs.
+  if (spike)
+    for (std::size_t i = 0; i < 4; ++i) candidates[i] = from + (incentre - from) * (0.125 * double(1 << i));
+  const std::size_t count = spike ? 4 : candidates.size();
   double bestQuality = current + 1e-9;
   const Double3* best = nullptr;
-  for (const Double3& to : candidates) {
+  for (std::size_t k = 0; k < count; ++k) {
+    if (spike && bestQuality >= threshold) break;  // the previous, shorter step is enough
+    const Double3& to = candidates[k];
     double q = 1e300;
     for (std::uint32_t s : star_) {
       q = std::min(q, qualityAt(rest, topology.tet(s), node, to));
@@ -268,7 +300,7 @@ std::size_t NodeSmoothing::improve(CutTopology& topology, SpatialGrid& grid, std
       tried_[node] = 1;
       triedNodes_.push_back(node);
       MovedNode move;
-      if (!tryNode(topology, node, onCut, snapPlane, move)) continue;
+      if (!tryNode(topology, node, bar, onCut, snapPlane, move)) continue;
       ++moves;
       moved.push_back(move);
       for (std::size_t i = 0; i < star_.size(); ++i) {

@@ -14,12 +14,20 @@
 //     surface or of a crack sheet), or in two planes (a crease: a crack sheet meeting another or
 //     the surface): it slides along their line. The boundary, the crack and the volume are kept
 //     (the star stays positive, so the boundary faces still tile the same pieces of their planes).
-// A node where three planes meet, on a curved boundary or on a crack's rim stays. A move is taken
-// only when every tet around the node stays positive at rest and in the current positions and
-// the star's smallest angle rises.
+//   - it is the apex of a spike: in one tet only (its three faces on the boundary), all four of
+//     whose nodes lie on cut surfaces (a piece between crack sheets the cuts left hanging off the
+//     body). It slides parallel to the opposite face, so the tet's height and volume are kept,
+//     towards the point over that face's incentre (the largest smallest angle a slide can give),
+//     stopping at the first of 1/8, 1/4, 1/2 and all of the way that reaches the threshold. This
+//     changes the surface: the spike's own three faces move (no other tet has the node), within
+//     the slab of the spike's height over its base plane.
+// Any other node where three planes meet, on a curved boundary or on a crack's rim stays. A move
+// is taken only when every tet around the node stays positive at rest and in the current
+// positions and the star's smallest angle rises.
 // The FEM takes a move as a change of the rest shape of the node's tets (fem::TopologyChange::
-// movedNodes): the node's new rest position is a barycentric combination of the tet that held it,
-// so its position and velocity in a deformed body follow from the same weights.
+// movedNodes): the node's new rest position is a barycentric combination of the tet that held it
+// (for a spike's apex, which leaves its one tet, an affine one: some weights negative), so its
+// position and velocity in a deformed body follow from the same weights.
 // Deterministic: seeds in slot order, nodes in tet order.
 #pragma once
 
@@ -47,7 +55,8 @@ class NodeSmoothing {
  public:
   // Tries the free nodes of the tets of `seeds` (sorted slots) below `belowDeg`. `onCut[n] > 0`
   // marks a node on a cut surface (the cutter's snap reach): on the boundary it moves only within
-  // a flat fan or along a crease; an interior one only parallel to `snapPlane[n]`, the unit
+  // a flat fan or along a crease, or parallel to the base of a spike all of whose nodes are
+  // marked; an interior one only parallel to `snapPlane[n]`, the unit
   // normal of the one cut plane it was snapped to (zero or NaN: it stays; shorter than onCut:
   // none known). Every tet around a moved node is appended to the change set (listed as removed with
   // its unchanged nodes when the event had not written it) and registered in the grid; each move
@@ -57,7 +66,8 @@ class NodeSmoothing {
                       FlipChangeSet change, std::vector<MovedNode>& moved);
 
  private:
-  bool tryNode(CutTopology& topology, std::uint32_t node, const std::vector<double>& onCut,
+  // `threshold`: the quality (dihedralQuality) the caller asks for; a spike stops short at it.
+  bool tryNode(CutTopology& topology, std::uint32_t node, double threshold, const std::vector<double>& onCut,
                const std::vector<mesh::Double3>& snapPlane, MovedNode& move);
 
   std::vector<std::uint8_t> listed_;  // by slot: in the change set's addedTets

@@ -9,6 +9,7 @@
 #include "blobvk/cutting/quality.h"
 #include "blobvk/cutting/spatial_grid.h"
 #include "blobvk/cutting/topology.h"
+#include "blobvk/cutting/vec.h"
 
 #include "test_helpers.h"
 
@@ -297,6 +298,86 @@ TEST(NodeSmoothing, ACornerOfTheBlockStays) {
   }
   expectOnTheBlocksFaces(m.restPositions, topology.mesh().restPositions, 2);
   EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
+}
+
+// A spike: a flat tet (height 0.05) on an equilateral face of a body tet, its apex in no other
+// tet, all three faces through it on the boundary, the apex's foot near a base corner (a bad
+// angle at a base edge). With all its nodes on cut surfaces (a piece between crack sheets) the
+// apex slides parallel to the base: its height, so the spike's and the body's volume, is kept,
+// and the foot goes to the incentre, where the smallest angle is the largest a foot in the plane
+// allows, atan(height / inradius) at every base edge. With a base node on the body's own surface
+// (not on a cut), or the apex not on a cut, it stays.
+TEST(NodeSmoothing, ASpikeApexOnACutSlidesParallelToItsBase) {
+  const double h = 0.05, root3 = std::sqrt(3.0);
+  mesh::TetMesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0.5, root3 / 2, 0}, {0.5, root3 / 6, -0.8}, {0.1, 0.05, h}};
+  m.restPositions = m.positions;
+  m.tets = {{0, 2, 1, 3}, {0, 1, 2, 4}};  // the body below the base, the spike above
+  const std::uint32_t apex = 4;
+  auto spikeAngle = [](const std::vector<mesh::Double3>& r, const Tet& t) {
+    return tetQuality(r[t[0]], r[t[1]], r[t[2]], r[t[3]]).minDihedralDeg;
+  };
+  const double spikeBefore = spikeAngle(m.restPositions, m.tets[1]);
+  ASSERT_LT(spikeBefore, 5.0);
+  // Nodes on a cut: none, the apex alone, the apex and two base nodes, the whole spike.
+  const std::array<std::vector<std::uint32_t>, 4> cases{{{}, {apex}, {1, 2, apex}, {0, 1, 2, apex}}};
+  for (const auto& cutNodes : cases) {
+    const bool onCutSurface = cutNodes.size() == 4;
+    CutTopology topology(m);
+    ASSERT_TRUE(topology.selfCheck().ok());
+    const double volume = topology.totalRestVolume();
+    std::vector<double> onCut(m.nodeCount(), 0.0);
+    for (std::uint32_t v : cutNodes) onCut[v] = 1e-3;
+    const Smoothed run = smooth(topology, onCut);
+    const mesh::Double3 to = topology.mesh().restPositions[apex];
+    if (!onCutSurface) {
+      EXPECT_TRUE(run.moved.empty()) << cutNodes.size() << " nodes on a cut";
+      EXPECT_EQ(to.x, 0.1);
+      continue;
+    }
+    ASSERT_EQ(run.moved.size(), 1u);
+    EXPECT_EQ(run.moved[0].index, apex);
+    EXPECT_NEAR(to.z, h, 1e-15);
+    EXPECT_NEAR(to.x, 0.5, 1e-12);  // the incentre of the equilateral base
+    EXPECT_NEAR(to.y, root3 / 6, 1e-12);
+    EXPECT_NEAR(topology.totalRestVolume(), volume, 1e-15 * volume);
+    EXPECT_TRUE(topology.selfCheck().ok()) << topology.selfCheck().summary();
+    const double spikeAfter = spikeAngle(topology.mesh().restPositions, topology.tet(1));
+    const double expected = std::atan(h / (1.0 / (2.0 * root3))) * 180.0 / 3.14159265358979323846;
+    std::printf("spike: smallest dihedral %.2f -> %.2f deg (atan(h / r) = %.2f deg)\n", spikeBefore, spikeAfter,
+                expected);
+    EXPECT_NEAR(spikeAfter, expected, 1e-9);
+    // The move's weights (over the spike's nodes) give the new place from the old ones.
+    mesh::Double3 sum{0, 0, 0};
+    for (std::size_t i = 0; i < 4; ++i) sum = sum + m.restPositions[run.moved[0].sources[i]] * run.moved[0].weights[i];
+    EXPECT_NEAR(length(sum - to), 0.0, 1e-15);
+  }
+}
+
+// The same spike at height 0.15 (11.2 deg): over the incentre it would reach 27.5 deg, but the
+// apex stops at the first of its shorter steps that reaches the 15 deg asked for, so the surface
+// moves less than the full slide.
+TEST(NodeSmoothing, ASpikeApexStopsWhereItsTetReachesTheThreshold) {
+  const double h = 0.15, root3 = std::sqrt(3.0);
+  mesh::TetMesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0.5, root3 / 2, 0}, {0.5, root3 / 6, -0.8}, {0.1, 0.05, h}};
+  m.restPositions = m.positions;
+  m.tets = {{0, 2, 1, 3}, {0, 1, 2, 4}};
+  const std::uint32_t apex = 4;
+  const auto& r0 = m.restPositions;
+  ASSERT_LT(tetQuality(r0[0], r0[1], r0[2], r0[4]).minDihedralDeg, 15.0);
+  CutTopology topology(m);
+  const double volume = topology.totalRestVolume();
+  std::vector<double> onCut(m.nodeCount(), 1e-3);
+  onCut[3] = 0;  // the body's own apex
+  const Smoothed run = smooth(topology, onCut);
+  ASSERT_EQ(run.moved.size(), 1u);
+  const auto& r = topology.mesh().restPositions;
+  const mesh::Double3 incentre{0.5, root3 / 6, h};
+  EXPECT_NEAR(r[apex].z, h, 1e-15);
+  EXPECT_LT(length(r[apex] - r0[apex]), 0.9 * length(incentre - r0[apex]));
+  EXPECT_GE(tetQuality(r[0], r[1], r[2], r[apex]).minDihedralDeg, 15.0);
+  EXPECT_NEAR(topology.totalRestVolume(), volume, 1e-15 * volume);
 }
 
 }  // namespace
