@@ -4,6 +4,7 @@
 #include "blobvk/vk/eval/region_tape.h"
 
 #include <algorithm>
+#include <tuple>
 #include <unordered_map>
 
 namespace blobvk::vk {
@@ -125,41 +126,68 @@ void buildBrickTapes(const blobtree::Program& program, const blobtree::GridSpec&
 
 namespace {
 
-// One window's renumbering of the program's records: local index per program record (kNone:
-// not in the window), and the window's own records.
+// One record array's renumbering within a window: each program record's index in the window
+// (kNone: not in it yet), the records given one (to reset them), and the window's block of
+// `out`, which starts at window * capacity.
+template <class Record>
+struct Renumbering {
+  std::vector<std::uint32_t> local;
+  std::vector<std::uint32_t> given;
+  std::vector<Record>* out = nullptr;
+  std::uint32_t capacity = 0, count = 0;
+  std::size_t base = 0;
+
+  Renumbering(std::size_t records, std::vector<Record>& o, std::uint32_t c) : local(records, kNone), out(&o), capacity(c) {}
+  // Window w's block, its first `reserved` records set by the caller.
+  void open(std::size_t w, std::uint32_t reserved) {
+    for (std::uint32_t i : given) local[i] = kNone;
+    given.clear();
+    out->resize((w + 1) * capacity);
+    base = w * capacity;
+    count = reserved;
+  }
+  // Record i's index in the window, `value` stored there if it is new; false when the block is full.
+  bool intern(std::uint32_t i, const Record& value, std::uint32_t& index) {
+    if (local[i] == kNone) {
+      if (count == capacity) return false;
+      local[i] = count;
+      given.push_back(i);
+      (*out)[base + count++] = value;
+    }
+    index = local[i];
+    return true;
+  }
+  struct Mark {
+    std::size_t given;
+    std::uint32_t count;
+  };
+  Mark mark() const { return {given.size(), count}; }
+  void undo(const Mark& m) {
+    for (std::size_t i = m.given; i < given.size(); ++i) local[given[i]] = kNone;
+    given.resize(m.given);
+    count = m.count;
+  }
+};
+
+// One window's renumbering of the program's records, and its code.
 class WindowRecords {
  public:
   WindowRecords(const blobtree::Program& program, UniformTapes& out)
-      : program_(program), out_(out), prim_(program.primitives.size(), kNone),
-        matrix_(program.matrices.size(), kNone), box_(program.boxes.size(), kNone),
-        warp_(program.warps.size(), kNone) {}
+      : program_(program), out_(out), prims_(program.primitives.size(), out.primitives, kUniformTapePrims),
+        matrices_(program.matrices.size(), out.matrices, kUniformTapeMatrices),
+        boxes_(program.boxes.size(), out.boxes, kUniformTapeBoxes),
+        warps_(program.warps.size(), out.warps, kUniformTapeWarps) {}
 
-  // Starts window w: its blocks, the identity matrix at 0 and the empty box at 0.
+  // Starts window w: its blocks, the identity matrix at 0 (matrix 0 of every program) and the
+  // empty box at 0.
   void open(std::size_t w) {
-    for (std::uint32_t i : touchedPrims_) prim_[i] = kNone;
-    for (std::uint32_t i : touchedMatrices_) matrix_[i] = kNone;
-    for (std::uint32_t i : touchedBoxes_) box_[i] = kNone;
-    for (std::uint32_t i : touchedWarps_) warp_[i] = kNone;
-    touchedPrims_.clear();
-    touchedMatrices_.clear();
-    touchedBoxes_.clear();
-    touchedWarps_.clear();
     out_.code.resize((w + 1) * kUniformTapeCode);
-    out_.primitives.resize((w + 1) * kUniformTapePrims);
-    out_.matrices.resize((w + 1) * kUniformTapeMatrices);
-    out_.boxes.resize((w + 1) * kUniformTapeBoxes);
-    out_.warps.resize((w + 1) * kUniformTapeWarps);
-    base_ = w;
+    prims_.open(w, 0);
+    matrices_.open(w, 1);
+    boxes_.open(w, 1);
+    warps_.open(w, 0);
     code_.clear();
-    primCount_ = 0;
-    matrixCount_ = 1;
-    boxCount_ = 1;
-    warpCount_ = 0;
     out_.matrices[w * kUniformTapeMatrices] = program_.matrices.empty() ? layout::MatrixRecord{} : program_.matrices[0];
-    if (!program_.matrices.empty()) {
-      matrix_[0] = 0;
-      touchedMatrices_.push_back(0);
-    }
     out_.boxes[w * kUniformTapeBoxes] = emptySkipBox();
   }
 
@@ -167,115 +195,60 @@ class WindowRecords {
   // false, with the window unchanged, when its records would not fit.
   bool localise(std::span<const layout::Instruction> tape, std::uint32_t emptyBox,
                 std::vector<layout::Instruction>& local) {
-    const Counts saved = counts();
-    const std::size_t marks[4] = {touchedPrims_.size(), touchedMatrices_.size(), touchedBoxes_.size(),
-                                  touchedWarps_.size()};
+    const auto marks = std::make_tuple(prims_.mark(), matrices_.mark(), boxes_.mark(), warps_.mark());
     local.assign(tape.begin(), tape.end());
     bool fits = true;
     for (layout::Instruction& in : local) {
       const std::uint32_t op = in.code.x & 0xffu;
       if (op == layout::OP_PRIM) {
-        in.code.y = primitive(in.code.y, fits);
+        layout::PrimitiveRecord r = program_.primitives[in.code.y];
+        fits = matrix(r.meta.y) && prims_.intern(in.code.y, r, in.code.y);
+      } else if (op == layout::OP_SKIP && in.code.y == emptyBox) {
+        in.code.y = 0;
       } else if (op == layout::OP_SKIP) {
-        in.code.y = in.code.y == emptyBox ? 0u : box(in.code.y, fits);
+        fits = boxes_.intern(in.code.y, program_.boxes[in.code.y], in.code.y);
       } else if (op == layout::OP_WARP) {
-        in.code.y = warp(in.code.y, fits);
+        layout::WarpRecord r = program_.warps[in.code.y];
+        fits = matrix(r.meta.w) && warps_.intern(in.code.y, r, in.code.y);
       }
       if (!fits) break;
     }
     if (fits) return true;
-    // Undo this tape's records.
-    auto undo = [](std::vector<std::uint32_t>& map, std::vector<std::uint32_t>& touched, std::size_t mark) {
-      for (std::size_t i = mark; i < touched.size(); ++i) map[touched[i]] = kNone;
-      touched.resize(mark);
-    };
-    undo(prim_, touchedPrims_, marks[0]);
-    undo(matrix_, touchedMatrices_, marks[1]);
-    undo(box_, touchedBoxes_, marks[2]);
-    undo(warp_, touchedWarps_, marks[3]);
-    restore(saved);
+    prims_.undo(std::get<0>(marks));
+    matrices_.undo(std::get<1>(marks));
+    boxes_.undo(std::get<2>(marks));
+    warps_.undo(std::get<3>(marks));
     return false;
   }
 
   std::vector<layout::Instruction>& code() { return code_; }
 
  private:
-  struct Counts {
-    std::uint32_t prims, matrices, boxes, warps;
-  };
-  Counts counts() const { return {primCount_, matrixCount_, boxCount_, warpCount_}; }
-  void restore(const Counts& c) {
-    primCount_ = c.prims;
-    matrixCount_ = c.matrices;
-    boxCount_ = c.boxes;
-    warpCount_ = c.warps;
-  }
-  std::uint32_t matrix(std::uint32_t m, bool& fits) {
-    if (m == 0 || m >= matrix_.size()) return m == 0 ? 0u : m;
-    if (matrix_[m] != kNone) return matrix_[m];
-    if (matrixCount_ == kUniformTapeMatrices) {
-      fits = false;
-      return 0;
-    }
-    matrix_[m] = matrixCount_;
-    touchedMatrices_.push_back(m);
-    out_.matrices[base_ * kUniformTapeMatrices + matrixCount_] = program_.matrices[m];
-    return matrixCount_++;
-  }
-  std::uint32_t primitive(std::uint32_t p, bool& fits) {
-    if (prim_[p] != kNone) return prim_[p];
-    if (primCount_ == kUniformTapePrims) {
-      fits = false;
-      return 0;
-    }
-    layout::PrimitiveRecord r = program_.primitives[p];
-    r.meta.y = matrix(r.meta.y, fits);
-    if (!fits) return 0;
-    prim_[p] = primCount_;
-    touchedPrims_.push_back(p);
-    out_.primitives[base_ * kUniformTapePrims + primCount_] = r;
-    return primCount_++;
-  }
-  std::uint32_t box(std::uint32_t b, bool& fits) {
-    if (box_[b] != kNone) return box_[b];
-    if (boxCount_ == kUniformTapeBoxes) {
-      fits = false;
-      return 0;
-    }
-    box_[b] = boxCount_;
-    touchedBoxes_.push_back(b);
-    out_.boxes[base_ * kUniformTapeBoxes + boxCount_] = program_.boxes[b];
-    return boxCount_++;
-  }
-  std::uint32_t warp(std::uint32_t w, bool& fits) {
-    if (warp_[w] != kNone) return warp_[w];
-    if (warpCount_ == kUniformTapeWarps) {
-      fits = false;
-      return 0;
-    }
-    layout::WarpRecord r = program_.warps[w];
-    r.meta.w = matrix(r.meta.w, fits);
-    if (!fits) return 0;
-    warp_[w] = warpCount_;
-    touchedWarps_.push_back(w);
-    out_.warps[base_ * kUniformTapeWarps + warpCount_] = r;
-    return warpCount_++;
-  }
+  // Matrix index m renumbered in place (0, the identity, stays 0).
+  bool matrix(std::uint32_t& m) { return m == 0 || matrices_.intern(m, program_.matrices[m], m); }
 
   const blobtree::Program& program_;
   UniformTapes& out_;
-  std::vector<std::uint32_t> prim_, matrix_, box_, warp_;
-  std::vector<std::uint32_t> touchedPrims_, touchedMatrices_, touchedBoxes_, touchedWarps_;
+  Renumbering<layout::PrimitiveRecord> prims_;
+  Renumbering<layout::MatrixRecord> matrices_;
+  Renumbering<layout::BoxRecord> boxes_;
+  Renumbering<layout::WarpRecord> warps_;
   std::vector<layout::Instruction> code_;  // the window's code so far (targets from its start)
-  std::size_t base_ = 0;
-  std::uint32_t primCount_ = 0, matrixCount_ = 1, boxCount_ = 1, warpCount_ = 0;
 };
 
 }  // namespace
 
 bool buildUniformTapes(const blobtree::Program& program, const blobtree::GridSpec& grid, const BrickGrid& bricks,
                        std::span<const std::uint32_t> packedBricks, UniformTapes& out) {
-  out = UniformTapes{};
+  // Cleared, not freed: a runner reuses one UniformTapes for every batch, so its blocks' memory
+  // is allocated (and faulted in) once.
+  out.windows.clear();
+  out.code.clear();
+  out.primitives.clear();
+  out.matrices.clear();
+  out.boxes.clear();
+  out.warps.clear();
+  out.instructions = 0;
   out.ranges.assign(packedBricks.size() * 2, 0);
   const std::uint32_t emptyBox = std::uint32_t(program.boxes.size());
   BrickTapeWalker walker(program, grid, bricks, emptyBox);
