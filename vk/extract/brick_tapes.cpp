@@ -84,14 +84,13 @@ class BrickTapeWalker {
 class TapeStore {
  public:
   explicit TapeStore(std::vector<layout::Instruction>& code) : code_(code) {}
-  // Where `tape` (relative targets) starts in the code from `base` on, appended (targets
-  // counted from `base`) when not there yet.
-  std::uint32_t place(std::span<const layout::Instruction> tape, std::size_t base) {
+  // Where `tape` (relative targets) starts in the code, appended (targets counted from the
+  // code's start) when not there yet.
+  std::uint32_t place(std::span<const layout::Instruction> tape) {
     std::vector<std::uint32_t>& begins = seen_[tapeHash(tape)];
-    const std::span<const layout::Instruction> window(code_.data() + base, code_.size() - base);
     for (std::uint32_t s : begins)
-      if (sameTape(window, s, tape)) return s;
-    const std::uint32_t begin = std::uint32_t(code_.size() - base);
+      if (sameTape(code_, s, tape)) return s;
+    const std::uint32_t begin = std::uint32_t(code_.size());
     for (layout::Instruction in : tape) {
       if (isSkip(in)) in.code.w += begin;
       code_.push_back(in);
@@ -118,7 +117,7 @@ void buildBrickTapes(const blobtree::Program& program, const blobtree::GridSpec&
   for (std::size_t a = 0; a < packedBricks.size(); ++a) {
     const std::vector<layout::Instruction>& tape = walker.tapeOf(packedBricks[a]);
     out.instructions += tape.size();
-    const std::uint32_t begin = store.place(tape, 0);
+    const std::uint32_t begin = store.place(tape);
     out.ranges[2 * a] = begin;
     out.ranges[2 * a + 1] = begin + std::uint32_t(tape.size());
   }
@@ -270,11 +269,10 @@ bool buildUniformTapes(const blobtree::Program& program, const blobtree::GridSpe
       out.windows.back().endBrick = std::uint32_t(a);
       out.windows.push_back({std::uint32_t(a), 0});
       records.open(out.windows.size() - 1);
-      records.code().clear();
       store.clear();
       if (!records.localise(tape, emptyBox, local) || local.size() > kUniformTapeCode) return false;
     }
-    const std::uint32_t begin = store.place(local, 0);
+    const std::uint32_t begin = store.place(local);
     out.ranges[2 * a] = begin;
     out.ranges[2 * a + 1] = begin + std::uint32_t(local.size());
   }

@@ -176,13 +176,11 @@ struct SparseBatchRunner::State {
   const blobtree::Program* tapeProgram = nullptr;
   BrickTapes tapes;
   Buffer tapeCode, tapeRanges;
-  std::uint64_t tapeCodeCapacity = 0;
   // The same packed for uniform blocks (brick_tapes.h, UniformTapes), where the device's uniform
   // range allows: five buffers of a 64 KB block per window, grown as batches need.
   bool uniformTapes = false;
   UniformTapes windowTapes;
   std::array<Buffer, 5> tapeBlocks;
-  std::uint64_t tapeWindowCapacity = 0;
   std::vector<std::uint8_t> blockBytes;
   // The storage-buffer tape kernel, for a batch whose tapes do not fit uniform blocks.
   KernelPtr storageTapes;
@@ -190,6 +188,59 @@ struct SparseBatchRunner::State {
     if (!uniformTapes) return fieldKernels.front();
     if (!storageTapes) storageTapes = device.kernel("brick_field_tapes", tapeSpecs());
     return storageTapes;
+  }
+
+  // `buffer` holds at least `bytes` (its contents dropped), counted in the device bytes. Called
+  // between batches: the last batch's submits have completed (Device::run waits).
+  void reserve(Buffer& buffer, std::uint64_t bytes, VkBufferUsageFlags usage, const char* what) {
+    if (buffer.size() >= bytes) return;
+    const std::uint64_t size = std::max(bytes, buffer.size() * 3 / 2);
+    this->bytes -= buffer.size();
+    buffer = Buffer();
+    if (usage == VK_BUFFER_USAGE_STORAGE_BUFFER_BIT) {
+      buffer = makeSparseBuffer(device, size, what, this->bytes);
+    } else {
+      buffer = device.createBuffer(size, MemoryUse::DeviceLocal, usage);
+      this->bytes += size;
+    }
+  }
+
+  // Builds and uploads the tapes of the batch's bricks (`packed`): in uniform blocks by windows
+  // where they fit, else in one storage buffer. Returns whether they went to uniform blocks.
+  bool uploadTapes(std::span<const std::uint32_t> packed, const GpuProgram& gpu, GpuStats& s) {
+    const auto start = Clock::now();
+    const bool uniform = uniformTapes && buildUniformTapes(*tapeProgram, grid, bg, packed, windowTapes);
+    if (uniform) {
+      const UniformTapes& u = windowTapes;
+      const std::uint64_t windows = u.windows.size();
+      // Each window's records at the start of its 64 KB block (any uniform offset alignment).
+      auto uploadBlocks = [&](Buffer& dst, const void* records, std::size_t recordBytes, std::size_t perWindow) {
+        reserve(dst, windows * kUniformTapeBlock, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, "brick tape blocks");
+        blockBytes.assign(windows * kUniformTapeBlock, 0);
+        for (std::uint64_t w = 0; w < windows; ++w)
+          std::memcpy(blockBytes.data() + w * kUniformTapeBlock,
+                      static_cast<const std::uint8_t*>(records) + w * perWindow * recordBytes, perWindow * recordBytes);
+        device.upload(dst, blockBytes.data(), blockBytes.size());
+      };
+      uploadBlocks(tapeBlocks[0], u.code.data(), sizeof(layout::Instruction), kUniformTapeCode);
+      uploadBlocks(tapeBlocks[1], u.primitives.data(), sizeof(layout::PrimitiveRecord), kUniformTapePrims);
+      uploadBlocks(tapeBlocks[2], u.matrices.data(), sizeof(layout::MatrixRecord), kUniformTapeMatrices);
+      uploadBlocks(tapeBlocks[3], u.boxes.data(), sizeof(layout::BoxRecord), kUniformTapeBoxes);
+      uploadBlocks(tapeBlocks[4], u.warps.data(), sizeof(layout::WarpRecord), kUniformTapeWarps);
+      device.upload(tapeRanges, u.ranges.data(), 4ull * u.ranges.size());
+      s.tapeInstructions += u.instructions;
+      s.tapeWords += windows * kUniformTapeCode;
+    } else {
+      buildBrickTapes(*tapeProgram, grid, bg, packed, gpu.emptyBox, tapes);
+      const std::uint64_t codeBytes = tapes.code.size() * sizeof(layout::Instruction);
+      reserve(tapeCode, std::max<std::uint64_t>(codeBytes, 16), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "brick tapes");
+      device.upload(tapeCode, tapes.code.data(), codeBytes);
+      device.upload(tapeRanges, tapes.ranges.data(), 4ull * tapes.ranges.size());
+      s.tapeInstructions += tapes.instructions;
+      s.tapeWords += tapes.code.size();
+    }
+    s.tapeSeconds += std::chrono::duration<double>(Clock::now() - start).count();
+    return uniform;
   }
   DeviceTimer timer;
   std::uint32_t runs = 0, maxBatches = 0;
@@ -415,11 +466,14 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const Groups columnGroups = groupsFor(std::uint64_t(loaded) * R, wg);  // the row passes: a lane per column of rows
   s.fieldEvaluations += std::uint64_t(loaded) * P;
   s.fieldTiles = std::uint32_t(st.tiles.size());
+  // The batch's brick list on the host, for the tiles' order and the tapes.
+  if (st.tiles.size() > 1 || st.tapeProgram) {
+    st.batchPacked.resize(loaded);
+    device.download(window->list, st.batchPacked.data(), 4ull * loaded, 4ull * windowActive);
+  }
   // The batch's bricks grouped by field tile (the identity with one tile), uploaded for brick_field.
   BrickTileOrder tileOrder;
   if (st.tiles.size() > 1) {
-    st.batchPacked.resize(loaded);
-    device.download(window->list, st.batchPacked.data(), 4ull * loaded, 4ull * windowActive);
     tileOrder = orderBricksByTile(st.tiles, bg, st.batchPacked);
   } else {
     tileOrder.order.resize(loaded);
@@ -427,61 +481,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     tileOrder.starts = {0, loaded};
   }
   device.upload(st.fieldOrder, tileOrder.order.data(), 4ull * loaded);
-  // Per-brick tapes: in uniform blocks by windows of bricks where they fit, else in one storage
-  // buffer beside the program's records.
-  bool uniformTapes = false;
-  const auto tapesStart = Clock::now();
-  if (st.tapeProgram) {
-    st.batchPacked.resize(loaded);
-    device.download(window->list, st.batchPacked.data(), 4ull * loaded, 4ull * windowActive);
-    uniformTapes = st.uniformTapes && buildUniformTapes(*st.tapeProgram, st.grid, bg, st.batchPacked, st.windowTapes);
-  }
-  if (uniformTapes) {
-    const UniformTapes& u = st.windowTapes;
-    const std::uint64_t windows = u.windows.size();
-    if (windows > st.tapeWindowCapacity) {
-      st.tapeWindowCapacity = std::max<std::uint64_t>(windows, st.tapeWindowCapacity * 3 / 2);
-      for (Buffer& b : st.tapeBlocks) {
-        st.bytes -= b.size();
-        b = Buffer();
-        b = device.createBuffer(st.tapeWindowCapacity * kUniformTapeBlock, MemoryUse::DeviceLocal,
-                                VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
-        st.bytes += b.size();
-      }
-    }
-    // Each window's records at the start of its 64 KB block (any uniform offset alignment).
-    auto uploadBlocks = [&](Buffer& dst, const void* records, std::size_t recordBytes, std::size_t perWindow) {
-      st.blockBytes.assign(windows * kUniformTapeBlock, 0);
-      for (std::uint64_t w = 0; w < windows; ++w)
-        std::memcpy(st.blockBytes.data() + w * kUniformTapeBlock,
-                    static_cast<const std::uint8_t*>(records) + w * perWindow * recordBytes, perWindow * recordBytes);
-      device.upload(dst, st.blockBytes.data(), st.blockBytes.size());
-    };
-    uploadBlocks(st.tapeBlocks[0], u.code.data(), sizeof(layout::Instruction), kUniformTapeCode);
-    uploadBlocks(st.tapeBlocks[1], u.primitives.data(), sizeof(layout::PrimitiveRecord), kUniformTapePrims);
-    uploadBlocks(st.tapeBlocks[2], u.matrices.data(), sizeof(layout::MatrixRecord), kUniformTapeMatrices);
-    uploadBlocks(st.tapeBlocks[3], u.boxes.data(), sizeof(layout::BoxRecord), kUniformTapeBoxes);
-    uploadBlocks(st.tapeBlocks[4], u.warps.data(), sizeof(layout::WarpRecord), kUniformTapeWarps);
-    device.upload(st.tapeRanges, u.ranges.data(), 4ull * u.ranges.size());
-    s.tapeInstructions += u.instructions;
-    s.tapeWords += windows * kUniformTapeCode;
-    s.tapeSeconds += std::chrono::duration<double>(Clock::now() - tapesStart).count();
-  } else if (st.tapeProgram) {
-    buildBrickTapes(*st.tapeProgram, st.grid, bg, st.batchPacked, gpu.emptyBox, st.tapes);
-    const std::uint64_t codeBytes = std::max<std::uint64_t>(st.tapes.code.size(), 1) * sizeof(layout::Instruction);
-    if (codeBytes > st.tapeCodeCapacity) {  // the last batch's submits have completed (device.run waits)
-      const std::uint64_t capacity = std::max(codeBytes, st.tapeCodeCapacity * 3 / 2);
-      st.bytes -= st.tapeCodeCapacity;
-      st.tapeCode = Buffer();
-      st.tapeCode = makeSparseBuffer(device, capacity, "brick tapes", st.bytes);
-      st.tapeCodeCapacity = std::max<std::uint64_t>(capacity, 16);
-    }
-    device.upload(st.tapeCode, st.tapes.code.data(), st.tapes.code.size() * sizeof(layout::Instruction));
-    device.upload(st.tapeRanges, st.tapes.ranges.data(), 4ull * st.tapes.ranges.size());
-    s.tapeInstructions += st.tapes.instructions;
-    s.tapeWords += st.tapes.code.size();
-    s.tapeSeconds += std::chrono::duration<double>(Clock::now() - tapesStart).count();
-  }
+  const bool uniformTapes = st.tapeProgram && st.uploadTapes(st.batchPacked, gpu, s);
   // The vertex pass per tile: each batch brick's tile, for brick_vertex_tile_counts and _lists.
   const std::vector<KernelPtr>& vertexTiles = st.vertexTiles();
   s.vertexTiles = std::uint32_t(vertexTiles.size());
