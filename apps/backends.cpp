@@ -122,6 +122,7 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {
   options.tiledVertexPass = settings.tiledVertices;
   options.sparseVertexTiles = settings.vertexTiles;
   options.brickTapes = settings.brickTapes;
+  options.phaseNote = settings.phaseNote;
   if (settings.batchesPerDevice > 0) options.batchesPerDevice = std::uint32_t(settings.batchesPerDevice);
   options.expectedRuns = std::uint32_t(std::max(settings.expectedRuns, 1));
   return options;

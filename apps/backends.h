@@ -61,6 +61,8 @@ struct PolygonizeSettings {
   // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads; vk streamed:
   // after each batch of brick layers.
   std::function<void(std::size_t done, std::size_t total)> progress;
+  // vk sparse: a line before each long phase (vk::GpuPolygonizeOptions::phaseNote).
+  std::function<void(const std::string&)> phaseNote;
   // cpu: mesh with this polygonizer, which keeps its scratch and MPU results for the next call
   // (bench repeats: meshing again as an editor does); null: a fresh one, freed after the call.
   std::shared_ptr<cpu::MpuPolygonizer> cpuPolygonizer;

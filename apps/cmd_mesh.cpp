@@ -199,6 +199,7 @@ void addMeshCommand(CLI::App& app) {
       a->settings.progress = [&progress](std::size_t done, std::size_t total) { progress->update(long(done), long(total)); };
     } else {
       Progress::note("mesh", "polygonizing a " + gridText + " grid on the " + a->settings.backend + " backend");
+      a->settings.phaseNote = [](const std::string& text) { Progress::note("mesh", text); };
     }
     PolygonizeStats stats;
     mesh::TriMesh mesh = polygonize(model.program, grid, a->settings, &stats);

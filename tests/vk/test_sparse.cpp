@@ -287,6 +287,34 @@ TEST_F(VulkanTest, AGridAwayFromTheModelHasNoActiveBricks) {
   }
 }
 
+// n with a comma between groups of three digits, as the phase notes print counts.
+std::string groupedForTest(std::uint64_t n) {
+  std::string digits = std::to_string(n), out;
+  for (std::size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out.push_back(',');
+    out.push_back(digits[i]);
+  }
+  return out;
+}
+
+// The phase notes of a whole job: the classification before it runs, then the active bricks and
+// batches (the stats' own figures) before the batches run, nothing else.
+TEST_F(VulkanTest, PhaseNotesNameTheClassificationAndTheBatches) {
+  const ShippedScene sc = shipped("tower", 96);
+  vk::GpuPolygonizeOptions options;
+  std::vector<std::string> notes;
+  options.phaseNote = [&notes](const std::string& n) { notes.push_back(n); };
+  vk::GpuStats stats;
+  const mesh::TriMesh mesh = vk::polygonize(device(), sc.program, sc.grid, options, &stats);
+  ASSERT_GT(mesh.triangleCount(), 0u);
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_EQ(notes[0], "classifying " + groupedForTest(stats.bricks) + " bricks of 16x16x16 cells on the device");
+  EXPECT_EQ(notes[1], groupedForTest(stats.activeBricks) + " active bricks of " + groupedForTest(stats.bricks) + " in " +
+                          std::to_string(stats.batches) + (stats.batches == 1 ? " batch" : " batches"));
+  EXPECT_EQ(groupedForTest(1234567), "1,234,567");
+  EXPECT_EQ(groupedForTest(123), "123");
+}
+
 // A layer pair over one storage buffer is classified again with smaller bricks: with a range
 // that two layers of 16³ bricks exceed, the classification comes back in bricks of 8³ whose
 // pairs fit, and the largest pair of the first try was indeed over it (the oracle: its own
@@ -307,8 +335,15 @@ TEST_F(VulkanTest, LayerPairsOverOneStorageBufferTakeSmallerBricks) {
   ASSERT_GT(pair16, 4u);
   // Room for the pairs of 8³ bricks (8x smaller records), not for those of 16³.
   const auto range = [pair16](const vk::BrickGrid& b) -> std::uint64_t { return b.log2B >= 4 ? pair16 - 1 : 1000000; };
-  const vk::ClassifiedBricks fitted = vk::classifyToFit(device(), sc.program, sc.grid, 16, range, stats);
+  std::vector<std::string> notes;
+  const vk::ClassifiedBricks fitted = vk::classifyToFit(device(), sc.program, sc.grid, 16, range, stats, 0, {},
+                                                        [&notes](const std::string& n) { notes.push_back(n); });
   EXPECT_EQ(fitted.bricks.log2B, 3u);
+  // One note per classification, before it runs, the second saying why it runs again.
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_EQ(notes[0], "classifying " + groupedForTest(at16.bricks.count()) + " bricks of 16x16x16 cells on the device");
+  EXPECT_EQ(notes[1], "two adjacent brick layers hold more active bricks than one storage buffer; classifying " +
+                          groupedForTest(fitted.bricks.count()) + " bricks of 8x8x8 cells on the device");
   EXPECT_LE(largestPair(fitted), 1000000u);
   EXPECT_EQ(fitted.layerStarts.back(), stats.activeBricks);
   // Nothing fits: it stops at bricks of 4³.

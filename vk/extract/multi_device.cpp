@@ -103,7 +103,8 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     return range;
   };
   // One evaluator for every device: the bytes must not depend on which device ran a batch.
-  const ClassifiedBricks classified = classifyToFit(first, program, grid, options.brickCells, rangeBricks, shares[0], options.windowLayers);
+  const ClassifiedBricks classified = classifyToFit(first, program, grid, options.brickCells, rangeBricks, shares[0],
+                                                    options.windowLayers, {}, options.phaseNote);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());

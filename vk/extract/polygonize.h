@@ -10,6 +10,8 @@
 #include "blobvk/vk/eval/gpu_program.h"
 
 #include <cstdint>
+#include <functional>
+#include <string>
 
 namespace blobvk::vk {
 
@@ -88,6 +90,10 @@ struct GpuPolygonizeOptions {
   // where the device's uniform range allows (vk/extract/brick_tapes.h); false: in one storage
   // buffer beside the program's records (what a batch whose tape is over a block falls back to).
   bool brickTapeUniforms = true;
+  // Sparse: one line of text before each phase that can take minutes on a large grid (the
+  // classification, its rerun with smaller bricks, the batches), on the calling thread; empty:
+  // none. The CLI prints it as a progress note.
+  std::function<void(const std::string&)> phaseNote;
 };
 
 struct GpuStats {

@@ -26,6 +26,16 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// 12345678 -> "12,345,678" (the phase notes' counts of bricks run to hundreds of millions).
+std::string groupedCount(std::uint64_t n) {
+  std::string digits = std::to_string(n), out;
+  for (std::size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
 // The Program's records in uniform buffers of kUniformBlock bytes each, records at the start, for
 // brick_classify_uniform.comp; empty when a record array is over its block (or the device's
 // uniform range is smaller), and brick_classify.comp reads them as storage buffers.
@@ -521,12 +531,21 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
 
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
-                               GpuStats& stats, std::uint32_t windowLayers, const ClassifyChoice& choice) {
+                               GpuStats& stats, std::uint32_t windowLayers, const ClassifyChoice& choice,
+                               const std::function<void(const std::string&)>& phaseNote) {
   constexpr std::uint32_t kSmallestFallbackCells = 4;
   double classifySeconds = 0.0;
+  bool again = false;
   for (;;) {
-    ClassifiedBricks c =
-        classifyAndCompact(device, program, grid, brickGridFor(grid, brickCells), stats, nullptr, windowLayers, choice);
+    const BrickGrid bricks = brickGridFor(grid, brickCells);
+    if (phaseNote) {
+      const std::string size = std::to_string(brickCells);
+      phaseNote(std::string(again ? "two adjacent brick layers hold more active bricks than one storage buffer; " : "") +
+                "classifying " + groupedCount(bricks.count()) + " bricks of " + size + "x" + size + "x" + size +
+                " cells on the device");
+    }
+    again = true;
+    ClassifiedBricks c = classifyAndCompact(device, program, grid, bricks, stats, nullptr, windowLayers, choice);
     classifySeconds += stats.classifySeconds;
     stats.classifySeconds = classifySeconds;
     const std::uint64_t range = rangeBricks(c.bricks);
@@ -598,7 +617,7 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
   // (sparse_batches.h). The evaluator is chosen once the active bricks are known.
   const ClassifiedBricks classified = classifyToFit(
       device, program, grid, options.brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s,
-      options.windowLayers, {options.classifyCode, options.expectedRuns});
+      options.windowLayers, {options.classifyCode, options.expectedRuns}, options.phaseNote);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
@@ -609,6 +628,9 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
       classified.layerStarts, sparseBatchLimit(device, bg, options.maxBatchBricks), sparseRangeBricks(device, bg),
       ~0ull, classified.windowEnds(), options.keyedCornerBatches ? KeyedBatches::Force : KeyedBatches::Allow);
   s.batches = std::uint32_t(batches.size());
+  if (options.phaseNote)
+    options.phaseNote(groupedCount(classified.layerStarts.back()) + " active bricks of " + groupedCount(bg.count()) +
+                      " in " + std::to_string(batches.size()) + (batches.size() == 1 ? " batch" : " batches"));
   std::uint64_t batchBytes = 0;
   if (!batches.empty()) {
     std::uint32_t maxLoaded = 0;

@@ -163,10 +163,12 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
 // least over the job's devices): a batch loads a layer pair, and a large grid's pair can exceed
 // it (lavapipe's 128 MiB range holds 6,829 bricks of 16³; the tower at 2048³ needs 6,885).
 // Smaller bricks make thinner layers of smaller records. The mesh does not depend on the brick
-// size; the result's `bricks` is the grid used.
+// size; the result's `bricks` is the grid used. `phaseNote` (GpuPolygonizeOptions::phaseNote)
+// hears of each classification before it runs.
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
-                               GpuStats& stats, std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {});
+                               GpuStats& stats, std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {},
+                               const std::function<void(const std::string&)>& phaseNote = {});
 
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);
