@@ -18,6 +18,7 @@
 
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/row_splice.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
@@ -89,6 +90,19 @@ struct IncrementalExtractor::State {
       options.codegen = &*codegen;
     }
     bricks = brickGridFor(grid, options.brickCells);
+  }
+
+  // Bricks whose rows of points fit the driver's loop limit with this program (loop_limit.h),
+  // at each full extraction: the edits re-run bricks of the kept mesh's size.
+  void fitBricks(const blobtree::Program& program) {
+    const std::uint64_t limit = loopIterationLimit(device.info());
+    std::uint32_t cells = options.brickCells;
+    if (limit != ~0ull) {
+      GpuPolygonizeOptions unresolved = options;
+      unresolved.traversal = options.traversal == Traversal::Specialised ? Traversal::Specialised : Traversal::Auto;
+      cells = std::max(2u, brickCellsWithinLoopLimit(cells, evaluationLoopBound(program, unresolved), limit));
+    }
+    bricks = brickGridFor(grid, cells);
   }
 
   // The box's points and cells, whose rows the re-run gives (row_splice.h): a brick owns its
@@ -186,6 +200,7 @@ const mesh::TriMesh& IncrementalExtractor::reset(const blobtree::Program& progra
   IncrementalGpuStats local;
   IncrementalGpuStats& st = stats ? *stats : local;
   st = IncrementalGpuStats{};
+  s.fitBricks(program);
   st.layers = st.layersRerun = s.bricks.z;
   st.bricks = st.bricksRerun = std::uint32_t(s.bricks.count());
   st.box = wholeGrid(s.bricks);

@@ -2,6 +2,7 @@
 
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/extract/host_copy.h"
+#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
@@ -102,8 +103,14 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     for (Device* d : devices) range = std::min(range, sparseRangeBricks(*d, b));
     return range;
   };
+  // Bricks whose rows fit the loop limit of every llvmpipe among the devices (loop_limit.h), for
+  // whichever evaluator the model picks (the interpreter's bound where it may pick it).
+  std::uint32_t brickCells = options.brickCells;
+  for (Device* d : devices)
+    if (const std::uint64_t loops = loopIterationLimit(d->info()); loops != ~0ull)
+      brickCells = std::max(2u, brickCellsWithinLoopLimit(brickCells, evaluationLoopBound(program, options), loops));
   // One evaluator for every device: the bytes must not depend on which device ran a batch.
-  const ClassifiedBricks classified = classifyToFit(first, program, grid, options.brickCells, rangeBricks, shares[0],
+  const ClassifiedBricks classified = classifyToFit(first, program, grid, brickCells, rangeBricks, shares[0],
                                                     options.windowLayers, {}, options.phaseNote);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;

@@ -6,6 +6,7 @@
 #include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/gpu_program.h"
 #include "blobvk/vk/extract/brick_tapes.h"
+#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/host_copy.h"
@@ -411,12 +412,27 @@ struct SparseBatchRunner::State {
   }
 };
 
+namespace {
+// Every caller (one device or several, streamed, incremental) runs its batches here: a job whose
+// rows of points would outrun llvmpipe's loop limit fails with an error instead of a wrong mesh
+// (runSparseExtraction first picks bricks that fit, loop_limit.h).
+void checkLoopLimit(Device& device, const blobtree::Program& program, const GpuPolygonizeOptions& options,
+                    Traversal traversal, const BrickGrid& bricks) {
+  const std::uint64_t limit = loopIterationLimit(device.info());
+  if (limit == ~0ull) return;
+  GpuPolygonizeOptions resolved = options;
+  resolved.traversal = traversal;
+  checkSparseLoopLimit(program, resolved, 1u << bricks.log2B, limit);
+}
+}  // namespace
+
 SparseBatchRunner::SparseBatchRunner(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                      const GpuPolygonizeOptions& options, Traversal traversal, const BrickGrid& bricks,
                                      std::span<const ScanWindow> windows, std::uint32_t maxLoaded,
                                      std::uint32_t maxBatches)
-    : state_(std::make_unique<State>(device, program, grid, options, traversal, bricks, windows, maxLoaded,
-                                     maxBatches)) {}
+    : state_((checkLoopLimit(device, program, options, traversal, bricks),
+              std::make_unique<State>(device, program, grid, options, traversal, bricks, windows, maxLoaded,
+                                      maxBatches))) {}
 
 SparseBatchRunner::~SparseBatchRunner() = default;
 

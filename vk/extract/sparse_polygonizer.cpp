@@ -7,6 +7,7 @@
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/classify_kernel.h"
+#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/scan.h"
 
@@ -615,13 +616,32 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
   // Submits: one classifies and compacts the bricks (again with smaller bricks where a layer
   // pair would not fit one storage buffer); then, per batch of whole brick layers, two
   // (sparse_batches.h). The evaluator is chosen once the active bricks are known.
-  const ClassifiedBricks classified = classifyToFit(
-      device, program, grid, options.brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s,
-      options.windowLayers, {options.classifyCode, options.expectedRuns}, options.phaseNote);
+  auto classify = [&](std::uint32_t brickCells) {
+    return classifyToFit(device, program, grid, brickCells,
+                         [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s, options.windowLayers,
+                         {options.classifyCode, options.expectedRuns}, options.phaseNote);
+  };
+  ClassifiedBricks classified = classify(options.brickCells);
+  SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
+  // llvmpipe ends an invocation's loops after 65,535 iterations (loop_limit.h): where a row of
+  // the bricks' points would take more with the chosen evaluator, smaller bricks (the same mesh).
+  if (const std::uint64_t limit = loopIterationLimit(device.info()); limit != ~0ull) {
+    const std::uint32_t cells = 1u << classified.bricks.log2B;
+    const std::uint32_t fitting = brickCellsWithinLoopLimit(cells, evaluationLoopBound(program, evaluator.apply(options)), limit);
+    if (fitting != 0 && fitting < cells) {
+      if (options.phaseNote)
+        options.phaseNote("a row of " + std::to_string(cells + 1) + " points would outrun the driver's loop limit (" +
+                          std::to_string(limit) + " iterations) with a program of " +
+                          std::to_string(program.code.size()) + " instructions");
+      const double firstSeconds = s.classifySeconds;
+      classified = classify(fitting);
+      s.classifySeconds += firstSeconds;
+      evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
+    }
+  }
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
-  const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
   evaluator.report(s);
   const GpuPolygonizeOptions resolved = evaluator.apply(options);
   const std::vector<SparseBatch> batches = planSparseBatches(

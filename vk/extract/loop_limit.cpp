@@ -1,0 +1,83 @@
+#include "blobvk/vk/extract/loop_limit.h"
+
+#include "blobvk/vk/device/error.h"
+#include "blobvk/vk/eval/gpu_program.h"
+#include "blobvk/vk/eval/program_codegen.h"
+
+#include <algorithm>
+#include <string>
+
+namespace blobvk::vk {
+
+std::uint64_t loopIterationLimit(const DeviceInfo& info) {
+  // The driver reports itself as "llvmpipe (LLVM 15.0.6, 256 bits)".
+  return info.name.rfind("llvmpipe", 0) == 0 ? kLlvmpipeLoopIterations : ~0ull;
+}
+
+std::uint64_t evaluationLoopBound(const blobtree::Program& program, const GpuPolygonizeOptions& options) {
+  return evaluationLoopBound(program, options.brickTapes ? Traversal::Stackless : options.traversal, options.codegen);
+}
+
+std::uint64_t evaluationLoopBound(const blobtree::Program& program, Traversal traversal, const CodegenOptions* options) {
+  const std::uint64_t instructions = program.code.size();
+  const std::uint64_t interpreted = instructions + 1;  // the loop's last test counts too
+  switch (traversal) {
+    case Traversal::StackBased:
+      return 2 * instructions + 2;  // each node entered and left
+    case Traversal::Specialised: {
+      // The limit is llvmpipe's, so without options the code is the CPU drivers' default.
+      const CodegenOptions codegen = options ? *options : defaultCodegenOptions(true);
+      if (!canSpecialise(program, {}, codegen.loops)) return interpreted;  // too large: interpreted
+      const bool looped = specialisedCodeLoops(program, {}, codegen.loops);
+      return looped || codegen.branchOnSkips ? interpreted : 0;  // a loop per skip and instance at most
+    }
+    case Traversal::Stackless:
+    case Traversal::Auto:
+      break;
+  }
+  return interpreted;
+}
+
+std::uint64_t brickFieldLoopIterations(std::uint32_t brickCells, std::uint64_t perEvaluation) {
+  const std::uint64_t points = std::uint64_t(brickCells) + 1;
+  // brick_field_body.glsl: a loop over the row's runs of four points, one over each run's points.
+  return points * perEvaluation + 2 * points + 8;
+}
+
+std::uint64_t vertexLoopIterations(int refineSteps, bool stackBased, std::uint64_t perEvaluation) {
+  // edge_vertex.glsl: the sample loop (the refinement steps, six normal samples for the
+  // stack-based walk, and a last pass that leaves), each sample one evaluation; then the gradient
+  // pass (or the stack-based walk's colour), one more evaluation's worth.
+  const std::uint64_t samples = std::uint64_t(std::max(refineSteps, 0)) + (stackBased ? 6 : 0);
+  return (samples + 1) * perEvaluation + samples + 8;
+}
+
+std::uint32_t brickCellsWithinLoopLimit(std::uint32_t brickCells, std::uint64_t perEvaluation, std::uint64_t limit) {
+  for (std::uint32_t b = brickCells; b >= 2; b /= 2)
+    if (brickFieldLoopIterations(b, perEvaluation) <= limit) return b;
+  return 0;
+}
+
+void checkSparseLoopLimit(const blobtree::Program& program, const GpuPolygonizeOptions& options,
+                          std::uint32_t brickCells, std::uint64_t limit) {
+  const std::uint64_t field = brickFieldLoopIterations(brickCells, evaluationLoopBound(program, options));
+  // The vertex pass runs the traversal's kernel (never the tapes), interpreting the gradient where
+  // the generated one is off or not built yet.
+  GpuPolygonizeOptions vertexEvaluator = options;
+  vertexEvaluator.brickTapes = false;
+  const bool generatedGradient = !options.codegen || options.codegen->gradient;
+  if (options.traversal == Traversal::Specialised && (!generatedGradient || options.interpretVertexPassUntilBuilt))
+    vertexEvaluator.traversal = Traversal::Stackless;
+  const std::uint64_t vertex = vertexLoopIterations(options.refineSteps, options.traversal == Traversal::StackBased,
+                                                    evaluationLoopBound(program, vertexEvaluator));
+  if (field <= limit && vertex <= limit) return;
+  const std::string pass = field > limit ? "field pass with bricks of " + std::to_string(brickCells) + " cells"
+                                         : "vertex pass";
+  throw VulkanError("GPU polygonizer: the program's " + std::to_string(program.code.size()) + " instructions take up to " +
+                    std::to_string(std::max(field, vertex)) + " loop iterations per invocation of the " + pass +
+                    ", over this driver's limit of " + std::to_string(limit) +
+                    " (llvmpipe ends longer loops early and silently); use smaller bricks (--brick-cells), "
+                    "a specialised evaluator (--traversal specialised) or the cpu backend");
+}
+
+}  // namespace blobvk::vk
