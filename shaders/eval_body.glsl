@@ -21,6 +21,7 @@ precise float EVAL_NAME(EVAL_PARAMS) {
   pts[0] = p;
   uint resume = 0u;  // this lane skips the instructions before `resume`
   for (uint pc = EVAL_CODE_BEGIN; pc < n; ++pc) {
+    EVAL_LOOP_TICK();
     uvec4 in_ = programCode[pc].code;
     uint op = in_.x & 0xffu;
     uint dst = in_.x >> 8;

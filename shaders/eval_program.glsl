@@ -37,6 +37,7 @@ uint evalTapeBegin = 0u;
 #endif
 
 #include "program_layout.h"
+#include "eval_loop_count.glsl"
 
 layout(constant_id = 1) const uint TRAVERSAL = 0u;  // 0 stackless, 1 stack-based
 layout(constant_id = 2) const uint FIELD_REGS = 32u;

@@ -20,6 +20,7 @@ precise float EVAL_NAME(EVAL_PARAMS) {
   nodes[0] = 0u;
   states[0] = 0u;
   while (sp >= 0) {
+    EVAL_LOOP_TICK();
     uint node = nodes[sp];
     uvec4 h = programCode[2u * node].code;
     uvec4 links = programCode[2u * node + 1u].code;

@@ -13,6 +13,9 @@
 #extension GL_GOOGLE_include_directive : require
 #define PROGRAM_SET 0
 #define PROGRAM_BINDING 0
+// llvmpipe ends an invocation's loops after 65,535 iterations in all: the march counts them
+// (eval_loop_count.glsl) and stops short, counted and marked like a ray out of steps.
+#define EVAL_COUNT_LOOPS
 #include "eval_program.glsl"
 #include "common.glsl"
 #include "render_shading.glsl"
@@ -29,7 +32,7 @@ layout(push_constant) uniform Push {
   vec4 up;            // xyz camera up * tan(fovY / 2), w gradient step
   vec4 forward;       // xyz unit view direction, w bisection steps
   vec4 lo;            // xyz bounds, w max steps
-  vec4 hi;            // xyz bounds
+  vec4 hi;            // xyz bounds, w loop iterations a pixel may run (the driver's limit less a margin)
   uvec4 sizeCodeBackground;  // width, height, code length, background RGBA8
   uvec4 cells;               // xyz cells of the bounds (x fastest in cellLipschitz), w min rise (float bits)
 } pc;
@@ -72,11 +75,23 @@ void main() {
   bvec3 parallel = equal(dir, vec3(0.0));
   tFace = mix(tFace, vec3(3.0e38), parallel);
   tDelta = mix(tDelta, vec3(3.0e38), parallel);
+  // Loop iterations: a sample's (the most any took so far), and what the shading after a hit
+  // takes (the bisection, six gradient samples and the colour); a step is not taken unless both
+  // fit in what is left of the driver's limit.
+  float loopBudget = pc.hi.w;
+  uint shadingSamples = uint(pc.forward.w) + 8u;
+  uint ticks = evalLoopIterations;
   float f = evaluateField(eye + t * dir, codeLength);
-  bool hit = f >= ISO_VALUE, left = false;
+  uint perSample = evalLoopIterations - ticks + 1u;
+  bool hit = f >= ISO_VALUE, left = false, outOfLoops = false;
   float tInside = t;
   uint i = 0u;
   for (; i < maxSteps && !hit; ++i) {
+    EVAL_LOOP_TICK();
+    if (float(evalLoopIterations) + float((shadingSamples + 1u) * perSample) + 64.0 > loopBudget) {
+      outOfLoops = true;
+      break;
+    }
     float tCellExit = min(min(tFace.x, tFace.y), tFace.z);
     float lipschitz = cellLipschitz[(cell.z * dims.y + cell.y) * dims.x + cell.x];
     // L = 0: the field is 0 throughout the cell, nothing to find before its exit. The floor on
@@ -98,7 +113,9 @@ void main() {
       left = true;
       tNext = tExit;
     }
+    ticks = evalLoopIterations;
     float fNext = evaluateField(eye + tNext * dir, codeLength);
+    perSample = max(perSample, evalLoopIterations - ticks + 1u);
     if (fNext >= ISO_VALUE) {
       hit = true;
       tInside = tNext;
@@ -108,7 +125,7 @@ void main() {
     f = fNext;
     if (left) break;
   }
-  if (!hit && !left && i >= maxSteps) {
+  if (!hit && !left && (i >= maxSteps || outOfLoops)) {
     // Out of budget inside the bounds: a surface may lie further on. Count and mark it.
     atomicAdd(exhaustedRays, 1u);
     pixels[idx] = BUDGET_MARKER;
@@ -120,6 +137,7 @@ void main() {
   if (b > a) {
     uint bisections = uint(pc.forward.w);
     for (uint i = 0u; i < bisections; ++i) {
+      EVAL_LOOP_TICK();
       float m = 0.5 * (a + b);
       if (evaluateField(eye + m * dir, codeLength) >= ISO_VALUE) b = m; else a = m;
     }
@@ -132,6 +150,12 @@ void main() {
   vec3 n = length(grad) > 0.0 ? -normalize(grad) : -dir;
   vec3 colour;
   evaluateFieldColour(p, codeLength, colour);
+  if (float(evalLoopIterations) >= loopBudget) {
+    // The shading took more than its share and the driver may have cut it short: say so.
+    atomicAdd(exhaustedRays, 1u);
+    pixels[idx] = BUDGET_MARKER;
+    return;
+  }
   // Light: the same headlight as vk::headlight (unit back, up and right vectors of the camera).
   vec3 back = -normalize(pc.forward.xyz), upDir = normalize(pc.up.xyz), rightDir = normalize(pc.right.xyz);
   vec3 toLight = normalize(back + 0.4 * upDir - 0.3 * rightDir);

@@ -9,6 +9,7 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/render/raycast.h"
 #include "blobvk/vk/render/raycast_lipschitz.h"
 #include "blobvk/vk/render/render_mesh.h"
@@ -193,6 +194,54 @@ TEST_F(RaycastRegionsTest, RaysOutOfBudgetAreCountedAndMarked) {
   vk::Raycaster normal(device(), blobtree::compile(sphere({0, 0, 0}, 1.0)), options);
   normal.render(c, 64, 64, &stats);
   EXPECT_EQ(stats.exhaustedRays, 0u);
+}
+
+// llvmpipe ends a pixel's loops after 65,535 iterations (vk/extract/loop_limit.h); a blend of
+// 1,500 points loops about 1,500 times a sample, so a ray gets a few dozen steps. The oracle: a
+// ray through a point's centre (field 1 there) hits something, so the pixel holding a centre's
+// projection is surface or marked, never the background; every marked ray is counted. Before the
+// kernel counted its loops, such rays showed the background and the image was nearly empty.
+TEST_F(RaycastRegionsTest, RaysTheDriverWouldCutShortAreMarkedNotDropped) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> at(-10.0, 10.0);
+  std::vector<blobtree::Node> points;
+  std::vector<glm::vec3> centres;
+  for (int i = 0; i < 1500; ++i) {
+    const glm::dvec3 c(at(rng), at(rng), at(rng));
+    points.push_back(scaledPoint(c, glm::dvec3(1.0), glm::dvec3(0.8)));
+    centres.push_back(glm::vec3(c));
+  }
+  const blobtree::Program program = blobtree::compile(blend(std::move(points)));
+  vk::RaycastOptions options;
+  options.background = {0, 0, 0};
+  vk::Raycaster caster(device(), program, options);
+  vk::Camera camera;
+  camera.eye = {0, 0, 40};
+  camera.target = {0, 0, 0};
+  camera.fovYDeg = 40.0f;
+  const std::uint32_t size = 96;
+  vk::RaycastStats stats;
+  const vk::Image image = caster.render(camera, size, size, &stats);
+  EXPECT_EQ(markedPixels(image), stats.exhaustedRays);
+  const glm::vec3 forward = glm::normalize(camera.target - camera.eye);
+  const glm::vec3 right = glm::normalize(glm::cross(forward, camera.up)), up = glm::cross(right, forward);
+  const float tanY = std::tan(glm::radians(camera.fovYDeg) * 0.5f);
+  std::size_t checked = 0, background = 0;
+  for (const glm::vec3& c : centres) {
+    const glm::vec3 v = c - camera.eye;
+    const float z = glm::dot(v, forward);
+    const float x = glm::dot(v, right) / (z * tanY), y = glm::dot(v, up) / (z * tanY);
+    const float px = (x + 1.0f) * 0.5f * float(size), py = (1.0f - y) * 0.5f * float(size);
+    if (px < 0.0f || py < 0.0f || px >= float(size) || py >= float(size)) continue;
+    const std::uint8_t* p = &image.rgba[(std::size_t(py) * size + std::size_t(px)) * 4];
+    ++checked;
+    background += (p[0] | p[1] | p[2]) == 0;
+  }
+  ASSERT_GT(checked, 1000u);
+  EXPECT_EQ(background, 0u) << "of " << checked << " pixels over a point's centre";
+  if (vk::loopIterationLimit(device().info()) != ~0ull) {
+    EXPECT_GT(stats.exhaustedRays, 0u);
+  }
 }
 
 mesh::TriMesh append(mesh::TriMesh a, const mesh::TriMesh& b) {

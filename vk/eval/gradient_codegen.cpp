@@ -247,6 +247,7 @@ class GradientGenerator {
                               point(warps_ ? in.z : 0) + ");");
           if (options_.branchOnSkips && target - pc - 1 >= options_.minBranchInstructions) {
             line(depth + 1, "while (!subgroupAll(" + o + ")) {");
+            line(depth + 2, "EVAL_LOOP_TICK();");
             emitRange(pc + 1, target, depth + 2);
             line(depth + 2, "break;");
             line(depth + 1, "}");

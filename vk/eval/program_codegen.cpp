@@ -201,6 +201,7 @@ class Generator {
           if (options_.branchOnSkips && target - pc - 1 >= options_.minBranchInstructions) {
             // A loop rather than an `if`: the subgroup leaves it as soon as no lane is active.
             line(depth + 1, "while (!subgroupAll(" + o + ")) {");
+            line(depth + 2, "EVAL_LOOP_TICK();");
             emitRange(pc + 1, target, depth + 2);
             line(depth + 2, "break;");
             line(depth + 1, "}");
@@ -412,7 +413,7 @@ std::string generateSpecialisedEvaluator(const blobtree::Program& program, const
       "// shaders/eval_program.glsl (same interface).\n"
       "#ifndef BLOBVK_EVAL_PROGRAM_GLSL\n#define BLOBVK_EVAL_PROGRAM_GLSL\n"
       "#extension GL_KHR_shader_subgroup_vote : require\n"
-      "#include \"program_layout.h\"\n#include \"eval_formulas.glsl\"\n\n";
+      "#include \"program_layout.h\"\n#include \"eval_loop_count.glsl\"\n#include \"eval_formulas.glsl\"\n\n";
   // What the whole program contains, for the vertex pass's gradient interpreter
   // (shaders/eval_gradient.glsl), which runs the uploaded code and folds away what is absent:
   // the looped form brings no gradient of its own.

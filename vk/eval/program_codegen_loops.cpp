@@ -202,6 +202,7 @@ class LoopedGenerator {
         if (o_.branchOnSkips && body.end - body.begin >= o_.minBranchInstructions) {
           // A loop rather than an `if`: the subgroup leaves it as soon as no lane is active.
           line(c, depth + 1, "while (!subgroupAll(" + o + ")) {");
+          line(c, depth + 2, "EVAL_LOOP_TICK();");
           expr(c, e.body, false, depth + 2);
           line(c, depth + 2, "break;");
           line(c, depth + 1, "}");
@@ -281,6 +282,7 @@ class LoopedGenerator {
     const std::string stride = std::to_string(s_.blockWords(shape)) + "u";
     usesData_ = true;
     line(c, depth, "for (uint i = 0u, count = " + std::to_string(n) + "u + D[" + data0_ + "].x; i < count; ++i) {");
+    line(c, depth + 1, "EVAL_LOOP_TICK();");
     if (c.colour)
       line(c, depth + 1, "vec3 cv; float v = " + fn + "(" + point(c, e.point) + ", " + base + " + i * " + stride + ", cv);");
     else

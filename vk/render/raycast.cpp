@@ -1,5 +1,6 @@
 #include "blobvk/vk/render/raycast.h"
 
+#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/render/raycast_lipschitz.h"
 
 #include <glm/geometric.hpp>
@@ -41,6 +42,10 @@ Raycaster::Raycaster(Device& device, const blobtree::Program& program, const Ray
   cellBuffer_ = device.createBuffer(cells_.cells.size() * 4);
   device.upload(cellBuffer_, cells_.cells.data(), cells_.cells.size() * 4);
   exhausted_ = device.createBuffer(16, MemoryUse::Readback);
+  // llvmpipe ends a pixel's loops after 65,535 iterations in all (vk/extract/loop_limit.h); the
+  // kernel counts its own and stops a ray short of them (a margin for the few it does not tick).
+  const std::uint64_t loops = loopIterationLimit(device.info());
+  loopBudget_ = loops == ~0ull ? 3.0e38f : float(loops - 256);
 }
 
 std::uint32_t Raycaster::exhaustedRays() const {
@@ -66,7 +71,7 @@ void Raycaster::recordRaycast(Recorder& rec, const Camera& camera, std::uint32_t
          {up.x * tanY, up.y * tanY, up.z * tanY, options_.gradientFraction * diagonal},
          {forward.x, forward.y, forward.z, float(options_.bisections)},
          {region_.lo.x, region_.lo.y, region_.lo.z, float(options_.maxSteps)},
-         {region_.hi.x, region_.hi.y, region_.hi.z, 0.0f},
+         {region_.hi.x, region_.hi.y, region_.hi.z, loopBudget_},
          {width, height, program_.codeLength, packBackground(options_.background)},
          {cells_.dims[0], cells_.dims[1], cells_.dims[2], floatBits(options_.minRise)}};
   static_assert(sizeof(push) == 128);

@@ -31,7 +31,9 @@ struct RaycastOptions {
   float minRise = 2e-3f;
   float gradientFraction = 5e-4f;   // central-difference step, fraction of the diagonal
   // Per ray, cell crossings included; a ray that runs out inside the bounds is counted
-  // (RaycastStats::exhaustedRays, Raycaster::exhaustedRays) and drawn kRaycastBudgetMarker.
+  // (RaycastStats::exhaustedRays, Raycaster::exhaustedRays) and drawn kRaycastBudgetMarker. So is
+  // one that would outrun llvmpipe's 65,535 loop iterations per pixel (vk/extract/loop_limit.h),
+  // which a long interpreted or looped program reaches in fewer steps.
   std::uint32_t maxSteps = 4096;
   // The bounds split into at most this many cells along the longest side, each with its own
   // Lipschitz bound (raycast_lipschitz.h: lipschitzGrid); 1 = one bound for the whole scene.
@@ -77,6 +79,7 @@ class Raycaster {
   float lipschitz_ = 0.0f;
   LipschitzGrid cells_;
   Buffer cellBuffer_, exhausted_;
+  float loopBudget_ = 3.0e38f;  // loop iterations a pixel may run (llvmpipe's limit less a margin)
 };
 
 }  // namespace blobvk::vk
