@@ -103,5 +103,23 @@ TEST_F(VulkanTest, ProgramsNoBrickFitsAreRefusedWithTheLimitNamed) {
   }
 }
 
+// The dense pipeline evaluates one point per invocation: only a program of more than 65,534
+// instructions outruns the limit there, and it is refused before any work.
+TEST_F(VulkanTest, TheDensePipelineRefusesProgramsOverTheLoopLimit) {
+  if (vk::loopIterationLimit(device().info()) == ~0ull) GTEST_SKIP() << "this device's loops have no iteration limit";
+  vk::GpuPolygonizeOptions options;
+  options.sparse = false;
+  options.traversal = vk::Traversal::Stackless;
+  const blobtree::Program fits = blendOfPoints(2100);
+  EXPECT_GT(vk::polygonize(device(), fits, gridAt(fits, 12), options).triangleCount(), 0u);
+  const blobtree::Program over = blendOfPoints(33000);  // 66,000 instructions
+  try {
+    (void)vk::polygonize(device(), over, gridAt(over, 8), options);
+    FAIL() << "no error";
+  } catch (const vk::VulkanError& e) {
+    EXPECT_NE(std::string(e.what()).find("field pass, over this driver's limit of 65535"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace blobvk::testing

@@ -58,26 +58,46 @@ std::uint32_t brickCellsWithinLoopLimit(std::uint32_t brickCells, std::uint64_t 
   return 0;
 }
 
-void checkSparseLoopLimit(const blobtree::Program& program, const GpuPolygonizeOptions& options,
-                          std::uint32_t brickCells, std::uint64_t limit) {
-  const std::uint64_t field = brickFieldLoopIterations(brickCells, evaluationLoopBound(program, options));
-  // The vertex pass runs the traversal's kernel (never the tapes), interpreting the gradient where
-  // the generated one is off or not built yet.
+namespace {
+
+// The vertex pass runs the traversal's kernel (never the tapes), interpreting the gradient where
+// the generated one is off or not built yet.
+std::uint64_t vertexPassLoopIterations(const blobtree::Program& program, const GpuPolygonizeOptions& options) {
   GpuPolygonizeOptions vertexEvaluator = options;
   vertexEvaluator.brickTapes = false;
   const bool generatedGradient = !options.codegen || options.codegen->gradient;
   if (options.traversal == Traversal::Specialised && (!generatedGradient || options.interpretVertexPassUntilBuilt))
     vertexEvaluator.traversal = Traversal::Stackless;
-  const std::uint64_t vertex = vertexLoopIterations(options.refineSteps, options.traversal == Traversal::StackBased,
-                                                    evaluationLoopBound(program, vertexEvaluator));
-  if (field <= limit && vertex <= limit) return;
-  const std::string pass = field > limit ? "field pass with bricks of " + std::to_string(brickCells) + " cells"
-                                         : "vertex pass";
+  return vertexLoopIterations(options.refineSteps, options.traversal == Traversal::StackBased,
+                              evaluationLoopBound(program, vertexEvaluator));
+}
+
+[[noreturn]] void refuse(const blobtree::Program& program, std::uint64_t iterations, const std::string& pass,
+                         std::uint64_t limit, const char* advice = "") {
   throw VulkanError("GPU polygonizer: the program's " + std::to_string(program.code.size()) + " instructions take up to " +
-                    std::to_string(std::max(field, vertex)) + " loop iterations per invocation of the " + pass +
+                    std::to_string(iterations) + " loop iterations per invocation of the " + pass +
                     ", over this driver's limit of " + std::to_string(limit) +
-                    " (llvmpipe ends longer loops early and silently); use smaller bricks (--brick-cells), "
+                    " (llvmpipe ends longer loops early and silently); use " + advice +
                     "a specialised evaluator (--traversal specialised) or the cpu backend");
+}
+
+}  // namespace
+
+void checkSparseLoopLimit(const blobtree::Program& program, const GpuPolygonizeOptions& options,
+                          std::uint32_t brickCells, std::uint64_t limit) {
+  const std::uint64_t field = brickFieldLoopIterations(brickCells, evaluationLoopBound(program, options));
+  if (field > limit)
+    refuse(program, field, "field pass with bricks of " + std::to_string(brickCells) + " cells", limit,
+           "smaller bricks (--brick-cells), ");
+  const std::uint64_t vertex = vertexPassLoopIterations(program, options);
+  if (vertex > limit) refuse(program, vertex, "vertex pass", limit);
+}
+
+void checkDenseLoopLimit(const blobtree::Program& program, const GpuPolygonizeOptions& options, std::uint64_t limit) {
+  const std::uint64_t field = evaluationLoopBound(program, options) + 8;  // field_grid.comp: one point
+  if (field > limit) refuse(program, field, "field pass", limit);
+  const std::uint64_t vertex = vertexPassLoopIterations(program, options);
+  if (vertex > limit) refuse(program, vertex, "vertex pass", limit);
 }
 
 }  // namespace blobvk::vk

@@ -46,5 +46,7 @@ std::uint32_t brickCellsWithinLoopLimit(std::uint32_t brickCells, std::uint64_t 
 // of a job with bricks of `brickCells` would exceed `limit`.
 void checkSparseLoopLimit(const blobtree::Program& program, const GpuPolygonizeOptions& options,
                           std::uint32_t brickCells, std::uint64_t limit);
+// The same for the dense pipeline, whose field kernel evaluates one point per invocation.
+void checkDenseLoopLimit(const blobtree::Program& program, const GpuPolygonizeOptions& options, std::uint64_t limit);
 
 }  // namespace blobvk::vk

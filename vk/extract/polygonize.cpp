@@ -1,6 +1,7 @@
 #include "blobvk/vk/extract/polygonize.h"
 
 #include "blobvk/vk/device/error.h"
+#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/slab_polygonizer.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
@@ -24,6 +25,8 @@ mesh::TriMesh polygonize(Device& device, const blobtree::Program& program,
     return mesh;
   }
   if (options.sparse && !options.tiledVertexPass) return polygonizeSparse(device, program, grid, options, stats);
+  if (const std::uint64_t limit = loopIterationLimit(device.info()); limit != ~0ull)
+    checkDenseLoopLimit(program, options, limit);
   SlabPolygonizer poly(device, program, grid, options);
   s.fieldTiles = poly.fieldTileCount();
   const auto pts = grid.points();
