@@ -4,6 +4,9 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <stdexcept>
+#include <string>
+#include <system_error>
 
 namespace blobvk::testing {
 
@@ -48,9 +51,22 @@ std::size_t countJsonPrimitives(const nlohmann::json& node) {
 }
 
 std::filesystem::path scratchDir() {
-  const auto dir = std::filesystem::temp_directory_path() / ("blobvk_cli_" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
-  return dir;
+  // A new folder per test process, removed when it ends: one named by the pid alone outlived its
+  // process, and a later process given the same pid found the files of an earlier run in it (a
+  // test that expects an empty folder failed once a machine had run the suite a few hundred times).
+  static const struct Scratch {
+    std::filesystem::path path;
+    Scratch() {
+      std::string name = (std::filesystem::temp_directory_path() / "blobvk_cli_XXXXXX").string();
+      if (!mkdtemp(name.data())) throw std::runtime_error("cannot create a scratch folder under " + name);
+      path = name;
+    }
+    ~Scratch() {
+      std::error_code ignored;
+      std::filesystem::remove_all(path, ignored);
+    }
+  } scratch;
+  return scratch.path;
 }
 
 std::string sourcePath(const std::string& rel) { return std::string(BLOBVK_SOURCE_DIR) + "/" + rel; }

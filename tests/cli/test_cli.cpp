@@ -1,4 +1,5 @@
 // Runs the blobvk binary as a user would and checks what it prints, returns and writes.
+#include "cli_files.h"
 #include "run_cli.h"
 
 #include "blobvk/mesh/checks.h"
@@ -26,11 +27,7 @@ CliRun run(const std::string& args) { return blobvk::testing::runCli(args); }
 
 std::string source(const std::string& rel) { return std::string(BLOBVK_SOURCE_DIR) + "/" + rel; }
 
-std::filesystem::path scratch(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("blobvk_cli_" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
-  return dir / name;
-}
+std::filesystem::path scratch(const std::string& name) { return blobvk::testing::scratchDir() / name; }
 
 std::size_t lines(const std::string& s) {
   std::size_t n = 0;
