@@ -621,23 +621,29 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
                          [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s, options.windowLayers,
                          {options.classifyCode, options.expectedRuns}, options.phaseNote);
   };
-  ClassifiedBricks classified = classify(options.brickCells);
+  // llvmpipe ends an invocation's loops after 65,535 iterations (loop_limit.h): bricks whose rows
+  // of points fit them (the same mesh on any bricks), first for the most an unresolved evaluator
+  // can loop (Auto counts as the interpreter), so that a long program is classified once.
+  const std::uint64_t loopLimit = loopIterationLimit(device.info());
+  auto fitting = [&](std::uint32_t cells, const GpuPolygonizeOptions& evaluatorOptions) {
+    if (loopLimit == ~0ull) return cells;
+    const std::uint32_t fits = brickCellsWithinLoopLimit(cells, evaluationLoopBound(program, evaluatorOptions), loopLimit);
+    if (fits != 0 && fits < cells && options.phaseNote)
+      options.phaseNote("a row of " + std::to_string(cells + 1) + " points would outrun the driver's loop limit (" +
+                        std::to_string(loopLimit) + " iterations) with a program of " +
+                        std::to_string(program.code.size()) + " instructions");
+    return fits != 0 ? fits : cells;  // none fits: SparseBatchRunner refuses the job
+  };
+  ClassifiedBricks classified = classify(fitting(options.brickCells, options));
   SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
-  // llvmpipe ends an invocation's loops after 65,535 iterations (loop_limit.h): where a row of
-  // the bricks' points would take more with the chosen evaluator, smaller bricks (the same mesh).
-  if (const std::uint64_t limit = loopIterationLimit(device.info()); limit != ~0ull) {
-    const std::uint32_t cells = 1u << classified.bricks.log2B;
-    const std::uint32_t fitting = brickCellsWithinLoopLimit(cells, evaluationLoopBound(program, evaluator.apply(options)), limit);
-    if (fitting != 0 && fitting < cells) {
-      if (options.phaseNote)
-        options.phaseNote("a row of " + std::to_string(cells + 1) + " points would outrun the driver's loop limit (" +
-                          std::to_string(limit) + " iterations) with a program of " +
-                          std::to_string(program.code.size()) + " instructions");
-      const double firstSeconds = s.classifySeconds;
-      classified = classify(fitting);
-      s.classifySeconds += firstSeconds;
-      evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
-    }
+  // The chosen evaluator loops no more than the unresolved bound, but classifyToFit may have
+  // halved the bricks for memory; checked again (a resolved stack-based walk, say).
+  if (const std::uint32_t cells = 1u << classified.bricks.log2B, fits = fitting(cells, evaluator.apply(options));
+      fits < cells) {
+    const double firstSeconds = s.classifySeconds;
+    classified = classify(fits);
+    s.classifySeconds += firstSeconds;
+    evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
   }
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
