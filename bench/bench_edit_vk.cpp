@@ -111,7 +111,7 @@ void edit(benchmark::State& state, EditKind kind) {
   const blobtree::NodePath path = pathOf(kind);
   const blobtree::Transform home = tree.node(path).transform;
   double apply = 0, classify = 0, extract = 0, splice = 0, total = 0, boxBricks = 0, bricks = 0, gridBricks = 0;
-  double field = 0, passes = 0, vertices = 0;
+  double field = 0, passes = 0, vertices = 0, brickCells = 0;
   std::int64_t n = 0;
   for (auto _ : state) {
     const auto t0 = Clock::now();
@@ -126,6 +126,7 @@ void edit(benchmark::State& state, EditKind kind) {
     classify += st.msClassify, extract += st.msExtract, splice += st.msSplice;
     boxBricks += double(st.bricksRerun), bricks += double(st.gpu.activeBricks), gridBricks = double(st.bricks);
     field += st.gpu.fieldSeconds * 1e3, passes += st.gpu.extractSeconds * 1e3, vertices += st.gpu.verticesSeconds * 1e3;
+    brickCells = double(st.gpu.brickCells);  // the session's: the argument, or fewer for the driver's loop limit
     ++n;
   }
   const double k = n ? 1.0 / double(n) : 0.0;
@@ -140,6 +141,7 @@ void edit(benchmark::State& state, EditKind kind) {
   state.counters["ms_vertices_device"] = vertices * k;
   state.counters["bricks_rerun"] = boxBricks * k;
   state.counters["bricks"] = gridBricks;
+  state.counters["brick_cells"] = brickCells;
   state.counters["active_bricks_rerun"] = bricks * k;
   state.counters["triangles"] = double(inc.mesh().triangleCount());
   state.counters["full_ms"] = full;
