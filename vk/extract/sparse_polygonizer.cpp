@@ -636,8 +636,9 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
   };
   ClassifiedBricks classified = classify(fitting(options.brickCells, options));
   SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
-  // The chosen evaluator loops no more than the unresolved bound, but classifyToFit may have
-  // halved the bricks for memory; checked again (a resolved stack-based walk, say).
+  // Checked again for the evaluator the model chose: its bound is at most the unresolved one
+  // and classifyToFit only ever halves the bricks, so this classifies again only if a resolved
+  // evaluator ever loops more than Auto's bound says.
   if (const std::uint32_t cells = 1u << classified.bricks.log2B, fits = fitting(cells, evaluator.apply(options));
       fits < cells) {
     const double firstSeconds = s.classifySeconds;
