@@ -212,8 +212,9 @@ void addRenderCommand(CLI::App& app) {
     }
     if (exhaustedRays > 0) {
       // Not an error (the image is written), but never silent: those pixels may hide a surface.
-      std::fprintf(stderr, "blobvk render: warning: %llu ray(s) ran out of their step budget; their pixels are "
-                           "magenta (see docs/rendering.md, Ray-casting)\n",
+      std::fprintf(stderr, "blobvk render: warning: %llu ray(s) ran out of their step budget (or, on lavapipe, "
+                           "of the driver's loop iterations); their pixels are magenta (see docs/rendering.md, "
+                           "Ray-casting)\n",
                    static_cast<unsigned long long>(exhaustedRays));
     }
     if (ctx.validationMessages() > 0) {
