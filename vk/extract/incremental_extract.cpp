@@ -95,14 +95,7 @@ struct IncrementalExtractor::State {
   // Bricks whose rows of points fit the driver's loop limit with this program (loop_limit.h),
   // at each full extraction: the edits re-run bricks of the kept mesh's size.
   void fitBricks(const blobtree::Program& program) {
-    const std::uint64_t limit = loopIterationLimit(device.info());
-    std::uint32_t cells = options.brickCells;
-    if (limit != ~0ull) {
-      GpuPolygonizeOptions unresolved = options;
-      unresolved.traversal = options.traversal == Traversal::Specialised ? Traversal::Specialised : Traversal::Auto;
-      cells = std::max(2u, brickCellsWithinLoopLimit(cells, evaluationLoopBound(program, unresolved), limit));
-    }
-    bricks = brickGridFor(grid, cells);
+    bricks = brickGridFor(grid, brickCellsForLoopLimit(device.info(), program, options, options.brickCells));
   }
 
   // The box's points and cells, whose rows the re-run gives (row_splice.h): a brick owns its

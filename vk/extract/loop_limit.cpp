@@ -58,6 +58,14 @@ std::uint32_t brickCellsWithinLoopLimit(std::uint32_t brickCells, std::uint64_t 
   return 0;
 }
 
+std::uint32_t brickCellsForLoopLimit(const DeviceInfo& info, const blobtree::Program& program,
+                                     const GpuPolygonizeOptions& options, std::uint32_t brickCells) {
+  const std::uint64_t limit = loopIterationLimit(info);
+  if (limit == ~0ull) return brickCells;
+  const std::uint32_t fits = brickCellsWithinLoopLimit(brickCells, evaluationLoopBound(program, options), limit);
+  return fits != 0 ? fits : brickCells;
+}
+
 namespace {
 
 // The vertex pass runs the traversal's kernel (never the tapes), interpreting the gradient where

@@ -41,6 +41,12 @@ std::uint64_t vertexLoopIterations(int refineSteps, bool stackBased, std::uint64
 
 // The largest power of two from 2 to `brickCells` whose field pass fits `limit`; 0 when none does.
 std::uint32_t brickCellsWithinLoopLimit(std::uint32_t brickCells, std::uint64_t perEvaluation, std::uint64_t limit);
+// The bricks a sparse job on `info`'s device takes for the evaluator `options` describes
+// (Traversal::Auto: the interpreter's bound, the most the model's choice can loop):
+// brickCellsWithinLoopLimit, or `brickCells` itself where the device has no limit or no size fits
+// (SparseBatchRunner then refuses the job, checkSparseLoopLimit).
+std::uint32_t brickCellsForLoopLimit(const DeviceInfo& info, const blobtree::Program& program,
+                                     const GpuPolygonizeOptions& options, std::uint32_t brickCells);
 
 // Throws VulkanError naming the limit, the program's size and what to do when the sparse passes
 // of a job with bricks of `brickCells` would exceed `limit`.

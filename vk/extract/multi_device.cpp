@@ -106,9 +106,7 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   // Bricks whose rows fit the loop limit of every llvmpipe among the devices (loop_limit.h), for
   // whichever evaluator the model picks (the interpreter's bound where it may pick it).
   std::uint32_t brickCells = options.brickCells;
-  for (Device* d : devices)
-    if (const std::uint64_t loops = loopIterationLimit(d->info()); loops != ~0ull)
-      brickCells = std::max(2u, brickCellsWithinLoopLimit(brickCells, evaluationLoopBound(program, options), loops));
+  for (Device* d : devices) brickCells = brickCellsForLoopLimit(d->info(), program, options, brickCells);
   // One evaluator for every device: the bytes must not depend on which device ran a batch.
   const ClassifiedBricks classified = classifyToFit(first, program, grid, brickCells, rangeBricks, shares[0],
                                                     options.windowLayers, {}, options.phaseNote);

@@ -6,10 +6,10 @@
 #include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/gpu_program.h"
 #include "blobvk/vk/extract/brick_tapes.h"
-#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/host_copy.h"
+#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/scan.h"
 
 #include <algorithm>

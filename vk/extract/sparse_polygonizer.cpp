@@ -616,36 +616,18 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
   // Submits: one classifies and compacts the bricks (again with smaller bricks where a layer
   // pair would not fit one storage buffer); then, per batch of whole brick layers, two
   // (sparse_batches.h). The evaluator is chosen once the active bricks are known.
-  auto classify = [&](std::uint32_t brickCells) {
-    return classifyToFit(device, program, grid, brickCells,
-                         [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s, options.windowLayers,
-                         {options.classifyCode, options.expectedRuns}, options.phaseNote);
-  };
   // llvmpipe ends an invocation's loops after 65,535 iterations (loop_limit.h): bricks whose rows
-  // of points fit them (the same mesh on any bricks), first for the most an unresolved evaluator
-  // can loop (Auto counts as the interpreter), so that a long program is classified once.
-  const std::uint64_t loopLimit = loopIterationLimit(device.info());
-  auto fitting = [&](std::uint32_t cells, const GpuPolygonizeOptions& evaluatorOptions) {
-    if (loopLimit == ~0ull) return cells;
-    const std::uint32_t fits = brickCellsWithinLoopLimit(cells, evaluationLoopBound(program, evaluatorOptions), loopLimit);
-    if (fits != 0 && fits < cells && options.phaseNote)
-      options.phaseNote("a row of " + std::to_string(cells + 1) + " points would outrun the driver's loop limit (" +
-                        std::to_string(loopLimit) + " iterations) with a program of " +
-                        std::to_string(program.code.size()) + " instructions");
-    return fits != 0 ? fits : cells;  // none fits: SparseBatchRunner refuses the job
-  };
-  ClassifiedBricks classified = classify(fitting(options.brickCells, options));
-  SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
-  // Checked again for the evaluator the model chose: its bound is at most the unresolved one
-  // and classifyToFit only ever halves the bricks, so this classifies again only if a resolved
-  // evaluator ever loops more than Auto's bound says.
-  if (const std::uint32_t cells = 1u << classified.bricks.log2B, fits = fitting(cells, evaluator.apply(options));
-      fits < cells) {
-    const double firstSeconds = s.classifySeconds;
-    classified = classify(fits);
-    s.classifySeconds += firstSeconds;
-    evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
-  }
+  // of points fit them for the most the model's evaluator can loop (the same mesh on any bricks);
+  // SparseBatchRunner refuses a job none fits.
+  const std::uint32_t brickCells = brickCellsForLoopLimit(device.info(), program, options, options.brickCells);
+  if (brickCells < options.brickCells && options.phaseNote)
+    options.phaseNote("a row of " + std::to_string(options.brickCells + 1) +
+                      " points would outrun the driver's loop limit (" + std::to_string(loopIterationLimit(device.info())) +
+                      " iterations) with a program of " + std::to_string(program.code.size()) + " instructions");
+  const ClassifiedBricks classified = classifyToFit(
+      device, program, grid, brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s,
+      options.windowLayers, {options.classifyCode, options.expectedRuns}, options.phaseNote);
+  const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());
