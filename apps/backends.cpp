@@ -8,6 +8,7 @@
 #include "blobvk/cpu_simd/streaming_polygonizer.h"
 
 #ifdef BLOBVK_HAVE_VULKAN
+#include "blobvk/vk/extract/kernel_warm_up.h"
 #include "blobvk/vk/extract/multi_device.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/extract/streamed_extract.h"
@@ -53,6 +54,12 @@ std::map<ContextKey, std::unique_ptr<vk::StandaloneContext>>& sharedContexts() {
   static std::map<ContextKey, std::unique_ptr<vk::StandaloneContext>> contexts;
   return contexts;
 }
+// A cold first process on lavapipe compiles the extraction's fixed kernels on a second device
+// beside the job (vk/extract/kernel_warm_up.h); ended before the contexts go.
+std::unique_ptr<vk::KernelWarmUp>& kernelWarmUp() {
+  static std::unique_ptr<vk::KernelWarmUp> warmUp;
+  return warmUp;
+}
 
 vk::StandaloneContext& sharedContext(const std::string& device, bool validation, int copy = 0) {
   auto& slot = sharedContexts()[{device, validation, copy}];
@@ -61,6 +68,7 @@ vk::StandaloneContext& sharedContext(const std::string& device, bool validation,
     options.device = device;
     options.validation = validation;
     slot = std::make_unique<vk::StandaloneContext>(options);
+    if (copy == 0 && !kernelWarmUp()) kernelWarmUp() = std::make_unique<vk::KernelWarmUp>(*slot, options);
   }
   return *slot;
 }
@@ -83,6 +91,7 @@ std::uint64_t validationMessages(const std::vector<vk::StandaloneContext*>& cont
 
 void releaseSharedDevices() {
 #ifdef BLOBVK_HAVE_VULKAN
+  kernelWarmUp().reset();
   sharedContexts().clear();
 #endif
 }
