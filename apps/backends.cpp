@@ -54,11 +54,15 @@ std::map<ContextKey, std::unique_ptr<vk::StandaloneContext>>& sharedContexts() {
   static std::map<ContextKey, std::unique_ptr<vk::StandaloneContext>> contexts;
   return contexts;
 }
-// A cold first process on lavapipe compiles the extraction's fixed kernels on a second device
-// beside the job (vk/extract/kernel_warm_up.h); ended before the contexts go.
+// A cold first process on lavapipe compiles the first job's kernels on a second device beside
+// the job (vk/extract/kernel_warm_up.h); it stops copying once that job is done (later jobs find
+// their kernels built) and ends before the contexts go.
 std::unique_ptr<vk::KernelWarmUp>& kernelWarmUp() {
   static std::unique_ptr<vk::KernelWarmUp> warmUp;
   return warmUp;
+}
+void firstJobDone() {
+  if (kernelWarmUp()) kernelWarmUp()->stop();
 }
 
 vk::StandaloneContext& sharedContext(const std::string& device, bool validation, int copy = 0) {
@@ -172,6 +176,7 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
   vk::polygonizeStreamed(context.device(), program, grid, gpuOptions(settings), sink, &gpu,
                          settings.progress ? std::function<void(std::size_t, std::size_t)>(settings.progress)
                                            : std::function<void(std::size_t, std::size_t)>());
+  firstJobDone();
   checkValidation(contexts, messagesBefore);
   if (stats) {
     stats->gpu = gpuPhases(gpu);
@@ -253,6 +258,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
       }
       mesh = vk::polygonizeOnDevices(devices, program, grid, options, &gpu, nullptr, settings.cpuWorker ? &host : nullptr);
     }
+    firstJobDone();
     evaluations = double(gpu.fieldEvaluations);
     if (stats) stats->gpu = gpuPhases(gpu);
     checkValidation(contexts, messagesBefore);

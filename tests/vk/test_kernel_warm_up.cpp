@@ -11,7 +11,10 @@
 
 #include <unistd.h>
 
+#include <array>
 #include <cstdlib>
+#include <memory>
+#include <vector>
 #include <filesystem>
 #include <optional>
 #include <random>
@@ -51,6 +54,65 @@ TEST_F(VulkanTest, EmptyDispatchesBuildEveryKernel) {
   for (const vk::KernelRequest& k : kernels) EXPECT_NE(device().findKernel(k.shader, k.specs), nullptr) << k.shader;
   std::atomic<bool> stop{true};
   EXPECT_EQ(vk::compileByEmptyDispatches(device(), kernels, &stop), 0u);
+}
+
+// The observer sees each kernel the device builds once, with what another device needs to build it
+// again, except background builds; a kernel is marked recorded by its dispatch and executed when
+// the Device::run that dispatched it has ended.
+TEST_F(VulkanTest, DeviceHandsItsNewKernelsToAnObserver) {
+  std::vector<vk::KernelRecipe> seen;
+  device().setKernelObserver([&](vk::KernelRecipe r) { seen.push_back(std::move(r)); });
+  const std::array<std::uint32_t, 1> specs{16};  // a workgroup size no other test uses
+  const vk::KernelPtr k = device().kernel("brick_triangles", specs);
+  device().kernel("brick_triangles", specs);  // cached: not seen again
+  device().buildInBackground("warm-up-test", [&] { device().kernel("brick_rows", specs); });
+  device().waitForBackgroundBuild("warm-up-test");
+  device().setKernelObserver(nullptr);
+  device().kernel("brick_sources", specs);  // detached
+  ASSERT_EQ(seen.size(), 1u);
+  EXPECT_EQ(seen[0].name, "brick_triangles");
+  EXPECT_EQ(seen[0].layoutOf, "brick_triangles");
+  EXPECT_EQ(seen[0].specs, std::vector<std::uint32_t>(specs.begin(), specs.end()));
+  EXPECT_FALSE(seen[0].code.empty());
+  EXPECT_EQ(seen[0].kernel.lock(), k);
+  EXPECT_FALSE(k->recorded);
+  EXPECT_FALSE(k->executed);
+  vk::EmptyDispatcher empty(device());
+  empty.dispatch(*k);
+  EXPECT_TRUE(k->recorded);
+  EXPECT_TRUE(k->executed);
+}
+
+// The job's device compiles its kernels oldest first; the warm-up takes the newest that still
+// needs a copy: not gone, not run, and (once it is free) not already recorded.
+TEST(KernelWarmUp, TakesTheNewestKernelTheJobHasNotReached) {
+  std::vector<std::shared_ptr<vk::Kernel>> kernels;
+  std::vector<vk::KernelRecipe> recipes;
+  for (int i = 0; i < 5; ++i) {
+    kernels.push_back(std::make_shared<vk::Kernel>());
+    recipes.push_back({"k" + std::to_string(i), "brick_field", {}, {}, kernels.back()});
+  }
+  kernels[0]->recorded = true;  // the job's device is compiling it
+  kernels[1]->recorded = true;
+  kernels[1]->executed = true;  // done there
+  kernels[4]->recorded = true;  // recorded after the warm-up became free: both may compile it
+  kernels[3].reset();           // gone
+  auto r = vk::takeRecipe(recipes, false);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->name, "k4");
+  r = vk::takeRecipe(recipes, false);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->name, "k2");
+  r = vk::takeRecipe(recipes, false);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->name, "k0");
+  EXPECT_FALSE(vk::takeRecipe(recipes, false));
+  // Just free: what was recorded while it was busy is left to the job's device.
+  recipes = {{"a", "brick_field", {}, {}, kernels[0]}, {"b", "brick_field", {}, {}, kernels[2]}};
+  r = vk::takeRecipe(recipes, true);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->name, "b");
+  EXPECT_TRUE(recipes.empty());
 }
 
 TEST(KernelWarmUp, PaysOnlyOnAColdLlvmpipe) {
@@ -101,9 +163,14 @@ TEST_F(VulkanTest, WarmUpStartsForAFirstProcessOnly) {
     EXPECT_EQ(first.pipelineCacheBytesLoaded(), 0u);
     vk::KernelWarmUp warmUp(first, options);
     ASSERT_TRUE(warmUp.started());
+    warmUp.waitUntilIdle();
+    // A kernel the job's device builds (and has not dispatched) is copied.
+    const vk::KernelPtr built = first.device().kernel("brick_triangles", std::array<std::uint32_t, 1>{32});
+    warmUp.waitUntilIdle();
     const vk::KernelWarmUp::Result r = warmUp.wait();
     EXPECT_FALSE(r.failed);
     EXPECT_EQ(r.dispatched, vk::programIndependentSparseKernels().size());
+    EXPECT_EQ(r.copied, 1u);
     EXPECT_EQ(r.validationMessages, 0u);
   }  // `first` saves its cache file
   {

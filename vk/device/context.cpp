@@ -240,6 +240,15 @@ std::string kernelKey(const std::string& name, std::span<const std::uint32_t> sp
 }
 }  // namespace
 
+namespace {
+thread_local bool inBackgroundBuild = false;  // createKernel tells the observer nothing there
+}  // namespace
+
+void Device::setKernelObserver(std::function<void(KernelRecipe)> observer) {
+  std::lock_guard lock(observerMutex_);
+  observer_ = std::move(observer);
+}
+
 KernelPtr Device::touch(const std::string& key) {
   std::lock_guard lock(kernelMutex_);
   auto it = kernels_.find(key);
@@ -265,6 +274,7 @@ void Device::buildInBackground(const std::string& key, std::function<void()> bui
   // At the process's priority: a lower one (nice 10) made the first job faster on a busy machine
   // but starved the build, and the next job waited for it for tens of seconds.
   backgroundBuilds_.emplace_back(key, std::async(std::launch::async, [build = std::move(build)] {
+    inBackgroundBuild = true;
     try {
       build();
     } catch (...) {  // the next job to need the kernel builds it in the foreground and reports
@@ -373,9 +383,21 @@ KernelPtr Device::createKernel(const std::string& key, const std::string& shader
   d_.vkDestroyShaderModule(host_.device, module, nullptr);
   check(r, ("vkCreateComputePipelines(" + shader + ")").c_str());
 
-  std::lock_guard lock(kernelMutex_);
-  // Another thread may have built the same kernel meanwhile: keep the first (ours dies here).
-  if (auto it = kernels_.find(key); it != kernels_.end()) return it->second->second;
+  {
+    std::lock_guard lock(kernelMutex_);
+    // Another thread may have built the same kernel meanwhile: keep the first (ours dies here).
+    if (auto it = kernels_.find(key); it != kernels_.end()) return it->second->second;
+    cacheKernel(key, layoutOf, k);
+  }
+  if (!inBackgroundBuild) {
+    std::lock_guard lock(observerMutex_);
+    if (observer_)
+      observer_(KernelRecipe{shader, layoutOf, {code.begin(), code.end()}, {specs.begin(), specs.end()}, k});
+  }
+  return k;
+}
+
+void Device::cacheKernel(const std::string& key, const std::string& layoutOf, const KernelPtr& k) {
   if (std::find(shadersUsed_.begin(), shadersUsed_.end(), layoutOf) == shadersUsed_.end()) {
     shadersUsed_.push_back(layoutOf);
   }
@@ -387,7 +409,6 @@ KernelPtr Device::createKernel(const std::string& key, const std::string& shader
   }
   kernelLru_.emplace_front(key, k);
   kernels_[key] = kernelLru_.begin();
-  return k;
 }
 
 void Device::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
@@ -428,6 +449,11 @@ void Device::run(const std::function<void(Recorder&)>& record) {
     recorder = std::make_unique<Recorder>(*this, cmd);
     record(*recorder);
   });
+  recorder->markExecuted();
+}
+
+void Recorder::markExecuted() {
+  for (const KernelPtr& k : kernels_) k->executed.store(true, std::memory_order_relaxed);
 }
 
 Recorder::Recorder(Device& device, VkCommandBuffer cmd) : device_(device), cmd_(cmd) {}
@@ -492,6 +518,7 @@ void Recorder::bind(const Kernel& kernel, std::span<const BufferRange> buffers, 
                       " bytes of push constants; the dispatch pushes " + std::to_string(pushSize));
   }
   if (kernels_.empty() || kernels_.back().get() != &kernel) kernels_.push_back(kernel.shared_from_this());
+  kernel.recorded.store(true, std::memory_order_relaxed);
   const auto& d = device_.d();
   const VkDescriptorSet set = allocateSet(kernel);
   std::vector<VkDescriptorBufferInfo> infos(buffers.size());

@@ -6,6 +6,7 @@
 #include "blobvk/vk/device/dispatch.h"
 #include "blobvk/vk/device/memory.h"
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <list>
@@ -71,8 +72,20 @@ struct Kernel : std::enable_shared_from_this<Kernel> {
   std::uint32_t pushConstantBytes = 0;  // the shader's block; pushes must cover it
   std::uint32_t pushConstantRange = 0;  // the layout's range (the block rounded up to 16 bytes)
   std::uint32_t workgroupSize = 0;
+  // Set when a Recorder first binds it (its first dispatch is on its way to the queue), and when
+  // a Device::run that bound it has finished on the device (its code has been generated).
+  mutable std::atomic<bool> recorded{false}, executed{false};
 };
 using KernelPtr = std::shared_ptr<const Kernel>;
+
+// A kernel a Device has just built, with what another device needs to build the same pipeline
+// (a lavapipe warm-up compiles it elsewhere: vk/extract/kernel_warm_up.h).
+struct KernelRecipe {
+  std::string name;      // the cache name (an embedded shader's, or a generated kernel's)
+  std::string layoutOf;  // the embedded shader whose reflected layout it has
+  std::vector<std::uint32_t> code, specs;
+  std::weak_ptr<const Kernel> kernel;  // the built kernel (Kernel::recorded, Kernel::executed)
+};
 
 struct DeviceInfo {
   std::string name;
@@ -159,6 +172,10 @@ class Device {
   bool backgroundBuildStarted(const std::string& key) const;
   bool waitForBackgroundBuild(const std::string& key);
   void waitForBackgroundBuilds();
+  // Called with each kernel built from now on, on the building thread once it is cached, except
+  // the kernels of background builds (for later jobs); null detaches. A call in progress
+  // finishes before setKernelObserver returns, so the observer may go once it is detached.
+  void setKernelObserver(std::function<void(KernelRecipe)> observer);
   // Pipelines in the cache, and how many it has evicted since creation.
   std::size_t cachedKernels() const {
     std::lock_guard lock(kernelMutex_);
@@ -202,6 +219,7 @@ class Device {
   KernelPtr createKernel(const std::string& key, const std::string& shader, std::span<const std::uint32_t> code,
                          const std::string& layoutOf, std::span<const std::uint32_t> specs);
   KernelPtr touch(const std::string& key);
+  void cacheKernel(const std::string& key, const std::string& layoutOf, const KernelPtr& k);  // kernelMutex_ held
 
   HostContext host_;
   Dispatch d_;
@@ -223,6 +241,8 @@ class Device {
   // Background builds by key, in start order (kernelMutex_ guards the list, not the waits).
   std::vector<std::pair<std::string, std::shared_future<void>>> backgroundBuilds_;
   std::vector<std::string> shadersUsed_;
+  std::mutex observerMutex_;
+  std::function<void(KernelRecipe)> observer_;
   std::shared_ptr<void> tilePlanCache_;
   std::string spirvCacheDir_;
   class UploadBatch* uploadBatch_ = nullptr;  // the open batch, if any
@@ -300,6 +320,8 @@ class Recorder {
             VkDeviceSize bytes);
 
  private:
+  friend class Device;
+  void markExecuted();  // Device::run, after its fence: every bound kernel has run
   VkDescriptorSet allocateSet(const Kernel& kernel);
   void bind(const Kernel& kernel, std::span<const BufferRange> buffers, const void* push, std::uint32_t pushSize);
   Device& device_;

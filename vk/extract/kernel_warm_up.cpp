@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
-#include <cstring>
 #include <exception>
+#include <utility>
 
 namespace blobvk::vk {
 
@@ -21,30 +21,47 @@ std::vector<KernelRequest> programIndependentSparseKernels(std::uint32_t workgro
           {"brick_sources", wg},           {"brick_triangles", wg}};
 }
 
+// No work group runs, so nothing reads or writes the placeholders; 64 KiB covers any uniform
+// block's declared size. The arguments buffer holds the zero group counts.
+EmptyDispatcher::EmptyDispatcher(Device& device)
+    : device_(device),
+      storage_(device.createBuffer(64u << 10)),
+      uniform_(device.createBuffer(64u << 10, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT)),
+      args_(device.createBuffer(16, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {
+  const std::uint32_t zeros[4] = {0, 0, 0, 0};
+  device.upload(args_, zeros, sizeof(zeros));
+}
+
+void EmptyDispatcher::dispatch(const Kernel& kernel) {
+  std::vector<BufferRange> bind;
+  for (std::uint32_t i = 0; i < kernel.bindings; ++i)
+    bind.push_back(kernel.shaderLayout->bindings[i].type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER ? BufferRange(uniform_)
+                                                                                             : BufferRange(storage_));
+  const std::uint8_t push[128] = {};
+  device_.run([&](Recorder& rec) { rec.dispatchIndirect(kernel, bind, push, kernel.pushConstantRange, args_, 0); });
+}
+
 std::size_t compileByEmptyDispatches(Device& device, std::span<const KernelRequest> kernels,
                                      const std::atomic<bool>* stop) {
-  // Placeholder buffers: no work group runs, so nothing reads or writes them; 64 KiB covers any
-  // uniform block's declared size. The arguments buffer holds the zero group counts.
-  Buffer storage = device.createBuffer(64u << 10);
-  Buffer uniform = device.createBuffer(64u << 10, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
-  Buffer args = device.createBuffer(16, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
-  const std::uint32_t zeros[4] = {0, 0, 0, 0};
-  device.upload(args, zeros, sizeof(zeros));
-  const std::uint8_t push[128] = {};
+  EmptyDispatcher empty(device);
   std::size_t dispatched = 0;
   for (const KernelRequest& request : kernels) {
     if (stop && stop->load()) break;
-    const KernelPtr kernel = device.kernel(request.shader, request.specs);
-    std::vector<BufferRange> bind;
-    for (std::uint32_t i = 0; i < kernel->bindings; ++i)
-      bind.push_back(kernel->shaderLayout->bindings[i].type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER ? BufferRange(uniform)
-                                                                                                : BufferRange(storage));
-    device.run([&](Recorder& rec) {
-      rec.dispatchIndirect(*kernel, bind, push, kernel->pushConstantRange, args, 0);
-    });
+    empty.dispatch(*device.kernel(request.shader, request.specs));
     ++dispatched;
   }
   return dispatched;
+}
+
+std::optional<KernelRecipe> takeRecipe(std::vector<KernelRecipe>& recipes, bool dropRecorded) {
+  std::erase_if(recipes, [&](const KernelRecipe& r) {
+    const KernelPtr k = r.kernel.lock();
+    return !k || k->executed.load() || (dropRecorded && k->recorded.load());
+  });
+  if (recipes.empty()) return std::nullopt;
+  KernelRecipe newest = std::move(recipes.back());
+  recipes.pop_back();
+  return newest;
 }
 
 bool kernelWarmUpPays(const WarmUpSigns& signs) {
@@ -70,31 +87,79 @@ WarmUpSigns warmUpSigns(StandaloneContext& context) {
   return s;
 }
 
-KernelWarmUp::KernelWarmUp(StandaloneContext& context, const StandaloneOptions& options,
-                           std::uint32_t workgroupSize) {
+KernelWarmUp::KernelWarmUp(StandaloneContext& context, const StandaloneOptions& options, std::uint32_t workgroupSize) {
   if (!kernelWarmUpPays(warmUpSigns(context))) return;
+  jobDevice_ = &context.device();
+  jobDevice_->setKernelObserver([this](KernelRecipe recipe) {
+    {
+      std::lock_guard lock(mutex_);
+      recipes_.push_back(std::move(recipe));
+      idle_ = false;
+    }
+    changed_.notify_all();
+  });
   StandaloneOptions second = options;
   second.pipelineCache = "off";  // the job's context writes the file; this one must not race it
-  thread_ = std::thread([this, second, workgroupSize] {
-    try {
-      StandaloneContext warm(second);
-      const std::vector<KernelRequest> kernels = programIndependentSparseKernels(workgroupSize);
-      result_.dispatched = compileByEmptyDispatches(warm.device(), kernels, &stop_);
-      result_.validationMessages = warm.validationMessages();
-    } catch (const std::exception&) {
-      result_.failed = true;  // an optimisation only: the job builds what it needs itself
+  thread_ = std::thread([this, second, workgroupSize] { work(second, workgroupSize); });
+}
+
+void KernelWarmUp::work(StandaloneOptions options, std::uint32_t workgroupSize) {
+  try {
+    StandaloneContext warm(options);
+    const std::vector<KernelRequest> fixed = programIndependentSparseKernels(workgroupSize);
+    result_.dispatched = compileByEmptyDispatches(warm.device(), fixed, &stopFlag_);
+    EmptyDispatcher empty(warm.device());
+    // What the job's device recorded while this one was busy it compiles itself already.
+    bool dropRecorded = true;
+    for (;;) {
+      std::optional<KernelRecipe> next;
+      {
+        std::unique_lock lock(mutex_);
+        for (;;) {
+          if (stop_) break;
+          next = takeRecipe(recipes_, std::exchange(dropRecorded, false));
+          if (next) break;
+          idle_ = true;
+          changed_.notify_all();
+          changed_.wait(lock);
+        }
+      }
+      if (!next) break;
+      empty.dispatch(*warm.device().kernel(next->name, next->code, next->layoutOf, next->specs));
+      ++result_.copied;
     }
-  });
+    result_.validationMessages = warm.validationMessages();
+  } catch (const std::exception&) {
+    result_.failed = true;  // an optimisation only: the job builds what it needs itself
+  }
+  std::lock_guard lock(mutex_);
+  idle_ = true;
+  changed_.notify_all();
+}
+
+void KernelWarmUp::stop() {
+  if (jobDevice_) jobDevice_->setKernelObserver(nullptr);  // waits for a call in progress
+  jobDevice_ = nullptr;
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  stopFlag_ = true;
+  changed_.notify_all();
+}
+
+void KernelWarmUp::waitUntilIdle() {
+  if (!thread_.joinable()) return;
+  std::unique_lock lock(mutex_);
+  changed_.wait(lock, [&] { return idle_; });
 }
 
 KernelWarmUp::Result KernelWarmUp::wait() {
+  stop();
   if (thread_.joinable()) thread_.join();
   return result_;
 }
 
-KernelWarmUp::~KernelWarmUp() {
-  stop_ = true;
-  if (thread_.joinable()) thread_.join();
-}
+KernelWarmUp::~KernelWarmUp() { wait(); }
 
 }  // namespace blobvk::vk

@@ -3,19 +3,23 @@
 // keeps it in Mesa's shader cache on disk for later processes. So the first process on a machine
 // spends most of its first job compiling on one core while the other waits (tower at 256 cells:
 // about 1.7 s of the queue thread's 2.2 s). A warm-up opens a second logical device and, on a
-// thread of its own, dispatches the sparse extraction's kernels that do not depend on the program
-// (compaction, scans, neighbours, rows, sources, triangles) with no work: their code goes into
-// Mesa's cache while the job's device compiles its classification and field kernels, and the
-// job's first dispatch of each finds it there. The mesh does not change: the job's device runs
-// its own kernels; only where their machine code comes from does.
+// thread of its own, compiles there what the job's device will need next, dispatching each
+// kernel with no work: its code goes into Mesa's cache, where the job's first dispatch of it finds
+// it. First the sparse extraction's kernels that do not depend on the program (compaction, scans,
+// neighbours, rows, sources, triangles), while the job's device compiles its classification; then
+// the kernels the job's device builds (field tiles, vertex kernel), newest first, while the job's
+// device compiles them oldest first. The mesh does not change: the job's device runs its own
+// kernels; only where their machine code comes from does.
 #pragma once
 
 #include "blobvk/vk/device/context.h"
 #include "blobvk/vk/device/standalone.h"
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
-#include <memory>
+#include <mutex>
+#include <optional>
 #include <span>
 #include <string>
 #include <thread>
@@ -33,12 +37,30 @@ struct KernelRequest {
 // classification, field and vertex kernels carry the program's opcode masks or code.)
 std::vector<KernelRequest> programIndependentSparseKernels(std::uint32_t workgroupSize = 64);
 
-// Builds each kernel on `device` and submits one dispatch of it that runs no work group (an
-// indirect dispatch whose arguments are zero: llvmpipe generates a kernel's code before it reads
-// the group counts), with placeholder buffers. One submit per kernel; `stop` is read between
-// them. Returns how many kernels were dispatched.
+// Dispatches kernels with no work group (an indirect dispatch whose arguments are zero: llvmpipe
+// generates a kernel's code before it reads the group counts), with placeholder buffers, one
+// submit each.
+class EmptyDispatcher {
+ public:
+  explicit EmptyDispatcher(Device& device);
+  void dispatch(const Kernel& kernel);
+
+ private:
+  Device& device_;
+  Buffer storage_, uniform_, args_;
+};
+
+// Builds each kernel on `device` and dispatches it with no work; `stop` is read between kernels.
+// Returns how many kernels were dispatched.
 std::size_t compileByEmptyDispatches(Device& device, std::span<const KernelRequest> kernels,
                                      const std::atomic<bool>* stop = nullptr);
+
+// The next of the job's kernels to compile on the warm-up's device: `recipes` (in the order the
+// job's device built them) lose what needs no copy (the kernel is gone, or has run on the job's
+// device, or, with `dropRecorded`, is already recorded there: the job's device is compiling it or
+// is about to), and the newest of the rest is taken out (the job's device compiles from the
+// oldest, so the two meet in the middle). Empty when none is left.
+std::optional<KernelRecipe> takeRecipe(std::vector<KernelRecipe>& recipes, bool dropRecorded);
 
 // Whether a warm-up can pay: the device is llvmpipe (other drivers compile at pipeline creation,
 // on the caller's threads), Mesa's shader cache is on (MESA_SHADER_CACHE_DISABLE unset or false:
@@ -55,28 +77,39 @@ bool kernelWarmUpPays(const WarmUpSigns& signs);
 WarmUpSigns warmUpSigns(StandaloneContext& context);  // reads MESA_SHADER_CACHE_DISABLE too
 
 // The warm-up of a context's device, when kernelWarmUpPays: a second StandaloneContext on the same
-// device (the context's options, without a pipeline cache file) on a thread that runs
-// compileByEmptyDispatches. Errors there only end the warm-up (the job builds its kernels itself).
-// The destructor stops it between kernels and joins the thread.
+// device (the context's options, without a pipeline cache file) on a thread that compiles the
+// program-independent kernels, then copies of the kernels the context's device builds (its kernel
+// observer) until stop(). Errors there only end the warm-up (the job builds its kernels itself).
 class KernelWarmUp {
  public:
-  KernelWarmUp(StandaloneContext& context, const StandaloneOptions& options,
-               std::uint32_t workgroupSize = 64);
-  ~KernelWarmUp();
+  KernelWarmUp(StandaloneContext& context, const StandaloneOptions& options, std::uint32_t workgroupSize = 64);
+  ~KernelWarmUp();  // stop(), then joins the thread
   KernelWarmUp(const KernelWarmUp&) = delete;
   KernelWarmUp& operator=(const KernelWarmUp&) = delete;
 
   bool started() const { return thread_.joinable(); }
-  // Waits for the warm-up to end (at once when it did not start).
+  // No more copies (the first job is done: later ones find their kernels built); the kernel in
+  // progress finishes. Does not wait.
+  void stop();
+  // Waits until the program-independent kernels are done and no copy is pending (tests).
+  void waitUntilIdle();
   struct Result {
-    std::size_t dispatched = 0;            // kernels compiled
+    std::size_t dispatched = 0;            // program-independent kernels compiled
+    std::size_t copied = 0;                // kernels of the job's device compiled
     std::uint32_t validationMessages = 0;  // of its context, with StandaloneOptions::validation
     bool failed = false;                   // an error ended it
   };
+  // stop(), then waits for the thread.
   Result wait();
 
  private:
-  std::atomic<bool> stop_{false};
+  void work(StandaloneOptions options, std::uint32_t workgroupSize);
+  Device* jobDevice_ = nullptr;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<KernelRecipe> recipes_;
+  bool stop_ = false, idle_ = false;
+  std::atomic<bool> stopFlag_{false};
   Result result_;
   std::thread thread_;
 };
