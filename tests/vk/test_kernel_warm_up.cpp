@@ -117,8 +117,12 @@ TEST(KernelWarmUp, TakesTheNewestKernelTheJobHasNotReached) {
 
 TEST(KernelWarmUp, PaysOnlyOnAColdLlvmpipe) {
   vk::WarmUpSigns s;
+  s.cores = 2;
   s.llvmpipe = true;
   EXPECT_TRUE(vk::kernelWarmUpPays(s));  // llvmpipe, Mesa's cache on, no pipeline cache file yet
+  vk::WarmUpSigns oneCore = s;
+  oneCore.cores = 1;  // nothing idles for it to use
+  EXPECT_FALSE(vk::kernelWarmUpPays(oneCore));
   vk::WarmUpSigns gpu = s;
   gpu.llvmpipe = false;  // GPU drivers compile at pipeline creation
   EXPECT_FALSE(vk::kernelWarmUpPays(gpu));

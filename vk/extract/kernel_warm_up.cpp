@@ -3,6 +3,8 @@
 #include "blobvk/vk/device/shader_layout.h"
 #include "blobvk/vk/extract/scan.h"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
@@ -65,7 +67,7 @@ std::optional<KernelRecipe> takeRecipe(std::vector<KernelRecipe>& recipes, bool 
 }
 
 bool kernelWarmUpPays(const WarmUpSigns& signs) {
-  return signs.llvmpipe && !signs.mesaCacheDisabled && !signs.pipelineCacheOff && !signs.pipelineCacheLoaded;
+  return signs.cores >= 2 && signs.llvmpipe && !signs.mesaCacheDisabled && !signs.pipelineCacheOff && !signs.pipelineCacheLoaded;
 }
 
 namespace {
@@ -76,10 +78,17 @@ bool mesaTrue(const char* value) {
   std::transform(v.begin(), v.end(), v.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   return v == "1" || v == "true" || v == "y" || v == "yes";
 }
+// The cores this process may run on (taskset and cpusets included), else the machine's.
+unsigned usableCores() {
+  cpu_set_t set;
+  if (sched_getaffinity(0, sizeof set, &set) == 0) return unsigned(CPU_COUNT(&set));
+  return std::thread::hardware_concurrency();
+}
 }  // namespace
 
 WarmUpSigns warmUpSigns(StandaloneContext& context) {
   WarmUpSigns s;
+  s.cores = usableCores();
   s.llvmpipe = context.device().info().name.rfind("llvmpipe", 0) == 0;
   s.mesaCacheDisabled = mesaTrue(std::getenv("MESA_SHADER_CACHE_DISABLE"));
   s.pipelineCacheOff = context.pipelineCacheFile().empty();

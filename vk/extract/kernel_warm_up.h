@@ -66,8 +66,10 @@ std::optional<KernelRecipe> takeRecipe(std::vector<KernelRecipe>& recipes, bool 
 // on the caller's threads), Mesa's shader cache is on (MESA_SHADER_CACHE_DISABLE unset or false:
 // the cache is how the code reaches the job's device), and blobvk's pipeline cache file is in use
 // but was not there (a first process with this driver and blobvk version: Mesa's cache is
-// probably as empty; with the file off nothing tells, and a warm process gains nothing).
+// probably as empty; with the file off nothing tells, and a warm process gains nothing), and the
+// machine has a second core for it (on one, it would only take time from the job).
 struct WarmUpSigns {
+  unsigned cores = 0;  // the cores the process may run on
   bool llvmpipe = false;
   bool mesaCacheDisabled = false;
   bool pipelineCacheOff = false;
