@@ -61,6 +61,15 @@ std::unique_ptr<vk::KernelWarmUp>& kernelWarmUp() {
   static std::unique_ptr<vk::KernelWarmUp> warmUp;
   return warmUp;
 }
+// Once per process, for a job on one device: not under validation (the second device's messages
+// would not be the job's) and not beside other devices (--devices, --cpu-worker: they have the
+// cores).
+void startWarmUp(vk::StandaloneContext& context, const PolygonizeSettings& settings) {
+  if (kernelWarmUp() || settings.validation) return;
+  vk::StandaloneOptions options;
+  options.device = settings.device;
+  kernelWarmUp() = std::make_unique<vk::KernelWarmUp>(context, options);
+}
 void firstJobDone() {
   if (kernelWarmUp()) kernelWarmUp()->stop();
 }
@@ -72,7 +81,6 @@ vk::StandaloneContext& sharedContext(const std::string& device, bool validation,
     options.device = device;
     options.validation = validation;
     slot = std::make_unique<vk::StandaloneContext>(options);
-    if (copy == 0 && !kernelWarmUp()) kernelWarmUp() = std::make_unique<vk::KernelWarmUp>(*slot, options);
   }
   return *slot;
 }
@@ -170,6 +178,7 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
     throw std::runtime_error("streamed meshing on the vk backend runs on one device (drop --cpu-worker)");
   const auto start = std::chrono::steady_clock::now();
   vk::StandaloneContext& context = sharedContext(settings.device, settings.validation);
+  startWarmUp(context, settings);
   const std::vector<vk::StandaloneContext*> contexts{&context};
   const std::uint64_t messagesBefore = validationMessages(contexts);
   vk::GpuStats gpu;
@@ -237,6 +246,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     const vk::GpuPolygonizeOptions options = gpuOptions(settings);
     vk::GpuStats gpu;
     if (contexts.size() == 1 && !settings.cpuWorker) {
+      startWarmUp(*contexts[0], settings);
       mesh = vk::polygonize(contexts[0]->device(), program, grid, options, &gpu);
     } else {
       std::vector<vk::Device*> devices;

@@ -1,7 +1,9 @@
 // The cold-start warm-up (vk/extract/kernel_warm_up.h): its list of program-independent kernels is
 // what a sparse job really builds (a list that drifted from the extraction would compile kernels
-// no job asks for, silently), its empty dispatches are valid Vulkan under synchronisation
-// validation, and it starts only where it can pay (llvmpipe, Mesa's cache on, a first process).
+// no job asks for, silently), an empty dispatch really puts a kernel's machine code into Mesa's
+// cache, the dispatches are valid Vulkan under synchronisation validation, the job's new kernels
+// are handed over and copied, and it starts only where it can pay.
+#include "blobvk/vk/eval/gpu_program.h"
 #include "blobvk/vk/extract/kernel_warm_up.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "models.h"
@@ -12,27 +14,64 @@
 #include <unistd.h>
 
 #include <array>
+#include <atomic>
 #include <cstdlib>
-#include <memory>
-#include <vector>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <random>
 #include <string>
+#include <vector>
 
 namespace blobvk::testing {
 namespace {
 
 namespace fs = std::filesystem;
 
+struct ScopedEnv {
+  std::string name;
+  std::optional<std::string> old;
+  ScopedEnv(const char* n, const char* value) : name(n) {
+    if (const char* v = std::getenv(n)) old = v;
+    if (value) setenv(n, value, 1); else unsetenv(n);
+  }
+  ~ScopedEnv() {
+    if (old) setenv(name.c_str(), old->c_str(), 1); else unsetenv(name.c_str());
+  }
+};
+
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const char* what)
+      : path(fs::temp_directory_path() /
+             (std::string("blobvk-") + what + "-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()))) {
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::size_t files() const {
+    std::size_t n = 0;
+    for (const auto& e : fs::recursive_directory_iterator(path)) n += e.is_regular_file();
+    return n;
+  }
+};
+
+vk::StandaloneOptions freshOptions(std::string pipelineCache = "off") {
+  vk::StandaloneOptions options;
+  options.validation = true;
+  options.pipelineCache = std::move(pipelineCache);
+  if (const char* d = std::getenv("BLOBVK_TEST_DEVICE")) options.device = d;
+  return options;
+}
+
+bool onLlvmpipe(vk::Device& device) { return device.info().name.rfind("llvmpipe", 0) == 0; }
+
 // A fresh device (no kernel built yet) runs one sparse job; every warm-up kernel must then be in
 // its cache under the same shader and specialisation constants.
 TEST_F(VulkanTest, WarmUpKernelsAreTheOnesASparseJobBuilds) {
-  vk::StandaloneOptions options;
-  options.validation = true;
-  options.pipelineCache = "off";
-  if (const char* d = std::getenv("BLOBVK_TEST_DEVICE")) options.device = d;
-  vk::StandaloneContext fresh(options);
+  vk::StandaloneContext fresh(freshOptions());
   for (const vk::KernelRequest& k : vk::programIndependentSparseKernels())
     EXPECT_EQ(fresh.device().findKernel(k.shader, k.specs), nullptr) << k.shader;
   const auto program = blobtree::compile(testModels()[2].root);
@@ -56,19 +95,45 @@ TEST_F(VulkanTest, EmptyDispatchesBuildEveryKernel) {
   EXPECT_EQ(vk::compileByEmptyDispatches(device(), kernels, &stop), 0u);
 }
 
+// What the whole warm-up rests on: on llvmpipe, a dispatch of no work group generates the kernel's
+// machine code, which Mesa's shader cache then holds (one entry per kernel); building the pipeline
+// alone does not. Counted in a cache directory of its own, written out when the context closes.
+TEST_F(VulkanTest, AnEmptyDispatchPutsTheKernelsCodeInMesasCache) {
+  if (!onLlvmpipe(device())) GTEST_SKIP() << "llvmpipe's code generation at first dispatch";
+  const auto kernels = vk::programIndependentSparseKernels();
+  TempDir built("mesa-built"), dispatched("mesa-dispatched");
+  {
+    ScopedEnv dir("MESA_SHADER_CACHE_DIR", built.path.c_str());
+    ScopedEnv on("MESA_SHADER_CACHE_DISABLE", "false");
+    vk::StandaloneContext c(freshOptions());
+    for (const vk::KernelRequest& k : kernels) c.device().kernel(k.shader, k.specs);
+    EXPECT_EQ(c.validationMessages(), 0u);
+  }
+  {
+    ScopedEnv dir("MESA_SHADER_CACHE_DIR", dispatched.path.c_str());
+    ScopedEnv on("MESA_SHADER_CACHE_DISABLE", "false");
+    vk::StandaloneContext c(freshOptions());
+    EXPECT_EQ(vk::compileByEmptyDispatches(c.device(), kernels), kernels.size());
+    EXPECT_EQ(c.validationMessages(), 0u);
+  }
+  EXPECT_GE(dispatched.files(), built.files() + kernels.size());
+}
+
 // The observer sees each kernel the device builds once, with what another device needs to build it
 // again, except background builds; a kernel is marked recorded by its dispatch and executed when
 // the Device::run that dispatched it has ended.
 TEST_F(VulkanTest, DeviceHandsItsNewKernelsToAnObserver) {
+  vk::StandaloneContext fresh(freshOptions());
+  vk::Device& device = fresh.device();
   std::vector<vk::KernelRecipe> seen;
-  device().setKernelObserver([&](vk::KernelRecipe r) { seen.push_back(std::move(r)); });
-  const std::array<std::uint32_t, 1> specs{16};  // a workgroup size no other test uses
-  const vk::KernelPtr k = device().kernel("brick_triangles", specs);
-  device().kernel("brick_triangles", specs);  // cached: not seen again
-  device().buildInBackground("warm-up-test", [&] { device().kernel("brick_rows", specs); });
-  device().waitForBackgroundBuild("warm-up-test");
-  device().setKernelObserver(nullptr);
-  device().kernel("brick_sources", specs);  // detached
+  device.setKernelObserver([&](vk::KernelRecipe r) { seen.push_back(std::move(r)); });
+  const std::array<std::uint32_t, 1> specs{16};
+  const vk::KernelPtr k = device.kernel("brick_triangles", specs);
+  device.kernel("brick_triangles", specs);  // cached: not seen again
+  device.buildInBackground("warm-up-test", [&] { device.kernel("brick_rows", specs); });
+  device.waitForBackgroundBuild("warm-up-test");
+  device.setKernelObserver(nullptr);
+  device.kernel("brick_sources", specs);  // detached
   ASSERT_EQ(seen.size(), 1u);
   EXPECT_EQ(seen[0].name, "brick_triangles");
   EXPECT_EQ(seen[0].layoutOf, "brick_triangles");
@@ -77,10 +142,11 @@ TEST_F(VulkanTest, DeviceHandsItsNewKernelsToAnObserver) {
   EXPECT_EQ(seen[0].kernel.lock(), k);
   EXPECT_FALSE(k->recorded);
   EXPECT_FALSE(k->executed);
-  vk::EmptyDispatcher empty(device());
+  vk::EmptyDispatcher empty(device);
   empty.dispatch(*k);
   EXPECT_TRUE(k->recorded);
   EXPECT_TRUE(k->executed);
+  EXPECT_EQ(fresh.validationMessages(), 0u);
 }
 
 // The job's device compiles its kernels oldest first; the warm-up takes the newest that still
@@ -137,63 +203,50 @@ TEST(KernelWarmUp, PaysOnlyOnAColdLlvmpipe) {
   EXPECT_FALSE(vk::kernelWarmUpPays(unknown));
 }
 
-struct ScopedEnv {
-  std::string name;
-  std::optional<std::string> old;
-  ScopedEnv(const char* n, const char* value) : name(n) {
-    if (const char* v = std::getenv(n)) old = v;
-    if (value) setenv(n, value, 1); else unsetenv(n);
-  }
-  ~ScopedEnv() {
-    if (old) setenv(name.c_str(), old->c_str(), 1); else unsetenv(name.c_str());
-  }
-};
-
 // A context whose pipeline cache directory is new (the first process) on lavapipe starts the
-// warm-up, which compiles every kernel on its own validated device without a message; the same
-// directory after that context saved its file, or MESA_SHADER_CACHE_DISABLE, starts none.
+// warm-up, which compiles every program-independent kernel and copies the kernels the job's device
+// builds (an embedded one with new constants, and a generated one), on its own validated device
+// without a message; the same directory once that context has saved its file, or
+// MESA_SHADER_CACHE_DISABLE, starts none.
 TEST_F(VulkanTest, WarmUpStartsForAFirstProcessOnly) {
-  if (device().info().name.rfind("llvmpipe", 0) != 0) GTEST_SKIP() << "the warm-up is for llvmpipe";
-  const fs::path dir = fs::temp_directory_path() /
-                       ("blobvk-warm-up-test-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}()));
-  fs::create_directories(dir);
-  vk::StandaloneOptions options;
-  options.validation = true;
-  options.pipelineCache = dir.string();
-  if (const char* d = std::getenv("BLOBVK_TEST_DEVICE")) options.device = d;
+  if (!onLlvmpipe(device())) GTEST_SKIP() << "the warm-up is for llvmpipe";
+  TempDir dir("warm-up"), mesa("warm-up-mesa");
+  ScopedEnv mesaDir("MESA_SHADER_CACHE_DIR", mesa.path.c_str());  // never the user's cache
+  const vk::StandaloneOptions options = freshOptions(dir.path.string());
   {
-    ScopedEnv mesa("MESA_SHADER_CACHE_DISABLE", nullptr);
+    ScopedEnv on("MESA_SHADER_CACHE_DISABLE", nullptr);
     vk::StandaloneContext first(options);
     EXPECT_EQ(first.pipelineCacheBytesLoaded(), 0u);
+    if (vk::warmUpSigns(first).cores < 2) GTEST_SKIP() << "the warm-up needs a second core";
     vk::KernelWarmUp warmUp(first, options);
     ASSERT_TRUE(warmUp.started());
     warmUp.waitUntilIdle();
-    // A kernel the job's device builds (and has not dispatched) is copied.
-    const vk::KernelPtr built = first.device().kernel("brick_triangles", std::array<std::uint32_t, 1>{32});
+    const vk::KernelPtr embedded = first.device().kernel("brick_triangles", std::array<std::uint32_t, 1>{32});
+    const auto program = blobtree::compile(testModels()[2].root);
+    const vk::KernelPtr generated = vk::specialisedKernel(first.device(), program, vk::CodegenOptions{}, "brick_field", 64);
     warmUp.waitUntilIdle();
     const vk::KernelWarmUp::Result r = warmUp.wait();
     EXPECT_FALSE(r.failed);
     EXPECT_EQ(r.dispatched, vk::programIndependentSparseKernels().size());
-    EXPECT_EQ(r.copied, 1u);
+    EXPECT_EQ(r.copied, 2u);
     EXPECT_EQ(r.validationMessages, 0u);
+    EXPECT_EQ(first.validationMessages(), 0u);
   }  // `first` saves its cache file
   {
-    ScopedEnv mesa("MESA_SHADER_CACHE_DISABLE", nullptr);
+    ScopedEnv on("MESA_SHADER_CACHE_DISABLE", nullptr);
     vk::StandaloneContext second(options);
     EXPECT_GT(second.pipelineCacheBytesLoaded(), 0u);
     vk::KernelWarmUp warmUp(second, options);
     EXPECT_FALSE(warmUp.started());
   }
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  {
-    ScopedEnv mesa("MESA_SHADER_CACHE_DISABLE", "true");
+  fs::remove_all(dir.path);
+  fs::create_directories(dir.path);
+  for (const char* variable : {"MESA_SHADER_CACHE_DISABLE", "MESA_GLSL_CACHE_DISABLE"}) {
+    ScopedEnv off(variable, "true");
     vk::StandaloneContext cold(options);
     vk::KernelWarmUp warmUp(cold, options);
-    EXPECT_FALSE(warmUp.started());
+    EXPECT_FALSE(warmUp.started()) << variable;
   }
-  std::error_code ec;
-  fs::remove_all(dir, ec);
 }
 
 }  // namespace

@@ -238,9 +238,7 @@ std::string kernelKey(const std::string& name, std::span<const std::uint32_t> sp
   }
   return key;
 }
-}  // namespace
 
-namespace {
 thread_local bool inBackgroundBuild = false;  // createKernel tells the observer nothing there
 }  // namespace
 

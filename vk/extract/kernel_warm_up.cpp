@@ -1,14 +1,18 @@
 #include "blobvk/vk/extract/kernel_warm_up.h"
 
 #include "blobvk/vk/device/shader_layout.h"
+#include "blobvk/vk/device/standalone.h"
 #include "blobvk/vk/extract/scan.h"
 
 #include <sched.h>
 
 #include <algorithm>
 #include <cctype>
+#include <condition_variable>
 #include <cstdlib>
 #include <exception>
+#include <mutex>
+#include <thread>
 #include <utility>
 
 namespace blobvk::vk {
@@ -90,83 +94,104 @@ WarmUpSigns warmUpSigns(StandaloneContext& context) {
   WarmUpSigns s;
   s.cores = usableCores();
   s.llvmpipe = context.device().info().name.rfind("llvmpipe", 0) == 0;
-  s.mesaCacheDisabled = mesaTrue(std::getenv("MESA_SHADER_CACHE_DISABLE"));
+  s.mesaCacheDisabled = mesaTrue(std::getenv("MESA_SHADER_CACHE_DISABLE")) || mesaTrue(std::getenv("MESA_GLSL_CACHE_DISABLE"));
   s.pipelineCacheOff = context.pipelineCacheFile().empty();
   s.pipelineCacheLoaded = context.pipelineCacheBytesLoaded() > 0;
   return s;
 }
 
+// Shared by the thread, the job device's observer and the owner, so none outlives what it uses.
+struct KernelWarmUp::State {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::vector<KernelRecipe> recipes;
+  bool stop = false, idle = false, finished = false;
+  std::atomic<bool> stopFlag{false};
+  Result result;
+  std::thread thread;
+
+  void work(const StandaloneOptions& options, std::uint32_t workgroupSize) {
+    try {
+      StandaloneContext warm(options);
+      const std::vector<KernelRequest> fixed = programIndependentSparseKernels(workgroupSize);
+      result.dispatched = compileByEmptyDispatches(warm.device(), fixed, &stopFlag);
+      EmptyDispatcher empty(warm.device());
+      // What the job's device recorded while this one was busy it compiles itself already.
+      bool dropRecorded = true;
+      for (;;) {
+        std::optional<KernelRecipe> next;
+        {
+          std::unique_lock lock(mutex);
+          for (;;) {
+            if (stop) break;
+            next = takeRecipe(recipes, std::exchange(dropRecorded, false));
+            if (next) break;
+            idle = true;
+            changed.notify_all();
+            changed.wait(lock);
+          }
+        }
+        if (!next) break;
+        if (warm.device().findKernel(next->name, next->specs)) continue;  // built (and compiled) here already
+        empty.dispatch(*warm.device().kernel(next->name, next->code, next->layoutOf, next->specs));
+        ++result.copied;
+      }
+      result.validationMessages = warm.validationMessages();
+    } catch (const std::exception&) {
+      result.failed = true;  // an optimisation only: the job builds what it needs itself
+    }
+    std::lock_guard lock(mutex);
+    finished = true;
+    recipes.clear();
+    changed.notify_all();
+  }
+};
+
 KernelWarmUp::KernelWarmUp(StandaloneContext& context, const StandaloneOptions& options, std::uint32_t workgroupSize) {
   if (!kernelWarmUpPays(warmUpSigns(context))) return;
-  jobDevice_ = &context.device();
-  jobDevice_->setKernelObserver([this](KernelRecipe recipe) {
-    {
-      std::lock_guard lock(mutex_);
-      recipes_.push_back(std::move(recipe));
-      idle_ = false;
-    }
-    changed_.notify_all();
-  });
+  state_ = std::make_shared<State>();
   StandaloneOptions second = options;
   second.pipelineCache = "off";  // the job's context writes the file; this one must not race it
-  thread_ = std::thread([this, second, workgroupSize] { work(second, workgroupSize); });
+  state_->thread = std::thread([state = state_, second, workgroupSize] { state->work(second, workgroupSize); });
+  jobDevice_ = &context.device();
+  jobDevice_->setKernelObserver([state = std::weak_ptr<State>(state_)](KernelRecipe recipe) {
+    const std::shared_ptr<State> s = state.lock();
+    if (!s) return;
+    {
+      std::lock_guard lock(s->mutex);
+      if (s->finished || s->stop) return;
+      s->recipes.push_back(std::move(recipe));
+      s->idle = false;
+    }
+    s->changed.notify_all();
+  });
 }
 
-void KernelWarmUp::work(StandaloneOptions options, std::uint32_t workgroupSize) {
-  try {
-    StandaloneContext warm(options);
-    const std::vector<KernelRequest> fixed = programIndependentSparseKernels(workgroupSize);
-    result_.dispatched = compileByEmptyDispatches(warm.device(), fixed, &stopFlag_);
-    EmptyDispatcher empty(warm.device());
-    // What the job's device recorded while this one was busy it compiles itself already.
-    bool dropRecorded = true;
-    for (;;) {
-      std::optional<KernelRecipe> next;
-      {
-        std::unique_lock lock(mutex_);
-        for (;;) {
-          if (stop_) break;
-          next = takeRecipe(recipes_, std::exchange(dropRecorded, false));
-          if (next) break;
-          idle_ = true;
-          changed_.notify_all();
-          changed_.wait(lock);
-        }
-      }
-      if (!next) break;
-      empty.dispatch(*warm.device().kernel(next->name, next->code, next->layoutOf, next->specs));
-      ++result_.copied;
-    }
-    result_.validationMessages = warm.validationMessages();
-  } catch (const std::exception&) {
-    result_.failed = true;  // an optimisation only: the job builds what it needs itself
-  }
-  std::lock_guard lock(mutex_);
-  idle_ = true;
-  changed_.notify_all();
-}
+bool KernelWarmUp::started() const { return state_ != nullptr; }
 
 void KernelWarmUp::stop() {
   if (jobDevice_) jobDevice_->setKernelObserver(nullptr);  // waits for a call in progress
   jobDevice_ = nullptr;
+  if (!state_) return;
   {
-    std::lock_guard lock(mutex_);
-    stop_ = true;
+    std::lock_guard lock(state_->mutex);
+    state_->stop = true;
   }
-  stopFlag_ = true;
-  changed_.notify_all();
+  state_->stopFlag = true;
+  state_->changed.notify_all();
 }
 
 void KernelWarmUp::waitUntilIdle() {
-  if (!thread_.joinable()) return;
-  std::unique_lock lock(mutex_);
-  changed_.wait(lock, [&] { return idle_; });
+  if (!state_) return;
+  std::unique_lock lock(state_->mutex);
+  state_->changed.wait(lock, [&] { return state_->idle || state_->finished; });
 }
 
 KernelWarmUp::Result KernelWarmUp::wait() {
   stop();
-  if (thread_.joinable()) thread_.join();
-  return result_;
+  if (!state_) return {};
+  if (state_->thread.joinable()) state_->thread.join();
+  return state_->result;
 }
 
 KernelWarmUp::~KernelWarmUp() { wait(); }

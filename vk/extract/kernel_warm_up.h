@@ -13,19 +13,19 @@
 #pragma once
 
 #include "blobvk/vk/device/context.h"
-#include "blobvk/vk/device/standalone.h"
 
 #include <atomic>
-#include <condition_variable>
 #include <cstdint>
-#include <mutex>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
-#include <thread>
 #include <vector>
 
 namespace blobvk::vk {
+
+class StandaloneContext;
+struct StandaloneOptions;
 
 struct KernelRequest {
   std::string shader;                // embedded shader name
@@ -63,11 +63,12 @@ std::size_t compileByEmptyDispatches(Device& device, std::span<const KernelReque
 std::optional<KernelRecipe> takeRecipe(std::vector<KernelRecipe>& recipes, bool dropRecorded);
 
 // Whether a warm-up can pay: the device is llvmpipe (other drivers compile at pipeline creation,
-// on the caller's threads), Mesa's shader cache is on (MESA_SHADER_CACHE_DISABLE unset or false:
-// the cache is how the code reaches the job's device), and blobvk's pipeline cache file is in use
-// but was not there (a first process with this driver and blobvk version: Mesa's cache is
-// probably as empty; with the file off nothing tells, and a warm process gains nothing), and the
-// machine has a second core for it (on one, it would only take time from the job).
+// on the caller's threads); Mesa's shader cache is on (MESA_SHADER_CACHE_DISABLE and the older
+// MESA_GLSL_CACHE_DISABLE unset or false: the cache is how the code reaches the job's device);
+// blobvk's pipeline cache file is in use but was not there (a first process with this driver and
+// blobvk version: Mesa's cache is probably as empty; with the file off nothing tells, and a warm
+// process gains nothing); and the process may run on a second core (on one, it would only take
+// time from the job).
 struct WarmUpSigns {
   unsigned cores = 0;  // the cores the process may run on
   bool llvmpipe = false;
@@ -76,12 +77,14 @@ struct WarmUpSigns {
   bool pipelineCacheLoaded = false;
 };
 bool kernelWarmUpPays(const WarmUpSigns& signs);
-WarmUpSigns warmUpSigns(StandaloneContext& context);  // reads MESA_SHADER_CACHE_DISABLE too
+// The signs of `context` (and of the environment's Mesa variables).
+WarmUpSigns warmUpSigns(StandaloneContext& context);
 
 // The warm-up of a context's device, when kernelWarmUpPays: a second StandaloneContext on the same
 // device (the context's options, without a pipeline cache file) on a thread that compiles the
 // program-independent kernels, then copies of the kernels the context's device builds (its kernel
 // observer) until stop(). Errors there only end the warm-up (the job builds its kernels itself).
+// It must end (destruction) before `context` does: a copy may hold one of its kernels.
 class KernelWarmUp {
  public:
   KernelWarmUp(StandaloneContext& context, const StandaloneOptions& options, std::uint32_t workgroupSize = 64);
@@ -89,31 +92,26 @@ class KernelWarmUp {
   KernelWarmUp(const KernelWarmUp&) = delete;
   KernelWarmUp& operator=(const KernelWarmUp&) = delete;
 
-  bool started() const { return thread_.joinable(); }
+  bool started() const;
   // No more copies (the first job is done: later ones find their kernels built); the kernel in
   // progress finishes. Does not wait.
   void stop();
-  // Waits until the program-independent kernels are done and no copy is pending (tests).
+  // Waits until the program-independent kernels are done and no copy is pending, or the warm-up
+  // has ended (tests).
   void waitUntilIdle();
   struct Result {
     std::size_t dispatched = 0;            // program-independent kernels compiled
-    std::size_t copied = 0;                // kernels of the job's device compiled
-    std::uint32_t validationMessages = 0;  // of its context, with StandaloneOptions::validation
+    std::size_t copied = 0;                // kernels of the job's device compiled (not already there)
+    std::uint32_t validationMessages = 0;  // of its context (StandaloneOptions::validation, tests)
     bool failed = false;                   // an error ended it
   };
   // stop(), then waits for the thread.
   Result wait();
 
  private:
-  void work(StandaloneOptions options, std::uint32_t workgroupSize);
+  struct State;  // the thread, its queue and its flags (kernel_warm_up.cpp)
   Device* jobDevice_ = nullptr;
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::vector<KernelRecipe> recipes_;
-  bool stop_ = false, idle_ = false;
-  std::atomic<bool> stopFlag_{false};
-  Result result_;
-  std::thread thread_;
+  std::shared_ptr<State> state_;
 };
 
 }  // namespace blobvk::vk
