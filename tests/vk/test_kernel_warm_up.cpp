@@ -154,10 +154,11 @@ TEST_F(VulkanTest, DeviceHandsItsNewKernelsToAnObserver) {
 TEST(KernelWarmUp, TakesTheNewestKernelTheJobHasNotReached) {
   std::vector<std::shared_ptr<vk::Kernel>> kernels;
   std::vector<vk::KernelRecipe> recipes;
-  for (int i = 0; i < 5; ++i) {
+  for (int i = 0; i < 6; ++i) {
     kernels.push_back(std::make_shared<vk::Kernel>());
-    recipes.push_back({"k" + std::to_string(i), "brick_field", {}, {}, kernels.back()});
+    recipes.push_back({"k" + std::to_string(i), "brick_field", {}, {}, kernels.back(), 0.02});
   }
+  recipes[5].buildSeconds = 1.0;  // a copy would be built after the job's device compiled it
   kernels[0]->recorded = true;  // the job's device is compiling it
   kernels[1]->recorded = true;
   kernels[1]->executed = true;  // done there
@@ -222,7 +223,8 @@ TEST_F(VulkanTest, WarmUpStartsForAFirstProcessOnly) {
     ASSERT_TRUE(warmUp.started());
     warmUp.waitUntilIdle();
     const vk::KernelPtr embedded = first.device().kernel("brick_triangles", std::array<std::uint32_t, 1>{32});
-    const auto program = blobtree::compile(testModels()[2].root);
+    // One point: its kernel builds in milliseconds, far below kMaxCopyBuildSeconds.
+    const auto program = blobtree::compile(testModels()[0].root);
     const vk::KernelPtr generated = vk::specialisedKernel(first.device(), program, vk::CodegenOptions{}, "brick_field", 64);
     warmUp.waitUntilIdle();
     const vk::KernelWarmUp::Result r = warmUp.wait();

@@ -5,6 +5,7 @@
 #include "blobvk/vk/device/shader_registry.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 
 namespace blobvk::vk {
@@ -376,8 +377,10 @@ KernelPtr Device::createKernel(const std::string& key, const std::string& shader
   info.stage.pName = "main";
   info.stage.pSpecializationInfo = specs.empty() ? nullptr : &spec;
   info.layout = k->layout;
+  const auto buildStart = std::chrono::steady_clock::now();
   const VkResult r =
       d_.vkCreateComputePipelines(host_.device, pipelineCache_, 1, &info, nullptr, &k->pipeline);
+  const double buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - buildStart).count();
   d_.vkDestroyShaderModule(host_.device, module, nullptr);
   check(r, ("vkCreateComputePipelines(" + shader + ")").c_str());
 
@@ -390,7 +393,7 @@ KernelPtr Device::createKernel(const std::string& key, const std::string& shader
   if (!inBackgroundBuild) {
     std::lock_guard lock(observerMutex_);
     if (observer_)
-      observer_(KernelRecipe{shader, layoutOf, {code.begin(), code.end()}, {specs.begin(), specs.end()}, k});
+      observer_(KernelRecipe{shader, layoutOf, {code.begin(), code.end()}, {specs.begin(), specs.end()}, k, buildSeconds});
   }
   return k;
 }

@@ -85,6 +85,7 @@ struct KernelRecipe {
   std::string layoutOf;  // the embedded shader whose reflected layout it has
   std::vector<std::uint32_t> code, specs;
   std::weak_ptr<const Kernel> kernel;  // the built kernel (Kernel::recorded, Kernel::executed)
+  double buildSeconds = 0.0;           // its vkCreateComputePipelines on this device
 };
 
 struct DeviceInfo {

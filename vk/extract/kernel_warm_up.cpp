@@ -62,7 +62,7 @@ std::size_t compileByEmptyDispatches(Device& device, std::span<const KernelReque
 std::optional<KernelRecipe> takeRecipe(std::vector<KernelRecipe>& recipes, bool dropRecorded) {
   std::erase_if(recipes, [&](const KernelRecipe& r) {
     const KernelPtr k = r.kernel.lock();
-    return !k || k->executed.load() || (dropRecorded && k->recorded.load());
+    return !k || k->executed.load() || (dropRecorded && k->recorded.load()) || r.buildSeconds > kMaxCopyBuildSeconds;
   });
   if (recipes.empty()) return std::nullopt;
   KernelRecipe newest = std::move(recipes.back());

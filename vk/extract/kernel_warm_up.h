@@ -58,8 +58,12 @@ std::size_t compileByEmptyDispatches(Device& device, std::span<const KernelReque
 // The next of the job's kernels to compile on the warm-up's device: `recipes` (in the order the
 // job's device built them) lose what needs no copy (the kernel is gone, or has run on the job's
 // device, or, with `dropRecorded`, is already recorded there: the job's device is compiling it or
-// is about to), and the newest of the rest is taken out (the job's device compiles from the
-// oldest, so the two meet in the middle). Empty when none is left.
+// is about to) or cannot pay (its pipeline took the job's device more than kMaxCopyBuildSeconds
+// to build: the copy's own build would end after the job's device has compiled it, and only take
+// a core from the job; random128's generated vertex kernel, 0.7-1.4 s), and the newest of the
+// rest is taken out (the job's device compiles from the oldest, so the two meet in the middle).
+// Empty when none is left.
+inline constexpr double kMaxCopyBuildSeconds = 0.25;  // field tiles: 0.01-0.04 s each
 std::optional<KernelRecipe> takeRecipe(std::vector<KernelRecipe>& recipes, bool dropRecorded);
 
 // Whether a warm-up can pay: the device is llvmpipe (other drivers compile at pipeline creation,
