@@ -137,7 +137,8 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {
   vk::GpuPolygonizeOptions options;
   options.refineSteps = settings.refineSteps;
   options.traversal = traversalFromName(settings.traversal);
-  options.maxFieldTiles = std::uint32_t(std::max(settings.fieldTiles, 1));
+  if (settings.fieldTiles > 0)  // a given cap holds for repeated jobs too
+    options.maxFieldTiles = options.repeatedJobFieldTiles = std::uint32_t(settings.fieldTiles);
   if (settings.brickCells > 0) options.brickCells = std::uint32_t(settings.brickCells);
   options.sparse = !settings.dense;
   options.tiledVertexPass = settings.tiledVertices;

@@ -50,7 +50,7 @@ struct PolygonizeSettings {
   // Program compiled into the kernel), stackless (the register code interpreted) or stack (the
   // stack-based tree walk: the thesis' Table 4.2 comparison).
   std::string traversal = "auto";
-  int fieldTiles = 8;           // vk specialised: most tiles with pruned field kernels (1 = off)
+  int fieldTiles = 0;           // vk specialised: most tiles with pruned field kernels (1 = off; 0 = the library's defaults)
   int brickCells = 0;           // vk: cells per brick edge of the sparse extraction (0: default)
   bool dense = false;           // vk: the dense z-slab extraction instead of the sparse one
   bool tiledVertices = false;   // vk specialised: the vertex pass per tile too

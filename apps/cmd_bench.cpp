@@ -45,7 +45,7 @@ void addBenchCommand(CLI::App& app) {
     std::vector<std::string> backends{"cpu"};
     std::vector<int> threads{0};
     int batchesPerDevice = 0;
-    int repeats = 5, warmup = 1, mpuSize = 0, subBlock = -1, fieldTiles = 8, brickCells = 0;
+    int repeats = 5, warmup = 1, mpuSize = 0, subBlock = -1, fieldTiles = 0, brickCells = 0;
     bool dense = false;
     bool tiledVertices = false;
     bool vertexTiles = false;
@@ -84,7 +84,8 @@ void addBenchCommand(CLI::App& app) {
       ->check(CLI::IsMember({2, 4, 8, 16}));
   cmd->add_flag("--dense", a->dense, "vk: the dense z-slab extraction (every grid point) instead of the sparse one");
   cmd->add_option("--field-tiles", a->fieldTiles,
-                  "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")
+                  "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8, "
+                  "up to 16 for repeated jobs where the cost model says they pay)")
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--tiled-vertices", a->tiledVertices,
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");

@@ -92,7 +92,8 @@ void addMeshCommand(CLI::App& app) {
                   "while a pair of brick layers outgrows a storage buffer); the mesh does not depend on it")
       ->check(CLI::IsMember({0, 2, 4, 8, 16}));
   cmd->add_option("--field-tiles", a->settings.fieldTiles,
-                  "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8)")
+                  "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8, "
+                  "up to 16 for repeated jobs where the cost model says they pay)")
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--tiled-vertices", a->settings.tiledVertices,
                 "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");

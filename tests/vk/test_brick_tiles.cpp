@@ -156,5 +156,29 @@ TEST_F(VulkanTest, AutoTilesTheFieldWhereItPays) {
   EXPECT_GT(large.fieldTiles, 1u);
 }
 
+// A job that runs again may take up to 16 tiles where the finer plan's saving over its runs pays
+// its extra kernels (tower at 512 cells: the field pass a quarter shorter); one run keeps 8, and
+// a cap the caller gives holds for repeated jobs too.
+TEST_F(VulkanTest, RepeatedJobsTakeMoreTilesWhereTheyPay) {
+  if (device().info().type != VK_PHYSICAL_DEVICE_TYPE_CPU) GTEST_SKIP() << "the model's constants are lavapipe's";
+  const ShippedScene tower = shipped("tower", 512);
+  vk::GpuStats cs;
+  const vk::ClassifiedBricks classified =
+      vk::classifyAndCompact(device(), tower.program, tower.grid, vk::brickGridFor(tower.grid, 16), cs);
+  auto capFor = [&](std::uint32_t runs, std::uint32_t repeatedCap) {
+    vk::GpuPolygonizeOptions o;  // Auto, 8 tiles, 16 for repeated jobs
+    o.expectedRuns = runs;
+    o.repeatedJobFieldTiles = repeatedCap;
+    const vk::SparseEvaluator e = vk::resolveSparseEvaluator(device(), tower.program, tower.grid, o, &classified);
+    EXPECT_EQ(e.traversal, vk::Traversal::Specialised);
+    EXPECT_TRUE(e.fieldTiles);
+    return e.apply(o).maxFieldTiles;
+  };
+  EXPECT_EQ(capFor(1, 16), 8u);
+  EXPECT_EQ(capFor(6, 16), 16u);
+  EXPECT_EQ(capFor(6, 8), 8u);
+  EXPECT_GT(vk::planBrickTiles(tower.program, tower.grid, classified.bricks, 16).size(), 8u);
+}
+
 }  // namespace
 }  // namespace blobvk::testing

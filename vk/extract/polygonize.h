@@ -62,6 +62,11 @@ struct GpuPolygonizeOptions {
   std::uint64_t maxBrickBytes = 32ull << 20;  // per-slab field bytes; smaller means more slabs
   // Traversal::Specialised: the field pass's tiles with pruned kernels (vk/eval/field_tiles.h); 1 = off.
   std::uint32_t maxFieldTiles = 8;
+  // Sparse path, Traversal::Auto, expectedRuns > 1: the most field tiles a job that runs again may
+  // take, where the cost model says the kernels past maxFieldTiles save more over the runs than
+  // their builds cost (tower at 512 cells: 16 tiles, a quarter less field pass). At most
+  // maxFieldTiles when it is not above it.
+  std::uint32_t repeatedJobFieldTiles = 16;
   // Dense path only. With field tiles, run the vertex pass per tile too, with the evaluator pruned to each tile.
   // Off by default: a vertex kernel inlines the evaluator 8 times and takes 0.1-0.16 s to build
   // on lavapipe (a field tile kernel ~0.035 s), while it saves ~30 % of the emit pass (tower at

@@ -330,25 +330,44 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
   // cells: +0.1 s of start-up for 2 ms of field).
   // (Auto only: a forced evaluator gets the tiles it is given.)
   if (choose && cpuDevice && job.evaluated && e.traversal == Traversal::Specialised && options.maxFieldTiles > 1) {
-    const std::vector<BrickTile> tiles = planBrickTiles(program, grid, classified->bricks, options.maxFieldTiles);
-    if (tiles.size() > 1) {
-      const double R = double(evaluated.cells) + 1.0, pointsPerBrick = R * R * R;
-      const double wholeCost = double(prunedEvaluationCost(program, {}));
-      double extraBuild = -specialisedKernelSeconds(double(specialisedCodeSize(program, {}, codegen.loops)), 1.0);
-      double saved = 0.0;
+    // The field time a plan of at most `cap` tiles saves over the runs, and its kernels' builds
+    // beyond the whole program's.
+    struct TileGain {
+      std::size_t tiles = 0;
+      double saved = 0.0, extraBuild = 0.0;
+    };
+    const double R = double(evaluated.cells) + 1.0, pointsPerBrick = R * R * R;
+    const double wholeCost = double(prunedEvaluationCost(program, {}));
+    const double wholeBuild = specialisedKernelSeconds(double(specialisedCodeSize(program, {}, codegen.loops)), 1.0);
+    auto tileGain = [&](std::uint32_t cap) {
+      TileGain g;
+      const std::vector<BrickTile> tiles = planBrickTiles(program, grid, classified->bricks, cap);
+      g.tiles = tiles.size();
+      g.extraBuild = -wholeBuild;
       for (const BrickTile& t : tiles) {
         std::uint64_t bricks = 0;
         for (const auto& b : evaluated.bricks)
           bricks += b[0] >= t.first[0] && b[0] <= t.last[0] && b[1] >= t.first[1] && b[1] <= t.last[1] &&
                     b[2] >= t.first[2] && b[2] <= t.last[2];
-        extraBuild += specialisedKernelSeconds(double(specialisedCodeSize(program, t.region, codegen.loops)), 1.0);
-        saved += costs::kSpecialisedSecondsPerCost * (wholeCost - double(prunedEvaluationCost(program, t.region))) *
-                 double(bricks) * pointsPerBrick * double(job.repeats);
+        g.extraBuild += specialisedKernelSeconds(double(specialisedCodeSize(program, t.region, codegen.loops)), 1.0);
+        g.saved += costs::kSpecialisedSecondsPerCost * (wholeCost - double(prunedEvaluationCost(program, t.region))) *
+                   double(bricks) * pointsPerBrick * double(job.repeats);
       }
-      // The pruned field kernels build in about a third of what the model's constants (fitted to
-      // whole mesh kernels) say: tower at 256 cells, predicted +0.67 s for 8 tiles, measured no
-      // slower a first run with the field's 0.14-0.2 s saved; dice at 64 cells +0.1-0.15 s.
-      e.fieldTiles = saved > 0.3 * extraBuild;
+      return g;
+    };
+    // The pruned field kernels build in about a third of what the model's constants (fitted to
+    // whole mesh kernels) say: tower at 256 cells, predicted +0.67 s for 8 tiles, measured no
+    // slower a first run with the field's 0.14-0.2 s saved; dice at 64 cells +0.1-0.15 s.
+    constexpr double kTileBuildShare = 0.3;
+    const TileGain coarse = tileGain(options.maxFieldTiles);
+    e.fieldTiles = coarse.tiles > 1 && coarse.saved > kTileBuildShare * coarse.extraBuild;
+    // A job that runs again may take more tiles where the finer plan's extra saving pays its
+    // extra kernels by the same measure (tower at 512 cells and 6 runs: 16 tiles, field pass
+    // 0.16 s against 0.21 s; one run keeps 8: a `mesh` does not wait for 8 more builds).
+    if (e.fieldTiles && job.repeats > 1 && options.repeatedJobFieldTiles > options.maxFieldTiles) {
+      const TileGain fine = tileGain(options.repeatedJobFieldTiles);
+      if (fine.tiles > coarse.tiles && fine.saved - coarse.saved > kTileBuildShare * (fine.extraBuild - coarse.extraBuild))
+        e.fieldTileCap = options.repeatedJobFieldTiles;
     }
   }
   return e;
@@ -366,6 +385,7 @@ GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options)
   resolved.traversal = traversal;
   if (codegen) resolved.codegen = &*codegen;
   if (!fieldTiles) resolved.maxFieldTiles = 1;
+  else if (fieldTileCap > 0) resolved.maxFieldTiles = fieldTileCap;
   resolved.interpretVertexPassUntilBuilt = options.interpretVertexPassUntilBuilt || interpretVertexPassUntilBuilt;
   return resolved;
 }

@@ -97,6 +97,8 @@ struct SparseEvaluator {
   // On CPU drivers, false where the field tiles' extra kernels (brick_tiles.h) would take longer
   // to build than they save over the job's active bricks: the field is then one kernel.
   bool fieldTiles = true;
+  // The most tiles: options.maxFieldTiles, or repeatedJobFieldTiles where the finer plan pays.
+  std::uint32_t fieldTileCap = 0;  // 0: options.maxFieldTiles
   bool interpretVertexPassUntilBuilt = false;  // EvaluatorEstimate's
   void report(GpuStats& stats) const;
   // `options` with this evaluator; its codegen points into this object, which must outlive it.
