@@ -94,6 +94,9 @@ struct DeviceInfo {
   std::uint32_t apiVersion = 0;
   std::uint32_t subgroupSize = 0;
   VkPhysicalDeviceLimits limits{};
+  // Mesa's CPU driver under lavapipe, which reports itself as "llvmpipe (LLVM 15.0.6, 256 bits)":
+  // its loop limit and its code generation at first dispatch are its own, not every CPU driver's.
+  bool isLlvmpipe() const { return name.rfind("llvmpipe", 0) == 0; }
 };
 
 // What a Device is created with besides the host's handles (all optional).

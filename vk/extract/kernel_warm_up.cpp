@@ -47,16 +47,19 @@ void EmptyDispatcher::dispatch(const Kernel& kernel) {
   device_.run([&](Recorder& rec) { rec.dispatchIndirect(kernel, bind, push, kernel.pushConstantRange, args_, 0); });
 }
 
-std::size_t compileByEmptyDispatches(Device& device, std::span<const KernelRequest> kernels,
-                                     const std::atomic<bool>* stop) {
-  EmptyDispatcher empty(device);
+std::size_t EmptyDispatcher::compile(std::span<const KernelRequest> kernels, const std::atomic<bool>* stop) {
   std::size_t dispatched = 0;
   for (const KernelRequest& request : kernels) {
     if (stop && stop->load()) break;
-    empty.dispatch(*device.kernel(request.shader, request.specs));
+    dispatch(*device_.kernel(request.shader, request.specs));
     ++dispatched;
   }
   return dispatched;
+}
+
+std::size_t compileByEmptyDispatches(Device& device, std::span<const KernelRequest> kernels,
+                                     const std::atomic<bool>* stop) {
+  return EmptyDispatcher(device).compile(kernels, stop);
 }
 
 std::optional<KernelRecipe> takeRecipe(std::vector<KernelRecipe>& recipes, bool dropRecorded) {
@@ -93,7 +96,7 @@ unsigned usableCores() {
 WarmUpSigns warmUpSigns(StandaloneContext& context) {
   WarmUpSigns s;
   s.cores = usableCores();
-  s.llvmpipe = context.device().info().name.rfind("llvmpipe", 0) == 0;
+  s.llvmpipe = context.device().info().isLlvmpipe();
   s.mesaCacheDisabled = mesaTrue(std::getenv("MESA_SHADER_CACHE_DISABLE")) || mesaTrue(std::getenv("MESA_GLSL_CACHE_DISABLE"));
   s.pipelineCacheOff = context.pipelineCacheFile().empty();
   s.pipelineCacheLoaded = context.pipelineCacheBytesLoaded() > 0;
@@ -105,17 +108,16 @@ struct KernelWarmUp::State {
   std::mutex mutex;
   std::condition_variable changed;
   std::vector<KernelRecipe> recipes;
-  bool stop = false, idle = false, finished = false;
-  std::atomic<bool> stopFlag{false};
+  std::atomic<bool> stop{false};  // set under `mutex` (the waits test it there), read between kernels
+  bool idle = false, finished = false;
   Result result;
   std::thread thread;
 
   void work(const StandaloneOptions& options, std::uint32_t workgroupSize) {
     try {
       StandaloneContext warm(options);
-      const std::vector<KernelRequest> fixed = programIndependentSparseKernels(workgroupSize);
-      result.dispatched = compileByEmptyDispatches(warm.device(), fixed, &stopFlag);
       EmptyDispatcher empty(warm.device());
+      result.dispatched = empty.compile(programIndependentSparseKernels(workgroupSize), &stop);
       // What the job's device recorded while this one was busy it compiles itself already.
       bool dropRecorded = true;
       for (;;) {
@@ -177,7 +179,6 @@ void KernelWarmUp::stop() {
     std::lock_guard lock(state_->mutex);
     state_->stop = true;
   }
-  state_->stopFlag = true;
   state_->changed.notify_all();
 }
 

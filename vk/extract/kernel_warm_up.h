@@ -44,14 +44,16 @@ class EmptyDispatcher {
  public:
   explicit EmptyDispatcher(Device& device);
   void dispatch(const Kernel& kernel);
+  // Builds each kernel on the device and dispatches it; `stop` is read between kernels. Returns
+  // how many kernels were dispatched.
+  std::size_t compile(std::span<const KernelRequest> kernels, const std::atomic<bool>* stop = nullptr);
 
  private:
   Device& device_;
   Buffer storage_, uniform_, args_;
 };
 
-// Builds each kernel on `device` and dispatches it with no work; `stop` is read between kernels.
-// Returns how many kernels were dispatched.
+// EmptyDispatcher(device).compile(kernels, stop).
 std::size_t compileByEmptyDispatches(Device& device, std::span<const KernelRequest> kernels,
                                      const std::atomic<bool>* stop = nullptr);
 

@@ -10,8 +10,7 @@
 namespace blobvk::vk {
 
 std::uint64_t loopIterationLimit(const DeviceInfo& info) {
-  // The driver reports itself as "llvmpipe (LLVM 15.0.6, 256 bits)".
-  return info.name.rfind("llvmpipe", 0) == 0 ? kLlvmpipeLoopIterations : ~0ull;
+  return info.isLlvmpipe() ? kLlvmpipeLoopIterations : ~0ull;
 }
 
 std::uint64_t evaluationLoopBound(const blobtree::Program& program, const GpuPolygonizeOptions& options) {
