@@ -108,6 +108,46 @@ TEST(SpecialisedGradient, GeneratedKernelsHoldOnlyTheFunctionsTheyCall) {
   }
 }
 
+std::size_t occurrences(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + what.size())) ++n;
+  return n;
+}
+
+// Pruned to a region (a tile of the sparse vertex pass), the generated gradient drops each
+// primitive whose support box misses it, as the field code does: random128 (128 primitives under
+// one skip box) in its lower octant keeps some and drops others, and keeps all over its bounds.
+// That the pruned code gives the whole program's bytes, signs of zero included, is
+// TiledVertexPassGivesTheBytesOfOneKernel's.
+TEST(SpecialisedGradient, PrunedToARegionItDropsThePrimitivesThatMissIt) {
+  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/random128.json");
+  const blobtree::Program program = blobtree::compile(scene.root);
+  const std::size_t primitives = program.primitives.size();
+  ASSERT_EQ(primitives, 128u);
+  const blobtree::Aabb b = program.bounds;
+  auto gradientOf = [&](const vk::PointRegion& region) {
+    vk::CodegenOptions codegen = vk::defaultCodegenOptions(true);
+    codegen.region = region;
+    const std::string glsl = vk::generateSpecialisedEvaluator(program, codegen);
+    const std::size_t at = glsl.find("precise float evaluateGradient(");
+    EXPECT_NE(at, std::string::npos);
+    return at == std::string::npos ? std::string() : glsl.substr(at);
+  };
+  vk::PointRegion octant;
+  octant.valid = true;
+  for (int a = 0; a < 3; ++a) octant.lo[a] = b.lo[a], octant.hi[a] = 0.5f * (b.lo[a] + b.hi[a]);
+  const std::string pruned = gradientOf(octant);
+  const std::size_t dropped = occurrences(pruned, "pruned: the primitive is 0 in the region");
+  const std::size_t kept = occurrences(pruned, " = primitiveGradientOfType");
+  EXPECT_GT(dropped, primitives / 4);
+  EXPECT_GT(kept, 0u);
+  EXPECT_EQ(dropped + kept, primitives);
+  vk::PointRegion all;
+  all.valid = true;
+  for (int a = 0; a < 3; ++a) all.lo[a] = b.lo[a], all.hi[a] = b.hi[a];
+  EXPECT_EQ(occurrences(gradientOf(all), "pruned: the primitive"), 0u);
+}
+
 // The cost model weighs the generated gradient's larger vertex kernel: the shipped tower at 256
 // cells on lavapipe, meshed 4 times (a benchmark), takes it (its interpreted gradient was most of
 // the mesh's time); a program whose unrolled vertex kernel would break the build's memory bound

@@ -35,8 +35,9 @@ std::vector<Case> cases() {
     out.push_back({name, std::move(s.program), s.grid});
   }
   // A legacy .blob file (blobtree/scene_blob.h) on its own grid at 256 cells, where vertices lie
-  // on its plane of symmetry x = 0 and a normal's x is a signed zero: a pruning of the gradient
-  // by primitive boxes (vk/eval/gradient_codegen.cpp prunes skips only) turned -0 into +0 there.
+  // on its plane of symmetry x = 0 and a normal's x is a signed zero: the gradient's dropped
+  // primitives written with literal zeros (vk/eval/gradient_codegen.cpp writes loaded ones) turned
+  // -0 into +0 there.
   const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/legacy/tower_fragment.blob");
   Case legacy{"tower_fragment.blob", blobtree::compile(scene.root), {}, false};
   blobtree::GridRequest request;

@@ -121,6 +121,17 @@ class GradientGenerator {
     const std::uint32_t matrix = prim.meta.y;
     const std::string at = matrix ? "toLocalRows(" + rows(matrix) + ", " + point(z) + ")" : point(z);
     const std::string d = named('r', dst), g = named('g', dst);
+    // Pruned to the region as the field code prunes it (program_codegen.cpp): outside its support
+    // box a primitive's formula gives field +0 and gradient +0, then M^T (+0) with a matrix, whose
+    // signs of zero (-0 where a column's entries are all negative) a normal that is 0 along an axis
+    // keeps. The zeros are Z, loaded: NIR folds y + 0.0 into y, which turns -0 + +0 (+0 at run
+    // time, as in the whole program's kernel) into -0.
+    if (in.z == 0 && in.y < p_.primitiveBoxes.size() && regionMissesBox(options_.region, p_.primitiveBoxes[in.y])) {
+      line(depth, "{ " + d + " = Z;  // pruned: the primitive is 0 in the region");
+      line(depth + 1, g + " = " + (matrix ? "transposeTimesRows(" + rows(matrix) + ", vec3(Z))" : std::string("vec3(Z)")) + ";");
+      line(depth + 1, "if (wantColour) " + named('c', dst) + " = unpackColour(" + std::to_string(prim.meta.z) + "u); }");
+      return;
+    }
     line(depth, "{ precise vec3 gl;");
     line(depth + 1, d + " = " + primitiveGradientName(prim.meta.x) + "(" + at + ", " + v4(prim.p0) + ", " +
                         v4(prim.p1) + ", " + v4(prim.p2) + ", gl);");

@@ -22,7 +22,8 @@ namespace blobvk::vk {
 //   precise float evaluateGradient(vec3 p, uint n, bool wantColour, out vec3 gradient, out vec3 colour)
 // (n ignored), to follow the unrolled field evaluator, whose instruction-buffer view `codeArray`
 // it reads OP_POW's exponents from (as the field code does: a literal exponent lets NIR rewrite
-// pow). Skips whose box misses options.region have no code (the interpreter writes 0 there too);
+// pow). Skips whose box misses options.region have no code (the interpreter writes 0 there too),
+// nor primitives whose support box misses it (their outside values, +0, with loaded zeros);
 // skips branch or run masked as options.branchOnSkips says. Record values are literals except
 // zeros, which are loaded (NIR folds x * 0.0 + y into y, which can change the sign of a zero).
 // Empty when the program's matrices[0] is not the identity (the vertex kernels then interpret).

@@ -75,10 +75,10 @@ struct GpuPolygonizeOptions {
   bool tiledVertexPass = false;
   // Sparse path, specialised code with the generated gradient and field tiles: the vertex pass
   // per field tile too, each tile's vertices run by a vertex kernel pruned to its box of bricks
-  // (docs/vulkan.md, "Sparse extraction"); the same mesh byte for byte. Off by default: with the
-  // gradient pruned by skips only it does not pay on lavapipe (warm caches, bench --repeats 3:
-  // tower at 512 cells +1 s of start-up for a vertex pass 0.94 as long, random128 +10 s for one
-  // 1.5 times as long; docs/performance.md).
+  // (docs/vulkan.md, "Sparse extraction"); the same mesh byte for byte. Off by default: the
+  // pass takes 0.7-0.8 of the time, a few percent of a run, for 0.4-1.4 s more warm start-up on
+  // lavapipe (its NIR work per kernel is not cached; tower and random128 at 256 and 512 cells,
+  // docs/performance.md): for a polygonizer run many times.
   bool sparseVertexTiles = false;
   // Sparse path, specialised code (set by the cost model for Auto, EvaluatorEstimate::
   // interpretVertexPassUntilBuilt): while the generated-gradient vertex kernel is not built, the
