@@ -92,6 +92,7 @@ struct PolygonizeStats {
     std::uint64_t fieldTiles = 0;  // field kernels of the sparse extraction (pruned per tile of bricks)
     std::uint64_t vertexTiles = 0;  // its vertex kernels (0: one, unpruned)
     bool generatedClassification = false;  // the bricks classified by generated code (vk/extract/classify_kernel.h)
+    std::uint64_t classifyTiles = 0;  // tiles the interpreted classification ran with pruned tapes (vk/extract/classify_tiles.h)
     // Per-brick tapes (vk/extract/brick_tapes.h): instructions run per point summed over the
     // bricks, instructions stored, host seconds building them (0 without tapes).
     std::uint64_t tapeInstructions = 0, tapeWords = 0;

@@ -184,7 +184,8 @@ void addBenchCommand(CLI::App& app) {
                     {"brick_cells", r.gpu.brickCells}, {"field_tiles", r.gpu.fieldTiles}, {"vertex_tiles", r.gpu.vertexTiles},
                     {"tape_instructions", r.gpu.tapeInstructions}, {"tape_words", r.gpu.tapeWords},
                     {"tape_s", r.gpu.tapeSeconds},
-                    {"generated_classification", r.gpu.generatedClassification}, {"device_bytes", r.gpu.deviceBytes},
+                    {"generated_classification", r.gpu.generatedClassification}, {"classify_tiles", r.gpu.classifyTiles},
+                    {"device_bytes", r.gpu.deviceBytes},
                     {"extraction_passes_s", {{"edges", r.gpu.edges}, {"scans", r.gpu.scans},
                                              {"sources", r.gpu.sources}, {"vertices", r.gpu.vertices},
                                              {"triangles", r.gpu.triangles}}}};

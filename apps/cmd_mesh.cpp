@@ -37,7 +37,7 @@ nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
           {"devices", gpu.devices}, {"evaluator", gpu.evaluator}, {"generated_gradient", gpu.vertexGradient},
           {"brick_cells", gpu.brickCells}, {"field_tiles", gpu.fieldTiles}, {"vertex_tiles", gpu.vertexTiles},
           {"tape_instructions", gpu.tapeInstructions},
-          {"generated_classification", gpu.generatedClassification}};
+          {"generated_classification", gpu.generatedClassification}, {"classify_tiles", gpu.classifyTiles}};
 }
 }  // namespace
 

@@ -166,21 +166,30 @@ void polygonize(benchmark::State& state, const std::string& scene, vk::Traversal
 }
 
 // The sparse path's brick classification and compaction alone (bricks of 16 cells, the default),
-// interpreted or generated (vk/extract/classify_kernel.h): device time per job (the timer's
-// figure, GpuStats::classifySeconds), the kernel built before timing.
-void classify(benchmark::State& state, const std::string& scene, vk::ClassifyCode code) {
+// interpreted (tile by tile where the cost model says it pays, vk/extract/classify_tiles.h, or
+// with `maxTiles` 1 the whole program) or generated (vk/extract/classify_kernel.h): device time
+// per job (the timer's figure, GpuStats::classifySeconds), the kernel built before timing;
+// `wall_ms` adds the host's part (the tiles' plan and tapes, submits, waits).
+void classify(benchmark::State& state, const std::string& scene, vk::ClassifyCode code, std::uint32_t maxTiles) {
   const Model& m = model(scene);
   const auto grid = gridFor(m, int(state.range(0)));
   vk::Device& device = context().device();
   const vk::BrickGrid bricks = vk::brickGridFor(grid, 16);
   vk::GpuStats s;
-  vk::classifyAndCompact(device, m.program, grid, bricks, s, nullptr, 0, {code, 1});  // build, JIT
+  vk::ClassifyChoice choice{code, 1};
+  choice.maxTiles = maxTiles;
+  vk::classifyAndCompact(device, m.program, grid, bricks, s, nullptr, 0, choice);  // build, JIT
+  double wall = 0.0;
   for (auto _ : state) {
-    vk::classifyAndCompact(device, m.program, grid, bricks, s, nullptr, 0, {code, 1});
+    const auto t0 = std::chrono::steady_clock::now();
+    vk::classifyAndCompact(device, m.program, grid, bricks, s, nullptr, 0, choice);
+    wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     state.SetIterationTime(s.classifySeconds);
   }
+  state.counters["wall_ms"] = 1e3 * wall / double(std::max<benchmark::IterationCount>(state.iterations(), 1));
   state.counters["active_bricks"] = s.activeBricks;
   state.counters["generated"] = s.generatedClassification;
+  state.counters["tiles"] = s.classifyTiles;
   // The cost model's walk (classify_kernel.h): steps of the finest level, in thousands.
   const vk::ClassifyWork work = vk::classifyWork(m.program, grid, 16);
   state.counters["ksteps_interpreted"] = work.interpreted * 1e-3;
@@ -259,10 +268,16 @@ void registerAll() {
           ->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
   }
   for (const char* scene : {"tower", "random128", "eggshell", "dice", "creature", "craniotomy", "twisted_column"}) {
-    for (auto code : {vk::ClassifyCode::Interpreter, vk::ClassifyCode::Generated}) {
-      const std::string name = std::string("classify/") +
-                               (code == vk::ClassifyCode::Generated ? "generated/" : "interpreter/") + scene;
-      benchmark::RegisterBenchmark(name.c_str(), classify, std::string(scene), code)
+    const struct {
+      const char* name;
+      vk::ClassifyCode code;
+      std::uint32_t maxTiles;
+    } kinds[] = {{"interpreter/", vk::ClassifyCode::Interpreter, vk::kMaxClassifyTiles},
+                 {"interpreter_whole/", vk::ClassifyCode::Interpreter, 1},
+                 {"generated/", vk::ClassifyCode::Generated, 1}};
+    for (const auto& k : kinds) {
+      const std::string name = std::string("classify/") + k.name + scene;
+      benchmark::RegisterBenchmark(name.c_str(), classify, std::string(scene), k.code, k.maxTiles)
           ->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseManualTime();
     }
   }

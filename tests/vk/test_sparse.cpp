@@ -28,15 +28,39 @@ class SparseClassification : public VulkanTest, public ::testing::WithParamInter
 
 // An inactive brick must have all (B+1)^3 samples of the reference field on one side of the iso
 // value; and on the benchmark scenes some bricks are dropped (the extraction is sparse). Both
-// classification kernels (records in uniform or in storage buffers) give the same flags.
+// classification kernels (records in uniform or in storage buffers) give the same flags. The
+// same holds tile by tile with pruned tapes (classify_tiles.h), which drop every brick the whole
+// program drops.
 TEST_P(SparseClassification, NeverDropsABrickThatHoldsSurface) {
   const ShippedScene s = shipped(GetParam(), 40);
-  for (std::uint32_t brickCells : {4u, 8u}) {
+  int tiledSizes = 0;
+  for (std::uint32_t brickCells : {4u, 8u})
+  for (bool tiled : {false, true}) {
     const vk::BrickGrid bg = vk::brickGridFor(s.grid, brickCells);
-    const std::vector<std::uint32_t> active = vk::classifyBricks(device(), s.program, s.grid, brickCells);
+    const std::vector<std::uint32_t> whole = vk::classifyBricks(device(), s.program, s.grid, brickCells);
+    std::uint32_t tiles = 0;
+    const std::vector<std::uint32_t> active =
+        tiled ? vk::classifyBricks(device(), s.program, s.grid, brickCells, true, vk::ClassifyCode::Interpreter,
+                                   vk::kMaxClassifyTiles, &tiles)
+              : whole;
     ASSERT_EQ(active.size(), bg.count());
-    // The records in uniform buffers (where they fit) and in storage buffers: the same bound.
-    EXPECT_EQ(vk::classifyBricks(device(), s.program, s.grid, brickCells, false), active) << GetParam();
+    if (tiled) {
+      if (tiles < 2) continue;  // the plan is one tile: the whole program's flags
+      ++tiledSizes;
+      std::uint32_t storageTiles = 0;
+      EXPECT_EQ(vk::classifyBricks(device(), s.program, s.grid, brickCells, false, vk::ClassifyCode::Interpreter,
+                                   vk::kMaxClassifyTiles, &storageTiles),
+                active)
+          << GetParam();
+      EXPECT_EQ(storageTiles, tiles) << GetParam();
+      for (std::size_t i = 0; i < active.size(); ++i)
+        if (!whole[i]) {
+          EXPECT_EQ(active[i], 0u) << GetParam() << " B=" << brickCells << ": brick " << i;
+        }
+    } else {
+      // The records in uniform buffers (where they fit) and in storage buffers: the same bound.
+      EXPECT_EQ(vk::classifyBricks(device(), s.program, s.grid, brickCells, false), active) << GetParam();
+    }
     std::size_t dropped = 0, wrong = 0;
     for (std::uint32_t bz = 0; bz < bg.z; ++bz)
       for (std::uint32_t by = 0; by < bg.y; ++by)
@@ -52,10 +76,13 @@ TEST_P(SparseClassification, NeverDropsABrickThatHoldsSurface) {
               }
           if (inside != 0 && inside != samples) ++wrong;
         }
-    EXPECT_EQ(wrong, 0u) << GetParam() << " B=" << brickCells;
+    EXPECT_EQ(wrong, 0u) << GetParam() << " B=" << brickCells << (tiled ? ", tiles" : "");
     if (GetParam() == "tower" || GetParam() == "random128" || GetParam() == "eggshell") {
       EXPECT_GT(dropped, active.size() / 4) << GetParam() << " B=" << brickCells << ": too few dropped";
     }
+  }
+  if (GetParam() == "tower" || GetParam() == "random128") {
+    EXPECT_EQ(tiledSizes, 2) << GetParam() << ": classified in tiles";
   }
 }
 

@@ -76,6 +76,12 @@ inline constexpr double kClassifyInterpretedSecondsPerStep = 1.5e-7;
 inline constexpr double kClassifyGeneratedStepCost = 0.6;
 inline constexpr double kClassifyGeneratedMargin = 0.8;
 inline constexpr std::size_t kClassifyGeneratedMaxSkips = 16;
+// The interpreter classifying tile by tile (vk/extract/classify_tiles.h): each dispatch (one per
+// tile and level) costs about this much beyond its steps (small boxes fill few of a dispatch's
+// 4 x 4 x 4 work groups), and the tiles are taken where they are predicted to finish within this
+// fraction of the whole program's steps.
+inline constexpr double kClassifyTileDispatchSeconds = 5e-5;
+inline constexpr double kClassifyTilesMargin = 0.7;
 // Its build, far slower per instruction than a field kernel's (each instruction an interval bound
 // of boxes, in blocks of vk/eval/interval_codegen.h's loops): CPU seconds of a fresh process,
 // caches off, less the interpreter's (`MESA_SHADER_CACHE_DISABLE=true XDG_CACHE_HOME=<empty>

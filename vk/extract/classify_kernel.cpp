@@ -32,13 +32,18 @@ KernelPtr buildGenerated(Device& device, const blobtree::Program& program, const
 
 ClassifyWork classifyWork(const blobtree::Program& program, const blobtree::GridSpec& grid, std::uint32_t brickCells,
                           std::uint32_t maxVectors) {
+  return classifyWork(program, program.code, grid, brickCells, maxVectors);
+}
+
+ClassifyWork classifyWork(const blobtree::Program& program, std::span<const layout::Instruction> code,
+                          const blobtree::GridSpec& grid, std::uint32_t brickCells, std::uint32_t maxVectors) {
   using namespace layout;
   const std::uint32_t B = std::max(brickCells, 1u);
   const std::uint32_t nx = (std::uint32_t(grid.cells.x) + B - 1) / B, ny = (std::uint32_t(grid.cells.y) + B - 1) / B,
                       nz = (std::uint32_t(grid.cells.z) + B - 1) / B;
   const std::uint64_t vx = (nx + 3) / 4, vy = (ny + 1) / 2, vectors = vx * vy * nz;
   const std::uint64_t stride = std::max<std::uint64_t>(1, (vectors + maxVectors - 1) / std::max(maxVectors, 1u));
-  const std::size_t n = program.code.size();
+  const std::size_t n = code.size();
   // Whether a skip on the world point misses a box (others: taken as entered, partly).
   auto misses = [&](const Instruction& in, const float lo[3], const float hi[3]) {
     if (in.code.z != 0 || in.code.y >= program.boxes.size()) return false;
@@ -48,7 +53,7 @@ ClassifyWork classifyWork(const blobtree::Program& program, const blobtree::Grid
       if (hi[a] < slo[a] || lo[a] > shi[a]) return true;
     return false;
   };
-  auto isSkip = [&](std::size_t at) { return (program.code[at].code.x & 0xffu) == OP_SKIP && program.code[at].code.w > at; };
+  auto isSkip = [&](std::size_t at) { return (code[at].code.x & 0xffu) == OP_SKIP && code[at].code.w > at; };
   ClassifyWork w;
   std::uint64_t walked = 0;
   for (std::uint64_t v = 0; v < vectors; v += stride, ++walked) {
@@ -70,14 +75,14 @@ ClassifyWork classifyWork(const blobtree::Program& program, const blobtree::Grid
     for (int l = 0; l < lanes; ++l) {
       double steps = 0.0;
       for (std::size_t at = 0; at < n; ++steps)
-        at = isSkip(at) && misses(program.code[at], lo[l], hi[l]) ? program.code[at].code.w : at + 1;
+        at = isSkip(at) && misses(code[at], lo[l], hi[l]) ? code[at].code.w : at + 1;
       longest = std::max(longest, steps);
     }
     w.interpreted += longest;
     for (std::size_t at = 0; at < n; w.generated += 1.0) {
-      bool all = isSkip(at) && program.code[at].code.w - at - 1 >= kIntervalBranchInstructions;
-      for (int l = 0; l < lanes && all; ++l) all = misses(program.code[at], lo[l], hi[l]);
-      at = all ? program.code[at].code.w : at + 1;
+      bool all = isSkip(at) && code[at].code.w - at - 1 >= kIntervalBranchInstructions;
+      for (int l = 0; l < lanes && all; ++l) all = misses(code[at], lo[l], hi[l]);
+      at = all ? code[at].code.w : at + 1;
     }
   }
   const double scale = walked ? double(vectors) / double(walked) : 0.0;
@@ -87,12 +92,13 @@ ClassifyWork classifyWork(const blobtree::Program& program, const blobtree::Grid
 }
 
 bool classifyCodePays(const blobtree::Program& program, const blobtree::GridSpec& grid, std::uint32_t brickCells,
-                      std::uint32_t runs) {
+                      std::uint32_t runs, double interpretedSeconds) {
   std::size_t skips = 0;
   for (const layout::Instruction& in : program.code) skips += (in.code.x & 0xffu) == layout::OP_SKIP;
   if (skips > costs::kClassifyGeneratedMaxSkips) return false;
   const ClassifyWork w = classifyWork(program, grid, brickCells);
-  const double interpreted = costs::kClassifyInterpretedSecondsPerStep * w.interpreted;
+  double interpreted = costs::kClassifyInterpretedSecondsPerStep * w.interpreted;
+  if (interpretedSeconds >= 0.0) interpreted = std::min(interpreted, interpretedSeconds);
   const double generated = costs::kClassifyInterpretedSecondsPerStep * costs::kClassifyGeneratedStepCost * w.generated;
   if (generated > costs::kClassifyGeneratedMargin * interpreted) return false;
   const double n = double(program.code.size());
@@ -115,12 +121,18 @@ ClassifyKernel classifyKernel(Device& device, const blobtree::Program& program, 
     device.waitForBackgroundBuild(name);  // an earlier job's: then found here
     return {buildGenerated(device, program, name, specs), true};
   }
-  if (KernelPtr k = device.findKernel(name, specs)) return {k, true};
+  if (KernelPtr k = device.findKernel(name, specs)) {
+    // Built by an earlier job's cost model; the interpreter's tiles may still be faster here.
+    if (choice.tiledSeconds < 0.0) return {k, true};
+    const ClassifyWork w = classifyWork(program, grid, brickCells, 256);
+    const double generated = costs::kClassifyInterpretedSecondsPerStep * costs::kClassifyGeneratedStepCost * w.generated;
+    return generated < choice.tiledSeconds ? ClassifyKernel{k, true} : interpreter();
+  }
   // This job interprets (the build would delay it by more than it saves on one run: random128 at
   // 512 cells classifies in 0.1-0.2 s, its generated kernel builds in 8 s of CPU); later jobs take
   // the generated kernel once it is built, where the cost model expects enough of them.
   if (choice.expectedRuns > 1 && !device.backgroundBuildStarted(name) &&
-      classifyCodePays(program, grid, brickCells, choice.expectedRuns - 1)) {
+      classifyCodePays(program, grid, brickCells, choice.expectedRuns - 1, choice.tiledSeconds)) {
     device.buildInBackground(name, [&d = device, program = blobtree::Program(program), name,
                                     s = std::array<std::uint32_t, 6>(specs)] { buildGenerated(d, program, name, s); });
   }

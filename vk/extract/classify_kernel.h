@@ -11,13 +11,26 @@
 #include "blobvk/vk/extract/polygonize.h"
 
 #include <cstdint>
+#include <span>
 
 namespace blobvk::vk {
 
 
+// Most tiles the interpreted classification takes (classify_tiles.h): each is a tape upload and
+// one dispatch per level.
+inline constexpr std::uint32_t kMaxClassifyTiles = 64;
+
 struct ClassifyChoice {
   ClassifyCode code = ClassifyCode::Auto;
   std::uint32_t expectedRuns = 1;  // Auto: jobs with this program the caller expects (its own included)
+  // The interpreter per tile with pruned tapes (classify_tiles.h): at most this many tiles (1: the
+  // whole program), where the cost model says they pay, or (tilesWhenTheyPay false, for tests)
+  // wherever the plan has several.
+  std::uint32_t maxTiles = kMaxClassifyTiles;
+  bool tilesWhenTheyPay = true;
+  // Auto: the interpreter's predicted seconds tile by tile where the tiles pay (< 0: they do not,
+  // or were not planned), which the generated code must beat to be built or taken.
+  double tiledSeconds = -1.0;
 };
 
 struct ClassifyKernel {
@@ -43,11 +56,16 @@ struct ClassifyWork {
 };
 ClassifyWork classifyWork(const blobtree::Program& program, const blobtree::GridSpec& grid, std::uint32_t brickCells,
                           std::uint32_t maxVectors = 1024);
+// The same for `code` in place of program.code (a tape of it, vk/eval/region_tape.h: skips on
+// boxes past program.boxes, the empty box, count as entered).
+ClassifyWork classifyWork(const blobtree::Program& program, std::span<const layout::Instruction> code,
+                          const blobtree::GridSpec& grid, std::uint32_t brickCells, std::uint32_t maxVectors = 1024);
 
 // Whether the generated kernel pays for its build over `runs` jobs classifying bricks of
 // `brickCells` on `grid`: predicted faster than the interpreter by a margin, and the time saved
-// over the runs beyond its build (lavapipe's constants, vk/eval/evaluator_costs.h).
+// over the runs beyond its build (lavapipe's constants, vk/eval/evaluator_costs.h). With
+// `interpretedSeconds` >= 0 the interpreter is predicted to take no more than that (its tiles).
 bool classifyCodePays(const blobtree::Program& program, const blobtree::GridSpec& grid, std::uint32_t brickCells,
-                      std::uint32_t runs);
+                      std::uint32_t runs, double interpretedSeconds = -1.0);
 
 }  // namespace blobvk::vk

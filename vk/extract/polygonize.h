@@ -138,6 +138,7 @@ struct GpuStats {
   Traversal traversal = Traversal::Auto;
   bool vertexGradient = false;  // false too where the vertex pass interpreted while it built
   bool generatedClassification = false;  // sparse: the bricks classified by generated code (classify_kernel.h)
+  std::uint32_t classifyTiles = 0;  // sparse: tiles the interpreted classification ran, each with its tape (0: whole program)
   double modelBuildSeconds = -1.0, modelRunSeconds = -1.0;
 };
 

@@ -5,8 +5,10 @@
 #include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/eval/region_tape.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/classify_kernel.h"
+#include "blobvk/vk/extract/classify_tiles.h"
 #include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/scan.h"
@@ -49,11 +51,15 @@ ClassifyUniforms classifyUniforms(Device& device, const blobtree::Program& progr
   ClassifyUniforms u;
   if (device.info().limits.maxUniformBufferRange < kUniformBlock) return u;
   // The blocks' array lengths (brick_classify_uniform.comp): whole records of each size.
+  // The boxes end with the empty skip box uploadProgram appends (GpuProgram::emptyBox), which the
+  // classification tiles' tapes write their zeros with (classify_tiles.h).
+  std::vector<layout::BoxRecord> boxes = program.boxes;
+  boxes.push_back(emptySkipBox());
   const std::pair<const void*, std::uint64_t> records[5] = {
       {program.code.data(), program.code.size() * sizeof(program.code[0])},
       {program.primitives.data(), program.primitives.size() * sizeof(program.primitives[0])},
       {program.matrices.data(), program.matrices.size() * sizeof(program.matrices[0])},
-      {program.boxes.data(), program.boxes.size() * sizeof(program.boxes[0])},
+      {boxes.data(), boxes.size() * sizeof(boxes[0])},
       {program.warps.data(), program.warps.size() * sizeof(program.warps[0])}};
   for (const auto& r : records) {
     if (r.second > kUniformBlock) return u;
@@ -78,7 +84,8 @@ FlagsWindow wholeFlags(const BrickGrid& bg) { return {0, bg.count()}; }
 // `parentBase`), bricks in dropped parents are dropped.
 void dispatchClassify(Recorder& rec, const Kernel& kernel, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
                       const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags, FlagsWindow window,
-                      const BrickGrid* parentGrid, const Buffer& parents, std::uint64_t parentBase, const BrickBox& box) {
+                      const BrickGrid* parentGrid, const Buffer& parents, std::uint64_t parentBase, const BrickBox& box,
+                      const ClassifyTile* tile = nullptr) {
   if (box.empty()) return;
   const auto pb = gpu.bindings();
   struct {
@@ -87,14 +94,14 @@ void dispatchClassify(Recorder& rec, const Kernel& kernel, const GpuProgram& gpu
     std::uint32_t parentBase;
   } push{{grid.origin.x, grid.origin.y, grid.origin.z, grid.cellSize},
          {std::uint32_t(grid.cells.x), std::uint32_t(grid.cells.y), std::uint32_t(grid.cells.z), bg.log2B},
-         {bg.x, bg.y, bg.z, gpu.codeLength},
+         {bg.x, bg.y, bg.z, tile ? tile->length : gpu.codeLength},
          {parentGrid ? parentGrid->x : 0, parentGrid ? parentGrid->y : 0, parentGrid ? parentGrid->z : 0,
           parentGrid ? 1u : 0u},
          {box.first[0], box.first[1], box.first[2], std::uint32_t(window.firstBrick)},
          {box.end[0], box.end[1], box.end[2], std::uint32_t(window.lastWord)},
          std::uint32_t(parentBase)};
   const bool uniform = !uniforms.buffers.empty();
-  const BufferRange bind[7] = {uniform ? BufferRange(uniforms.buffers[0]) : pb[0],
+  const BufferRange bind[7] = {tile ? BufferRange(tile->code) : uniform ? BufferRange(uniforms.buffers[0]) : pb[0],
                                uniform ? BufferRange(uniforms.buffers[1]) : pb[1],
                                uniform ? BufferRange(uniforms.buffers[2]) : pb[2],
                                uniform ? BufferRange(uniforms.buffers[3]) : pb[3],
@@ -129,12 +136,28 @@ std::array<std::uint32_t, 2> parentLayers(std::uint32_t first, std::uint32_t end
 
 // Levels of parents for `bg`, their flags sized for the largest of `windows` (finest layers
 // [first, end) a pass classifies).
+// The grid of bricks twice the size of `g`'s.
+BrickGrid parentGrid(const BrickGrid& g) { return {g.log2B + 1, (g.x + 1) / 2, (g.y + 1) / 2, (g.z + 1) / 2}; }
+
+// Whether a grid of `bricks` at coarser level `level` (0: the classified grid) gets a pass over
+// bricks twice the size first.
+bool takesParentPass(const BrickGrid& bricks, std::size_t level) {
+  return bricks.count() >= kParentPassBricks && level < kMaxParentLevels;
+}
+
+// The coarsest level the classification of `bg` passes over (bg itself without parent levels).
+BrickGrid classifyTopGrid(const BrickGrid& bg) {
+  BrickGrid g = bg;
+  for (std::size_t level = 0; takesParentPass(g, level); ++level) g = parentGrid(g);
+  return g;
+}
+
 ClassifyParents classifyParents(Device& device, const BrickGrid& bg,
                                 std::span<const std::array<std::uint32_t, 2>> windows, std::uint64_t& bytes) {
   ClassifyParents p;
   BrickGrid g = bg;
-  while (g.count() >= kParentPassBricks && p.grids.size() < kMaxParentLevels) {
-    g = {g.log2B + 1, (g.x + 1) / 2, (g.y + 1) / 2, (g.z + 1) / 2};
+  while (takesParentPass(g, p.grids.size())) {
+    g = parentGrid(g);
     std::uint64_t layers = 0;
     for (const auto& [first, end] : windows) {
       const auto [lo, hi] = parentLayers(first, end, p.grids.size());
@@ -153,33 +176,53 @@ std::uint64_t parentBase(const ClassifyParents& parents, std::size_t level, std:
   return std::uint64_t(parentLayers(first, first + 1, level)[0]) * g.x * g.y;
 }
 
+// The bricks of `box` within layers [lo, hi).
+BrickBox withinLayers(BrickBox box, std::uint32_t lo, std::uint32_t hi) {
+  box.first[2] = std::max(box.first[2], lo);
+  box.end[2] = std::min(box.end[2], hi);
+  return box;
+}
+
 // brick_classify over the coarser levels under the finest layers [first, end), coarsest first,
-// each skipping the bricks its parents dropped.
+// each skipping the bricks its parents dropped; with `tiles` (classify_tiles.h, boxes of the
+// coarsest level) one dispatch per tile and level, each with its tile's tape.
 void recordParents(Recorder& rec, const Kernel& kernel, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
-                   const blobtree::GridSpec& grid, const ClassifyParents& parents, std::uint32_t first,
-                   std::uint32_t end) {
+                   const blobtree::GridSpec& grid, const ClassifyParents& parents, std::span<const ClassifyTile> tiles,
+                   std::uint32_t first, std::uint32_t end) {
   for (std::size_t i = parents.grids.size(); i-- > 0;) {
     const bool top = i + 1 == parents.grids.size();
     const BrickGrid& g = parents.grids[i];
     const auto [lo, hi] = parentLayers(first, end, i);
     const FlagsWindow window{std::uint64_t(lo) * g.x * g.y, std::uint64_t(hi - lo) * g.x * g.y};
-    dispatchClassify(rec, kernel, gpu, uniforms, grid, g, parents.flags[i], window, top ? nullptr : &parents.grids[i + 1],
-                     top ? parents.none : parents.flags[i + 1], top ? 0 : parentBase(parents, i + 1, first),
-                     BrickBox{{0, 0, lo}, {g.x, g.y, hi}});
+    auto dispatch = [&](const BrickBox& box, const ClassifyTile* tile) {
+      dispatchClassify(rec, kernel, gpu, uniforms, grid, g, parents.flags[i], window, top ? nullptr : &parents.grids[i + 1],
+                       top ? parents.none : parents.flags[i + 1], top ? 0 : parentBase(parents, i + 1, first), box, tile);
+    };
+    if (tiles.empty()) dispatch(BrickBox{{0, 0, lo}, {g.x, g.y, hi}}, nullptr);
+    const unsigned shift = unsigned(parents.grids.size() - 1 - i);
+    for (const ClassifyTile& t : tiles) dispatch(withinLayers(boxBelow(t.top, shift, g), lo, hi), &t);
     rec.computeBarrier();
   }
 }
 
 // brick_classify over `box` of the grid's own bricks into `flags` (`window` of the grid's),
 // skipping the bricks the finest coarser level (recorded before, for finest layers from
-// box.first[2]) dropped.
+// box.first[2]) dropped; with `tiles`, per tile (its part of `box`) with its tape.
 void recordFinest(Recorder& rec, const Kernel& kernel, const GpuProgram& gpu, const ClassifyUniforms& uniforms,
-                  const blobtree::GridSpec& grid,
-                  const BrickGrid& bg, const Buffer& flags, FlagsWindow window, const ClassifyParents& parents,
-                  const BrickBox& box) {
+                  const blobtree::GridSpec& grid, const BrickGrid& bg, const Buffer& flags, FlagsWindow window,
+                  const ClassifyParents& parents, std::span<const ClassifyTile> tiles, const BrickBox& box) {
   const bool any = !parents.grids.empty();
-  dispatchClassify(rec, kernel, gpu, uniforms, grid, bg, flags, window, any ? &parents.grids[0] : nullptr,
-                   any ? parents.flags[0] : parents.none, any ? parentBase(parents, 0, box.first[2]) : 0, box);
+  auto dispatch = [&](const BrickBox& b, const ClassifyTile* tile) {
+    dispatchClassify(rec, kernel, gpu, uniforms, grid, bg, flags, window, any ? &parents.grids[0] : nullptr,
+                     any ? parents.flags[0] : parents.none, any ? parentBase(parents, 0, box.first[2]) : 0, b, tile);
+  };
+  if (tiles.empty()) dispatch(box, nullptr);
+  const unsigned shift = unsigned(parents.grids.size());
+  for (const ClassifyTile& t : tiles) {
+    BrickBox b = boxBelow(t.top, shift, bg);
+    for (int a = 0; a < 3; ++a) b.first[a] = std::max(b.first[a], box.first[a]), b.end[a] = std::min(b.end[a], box.end[a]);
+    dispatch(b, &t);
+  }
 }
 
 // The windows' layers: own layers [first, end) each, at most `windowLayers` (0: as many as one
@@ -212,7 +255,8 @@ std::uint64_t ClassifiedBricks::peakBytes(std::uint64_t batchBytes) const {
 
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
                                           const blobtree::GridSpec& grid, std::uint32_t brickCells,
-                                          bool uniformRecords, ClassifyCode code) {
+                                          bool uniformRecords, ClassifyCode code, std::uint32_t forcedTiles,
+                                          std::uint32_t* tilesRun) {
   const BrickGrid bg = brickGridFor(grid, brickCells);
   const GpuProgram gpu = uploadProgram(device, program, Traversal::Stackless);
   const ClassifyUniforms uniforms = uniformRecords ? classifyUniforms(device, program) : ClassifyUniforms{};
@@ -222,9 +266,15 @@ std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Progra
   std::uint64_t bytes = 0;
   const std::array<std::uint32_t, 2> all{0, bg.z};
   const ClassifyParents parents = classifyParents(device, bg, {&all, 1}, bytes);
+  const std::vector<ClassifyTile> tiles =
+      forcedTiles > 1 && !kernel.generated
+          ? uploadClassifyTiles(device, planClassifyTiles(program, grid, bg, classifyTopGrid(bg), gpu.emptyBox, forcedTiles),
+                                uniforms.buffers.empty() ? 0 : kUniformBlock)
+          : std::vector<ClassifyTile>{};
+  if (tilesRun) *tilesRun = std::uint32_t(tiles.size());
   device.run([&](Recorder& rec) {
-    recordParents(rec, *kernel.kernel, gpu, uniforms, grid, parents, 0, bg.z);
-    recordFinest(rec, *kernel.kernel, gpu, uniforms, grid, bg, flags, wholeFlags(bg), parents, wholeGrid(bg));
+    recordParents(rec, *kernel.kernel, gpu, uniforms, grid, parents, tiles, 0, bg.z);
+    recordFinest(rec, *kernel.kernel, gpu, uniforms, grid, bg, flags, wholeFlags(bg), parents, tiles, wholeGrid(bg));
     rec.hostBarrier();
   });
   std::vector<std::uint32_t> out(bg.count());
@@ -424,8 +474,16 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   UploadBatch uploads(device);  // the program rides in the classification's first submit
   const GpuProgram gpu = uploadProgram(device, program, Traversal::Stackless);
   const ClassifyUniforms uniforms = classifyUniforms(device, program);
+  // The interpreter's tiles (classify_tiles.h), planned on the host first: where they pay, the
+  // generated code must beat them to be built or taken. An edit's box is small: no tiles.
+  const ClassifyTilesPlan plan = only || choice.code == ClassifyCode::Generated
+                                     ? ClassifyTilesPlan{}
+                                     : planClassifyTiles(program, grid, bg, classifyTopGrid(bg), gpu.emptyBox, choice.maxTiles);
+  const bool tiled = !plan.tiles.empty() && (plan.pays || !choice.tilesWhenTheyPay);
+  ClassifyChoice chosen = choice;
+  chosen.tiledSeconds = tiled ? plan.seconds : -1.0;
   const ClassifyKernel kernel =
-      classifyKernel(device, program, gpu, !uniforms.buffers.empty(), choice, grid, 1u << bg.log2B);
+      classifyKernel(device, program, gpu, !uniforms.buffers.empty(), chosen, grid, 1u << bg.log2B);
   s.generatedClassification = kernel.generated;
   const std::uint32_t layers = bg.z;
   const std::uint64_t layerBricks = std::uint64_t(bg.x) * bg.y;
@@ -452,6 +510,10 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   Buffer layerStarts = device.createBuffer((layers + 1) * 4ull, MemoryUse::Readback);
   const ClassifyParents parents = only ? ClassifyParents{{}, {}, makeSparseBuffer(device, 16, "parent brick flags", c.scratchBytes)}
                                        : classifyParents(device, bg, classified, c.scratchBytes);
+  const std::vector<ClassifyTile> tiles = tiled && !kernel.generated
+                                              ? uploadClassifyTiles(device, plan, uniforms.buffers.empty() ? 0 : kUniformBlock)
+                                              : std::vector<ClassifyTile>{};
+  s.classifyTiles = std::uint32_t(tiles.size());
   c.layerStarts.assign(layers + 1, 0);
   std::uint32_t activeBase = 0;
   for (std::size_t k = 0; k < planned.size(); ++k) {
@@ -472,8 +534,8 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
         rec.fill(scan, 0);
         rec.computeBarrier();
       }
-      recordParents(rec, *kernel.kernel, gpu, uniforms, grid, parents, first, scanEnd);
-      recordFinest(rec, *kernel.kernel, gpu, uniforms, grid, bg, scan, flags, parents, box);
+      recordParents(rec, *kernel.kernel, gpu, uniforms, grid, parents, tiles, first, scanEnd);
+      recordFinest(rec, *kernel.kernel, gpu, uniforms, grid, bg, scan, flags, parents, tiles, box);
       rec.computeBarrier();
       recordExclusiveScan(rec, scan.handle(), 0, std::uint32_t(words + 1), scratch.handle(), 0, totals.handle(), 0);
       rec.computeBarrier();

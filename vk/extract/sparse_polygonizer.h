@@ -76,11 +76,15 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
 // records go in uniform buffers where they fit (64 KB per record array; brick_classify_uniform),
 // else, or with `uniformRecords` false, in storage buffers (brick_classify): the same flags.
 // `code`: the interpreter, or the kernel generated for the program (classify_kernel.h, uniform
-// records only): the same flags.
+// records only): the same flags. `forcedTiles` > 1: the interpreter tile by tile with pruned
+// tapes (classify_tiles.h), at most that many, wherever the plan has several whether or not they
+// pay (`tilesRun`: how many); its flags may drop more bricks than the whole program's, never one
+// with surface.
 std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Program& program,
                                           const blobtree::GridSpec& grid, std::uint32_t brickCells,
                                           bool uniformRecords = true,
-                                          ClassifyCode code = ClassifyCode::Interpreter);
+                                          ClassifyCode code = ClassifyCode::Interpreter, std::uint32_t forcedTiles = 0,
+                                          std::uint32_t* tilesRun = nullptr);
 
 struct ClassifiedBricks;
 
