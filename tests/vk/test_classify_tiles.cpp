@@ -85,5 +85,33 @@ TEST_F(VulkanTest, TheCostModelTilesTheClassificationWhereTheInterpreterRunsEver
     }
 }
 
+// Tiles in windows of brick layers (a grid whose flags outgrow one storage buffer): each window
+// classifies its layers and the parent layers above them tile by tile, and the tables are those
+// of one window, tiles forced on the scenes where the cost model takes them or not.
+TEST_F(VulkanTest, TiledClassificationInWindowsGivesTheTablesOfOneWindow) {
+  for (const char* name : {"random128", "tower"}) {
+    const ShippedScene s = shipped(name, 40);
+    for (std::uint32_t brickCells : {2u, 4u}) {
+      const vk::BrickGrid bricks = vk::brickGridFor(s.grid, brickCells);
+      vk::ClassifyChoice tiled{vk::ClassifyCode::Interpreter, 1};
+      tiled.tilesWhenTheyPay = false;
+      vk::GpuStats wholeStats;
+      const vk::ClassifiedBricks one = vk::classifyAndCompact(device(), s.program, s.grid, bricks, wholeStats, nullptr, 0, tiled);
+      const std::string base = std::string(name) + ", B=" + std::to_string(brickCells);
+      ASSERT_GE(wholeStats.classifyTiles, 8u) << base;
+      for (std::uint32_t windowLayers : {1u, 3u}) {
+        const std::string what = base + ", windows of " + std::to_string(windowLayers) + " layers";
+        vk::GpuStats st;
+        const vk::ClassifiedBricks w = vk::classifyAndCompact(device(), s.program, s.grid, bricks, st, nullptr, windowLayers, tiled);
+        EXPECT_EQ(st.classifyTiles, wholeStats.classifyTiles) << what;
+        EXPECT_EQ(w.windows.size(), (bricks.z + windowLayers - 1) / windowLayers) << what;
+        EXPECT_EQ(w.layerStarts, one.layerStarts) << what;
+        EXPECT_EQ(w.downloadList(device(), 0, w.layerStarts.back()), one.downloadList(device(), 0, one.layerStarts.back()))
+            << what;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace blobvk::testing
