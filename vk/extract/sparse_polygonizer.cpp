@@ -514,6 +514,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
                                               ? uploadClassifyTiles(device, plan, uniforms.buffers.empty() ? 0 : kUniformBlock)
                                               : std::vector<ClassifyTile>{};
   s.classifyTiles = std::uint32_t(tiles.size());
+  for (const ClassifyTile& t : tiles) c.scratchBytes += t.code.size();  // freed with the classification
   c.layerStarts.assign(layers + 1, 0);
   std::uint32_t activeBase = 0;
   for (std::size_t k = 0; k < planned.size(); ++k) {
