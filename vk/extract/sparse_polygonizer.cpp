@@ -134,8 +134,6 @@ std::array<std::uint32_t, 2> parentLayers(std::uint32_t first, std::uint32_t end
   return {first >> shift, ((end - 1) >> shift) + 1};
 }
 
-// Levels of parents for `bg`, their flags sized for the largest of `windows` (finest layers
-// [first, end) a pass classifies).
 // The grid of bricks twice the size of `g`'s.
 BrickGrid parentGrid(const BrickGrid& g) { return {g.log2B + 1, (g.x + 1) / 2, (g.y + 1) / 2, (g.z + 1) / 2}; }
 
@@ -152,6 +150,8 @@ BrickGrid classifyTopGrid(const BrickGrid& bg) {
   return g;
 }
 
+// Levels of parents for `bg`, their flags sized for the largest of `windows` (finest layers
+// [first, end) a pass classifies).
 ClassifyParents classifyParents(Device& device, const BrickGrid& bg,
                                 std::span<const std::array<std::uint32_t, 2>> windows, std::uint64_t& bytes) {
   ClassifyParents p;
@@ -176,11 +176,18 @@ std::uint64_t parentBase(const ClassifyParents& parents, std::size_t level, std:
   return std::uint64_t(parentLayers(first, first + 1, level)[0]) * g.x * g.y;
 }
 
-// The bricks of `box` within layers [lo, hi).
-BrickBox withinLayers(BrickBox box, std::uint32_t lo, std::uint32_t hi) {
-  box.first[2] = std::max(box.first[2], lo);
-  box.end[2] = std::min(box.end[2], hi);
-  return box;
+// `dispatch(box, tile)` over `box` of a level `shift` levels below the classification's top: once
+// with the whole program (tile null) without tiles, else once per tile, over its bricks of the
+// level within `box`, with its tape.
+template <class Dispatch>
+void overTiles(std::span<const ClassifyTile> tiles, const BrickBox& box, unsigned shift, const BrickGrid& level,
+               Dispatch&& dispatch) {
+  if (tiles.empty()) return dispatch(box, nullptr);
+  for (const ClassifyTile& t : tiles) {
+    BrickBox b = boxBelow(t.top, shift, level);
+    for (int a = 0; a < 3; ++a) b.first[a] = std::max(b.first[a], box.first[a]), b.end[a] = std::min(b.end[a], box.end[a]);
+    dispatch(b, &t);
+  }
 }
 
 // brick_classify over the coarser levels under the finest layers [first, end), coarsest first,
@@ -198,9 +205,7 @@ void recordParents(Recorder& rec, const Kernel& kernel, const GpuProgram& gpu, c
       dispatchClassify(rec, kernel, gpu, uniforms, grid, g, parents.flags[i], window, top ? nullptr : &parents.grids[i + 1],
                        top ? parents.none : parents.flags[i + 1], top ? 0 : parentBase(parents, i + 1, first), box, tile);
     };
-    if (tiles.empty()) dispatch(BrickBox{{0, 0, lo}, {g.x, g.y, hi}}, nullptr);
-    const unsigned shift = unsigned(parents.grids.size() - 1 - i);
-    for (const ClassifyTile& t : tiles) dispatch(withinLayers(boxBelow(t.top, shift, g), lo, hi), &t);
+    overTiles(tiles, BrickBox{{0, 0, lo}, {g.x, g.y, hi}}, unsigned(parents.grids.size() - 1 - i), g, dispatch);
     rec.computeBarrier();
   }
 }
@@ -216,13 +221,7 @@ void recordFinest(Recorder& rec, const Kernel& kernel, const GpuProgram& gpu, co
     dispatchClassify(rec, kernel, gpu, uniforms, grid, bg, flags, window, any ? &parents.grids[0] : nullptr,
                      any ? parents.flags[0] : parents.none, any ? parentBase(parents, 0, box.first[2]) : 0, b, tile);
   };
-  if (tiles.empty()) dispatch(box, nullptr);
-  const unsigned shift = unsigned(parents.grids.size());
-  for (const ClassifyTile& t : tiles) {
-    BrickBox b = boxBelow(t.top, shift, bg);
-    for (int a = 0; a < 3; ++a) b.first[a] = std::max(b.first[a], box.first[a]), b.end[a] = std::min(b.end[a], box.end[a]);
-    dispatch(b, &t);
-  }
+  overTiles(tiles, box, unsigned(parents.grids.size()), bg, dispatch);
 }
 
 // The windows' layers: own layers [first, end) each, at most `windowLayers` (0: as many as one
