@@ -118,7 +118,7 @@ TEST_P(IncrementalExtractMatchesFull, AfterEveryEdit) {
   options.maxBatchBricks = c.maxBatchBricks;
   options.traversal = c.traversal;
   vk::IncrementalExtractor inc(device(), grid, options);
-  const float tolerance = referenceToleranceCells(true) * grid.cellSize;
+  const float tolerance = referenceToleranceCells(device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU) * grid.cellSize;
   const auto check = [&](const mesh::TriMesh& got, const std::string& what) {
     expectSameMeshBytes(got, vk::polygonize(device(), tree.program(), grid, inc.options()), what + " (full vk)");
     const mesh::TriMesh ref = cpu::polygonizeReference(tree.program(), grid);
