@@ -150,6 +150,38 @@ TEST_F(SimulatedDiscrete, FreedMemoryIsRetainedAndReusedWithoutANewAllocation) {
   EXPECT_EQ(dev->memory().heapBytes(0), 0u);
 }
 
+// A discrete GPU's own memory (its BAR window too) and the host's memory are retained under
+// their own limits: the device's pool keeps what the host's may not.
+TEST_F(SimulatedDiscrete, DeviceAndHostMemoryHaveTheirOwnRetainLimits) {
+  auto dev = makeDevice();
+  dev->memory().setRetainLimits(0, 256 * kMiB);
+  EXPECT_EQ(dev->memory().retainLimit(), 0u);
+  EXPECT_EQ(dev->memory().deviceRetainLimit(), 256 * kMiB);
+  {
+    vk::Buffer work = dev->createBuffer(100 * kMiB);
+    vk::Buffer readback = dev->createBuffer(100 * kMiB, vk::MemoryUse::Readback);
+    EXPECT_EQ(work.memoryType(), 0u);
+    EXPECT_NE(readback.memoryType(), 0u);
+  }
+  EXPECT_EQ(dev->memory().retainedBytes(), 112 * kMiB) << "only the VRAM buffer is kept";
+  EXPECT_EQ(dev->memory().heapBytes(1), 0u) << "the pinned host memory went back";
+  attempts_.clear();
+  { vk::Buffer again = dev->createBuffer(100 * kMiB); }
+  EXPECT_EQ(attempts_, U{}) << "the VRAM was reused";
+  // Lowering the device's limit frees what is past it.
+  dev->memory().setRetainLimits(0, 64 * kMiB);
+  EXPECT_EQ(dev->memory().retainedBytes(), 0u);
+  EXPECT_EQ(dev->memory().heapBytes(0), 0u);
+  // The BAR window (host-visible, device-local) is the device's memory too.
+  dev->memory().setRetainLimits(0, 256 * kMiB);
+  refused_ = {0};
+  {
+    vk::Buffer bar = dev->createBuffer(40 * kMiB);
+    EXPECT_EQ(bar.memoryType(), 3u);
+  }
+  EXPECT_EQ(dev->memory().retainedBytes(), 40 * kMiB);
+}
+
 // Retained memory never makes an allocation fail: it is given back first.
 TEST_F(SimulatedDiscrete, RetainedMemoryIsGivenBackBeforeAnAllocationFails) {
   simulation_.heapBudget = {120 * kMiB, 16 * kGiB, 256 * kMiB};

@@ -62,7 +62,7 @@ Device::Device(const HostContext& host, const DeviceOptions& options)
 
   memory_ = std::make_unique<MemoryAllocator>(d_, host.physicalDevice, host.device, 64ull << 20,
                                               options.memorySimulation);
-  std::uint64_t retain = options.retainedMemoryBytes;
+  std::uint64_t retain = options.retainedMemoryBytes, retainDevice = retain;
   if (retain == DeviceOptions::kAutoRetain) {
     VkDeviceSize largestLocalHeap = 0;
     const auto& mp = memory_->properties();
@@ -71,9 +71,10 @@ Device::Device(const HostContext& host, const DeviceOptions& options)
         largestLocalHeap = std::max(largestLocalHeap, mp.memoryHeaps[h].size);
       }
     }
-    retain = options.memorySimulation ? 0 : std::min<std::uint64_t>(largestLocalHeap / 4, 1ull << 30);
+    retainDevice = options.memorySimulation ? 0 : largestLocalHeap / 4;
+    retain = std::min<std::uint64_t>(retainDevice, 1ull << 30);
   }
-  memory_->setRetainLimit(retain);
+  memory_->setRetainLimits(retain, retainDevice);
 
   if (host.pipelineCache) {
     pipelineCache_ = host.pipelineCache;
@@ -412,7 +413,8 @@ void Device::cacheKernel(const std::string& key, const std::string& layoutOf, co
   kernels_[key] = kernelLru_.begin();
 }
 
-void Device::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
+void Device::submitAndWait(const std::function<void(VkCommandBuffer)>& record,
+                           const std::function<void()>& whileRunning) {
   if (fencePending_) {  // an earlier wait failed: the fence must signal before it is reused
     check(d_.vkWaitForFences(host_.device, 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
     fencePending_ = false;
@@ -440,16 +442,27 @@ void Device::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
   submit.pCommandBuffers = &cmd;
   check(d_.vkQueueSubmit(host_.queue, 1, &submit, fence_), "vkQueueSubmit");
   fencePending_ = true;
+  if (whileRunning) {
+    try {
+      whileRunning();
+    } catch (...) {
+      // The commands may still use the caller's buffers, which the exception is about to free.
+      if (d_.vkWaitForFences(host_.device, 1, &fence_, VK_TRUE, UINT64_MAX) == VK_SUCCESS) fencePending_ = false;
+      throw;
+    }
+  }
   check(d_.vkWaitForFences(host_.device, 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
   fencePending_ = false;
 }
 
-void Device::run(const std::function<void(Recorder&)>& record) {
+void Device::run(const std::function<void(Recorder&)>& record, const std::function<void()>& whileRunning) {
   std::unique_ptr<Recorder> recorder;
-  submitAndWait([&](VkCommandBuffer cmd) {
-    recorder = std::make_unique<Recorder>(*this, cmd);
-    record(*recorder);
-  });
+  submitAndWait(
+      [&](VkCommandBuffer cmd) {
+        recorder = std::make_unique<Recorder>(*this, cmd);
+        record(*recorder);
+      },
+      whileRunning);
   recorder->markExecuted();
 }
 

@@ -117,7 +117,10 @@ struct DeviceOptions {
   // Freed device memory kept for the next buffers of its size (vk/device/memory.h), so a steady
   // stream of jobs allocates nothing; given back before any allocation would fail, and by
   // MemoryAllocator::releaseRetained(). kAutoRetain: a quarter of the largest device-local heap,
-  // at most 1 GiB (none under a memorySimulation, whose tests count allocations); 0: none.
+  // at most 1 GiB of it the host's memory (MemoryAllocator::setRetainLimits); a discrete GPU's
+  // own memory (where a 2048^3 job would allocate 10 GB afresh each run) up to the whole quarter.
+  // None under a memorySimulation, whose tests count allocations. Any other value bounds both
+  // kinds; 0: none.
   static constexpr std::uint64_t kAutoRetain = ~0ull;
   std::uint64_t retainedMemoryBytes = kAutoRetain;
 };
@@ -194,10 +197,13 @@ class Device {
   const std::vector<std::string>& shadersUsed() const { return shadersUsed_; }
 
   // Records with `record`, submits to the host queue and waits on blobvk's own fence (never on
-  // the host's device or queue). Throws on device loss.
-  void submitAndWait(const std::function<void(VkCommandBuffer)>& record);
+  // the host's device or queue). Throws on device loss. `whileRunning`, if any, is host work
+  // done between the submit and the wait (it must not touch what the commands use); if it
+  // throws, the fence is waited for before the exception leaves.
+  void submitAndWait(const std::function<void(VkCommandBuffer)>& record,
+                     const std::function<void()>& whileRunning = {});
   // The same with a Recorder that stays alive (with its descriptor sets) until the fence.
-  void run(const std::function<void(class Recorder&)>& record);
+  void run(const std::function<void(class Recorder&)>& record, const std::function<void()>& whileRunning = {});
 
   // The VkPipelineCache every pipeline is created with: the host's, or the Device's own.
   VkPipelineCache pipelineCache() const { return pipelineCache_; }

@@ -103,20 +103,36 @@ MemoryAllocator::~MemoryAllocator() {
   for (const Retained& r : retained_) d_.vkFreeMemory(device_, r.memory, nullptr);
 }
 
-void MemoryAllocator::setRetainLimit(VkDeviceSize bytes) {
-  retainLimit_ = bytes;
-  while (retainedBytes_ > retainLimit_) {
-    const Retained r = retained_.front();
-    retained_.erase(retained_.begin());
-    retainedBytes_ -= r.size;
-    freeMemory(r.type, r.size, r.memory);
+int MemoryAllocator::retainPool(std::uint32_t type) const {
+  // A device with a heap that is not device-local keeps the host's memory there, so its
+  // device-local heaps are its own memory; where every heap is device-local (lavapipe, most
+  // integrated GPUs) they are the host's.
+  bool separateHostHeap = false;
+  for (std::uint32_t h = 0; h < props_.memoryHeapCount; ++h)
+    separateHostHeap |= !(props_.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT);
+  const bool localHeap = props_.memoryHeaps[props_.memoryTypes[type].heapIndex].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT;
+  return separateHostHeap && localHeap ? 1 : 0;
+}
+
+void MemoryAllocator::setRetainLimits(VkDeviceSize hostBytes, VkDeviceSize deviceBytes) {
+  retainLimit_ = {hostBytes, deviceBytes};
+  // Oldest first out of each pool past its limit.
+  for (auto it = retained_.begin(); it != retained_.end();) {
+    const int pool = retainPool(it->type);
+    if (retainedBytes_[pool] <= retainLimit_[pool]) {
+      ++it;
+      continue;
+    }
+    retainedBytes_[pool] -= it->size;
+    freeMemory(it->type, it->size, it->memory);
+    it = retained_.erase(it);
   }
 }
 
 void MemoryAllocator::releaseRetained() {
-  const VkDeviceSize limit = retainLimit_;
-  setRetainLimit(0);
-  retainLimit_ = limit;
+  const auto limits = retainLimit_;
+  setRetainLimits(0, 0);
+  retainLimit_ = limits;
 }
 
 VkDeviceMemory MemoryAllocator::reuseRetained(std::uint32_t type, VkDeviceSize size, void** mapped) {
@@ -125,7 +141,7 @@ VkDeviceMemory MemoryAllocator::reuseRetained(std::uint32_t type, VkDeviceSize s
     if (it->type != type || it->size != size) continue;
     const Retained r = *it;
     retained_.erase(std::next(it).base());
-    retainedBytes_ -= r.size;
+    retainedBytes_[retainPool(type)] -= r.size;
     *mapped = r.mapped;
     return r.memory;
   }
@@ -191,13 +207,14 @@ VkDeviceMemory MemoryAllocator::allocateMemory(std::uint32_t type, VkDeviceSize 
 }
 
 void MemoryAllocator::releaseMemory(std::uint32_t type, VkDeviceSize size, VkDeviceMemory memory, void* mapped) {
-  if (size > retainLimit_) {
+  const int pool = retainPool(type);
+  if (size > retainLimit_[pool]) {
     freeMemory(type, size, memory);
     return;
   }
   retained_.push_back({memory, type, size, mapped});
-  retainedBytes_ += size;
-  setRetainLimit(retainLimit_);  // oldest out past the limit
+  retainedBytes_[pool] += size;
+  setRetainLimits(retainLimit_[0], retainLimit_[1]);  // oldest out past the limit
 }
 
 void MemoryAllocator::freeMemory(std::uint32_t type, VkDeviceSize size, VkDeviceMemory memory) {

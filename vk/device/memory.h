@@ -90,10 +90,15 @@ class MemoryAllocator {
   VkDeviceSize bytesInUse() const { return inUse_; }
   std::size_t blockCount() const;
 
-  // Freed memory kept for reuse (counted in heapBytes): at most `bytes`; 0 retains nothing.
-  void setRetainLimit(VkDeviceSize bytes);
-  VkDeviceSize retainLimit() const { return retainLimit_; }
-  VkDeviceSize retainedBytes() const { return retainedBytes_; }
+  // Freed memory kept for reuse (counted in heapBytes): at most `hostBytes` of the host's memory
+  // (system RAM: every heap of a CPU driver or an integrated GPU, a discrete GPU's system heap)
+  // and at most `deviceBytes` of a discrete GPU's own (its device-local heaps, BAR-mapped types
+  // included); 0 retains nothing. The one-argument form sets both.
+  void setRetainLimit(VkDeviceSize bytes) { setRetainLimits(bytes, bytes); }
+  void setRetainLimits(VkDeviceSize hostBytes, VkDeviceSize deviceBytes);
+  VkDeviceSize retainLimit() const { return retainLimit_[0]; }
+  VkDeviceSize deviceRetainLimit() const { return retainLimit_[1]; }
+  VkDeviceSize retainedBytes() const { return retainedBytes_[0] + retainedBytes_[1]; }
   // Gives every retained VkDeviceMemory back to the driver.
   void releaseRetained();
 
@@ -134,9 +139,12 @@ class MemoryAllocator {
   VkDeviceSize inUse_ = 0;
   std::array<VkDeviceSize, VK_MAX_MEMORY_HEAPS> heapBytes_{};
   std::vector<Block> blocks_;
+  // Which retention pool a type's memory is in: 0 the host's memory, 1 a discrete GPU's own.
+  int retainPool(std::uint32_t type) const;
+
   std::vector<Retained> retained_;  // oldest first
-  VkDeviceSize retainedBytes_ = 0;
-  VkDeviceSize retainLimit_ = 0;
+  std::array<VkDeviceSize, 2> retainedBytes_{};  // by retainPool
+  std::array<VkDeviceSize, 2> retainLimit_{};
 };
 
 }  // namespace blobvk::vk
