@@ -158,7 +158,7 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds,
           gpu.edgesSeconds, gpu.scansSeconds, gpu.sourcesSeconds, gpu.verticesSeconds, gpu.trianglesSeconds,
           gpu.fieldTiles, gpu.vertexTiles, gpu.generatedClassification, gpu.classifyTiles, gpu.tapeInstructions, gpu.tapeWords,
-          gpu.tapeSeconds};
+          gpu.tapeSeconds, gpu.readbackDeviceSeconds};
 }
 
 void checkValidation(const std::vector<vk::StandaloneContext*>& contexts, std::uint64_t messagesBefore) {

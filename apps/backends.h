@@ -97,6 +97,7 @@ struct PolygonizeStats {
     // bricks, instructions stored, host seconds building them (0 without tapes).
     std::uint64_t tapeInstructions = 0, tapeWords = 0;
     double tapeSeconds = 0.0;
+    double readbackDevice = 0.0;  // of `readback`: the device's copy into read-back memory (device time)
   } gpu;
 };
 

@@ -178,6 +178,7 @@ void addBenchCommand(CLI::App& app) {
         if (r.backend.rfind("vk", 0) == 0) {
           phases = {{"classification_s", r.gpu.classify}, {"field_s", r.gpu.field},
                     {"extraction_s", r.gpu.extract}, {"readback_s", r.gpu.readback},
+                    {"readback_device_s", r.gpu.readbackDevice},
                     {"host_s", r.gpu.host}, {"device_timed", r.gpu.deviceTimed}, {"submits", r.gpu.submits},
                     {"batches", r.gpu.batches}, {"devices", r.gpu.devices},
                     {"bricks", r.gpu.bricks}, {"active_bricks", r.gpu.activeBricks},

@@ -6,9 +6,11 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdint>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
+#include <string>
 
 namespace blobvk::app {
 
@@ -35,6 +37,20 @@ void addDevicesCommand(CLI::App& app) {
       std::printf("\n    maxStorageBufferRange %u, maxComputeWorkGroupInvocations %u, maxComputeSharedMemorySize %u, subgroupSize %u\n",
                   l["max_storage_buffer_range"].get<unsigned>(), l["max_compute_work_group_invocations"].get<unsigned>(),
                   l["max_compute_shared_memory_size"].get<unsigned>(), d["subgroup_size"].get<unsigned>());
+      for (std::size_t h = 0; h < d["memory_heaps"].size(); ++h) {
+        const auto& heap = d["memory_heaps"][h];
+        std::printf("    heap %zu: %.1f GiB%s;", h, double(heap["bytes"].get<std::uint64_t>()) / (1ull << 30),
+                    heap["device_local"].get<bool>() ? ", device-local" : "");
+        for (const auto& t : heap["types"]) {
+          std::string flags;
+          for (const auto& f : t["flags"]) {
+            if (!flags.empty()) flags += ' ';
+            flags += f.get<std::string>();
+          }
+          std::printf(" type %d: %s;", t["index"].get<int>(), flags.empty() ? "-" : flags.c_str());
+        }
+        std::printf("\n");
+      }
     }
     if (devices.empty()) std::printf("no Vulkan devices (install mesa-vulkan-drivers for lavapipe)\n");
 #else

@@ -67,6 +67,28 @@ nlohmann::json deviceJson(VkPhysicalDevice physical) {
     out["driver_name"] = printable(driver.driverName);
     out["driver_info"] = printable(driver.driverInfo);
   }
+  // Heaps and the types in them: where work buffers and read-back memory can live
+  // (vk/device/memory.h ranks them per use).
+  VkPhysicalDeviceMemoryProperties memory{};
+  vkGetPhysicalDeviceMemoryProperties(physical, &memory);
+  nlohmann::json heaps = nlohmann::json::array();
+  for (std::uint32_t h = 0; h < memory.memoryHeapCount; ++h) {
+    nlohmann::json types = nlohmann::json::array();
+    for (std::uint32_t t = 0; t < memory.memoryTypeCount; ++t) {
+      if (memory.memoryTypes[t].heapIndex != h) continue;
+      const VkMemoryPropertyFlags f = memory.memoryTypes[t].propertyFlags;
+      nlohmann::json flags = nlohmann::json::array();
+      if (f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) flags.push_back("device-local");
+      if (f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) flags.push_back("host-visible");
+      if (f & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT) flags.push_back("host-coherent");
+      if (f & VK_MEMORY_PROPERTY_HOST_CACHED_BIT) flags.push_back("host-cached");
+      types.push_back({{"index", t}, {"flags", flags}});
+    }
+    heaps.push_back({{"bytes", memory.memoryHeaps[h].size},
+                     {"device_local", (memory.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) != 0},
+                     {"types", types}});
+  }
+  out["memory_heaps"] = heaps;
   return out;
 }
 

@@ -154,12 +154,21 @@ TEST_F(CliCommands, DevicesListsLavapipeWithItsDriver) {
     EXPECT_EQ(d["driver_name"], "llvmpipe");
     EXPECT_NE(d["driver_info"].get<std::string>().find("Mesa"), std::string::npos) << d.dump();
     EXPECT_GE(d["limits"]["max_storage_buffer_range"].get<std::uint64_t>(), 1u << 27);
+    // lavapipe's memory is the host's: one device-local heap whose one type the host maps, cached.
+    ASSERT_GE(d["memory_heaps"].size(), 1u) << d.dump();
+    const auto& heap = d["memory_heaps"][0];
+    EXPECT_TRUE(heap["device_local"].get<bool>());
+    EXPECT_GT(heap["bytes"].get<std::uint64_t>(), 0u);
+    ASSERT_GE(heap["types"].size(), 1u);
+    EXPECT_EQ(heap["types"][0]["flags"],
+              nlohmann::json({"device-local", "host-visible", "host-coherent", "host-cached"}));
   }
   EXPECT_TRUE(lavapipe) << r.out;
   r = runCliSplit("devices", cwd);
   ASSERT_EQ(r.status, 0);
   EXPECT_NE(r.out.find("[0] "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("llvmpipe"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("heap 0: "), std::string::npos) << r.out;
 }
 
 // The vk backend on lavapipe writes the CPU backend's bytes (vertices ordered by edge key).

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -63,6 +64,35 @@ TEST_F(DeviceTest, AllocatorReusesFreedSpaceAndUploadsRoundTrip) {
     EXPECT_GT(device().memory().bytesInUse(), before);
   }
   EXPECT_EQ(device().memory().bytesInUse(), before);
+}
+
+// Host work between a submit and its wait runs once, before the results are read; when it
+// throws, the submit's commands have finished before the exception reaches the caller (whose
+// buffers they use), and the device takes the next submit.
+TEST_F(DeviceTest, HostWorkWhileTheDeviceRunsAndItsExceptions) {
+  vk::Buffer b = device().createBuffer(1 << 20);
+  int calls = 0;
+  device().run([&](vk::Recorder& rec) {
+    rec.fill(b, 7u);
+    rec.hostBarrier();
+  }, [&] { ++calls; });
+  EXPECT_EQ(calls, 1);
+  std::vector<std::uint32_t> back(4);
+  device().download(b, back.data(), 16);
+  EXPECT_EQ(back, std::vector<std::uint32_t>(4, 7u));
+  EXPECT_THROW(device().run([&](vk::Recorder& rec) {
+    rec.fill(b, 9u);
+    rec.hostBarrier();
+  }, [] { throw std::runtime_error("host work failed"); }),
+               std::runtime_error);
+  device().download(b, back.data(), 16);
+  EXPECT_EQ(back, std::vector<std::uint32_t>(4, 9u)) << "the fill ran to its end";
+  device().run([&](vk::Recorder& rec) {
+    rec.fill(b, 11u);
+    rec.hostBarrier();
+  });
+  device().download(b, back.data(), 16);
+  EXPECT_EQ(back, std::vector<std::uint32_t>(4, 11u));
 }
 
 TEST_F(DeviceTest, StagingPathRoundTrips) {

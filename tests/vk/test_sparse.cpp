@@ -157,6 +157,23 @@ TEST_F(VulkanTest, ThreeSubmitsAndStagedReadBackGiveTheSameMesh) {
     EXPECT_NEAR(st.hostSeconds + st.classifySeconds + st.fieldSeconds + st.extractSeconds + st.readbackSeconds,
                 st.seconds, 1e-9);
   }
+  if (device().timestampPeriodNs() > 0.0) {
+    EXPECT_GT(stagedStats.readbackDeviceSeconds, 0.0);
+    EXPECT_LE(stagedStats.readbackDeviceSeconds, stagedStats.readbackSeconds);
+  }
+  // Staged in several batches: each batch's arrays grow (while the device copies) after the last
+  // batch's rows.
+  o.maxBatchBricks = 6;
+  device().setForceStaging(true);
+  vk::GpuStats batchedStats;
+  const auto batched = vk::polygonize(device(), program, grid, o, &batchedStats);
+  device().setForceStaging(false);
+  EXPECT_GE(batchedStats.batches, 3u);
+  EXPECT_TRUE(sameBytes(batched.positions, mapped.positions));
+  EXPECT_TRUE(sameBytes(batched.normals, mapped.normals));
+  EXPECT_TRUE(sameBytes(batched.colours, mapped.colours));
+  EXPECT_TRUE(sameBytes(batched.edgeKeys, mapped.edgeKeys));
+  EXPECT_TRUE(sameBytes(batched.triangles, mapped.triangles));
 }
 
 // Bricks in batches of brick layers (each holding one layer more than it emits) give the same

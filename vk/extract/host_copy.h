@@ -19,14 +19,16 @@ void prefaultParallel(void* p, std::size_t bytes);
 // memcpy in chunks over the worker threads.
 void copyParallel(void* dst, const void* src, std::size_t bytes);
 
-// v.insert(v.end(), src, src + n), with the page faults and the copy spread over the cores.
+// v grown by n value-initialised elements, the page faults spread over the cores; returns the
+// first new element. The fill itself is one thread's (std::vector value-initialises): callers
+// grow several vectors at once, or while the device works (vk/extract/sparse_batches.cpp).
 template <class T>
-void appendParallel(std::vector<T>& v, const T* src, std::size_t n) {
+T* growParallel(std::vector<T>& v, std::size_t n) {
   static_assert(std::is_trivially_copyable_v<T>);
   const std::size_t old = v.size(), bytes = n * sizeof(T);
   if (bytes < kParallelCopyBytes) {
-    v.insert(v.end(), src, src + n);
-    return;
+    v.resize(old + n);
+    return v.data() + old;
   }
   if (v.capacity() < old + n) {
     // Grow geometrically as insert would, into memory mapped in parallel.
@@ -39,9 +41,20 @@ void appendParallel(std::vector<T>& v, const T* src, std::size_t n) {
   } else {
     prefaultParallel(v.data() + old, bytes);
   }
-  // resize value-initialises (a fill over pages already mapped); the copy then overwrites it.
+  // resize value-initialises (a fill over pages already mapped); the caller's copy overwrites it.
   v.resize(old + n);
-  copyParallel(v.data() + old, src, bytes);
+  return v.data() + old;
+}
+
+// v.insert(v.end(), src, src + n), with the page faults and the copy spread over the cores.
+template <class T>
+void appendParallel(std::vector<T>& v, const T* src, std::size_t n) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  if (n * sizeof(T) < kParallelCopyBytes) {
+    v.insert(v.end(), src, src + n);
+    return;
+  }
+  copyParallel(growParallel(v, n), src, n * sizeof(T));
 }
 
 }  // namespace blobvk::vk

@@ -268,6 +268,7 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     s.trianglesSeconds += share.trianglesSeconds;
     s.verticesSeconds += share.verticesSeconds;
     s.readbackSeconds += share.readbackSeconds;
+    s.readbackDeviceSeconds += share.readbackDeviceSeconds;
     s.tapeInstructions += share.tapeInstructions;
     s.tapeWords += share.tapeWords;
     s.tapeSeconds += share.tapeSeconds;

@@ -109,6 +109,7 @@ struct GpuStats {
   double fieldSeconds = 0.0;     // sparse: the field at the active bricks' points
   double extractSeconds = 0.0;   // sparse: edges, counts, scans, vertices, triangles
   double readbackSeconds = 0.0;  // sparse: the mesh copied to the host (device copy + host copy)
+  double readbackDeviceSeconds = 0.0;  // ... of which the device's copy into read-back memory (device time)
   // Sparse, device time only: extractSeconds by pass.
   double edgesSeconds = 0.0;      // inside masks, crossing edges, per-row counts
   double scansSeconds = 0.0;      // the segment scans
