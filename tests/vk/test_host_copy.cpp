@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <cstring>
@@ -49,6 +50,24 @@ TEST(HostCopy, AppendsLikeInsertWhateverTheSizesAndCapacity) {
   // Bytes, not floats: random bit patterns include NaNs, which never compare equal.
   ASSERT_EQ(roomy.size(), points.size());
   EXPECT_EQ(std::memcmp(roomy.data(), points.data(), points.size() * sizeof(mesh::Float3)), 0);
+}
+
+// growParallel with room for later appends: where the vector moves it takes that room (the next
+// growth within it keeps its place), keeps what it held, and the new elements are zero.
+TEST(HostCopy, GrowingWithRoomForLaterAppendsMovesOnce) {
+  const std::size_t threshold = vk::kParallelCopyBytes / sizeof(std::uint64_t);
+  const std::vector<std::uint64_t> first = randomValues<std::uint64_t>(2 * threshold, 5);
+  std::vector<std::uint64_t> v;
+  vk::appendParallel(v, first.data(), first.size());
+  std::uint64_t* at = vk::growParallel(v, threshold + 3, 10 * threshold);
+  EXPECT_GE(v.capacity(), 10 * threshold);
+  EXPECT_EQ(at, v.data() + first.size());
+  EXPECT_TRUE(std::equal(first.begin(), first.end(), v.begin()));
+  EXPECT_TRUE(std::all_of(v.begin() + first.size(), v.end(), [](std::uint64_t x) { return x == 0; }));
+  const auto* placed = v.data();
+  vk::growParallel(v, 4 * threshold, 10 * threshold);
+  EXPECT_EQ(v.data(), placed) << "the room was there";
+  EXPECT_EQ(v.size(), 7 * threshold + 3);
 }
 
 }  // namespace

@@ -117,8 +117,9 @@ struct DeviceOptions {
   // Freed device memory kept for the next buffers of its size (vk/device/memory.h), so a steady
   // stream of jobs allocates nothing; given back before any allocation would fail, and by
   // MemoryAllocator::releaseRetained(). kAutoRetain: a quarter of the largest device-local heap,
-  // at most 1 GiB of it the host's memory (MemoryAllocator::setRetainLimits); a discrete GPU's
-  // own memory (where a 2048^3 job would allocate 10 GB afresh each run) up to the whole quarter.
+  // of it at most the larger of 1 GiB and a sixteenth of a separate system heap of the host's
+  // memory (MemoryAllocator::setRetainLimits); a discrete GPU's own memory (where a 2048^3 job
+  // would allocate 10 GB afresh each run) up to the whole quarter.
   // None under a memorySimulation, whose tests count allocations. Any other value bounds both
   // kinds; 0: none.
   static constexpr std::uint64_t kAutoRetain = ~0ull;

@@ -19,31 +19,38 @@ void prefaultParallel(void* p, std::size_t bytes);
 // memcpy in chunks over the worker threads.
 void copyParallel(void* dst, const void* src, std::size_t bytes);
 
-// v grown by n value-initialised elements, the page faults spread over the cores; returns the
-// first new element. The fill itself is one thread's (std::vector value-initialises): callers
-// grow several vectors at once, or while the device works (vk/extract/sparse_batches.cpp).
+// Room in v for n more elements, their pages mapped over the cores. Where v must move, it moves
+// into room for max(reserveFor, twice its size) elements, what it holds copied over the cores
+// (only the part it will fill is mapped now). Allocates on the calling thread, so that a vector
+// freed there is reused there (each thread has its own malloc arena).
 template <class T>
-T* growParallel(std::vector<T>& v, std::size_t n) {
+void roomFor(std::vector<T>& v, std::size_t n, std::size_t reserveFor = 0) {
   static_assert(std::is_trivially_copyable_v<T>);
   const std::size_t old = v.size(), bytes = n * sizeof(T);
   if (bytes < kParallelCopyBytes) {
-    v.resize(old + n);
-    return v.data() + old;
+    if (v.capacity() < old + n) v.reserve(std::max({old + n, 2 * old, reserveFor}));
+    return;
   }
   if (v.capacity() < old + n) {
-    // Grow geometrically as insert would, into memory mapped in parallel.
     std::vector<T> grown;
-    grown.reserve(std::max(old + n, 2 * old));
-    prefaultParallel(grown.data(), grown.capacity() * sizeof(T));
+    grown.reserve(std::max({old + n, 2 * old, reserveFor}));
+    prefaultParallel(grown.data(), (old + n) * sizeof(T));
     grown.resize(old);
     if (old) copyParallel(grown.data(), v.data(), old * sizeof(T));
     v.swap(grown);
   } else {
     prefaultParallel(v.data() + old, bytes);
   }
-  // resize value-initialises (a fill over pages already mapped); the caller's copy overwrites it.
-  v.resize(old + n);
-  return v.data() + old;
+}
+
+// v grown by n value-initialised elements (roomFor, then resize); returns the first new element.
+// The fill is one thread's (std::vector value-initialises): callers grow several vectors at once,
+// or while the device works (vk/extract/sparse_batches.cpp).
+template <class T>
+T* growParallel(std::vector<T>& v, std::size_t n, std::size_t reserveFor = 0) {
+  roomFor(v, n, reserveFor);
+  v.resize(v.size() + n);
+  return v.data() + v.size() - n;
 }
 
 // v.insert(v.end(), src, src + n), with the page faults and the copy spread over the cores.

@@ -463,7 +463,7 @@ bool SparseBatchRunner::deviceTimes(GpuStats& s) {
 }
 
 void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, mesh::TriMesh& mesh, GpuStats& s,
-                            std::vector<std::uint64_t>* cornerKeys) {
+                            std::vector<std::uint64_t>* cornerKeys, double reserveRatio) {
   State& st = *state_;
   if (st.runs >= st.maxBatches) throw VulkanError("GPU polygonizer: more batches run than the runner was made for");
   Device& device = st.device;
@@ -629,28 +629,40 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   Buffer tileVertices = vertexTiles.empty() ? Buffer{} : make(std::uint64_t(vertices) * 4, "vertex tile lists");
   // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
   static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
-  // Each output's room at the end of its mesh array (growParallel), made before the copies.
-  auto grow = [](auto& vec, std::uint64_t count) {
-    return std::function<void*()>([&vec, count]() -> void* { return growParallel(vec, count); });
+  // Each output's room at the end of its mesh array, made before the copies: grow(false) makes
+  // room (roomFor), grow(true) appends the elements and returns where they start.
+  auto grow = [](auto& vec, std::uint64_t count, double ratio) {
+    return std::function<void*(bool)>([&vec, count, ratio](bool fill) -> void* {
+      if (!fill) {
+        roomFor(vec, count, ratio > 1.0 ? std::size_t(double(vec.size() + count) * ratio) : 0);
+        return nullptr;
+      }
+      vec.resize(vec.size() + count);
+      return vec.data() + vec.size() - count;
+    });
   };
   struct Output {
     const Buffer* buffer;
     std::uint64_t bytes;
-    std::function<void*()> grow;
+    std::function<void*(bool)> grow;
     std::uint64_t offset = 0;  // in the read-back buffer
     void* to = nullptr;        // where grow made room
   };
-  std::vector<Output> outputs{{&positions, vertices * 12ull, grow(mesh.positions, vertices)},
-                              {&keys, vertices * 8ull, grow(mesh.edgeKeys, vertices)},
+  std::vector<Output> outputs{{&positions, vertices * 12ull, grow(mesh.positions, vertices, reserveRatio)},
+                              {&keys, vertices * 8ull, grow(mesh.edgeKeys, vertices, reserveRatio)},
                               {&indices, triangles * cornerBytes,
-                               cornerKeys ? grow(*cornerKeys, 3ull * triangles) : grow(mesh.triangles, triangles)}};
-  if (options.normals) outputs.push_back({&normals, vertices * 12ull, grow(mesh.normals, vertices)});
-  if (options.colours) outputs.push_back({&colours, vertices * 12ull, grow(mesh.colours, vertices)});
+                               cornerKeys ? grow(*cornerKeys, 3ull * triangles, 1.0)  // the batch's own
+                                          : grow(mesh.triangles, triangles, reserveRatio)}};
+  if (options.normals) outputs.push_back({&normals, vertices * 12ull, grow(mesh.normals, vertices, reserveRatio)});
+  if (options.colours) outputs.push_back({&colours, vertices * 12ull, grow(mesh.colours, vertices, reserveRatio)});
   // The arrays grow side by side: each one's value-initialising fill is a single thread's, and
-  // at 512^3 on a discrete GPU those fills took longer than the device's whole job.
+  // at 512^3 on a discrete GPU those fills took longer than the device's whole job. Their
+  // memory comes from this thread (roomFor).
   auto growOutputs = [&outputs] {
+    for (Output& o : outputs)
+      if (o.bytes) o.grow(false);
     tbb::parallel_for(std::size_t(0), outputs.size(), [&outputs](std::size_t i) {
-      if (outputs[i].bytes) outputs[i].to = outputs[i].grow();
+      if (outputs[i].bytes) outputs[i].to = outputs[i].grow(true);
     });
   };
   std::uint64_t stagingBytes = 0;

@@ -81,9 +81,11 @@ class SparseBatchRunner {
   // triangles, indices offset by `vertexBase`, to `out`. Adds to the stats' field evaluations,
   // submits and wall-time phases. At most `maxBatches` calls. With `cornerKeys`, the triangles'
   // corners are appended there as edge keys (three per triangle, out.triangles untouched): for a
-  // run whose bricks' upper neighbours are not loaded (an edit's box of bricks).
+  // run whose bricks' upper neighbours are not loaded (an edit's box of bricks). `reserveRatio`
+  // > 1: where an array of `out` must move to grow, it is given that many times the size it
+  // grows to (later batches will append to it: no second move and copy of what it holds).
   void run(const SparseBatch& batch, std::uint64_t vertexBase, mesh::TriMesh& out, GpuStats& stats,
-           std::vector<std::uint64_t>* cornerKeys = nullptr);
+           std::vector<std::uint64_t>* cornerKeys = nullptr, double reserveRatio = 1.0);
   // Device time of the batches run (when the queue has timestamps): replaces the stats' field
   // and extract seconds with it and adds the read-back copies; returns false without timestamps.
   bool deviceTimes(GpuStats& stats);

@@ -735,7 +735,10 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
       const std::size_t before = into.positions.size(), trianglesBefore = into.triangles.size();
       const bool keyed = batches[i].keyedCorners;
       std::vector<std::uint64_t> corners;
-      runner.run(batches[i], vertexBase, into, s, keyed ? &corners : nullptr);
+      // The job's share done after this batch, by active bricks: its mesh grows about as much.
+      const double done = double(batches[i].activeBase) + batches[i].ownActive, all = double(classified.layerStarts.back());
+      const double reserveRatio = sink.accumulates && done < all ? 1.05 * all / done : 1.0;
+      runner.run(batches[i], vertexBase, into, s, keyed ? &corners : nullptr, reserveRatio);
       const std::size_t added = into.positions.size() - before;
       if (waiting.pending) waiting.resolve(sink.meshOf(i - 1), {into.edgeKeys.data() + before, added});
       if (keyed) {
@@ -759,7 +762,7 @@ mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program,
   mesh::TriMesh mesh;
   GpuStats s;
   runSparseExtraction(device, program, grid, options,
-                      {[&]() -> mesh::TriMesh& { return mesh; }, {}, [&](std::size_t) -> mesh::TriMesh& { return mesh; }},
+                      {[&]() -> mesh::TriMesh& { return mesh; }, {}, [&](std::size_t) -> mesh::TriMesh& { return mesh; }, true},
                       s);
   if (stats) *stats = s;
   return mesh;

@@ -190,6 +190,9 @@ struct SparseBatchSink {
   std::function<mesh::TriMesh&()> into;
   std::function<void(std::size_t batch, std::size_t batches)> done;
   std::function<mesh::TriMesh&(std::size_t batch)> meshOf;
+  // `into` is one mesh every batch appends to (polygonizeSparse): its arrays, when they move,
+  // take room for the job's estimated whole (SparseBatchRunner::run's reserveRatio).
+  bool accumulates = false;
 };
 void runSparseExtraction(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const GpuPolygonizeOptions& options, const SparseBatchSink& sink, GpuStats& stats);
