@@ -4,7 +4,8 @@
 # test under the validation layer with synchronisation validation), `blobvk compare
 # --validation` on every shipped scene, and `blobvk bench` of tower and random128 (default field
 # pass and per-brick tapes); prints one summary
-# table and exits non-zero when anything failed.
+# table and exits non-zero when anything failed. On a GPU it also benches the tower at 512^3 and
+# 2048^3 against the CPU backend.
 #   scripts/gpu_check.sh [--resolution N] [--bench-resolution N] [--no-build] [--log-dir DIR]
 # Defaults: compare at 64 cells, bench at 128, logs in a new temporary directory (--log-dir: a
 # CI job's artifact folder). BLOBVK_BUILD_JOBS sets the build's -j.
@@ -56,7 +57,9 @@ if [ -n "$device_line" ]; then
   device_index=$(sed -E 's/^\[([0-9]+)\].*/\1/' <<<"$device_line")
   device_name=$(sed -E 's/^\[[0-9]+\] (.*) \(.*/\1/' <<<"$device_line")
   row "device" PASS "$device_name (index $device_index)"
+  gpu=1
 else
+  gpu=0
   device_line=$("$blobvk" devices 2>/dev/null | grep -E '^\[[0-9]+\]' | head -n 1)
   if [ -z "$device_line" ]; then
     row "device" FAIL "no Vulkan device at all (install mesa-vulkan-drivers)"
@@ -106,6 +109,27 @@ print("median %.4f s (min %.4f), field %.4f s, %d triangles, %.3g field evaluati
     fi
   done
 done
+
+# On a GPU: the tower at 512^3 and 2048^3 against the CPU backend on this host's cores (the
+# steady state and the device's own time per phase, docs/performance.md "Vulkan on a discrete GPU").
+if [ "$gpu" = 1 ]; then
+  out="$log_dir/bench_tower_large.log"
+  if "$blobvk" bench scenes/tower.json --backend vk cpu --device "$device_index" --resolution 512 2048 \
+       --repeats 3 --warmup 1 --json >"$out" 2>"$out.err"; then
+    while IFS= read -r line; do row "${line%%|*}" PASS "${line#*|}"; done < <(python3 -c '
+import json, sys
+rows = json.load(open(sys.argv[1]))
+cpu = {r["resolution"]: r["min_s"] for r in rows if r["backend"] == "cpu"}
+for r in rows:
+    if not r["backend"].startswith("vk"): continue
+    p = r["vk_phases"]
+    device = p["classification_s"] + p["field_s"] + p["extraction_s"]
+    print("bench tower.json vk/cpu @%d|vk min %.4f s, cpu min %.4f s (vk/cpu %.2f), device work %.4f s, read-back %.4f s" %
+          (r["resolution"], r["min_s"], cpu[r["resolution"]], r["min_s"] / cpu[r["resolution"]], device, p["readback_s"]))' "$out")
+  else
+    row "bench tower.json vk/cpu @512,2048" FAIL "$(tail -n 1 "$out.err")"
+  fi
+fi
 
 echo
 echo "blobvk gpu_check on $device_name (compare at $resolution cells; logs in $log_dir)"
