@@ -116,7 +116,7 @@ if [ "$gpu" = 1 ]; then
   out="$log_dir/bench_tower_large.log"
   if "$blobvk" bench scenes/tower.json --backend vk cpu --device "$device_index" --resolution 512 2048 \
        --repeats 3 --warmup 1 --json >"$out" 2>"$out.err"; then
-    while IFS= read -r line; do row "${line%%|*}" PASS "${line#*|}"; done < <(python3 -c '
+    if summary=$(python3 -c '
 import json, sys
 rows = json.load(open(sys.argv[1]))
 cpu = {r["resolution"]: r["min_s"] for r in rows if r["backend"] == "cpu"}
@@ -125,7 +125,11 @@ for r in rows:
     p = r["vk_phases"]
     device = p["classification_s"] + p["field_s"] + p["extraction_s"]
     print("bench tower.json vk/cpu @%d|vk min %.4f s, cpu min %.4f s (vk/cpu %.2f), device work %.4f s, read-back %.4f s" %
-          (r["resolution"], r["min_s"], cpu[r["resolution"]], r["min_s"] / cpu[r["resolution"]], device, p["readback_s"]))' "$out")
+          (r["resolution"], r["min_s"], cpu[r["resolution"]], r["min_s"] / cpu[r["resolution"]], device, p["readback_s"]))' "$out"); then
+      while IFS= read -r line; do row "${line%%|*}" PASS "${line#*|}"; done <<<"$summary"
+    else
+      row "bench tower.json vk/cpu @512,2048" FAIL "its JSON did not read back, see $out"
+    fi
   else
     row "bench tower.json vk/cpu @512,2048" FAIL "$(tail -n 1 "$out.err")"
   fi

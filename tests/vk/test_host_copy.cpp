@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -68,6 +69,11 @@ TEST(HostCopy, GrowingWithRoomForLaterAppendsMovesOnce) {
   vk::growParallel(v, 4 * threshold, 10 * threshold);
   EXPECT_EQ(v.data(), placed) << "the room was there";
   EXPECT_EQ(v.size(), 7 * threshold + 3);
+  // Room that cannot be had (past max_size) is a wish: the vector still grows as it must.
+  const std::size_t size = v.size();
+  vk::growParallel(v, 4 * threshold, std::numeric_limits<std::size_t>::max());
+  EXPECT_EQ(v.size(), size + 4 * threshold);
+  EXPECT_TRUE(std::equal(first.begin(), first.end(), v.begin()));
 }
 
 }  // namespace

@@ -63,17 +63,23 @@ Device::Device(const HostContext& host, const DeviceOptions& options)
   memory_ = std::make_unique<MemoryAllocator>(d_, host.physicalDevice, host.device, 64ull << 20,
                                               options.memorySimulation);
   std::uint64_t retain = options.retainedMemoryBytes, retainDevice = retain;
-  if (retain == DeviceOptions::kAutoRetain) {
+  if (retain == DeviceOptions::kAutoRetain || retain == DeviceOptions::kAutoRetainOwnedDevice) {
     VkDeviceSize largestLocalHeap = 0, largestHostHeap = 0;
     const auto& mp = memory_->properties();
     for (std::uint32_t h = 0; h < mp.memoryHeapCount; ++h) {
       VkDeviceSize& largest = mp.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT ? largestLocalHeap : largestHostHeap;
       largest = std::max(largest, mp.memoryHeaps[h].size);
     }
-    retainDevice = options.memorySimulation ? 0 : largestLocalHeap / 4;
-    // Pinned host memory beside a discrete GPU: a sixteenth of the system heap (a 2048^3 job's
-    // read-back buffers, 0.5-1.3 GB each, cost 0.25-0.6 s to pin afresh on an H200 host).
-    retain = std::min<std::uint64_t>(retainDevice, std::max<std::uint64_t>(1ull << 30, largestHostHeap / 16));
+    const std::uint64_t quarter = options.memorySimulation ? 0 : largestLocalHeap / 4;
+    if (options.retainedMemoryBytes == DeviceOptions::kAutoRetain) {
+      retain = retainDevice = std::min<std::uint64_t>(quarter, 1ull << 30);
+    } else {
+      // Pinned host memory beside a discrete GPU: a sixteenth of the system heap (a 2048^3 job's
+      // read-back buffers, 0.5-1.3 GB each, cost 0.25-0.6 s to pin afresh on an H200 host).
+      retainDevice = quarter;
+      retain = std::min<std::uint64_t>(
+          {quarter, std::max<std::uint64_t>(1ull << 30, largestHostHeap / 16), std::uint64_t(8) << 30});
+    }
   }
   memory_->setRetainLimits(retain, retainDevice);
 

@@ -115,14 +115,19 @@ struct DeviceOptions {
   // none. StandaloneContext uses its pipeline cache directory.
   std::string spirvCacheDir;
   // Freed device memory kept for the next buffers of its size (vk/device/memory.h), so a steady
-  // stream of jobs allocates nothing; given back before any allocation would fail, and by
-  // MemoryAllocator::releaseRetained(). kAutoRetain: a quarter of the largest device-local heap,
-  // of it at most the larger of 1 GiB and a sixteenth of a separate system heap of the host's
-  // memory (MemoryAllocator::setRetainLimits); a discrete GPU's own memory (where a 2048^3 job
-  // would allocate 10 GB afresh each run) up to the whole quarter.
-  // None under a memorySimulation, whose tests count allocations. Any other value bounds both
-  // kinds; 0: none.
+  // stream of jobs allocates nothing; given back before blobvk's own allocations would fail (not
+  // before the host's), and by MemoryAllocator::releaseRetained(). In both pools of
+  // MemoryAllocator::setRetainLimits:
+  // - kAutoRetain (a device the host application shares with blobvk): a quarter of the largest
+  //   device-local heap, at most 1 GiB;
+  // - kAutoRetainOwnedDevice (StandaloneContext, whose VkDevice is blobvk's alone): a discrete
+  //   GPU's own memory up to that quarter (a 2048^3 job would allocate 10 GB afresh each run),
+  //   the host's memory up to the larger of 1 GiB and a sixteenth of a separate system heap, at
+  //   most 8 GiB (pinned read-back buffers);
+  // none under a memorySimulation, whose tests count allocations. Any other value bounds both
+  // pools; 0: none.
   static constexpr std::uint64_t kAutoRetain = ~0ull;
+  static constexpr std::uint64_t kAutoRetainOwnedDevice = ~0ull - 1;
   std::uint64_t retainedMemoryBytes = kAutoRetain;
 };
 

@@ -280,6 +280,7 @@ StandaloneContext::StandaloneContext(const StandaloneOptions& options)
     host_.queueFamilyIndex = family;
     vkGetDeviceQueue(host_.device, family, 0, &host_.queue);
     DeviceOptions deviceOptions;
+    deviceOptions.retainedMemoryBytes = DeviceOptions::kAutoRetainOwnedDevice;  // the VkDevice is blobvk's alone
     if (const auto dir = resolvePipelineCacheDir(options.pipelineCache); !dir.empty()) {
       VkPhysicalDeviceProperties properties;
       vkGetPhysicalDeviceProperties(host_.physicalDevice, &properties);

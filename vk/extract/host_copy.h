@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <exception>
 #include <cstddef>
 #include <type_traits>
 #include <vector>
@@ -33,7 +34,13 @@ void roomFor(std::vector<T>& v, std::size_t n, std::size_t reserveFor = 0) {
   }
   if (v.capacity() < old + n) {
     std::vector<T> grown;
-    grown.reserve(std::max({old + n, 2 * old, reserveFor}));
+    const std::size_t needed = std::max(old + n, 2 * old);
+    try {
+      grown.reserve(std::max(needed, reserveFor));
+    } catch (const std::exception&) {  // bad_alloc, length_error: the room asked for ahead is a wish
+      if (reserveFor <= needed) throw;
+      grown.reserve(needed);
+    }
     prefaultParallel(grown.data(), (old + n) * sizeof(T));
     grown.resize(old);
     if (old) copyParallel(grown.data(), v.data(), old * sizeof(T));

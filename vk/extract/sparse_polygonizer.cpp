@@ -1,5 +1,7 @@
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
+#include "blobvk/vk/extract/host_copy.h"
+
 #include "blobvk/vk/device/device_timer.h"
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
@@ -735,14 +737,16 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
       const std::size_t before = into.positions.size(), trianglesBefore = into.triangles.size();
       const bool keyed = batches[i].keyedCorners;
       std::vector<std::uint64_t> corners;
-      // The job's share done after this batch, by active bricks: its mesh grows about as much.
+      // The job's share done after this batch, by active bricks: its mesh grows about as much. At
+      // most 4 times: a first batch denser than the rest must not reserve many meshes' worth.
       const double done = double(batches[i].activeBase) + batches[i].ownActive, all = double(classified.layerStarts.back());
-      const double reserveRatio = sink.accumulates && done < all ? 1.05 * all / done : 1.0;
+      const double reserveRatio = sink.accumulates && done < all ? std::min(4.0, 1.05 * all / done) : 1.0;
       runner.run(batches[i], vertexBase, into, s, keyed ? &corners : nullptr, reserveRatio);
       const std::size_t added = into.positions.size() - before;
       if (waiting.pending) waiting.resolve(sink.meshOf(i - 1), {into.edgeKeys.data() + before, added});
       if (keyed) {
-        into.triangles.resize(trianglesBefore + corners.size() / 3);
+        growParallel(into.triangles, corners.size() / 3,
+                     reserveRatio > 1.0 ? std::size_t(double(trianglesBefore + corners.size() / 3) * reserveRatio) : 0);
         waiting.hold(std::move(corners), before, added, vertexBase, trianglesBefore);
         if (i + 1 == batches.size()) waiting.resolve(into, {});
       }
