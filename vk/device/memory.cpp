@@ -94,6 +94,11 @@ MemoryAllocator::MemoryAllocator(const Dispatch& d, VkPhysicalDevice physical, V
     // Physical-device queries of a device extension need only the device to support it (1.1).
     budgetExtension_ = deviceHasExtension(d_, physical, VK_EXT_MEMORY_BUDGET_EXTENSION_NAME);
   }
+  // A device with a heap that is not device-local keeps the host's memory there, so its
+  // device-local heaps are its own memory; where every heap is device-local (lavapipe, most
+  // integrated GPUs) they are the host's (retainPool).
+  for (std::uint32_t h = 0; h < props_.memoryHeapCount; ++h)
+    separateHostHeap_ |= !(props_.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT);
 }
 
 MemoryAllocator::~MemoryAllocator() {
@@ -104,14 +109,8 @@ MemoryAllocator::~MemoryAllocator() {
 }
 
 int MemoryAllocator::retainPool(std::uint32_t type) const {
-  // A device with a heap that is not device-local keeps the host's memory there, so its
-  // device-local heaps are its own memory; where every heap is device-local (lavapipe, most
-  // integrated GPUs) they are the host's.
-  bool separateHostHeap = false;
-  for (std::uint32_t h = 0; h < props_.memoryHeapCount; ++h)
-    separateHostHeap |= !(props_.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT);
   const bool localHeap = props_.memoryHeaps[props_.memoryTypes[type].heapIndex].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT;
-  return separateHostHeap && localHeap ? 1 : 0;
+  return separateHostHeap_ && localHeap ? 1 : 0;
 }
 
 void MemoryAllocator::setRetainLimits(VkDeviceSize hostBytes, VkDeviceSize deviceBytes) {

@@ -135,6 +135,7 @@ class MemoryAllocator {
   VkPhysicalDeviceMemoryProperties props_{};
   std::unique_ptr<MemorySimulation> simulation_;
   bool budgetExtension_ = false;
+  bool separateHostHeap_ = false;  // some heap is not device-local (a discrete GPU's system memory)
   VkDeviceSize blockSize_;
   VkDeviceSize inUse_ = 0;
   std::array<VkDeviceSize, VK_MAX_MEMORY_HEAPS> heapBytes_{};

@@ -50,14 +50,26 @@ void roomFor(std::vector<T>& v, std::size_t n, std::size_t reserveFor = 0) {
   }
 }
 
-// v grown by n value-initialised elements (roomFor, then resize); returns the first new element.
+// roomFor's reserveFor for a vector about to hold `size` elements that later appends will take to
+// about `ratio` times that (0, nothing ahead, for a ratio of 1 or less).
+inline std::size_t roomAhead(std::size_t size, double ratio) {
+  return ratio > 1.0 ? std::size_t(double(size) * ratio) : 0;
+}
+
+// v grown by n value-initialised elements in the room roomFor made; returns the first new one.
 // The fill is one thread's (std::vector value-initialises): callers grow several vectors at once,
 // or while the device works (vk/extract/sparse_batches.cpp).
 template <class T>
-T* growParallel(std::vector<T>& v, std::size_t n, std::size_t reserveFor = 0) {
-  roomFor(v, n, reserveFor);
+T* appendZeros(std::vector<T>& v, std::size_t n) {
   v.resize(v.size() + n);
   return v.data() + v.size() - n;
+}
+
+// roomFor, then appendZeros.
+template <class T>
+T* growParallel(std::vector<T>& v, std::size_t n, std::size_t reserveFor = 0) {
+  roomFor(v, n, reserveFor);
+  return appendZeros(v, n);
 }
 
 // v.insert(v.end(), src, src + n), with the page faults and the copy spread over the cores.

@@ -633,12 +633,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   // room (roomFor), grow(true) appends the elements and returns where they start.
   auto grow = [](auto& vec, std::uint64_t count, double ratio) {
     return std::function<void*(bool)>([&vec, count, ratio](bool fill) -> void* {
-      if (!fill) {
-        roomFor(vec, count, ratio > 1.0 ? std::size_t(double(vec.size() + count) * ratio) : 0);
-        return nullptr;
-      }
-      vec.resize(vec.size() + count);
-      return vec.data() + vec.size() - count;
+      if (fill) return appendZeros(vec, count);
+      roomFor(vec, count, roomAhead(vec.size() + count, ratio));
+      return nullptr;
     });
   };
   struct Output {

@@ -745,8 +745,7 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
       const std::size_t added = into.positions.size() - before;
       if (waiting.pending) waiting.resolve(sink.meshOf(i - 1), {into.edgeKeys.data() + before, added});
       if (keyed) {
-        growParallel(into.triangles, corners.size() / 3,
-                     reserveRatio > 1.0 ? std::size_t(double(trianglesBefore + corners.size() / 3) * reserveRatio) : 0);
+        growParallel(into.triangles, corners.size() / 3, roomAhead(trianglesBefore + corners.size() / 3, reserveRatio));
         waiting.hold(std::move(corners), before, added, vertexBase, trianglesBefore);
         if (i + 1 == batches.size()) waiting.resolve(into, {});
       }
