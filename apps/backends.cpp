@@ -248,7 +248,8 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     vk::GpuStats gpu;
     if (contexts.size() == 1 && !settings.cpuWorker) {
       startWarmUp(*contexts[0], settings);
-      mesh = vk::polygonize(contexts[0]->device(), program, grid, options, &gpu);
+      mesh = std::move(recycled);
+      vk::polygonizeInto(contexts[0]->device(), program, grid, options, mesh, &gpu);
     } else {
       std::vector<vk::Device*> devices;
       for (vk::StandaloneContext* c : contexts) devices.push_back(&c->device());

@@ -120,7 +120,8 @@ void checkDeviceList(const PolygonizeSettings& settings);
 // if needed; with --devices an array of them; an empty object in builds without Vulkan.
 nlohmann::json backendDeviceJson(const PolygonizeSettings& settings);
 
-// `recycled`: a mesh whose arrays the cpu backend may fill again (their capacity reused).
+// `recycled`: a mesh whose arrays the cpu backend, and the vk backend on one device, fill again
+// (their capacity reused: vk::polygonizeInto).
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,
                          const PolygonizeSettings& settings, PolygonizeStats* stats = nullptr,
                          mesh::TriMesh recycled = {});

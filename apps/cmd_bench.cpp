@@ -130,8 +130,9 @@ void addBenchCommand(CLI::App& app) {
             settings.vertexTiles = a->vertexTiles;
             settings.brickTapes = a->brickTapes;
             settings.expectedRuns = a->warmup + a->repeats;
-            // Repeats mesh again with one polygonizer into the last mesh's arrays, as a host
-            // re-meshing does; the first run (first_s) pays for allocation and page faults.
+            // Repeats mesh again into the last mesh's arrays (cpu: with one polygonizer; vk on one
+            // device: vk::polygonizeInto), as a host re-meshing does; the first run (first_s)
+            // pays for allocation and page faults.
             if (backend == "cpu") settings.cpuPolygonizer = std::make_shared<cpu::MpuPolygonizer>();
             const std::string label = backend == "vk" ? backend + "-" + traversal + (devices.empty() ? "" : "@" + devices) : backend;
             Row row{path, label, resolution, threads};

@@ -201,6 +201,44 @@ TEST_F(VulkanTest, BatchesOfBrickLayersGiveTheSameBytes) {
   }
 }
 
+// Meshing into an earlier mesh's arrays (vk::polygonizeInto, what an engine re-meshing and bench's
+// repeats do): the reference mesh and polygonize's bytes, in batches too; nothing of the earlier
+// mesh stays (arrays this job does not fill come back empty); where the arrays hold room enough
+// they are filled where they are, not allocated again.
+TEST_F(VulkanTest, MeshingIntoAnEarlierMeshsArraysGivesTheSameBytes) {
+  const ShippedScene large = shipped("tower", 48), sc = shipped("tower", 40);
+  vk::GpuPolygonizeOptions o;
+  o.traversal = vk::Traversal::Stackless;
+  o.brickCells = 4;
+  const auto fresh = vk::polygonize(device(), sc.program, sc.grid, o);
+  expectSameMeshAsReference(fresh, cpu::polygonizeReference(sc.program, sc.grid), 1e-4f * sc.grid.cellSize, "fresh");
+  for (std::uint32_t batchBricks : {0u, 7u}) {
+    const std::string what = "batches of " + std::to_string(batchBricks) + " bricks";
+    o.maxBatchBricks = batchBricks;
+    mesh::TriMesh mesh = vk::polygonize(device(), large.program, large.grid, o);
+    ASSERT_GT(mesh.positions.size(), fresh.positions.size()) << what;
+    const auto* positions = mesh.positions.data();
+    const auto* triangles = mesh.triangles.data();
+    vk::polygonizeInto(device(), sc.program, sc.grid, o, mesh);
+    expectSameBytes(mesh, fresh, what);
+    EXPECT_EQ(mesh.positions.data(), positions) << what;
+    EXPECT_EQ(mesh.triangles.data(), triangles) << what;
+    // Without normals and colours: those arrays are emptied, the rest are the job's.
+    vk::GpuPolygonizeOptions bare = o;
+    bare.normals = bare.colours = false;
+    vk::polygonizeInto(device(), sc.program, sc.grid, bare, mesh);
+    EXPECT_TRUE(mesh.normals.empty()) << what;
+    EXPECT_TRUE(mesh.colours.empty()) << what;
+    EXPECT_TRUE(sameBytes(mesh.positions, fresh.positions)) << what;
+    EXPECT_TRUE(sameBytes(mesh.triangles, fresh.triangles)) << what;
+    EXPECT_TRUE(sameBytes(mesh.edgeKeys, fresh.edgeKeys)) << what;
+    // From an empty mesh, arrays that grow as the batches come.
+    mesh::TriMesh empty;
+    vk::polygonizeInto(device(), sc.program, sc.grid, o, empty);
+    expectSameBytes(empty, fresh, what + ", into an empty mesh");
+  }
+}
+
 // The classification's tables in windows of brick layers (what a grid too large for one buffer
 // of flags gets, vk::ScanWindow): the same layer starts as one window (the oracle: the whole
 // grid's scan), batches that never cross a window, and the bytes of one window, which are the

@@ -86,4 +86,13 @@ mesh::TriMesh polygonize(Device& device, const blobtree::Program& program,
   return mesh;
 }
 
+void polygonizeInto(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                    const GpuPolygonizeOptions& options, mesh::TriMesh& mesh, GpuStats* stats) {
+  if (!options.sparse || options.tiledVertexPass || grid.cells.x < 1 || grid.cells.y < 1 || grid.cells.z < 1) {
+    mesh = polygonize(device, program, grid, options, stats);  // the dense path builds its own arrays
+    return;
+  }
+  polygonizeSparseInto(device, program, grid, options, mesh, stats);
+}
+
 }  // namespace blobvk::vk

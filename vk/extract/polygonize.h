@@ -147,4 +147,11 @@ mesh::TriMesh polygonize(Device& device, const blobtree::Program& program,
                          const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options = {},
                          GpuStats* stats = nullptr);
 
+// polygonize into `mesh`'s arrays: cleared, their capacity kept. A host that meshes again (an
+// engine re-meshing each frame, `blobvk bench`'s repeats) then pays no allocation and no page
+// faults for a mesh no larger than its last one: on a discrete GPU the mesh's fresh pages cost
+// more than the device's work. The same bytes as polygonize.
+void polygonizeInto(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                    const GpuPolygonizeOptions& options, mesh::TriMesh& mesh, GpuStats* stats = nullptr);
+
 }  // namespace blobvk::vk

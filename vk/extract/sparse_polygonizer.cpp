@@ -763,12 +763,22 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats) {
   mesh::TriMesh mesh;
+  polygonizeSparseInto(device, program, grid, options, mesh, stats);
+  return mesh;
+}
+
+void polygonizeSparseInto(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                          const GpuPolygonizeOptions& options, mesh::TriMesh& mesh, GpuStats* stats) {
+  mesh.positions.clear();
+  mesh.normals.clear();
+  mesh.colours.clear();
+  mesh.triangles.clear();
+  mesh.edgeKeys.clear();
   GpuStats s;
   runSparseExtraction(device, program, grid, options,
                       {[&]() -> mesh::TriMesh& { return mesh; }, {}, [&](std::size_t) -> mesh::TriMesh& { return mesh; }, true},
                       s);
   if (stats) *stats = s;
-  return mesh;
 }
 
 }  // namespace blobvk::vk

@@ -178,6 +178,9 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
 
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);
+// polygonizeSparse into `mesh`'s arrays, cleared with their capacity kept (polygonizeInto).
+void polygonizeSparseInto(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                          const GpuPolygonizeOptions& options, mesh::TriMesh& mesh, GpuStats* stats);
 
 // What polygonizeSparse runs, batch by batch: each batch appends its vertices and its triangles
 // (indices counted from the mesh's first vertex) to the mesh `into` returns, then `done` is
