@@ -131,6 +131,19 @@ nlohmann::json backendDeviceJson([[maybe_unused]] const PolygonizeSettings& sett
 #endif
 }
 
+double waitForBackgroundBuilds([[maybe_unused]] const PolygonizeSettings& settings) {
+  const auto start = std::chrono::steady_clock::now();
+#ifdef BLOBVK_HAVE_VULKAN
+  if (settings.backend == "vk") {
+    const std::vector<vk::StandaloneContext*> contexts =
+        settings.devices.empty() ? std::vector<vk::StandaloneContext*>{&sharedContext(settings.device, settings.validation)}
+                                 : listedContexts(settings.devices, settings.validation);
+    for (vk::StandaloneContext* c : contexts) c->device().waitForBackgroundBuilds();
+  }
+#endif
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 #ifdef BLOBVK_HAVE_VULKAN
 namespace {
 vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {

@@ -120,6 +120,11 @@ void checkDeviceList(const PolygonizeSettings& settings);
 // if needed; with --devices an array of them; an empty object in builds without Vulkan.
 nlohmann::json backendDeviceJson(const PolygonizeSettings& settings);
 
+// Waits for the kernels the vk backend's jobs left building in the background for later jobs
+// (vk::Device::buildInBackground); the seconds waited (about 0 for other backends). bench calls
+// it after a first run, so that its steady state runs with the kernels the first run started.
+double waitForBackgroundBuilds(const PolygonizeSettings& settings);
+
 // `recycled`: a mesh whose arrays the cpu backend, and the vk backend on one device, fill again
 // (their capacity reused: vk::polygonizeInto).
 mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridSpec& grid,

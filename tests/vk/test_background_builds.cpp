@@ -1,8 +1,9 @@
 // A job that would wait for its slowest kernel instead runs the embedded interpreter and leaves the
 // kernel to build in the background for the jobs after it (Device::buildInBackground,
 // GpuPolygonizeOptions::interpretVertexPassUntilBuilt): the builds run once per key and are
-// waited for, the meshes are the generated kernel's byte for byte, and the cost model asks for
-// it only where one interpreted vertex pass is predicted to cost less than the build.
+// waited for, jobs interpret until the build has finished, the meshes are the generated kernel's
+// byte for byte, and the cost model asks for it only where one interpreted vertex pass is
+// predicted to cost less than the build.
 #include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
@@ -35,11 +36,21 @@ TEST_F(BackgroundBuildTest, RunOncePerKeyAndAreWaitedFor) {
   EXPECT_TRUE(fresh.backgroundBuildStarted("reduce"));
   EXPECT_FALSE(fresh.backgroundBuildStarted("apply"));
   EXPECT_TRUE(fresh.waitForBackgroundBuild("reduce"));
+  EXPECT_TRUE(fresh.backgroundBuildDone("reduce"));
+  EXPECT_FALSE(fresh.backgroundBuildDone("apply"));  // never started
   EXPECT_NE(fresh.findKernel("scan_reduce", spec), nullptr);  // built into the cache
   EXPECT_FALSE(fresh.waitForBackgroundBuild("apply"));
   fresh.waitForBackgroundBuilds();
   EXPECT_EQ(runs.load(), 1);
   EXPECT_EQ(fresh.backgroundBuildsStarted(), 2u);
+  // A held build does not begin until released; waiting for it releases it.
+  fresh.holdBackgroundBuilds(true);
+  fresh.buildInBackground("held", [&] { ++runs; });
+  EXPECT_FALSE(fresh.backgroundBuildDone("held"));
+  EXPECT_EQ(runs.load(), 1);
+  EXPECT_TRUE(fresh.waitForBackgroundBuild("held"));
+  EXPECT_TRUE(fresh.backgroundBuildDone("held"));
+  EXPECT_EQ(runs.load(), 2);
 }
 
 struct Job {
@@ -72,16 +83,23 @@ TEST_F(BackgroundBuildTest, FirstJobInterpretsTheVertexPassAndTheNextRunsTheGene
   EXPECT_EQ(reference.backgroundBuildsStarted(), 0u);
 
   vk::Device fresh(device().host());
-  const Job first = polygonizeOn(fresh, program, grid, true, 2);
+  fresh.holdBackgroundBuilds(true);  // the build cannot finish before the second job
+  const Job first = polygonizeOn(fresh, program, grid, true, 3);
   EXPECT_FALSE(first.stats.vertexGradient);  // interpreted
   EXPECT_EQ(fresh.backgroundBuildsStarted(), 1u);
   expectSameBytes(first.mesh, generated.mesh, "first job, interpreted vertex pass");
-  // No wait here: the second job waits for the build the first started instead of interpreting
-  // again or building it a second time.
-  const Job second = polygonizeOn(fresh, program, grid, true, 2);
-  EXPECT_TRUE(second.stats.vertexGradient);
+  // The build still runs: the second job interprets again, neither waiting for it nor starting
+  // a second one.
+  const Job second = polygonizeOn(fresh, program, grid, true, 3);
+  EXPECT_FALSE(second.stats.vertexGradient);
   EXPECT_EQ(fresh.backgroundBuildsStarted(), 1u);
-  expectSameBytes(second.mesh, generated.mesh, "second job, generated kernel");
+  expectSameBytes(second.mesh, generated.mesh, "second job, the build unfinished");
+  // Once it has finished, the next job runs the generated kernel.
+  fresh.waitForBackgroundBuilds();
+  const Job third = polygonizeOn(fresh, program, grid, true, 3);
+  EXPECT_TRUE(third.stats.vertexGradient);
+  EXPECT_EQ(fresh.backgroundBuildsStarted(), 1u);
+  expectSameBytes(third.mesh, generated.mesh, "third job, generated kernel");
 }
 
 TEST_F(BackgroundBuildTest, OneExpectedRunBuildsNothingInTheBackground) {

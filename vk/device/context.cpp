@@ -280,7 +280,8 @@ void Device::buildInBackground(const std::string& key, std::function<void()> bui
     if (b.first == key) return;
   // At the process's priority: a lower one (nice 10) made the first job faster on a busy machine
   // but starved the build, and the next job waited for it for tens of seconds.
-  backgroundBuilds_.emplace_back(key, std::async(std::launch::async, [build = std::move(build)] {
+  backgroundBuilds_.emplace_back(key, std::async(std::launch::async, [build = std::move(build), gate = buildGate_] {
+    if (gate.valid()) gate.wait();
     inBackgroundBuild = true;
     try {
       build();
@@ -301,7 +302,27 @@ bool Device::backgroundBuildStarted(const std::string& key) const {
   return false;
 }
 
+bool Device::backgroundBuildDone(const std::string& key) const {
+  std::lock_guard lock(kernelMutex_);
+  for (const auto& b : backgroundBuilds_)
+    if (b.first == key) return b.second.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+  return false;
+}
+
+void Device::holdBackgroundBuilds(bool hold) {
+  std::lock_guard lock(kernelMutex_);
+  if (hold && !buildHold_) {
+    buildHold_ = std::make_shared<std::promise<void>>();
+    buildGate_ = buildHold_->get_future().share();
+  } else if (!hold && buildHold_) {
+    buildHold_->set_value();
+    buildHold_.reset();
+    buildGate_ = {};
+  }
+}
+
 bool Device::waitForBackgroundBuild(const std::string& key) {
+  holdBackgroundBuilds(false);
   std::shared_future<void> build;
   {
     std::lock_guard lock(kernelMutex_);
@@ -314,6 +335,7 @@ bool Device::waitForBackgroundBuild(const std::string& key) {
 }
 
 void Device::waitForBackgroundBuilds() {
+  holdBackgroundBuilds(false);
   std::vector<std::shared_future<void>> builds;
   {
     std::lock_guard lock(kernelMutex_);

@@ -179,10 +179,14 @@ class Device {
   // build that throws is dropped, so the job that next needs the kernel builds it and sees the
   // error. Background builds are waited for by waitForBackgroundBuilds() and the destructor.
   void buildInBackground(const std::string& key, std::function<void()> build);
-  // Background builds started so far (tests); whether the one of `key` was; a wait for it
-  // (false: none was started), and for all of them.
+  // Background builds started so far (tests); whether the one of `key` was, and has finished
+  // (without waiting); a wait for it (false: none was started), and for all of them.
   std::size_t backgroundBuildsStarted() const;
   bool backgroundBuildStarted(const std::string& key) const;
+  bool backgroundBuildDone(const std::string& key) const;
+  // Tests: while held, background builds started do not begin (a job can then be seen running
+  // beside an unfinished build); releasing lets them run. Waits for builds release the hold first.
+  void holdBackgroundBuilds(bool hold);
   bool waitForBackgroundBuild(const std::string& key);
   void waitForBackgroundBuilds();
   // Called with each kernel built from now on, on the building thread once it is cached, except
@@ -256,6 +260,8 @@ class Device {
   std::uint64_t evictedKernels_ = 0;
   // Background builds by key, in start order (kernelMutex_ guards the list, not the waits).
   std::vector<std::pair<std::string, std::shared_future<void>>> backgroundBuilds_;
+  std::shared_ptr<std::promise<void>> buildHold_;  // holdBackgroundBuilds; kernelMutex_ guards it
+  std::shared_future<void> buildGate_;
   std::vector<std::string> shadersUsed_;
   std::mutex observerMutex_;
   std::function<void(KernelRecipe)> observer_;
