@@ -143,6 +143,28 @@ TEST_F(MultiDeviceTest, TheCpuAsOneMoreWorkerGivesTheOneDeviceBytes) {
   }
 }
 
+// Where lavapipe and the CPU differ (llvmpipe's pow, sin and cos), which batches the CPU took
+// would show in the bytes: the CPU worker refuses such programs, naming what it found.
+TEST_F(MultiDeviceTest, TheCpuWorkerRefusesProgramsLavapipeDoesNotComputeBitForBit) {
+  if (device().info().type != VK_PHYSICAL_DEVICE_TYPE_CPU) GTEST_SKIP() << "the CPU worker joins lavapipe only";
+  vk::HostBatchWorker host;
+  host.run = [](std::uint32_t, std::uint32_t, std::uint32_t) -> mesh::TriMesh {
+    ADD_FAILURE() << "the CPU worker ran a batch of a program it must refuse";
+    return {};
+  };
+  // twisted_column twists; creature has a bend and a Ricci blend, whichever its code reaches first.
+  for (const auto& [name, found] : {std::pair{"twisted_column", "a twist warp"}, std::pair{"creature", "a "}}) {
+    const ShippedScene sc = shipped(name, 24);
+    try {
+      (void)vk::polygonizeOnDevices(devices(1), sc.program, sc.grid, {}, nullptr, nullptr, &host);
+      ADD_FAILURE() << name << ": no error";
+    } catch (const vk::VulkanError& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("this one has ") + found), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("without the CPU worker"), std::string::npos) << e.what();
+    }
+  }
+}
+
 // The specialised evaluator (generated code, compiled on each device) gives the same bytes too.
 TEST_F(MultiDeviceTest, GeneratedKernelsOnEachDeviceGiveTheSameBytes) {
   const ShippedScene sc = shipped("tower_L6P8I4", 48);

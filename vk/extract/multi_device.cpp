@@ -31,6 +31,21 @@ struct Queue {
   std::exception_ptr error;
 };
 
+// What in `program` the CPU and lavapipe do not compute bit for bit (llvmpipe's pow, sin and
+// cos are not the C library's: docs/vulkan.md, the floating-point table), or empty.
+std::string inexactOnLavapipe(const blobtree::Program& program) {
+  for (const auto& in : program.code) {
+    const std::uint32_t op = in.code.x & 0xffu;
+    if (op == layout::OP_POW) return "a Ricci blend (pow)";
+    if (op == layout::OP_WARP && in.code.y < program.warps.size()) {
+      const std::uint32_t type = program.warps[in.code.y].meta.x;
+      if (type == layout::WARP_TWIST) return "a twist warp (sin, cos)";
+      if (type == layout::WARP_BEND) return "a bend warp (sin, cos)";
+    }
+  }
+  return {};
+}
+
 template <class T>
 void appendAll(std::vector<T>& to, const std::vector<T>& from) {
   appendParallel(to, from.data(), from.size());
@@ -78,6 +93,11 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
       if (d && d->info().type != VK_PHYSICAL_DEVICE_TYPE_CPU)
         throw VulkanError("GPU polygonizer: the CPU worker joins CPU-type devices only (lavapipe), not " +
                           std::string(d->info().name));
+    // Which batches the CPU takes depends on timing, so its pieces must be the devices' bytes.
+    if (const std::string what = inexactOnLavapipe(program); !what.empty())
+      throw VulkanError("GPU polygonizer: the CPU worker's batches equal lavapipe's only for programs without Ricci "
+                        "blends and twist or bend warps, and this one has " + what +
+                        ": the mesh would depend on which worker took which batch (run without the CPU worker)");
   }
   const std::size_t n = devices.size();
   const std::size_t workers = n + (host ? 1 : 0);
