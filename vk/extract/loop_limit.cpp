@@ -79,13 +79,45 @@ std::uint64_t vertexPassLoopIterations(const blobtree::Program& program, const G
                               evaluationLoopBound(program, vertexEvaluator));
 }
 
+// Whether a job with `options` fits `limit`: its vertex pass, and its field pass with bricks of
+// `brickCells` (sparse) or one point per invocation (dense, brickCells 0).
+bool fitsLoopLimit(const blobtree::Program& program, const GpuPolygonizeOptions& options, std::uint32_t brickCells,
+                   std::uint64_t limit) {
+  if (vertexPassLoopIterations(program, options) > limit) return false;
+  const std::uint64_t perEvaluation = evaluationLoopBound(program, options);
+  return (brickCells ? brickFieldLoopIterations(brickCells, perEvaluation) : perEvaluation + 8) <= limit;
+}
+
+// A refusal's advice: only what would run the job within the limit (a program too large to
+// specialise is interpreted whatever --traversal says, and then no brick may fit), always ending
+// with the cpu backend.
+std::string adviceWithin(const blobtree::Program& program, const GpuPolygonizeOptions& options, std::uint32_t brickCells,
+                         std::uint64_t limit) {
+  std::string advice;
+  for (std::uint32_t b = brickCells / 2; b >= 2; b /= 2) {
+    if (fitsLoopLimit(program, options, b, limit)) {
+      advice += "bricks of " + std::to_string(b) + " cells (--brick-cells " + std::to_string(b) + "), ";
+      break;
+    }
+  }
+  if (options.traversal != Traversal::Specialised) {
+    GpuPolygonizeOptions specialised = options;
+    specialised.traversal = Traversal::Specialised;
+    specialised.brickTapes = false;
+    specialised.interpretVertexPassUntilBuilt = false;
+    bool fits = fitsLoopLimit(program, specialised, brickCells, limit);
+    for (std::uint32_t b = brickCells / 2; b >= 2 && !fits; b /= 2) fits = fitsLoopLimit(program, specialised, b, limit);
+    if (fits) advice += "a specialised evaluator (--traversal specialised), ";
+  }
+  return advice + (advice.empty() ? "the cpu backend (--backend cpu)" : "or the cpu backend");
+}
+
 [[noreturn]] void refuse(const blobtree::Program& program, std::uint64_t iterations, const std::string& pass,
-                         std::uint64_t limit, const char* advice = "") {
+                         std::uint64_t limit, const std::string& advice) {
   throw VulkanError("GPU polygonizer: the program's " + std::to_string(program.code.size()) + " instructions take up to " +
                     std::to_string(iterations) + " loop iterations per invocation of the " + pass +
                     ", over this driver's limit of " + std::to_string(limit) +
-                    " (llvmpipe ends longer loops early and silently); use " + advice +
-                    "a specialised evaluator (--traversal specialised) or the cpu backend");
+                    " (llvmpipe ends longer loops early and silently); use " + advice);
 }
 
 }  // namespace
@@ -95,16 +127,16 @@ void checkSparseLoopLimit(const blobtree::Program& program, const GpuPolygonizeO
   const std::uint64_t field = brickFieldLoopIterations(brickCells, evaluationLoopBound(program, options));
   if (field > limit)
     refuse(program, field, "field pass with bricks of " + std::to_string(brickCells) + " cells", limit,
-           "smaller bricks (--brick-cells), ");
+           adviceWithin(program, options, brickCells, limit));
   const std::uint64_t vertex = vertexPassLoopIterations(program, options);
-  if (vertex > limit) refuse(program, vertex, "vertex pass", limit);
+  if (vertex > limit) refuse(program, vertex, "vertex pass", limit, adviceWithin(program, options, brickCells, limit));
 }
 
 void checkDenseLoopLimit(const blobtree::Program& program, const GpuPolygonizeOptions& options, std::uint64_t limit) {
   const std::uint64_t field = evaluationLoopBound(program, options) + 8;  // field_grid.comp: one point
-  if (field > limit) refuse(program, field, "field pass", limit);
+  if (field > limit) refuse(program, field, "field pass", limit, adviceWithin(program, options, 0, limit));
   const std::uint64_t vertex = vertexPassLoopIterations(program, options);
-  if (vertex > limit) refuse(program, vertex, "vertex pass", limit);
+  if (vertex > limit) refuse(program, vertex, "vertex pass", limit, adviceWithin(program, options, 0, limit));
 }
 
 }  // namespace blobvk::vk
