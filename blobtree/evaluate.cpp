@@ -1,6 +1,7 @@
 // Scalar reference evaluator. The GLSL evaluator (shaders/eval_program.glsl) mirrors this file
 // operation for operation; keep them in step.
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/pow_field.h"
 #include "blobvk/blobtree/triangle_closest.h"
 
 #include <glm/geometric.hpp>
@@ -222,7 +223,11 @@ Result<T> run(const Program& program, const V3<T>& p) {
         reg[dst] = reg[dst] * reg[in.y];
         break;
       case layout::OP_POW:
-        reg[dst] = std::pow(std::max(reg[dst], zero), T(std::bit_cast<float>(in.w)));
+        if constexpr (std::is_same_v<T, float>) {
+          reg[dst] = powField(reg[dst], std::bit_cast<float>(in.w));
+        } else {  // the precise oracle: exact arithmetic, no flush
+          reg[dst] = std::pow(std::max(reg[dst], zero), T(std::bit_cast<float>(in.w)));
+        }
         break;
       case layout::OP_WARP:
         pts[dst] = applyWarpT<T>(program, program.warps[in.y], pts[in.z]);

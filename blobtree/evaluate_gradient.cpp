@@ -3,6 +3,7 @@
 #include "blobvk/blobtree/gradient.h"
 
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/pow_field.h"
 #include "blobvk/blobtree/triangle_closest.h"
 
 #include <glm/geometric.hpp>
@@ -255,7 +256,7 @@ FieldGradient run(const Program& program, const vec3& p) {
 
 float powDerivative(float base, float exponent, float& derivative) {
   const float b = std::max(base, 0.0f);
-  const float r = std::pow(b, exponent);
+  const float r = powField(b, exponent);
   // d/db b^e = e b^(e-1) = e r / b (one pow, not two).
   derivative = b > 0.0f ? exponent * r / b : 0.0f;
   return r;

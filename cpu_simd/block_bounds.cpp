@@ -316,8 +316,11 @@ void BlockBounds::operator()(std::size_t n, const double* cx, const double* cy, 
             d = mul(d, FieldInterval{sl[i], sh[i]});
           } else {
             const double e = std::bit_cast<float>(in.w);
-            d = e > 0.0 ? FieldInterval{std::pow(std::max(d.lo, 0.0), e), std::pow(std::max(d.hi, 0.0), e)}
-                        : FieldInterval{0.0, kInf};
+            if (e > 0.0) {
+              blobtree::powFieldBounds(d.lo, d.hi, e);
+            } else {
+              d = FieldInterval{0.0, kInf};
+            }
           }
           dl[i] = d.lo, dh[i] = d.hi;
         }

@@ -3,6 +3,7 @@
 // API; see field_bounds.h for the guarantees.
 #pragma once
 
+#include "blobvk/blobtree/pow_field.h"
 #include "blobvk/blobtree/triangle_closest.h"
 #include "blobvk/cpu_simd/field_bounds.h"
 
@@ -207,7 +208,7 @@ FieldInterval runBounds(const blobtree::Program& program, const Box& box,
       case layout::OP_POW: {
         const double e = std::bit_cast<float>(in.w);
         if (e > 0.0) {
-          d = {std::pow(std::max(d.lo, 0.0), e), std::pow(std::max(d.hi, 0.0), e)};
+          blobtree::powFieldBounds(d.lo, d.hi, e);
         } else {
           d = {0.0, kInf};
         }

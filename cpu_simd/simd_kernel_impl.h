@@ -7,6 +7,7 @@
 // semantics, vsqrt, vabs, comparisons returning V::Mask, select(mask, a, b), any/all, mask & | ~.
 #pragma once
 
+#include "blobvk/blobtree/pow_field.h"
 #include "blobvk/blobtree/program.h"
 
 #include <algorithm>
@@ -248,7 +249,7 @@ template <class V>
 V powV(const V& base, float exponent) {
   alignas(64) float lanes[V::W];
   V::store(lanes, vmax(base, V(0.0f)));
-  for (int l = 0; l < V::W; ++l) lanes[l] = std::pow(lanes[l], exponent);
+  for (int l = 0; l < V::W; ++l) lanes[l] = blobtree::powField(lanes[l], exponent);
   return V::load(lanes);
 }
 

@@ -3,6 +3,7 @@
 // current value starts; a subtree's code is contiguous, so a dropped subtree is a truncation.
 #include "blobvk/cpu_simd/tape_pruning.h"
 
+#include "blobvk/blobtree/pow_field.h"
 #include "blobvk/cpu_simd/field_bounds.h"
 
 #include <algorithm>
@@ -199,7 +200,7 @@ class Pruner {
     Reg& r = reg_[dst];
     if (r.kind == Kind::Const) {
       const float e = std::bit_cast<float>(in.code.w);
-      const float v = op == layout::OP_ONE_MINUS ? 1.0f - r.c : std::pow(std::max(r.c, 0.0f), e);
+      const float v = op == layout::OP_ONE_MINUS ? 1.0f - r.c : blobtree::powField(r.c, e);
       if (isFoldable(v)) {
         r.c = v;
         return;

@@ -75,8 +75,11 @@ vec2 diffInterval(vec2 d, vec2 y) { return vec2(min(d.x, 1.0 - y.y), min(d.y, 1.
 vec2 sdiffInterval(vec2 d, vec2 y) { return mulInterval(d, vec2(1.0 - y.y, 1.0 - y.x)); }
 vec2 oneMinusInterval(vec2 d) { return vec2(1.0 - d.y, 1.0 - d.x); }
 vec2 powInterval(vec2 d, float e) {
-  // pow's precision is the driver's: widen by a relative margin.
-  return e > 0.0 ? vec2(pow(max(d.x, 0.0), e) * (1.0 - 1e-4), pow(max(d.y, 0.0), e) * (1.0 + 1e-4)) : vec2(0.0, INF);
+  if (!(e > 0.0)) return vec2(0.0, INF);
+  // pow's precision is the driver's: widen by a relative margin. Ends below the smallest normal
+  // float are +0, as the evaluators' powField flushes its results (eval_formulas.glsl).
+  float lo = d.x > 0.0 ? pow(d.x, e) * (1.0 - 1e-4) : 0.0, hi = d.y > 0.0 ? pow(d.y, e) * (1.0 + 1e-4) : 0.0;
+  return vec2(lo < 1.17549435e-38 ? 0.0 : lo, hi < 1.17549435e-38 ? 0.0 : hi);
 }
 
 // A skip's box against the query box: missed (the subtree is 0 there) or held whole (no widening).

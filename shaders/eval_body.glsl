@@ -83,11 +83,7 @@ precise float EVAL_NAME(EVAL_PARAMS) {
 #endif
       v = a * b;
     }
-    if (HAS_OP(OP_POW) && op == OP_POW) {
-      // GLSL leaves pow(0, y) undefined; the C++ std::pow gives 0 for y > 0 (Ricci: y > 0).
-      float base = max(a, 0.0);
-      v = base > 0.0 ? pow(base, uintBitsToFloat(in_.w)) : 0.0;
-    }
+    if (HAS_OP(OP_POW) && op == OP_POW) v = powField(a, uintBitsToFloat(in_.w));
     bool live = true;
     if (HAS_OP(OP_SKIP)) {
       live = pc >= resume;

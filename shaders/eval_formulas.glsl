@@ -160,4 +160,13 @@ bool outsideBoxBounds(vec3 lo, vec3 hi, vec3 p) {
   return p.x < lo.x || p.y < lo.y || p.z < lo.z || p.x > hi.x || p.y > hi.y || p.z > hi.z;
 }
 
+// OP_POW (blobtree/pow_field.h): pow(max(base, 0), e) for e > 0, with pow(0, e) = 0 (GLSL leaves it
+// undefined; std::pow gives 0), and a result below the smallest normal float +0 on every device,
+// whether it flushes denormals (llvmpipe does) or not, as the CPU evaluators do. Callers pass e
+// from the code buffer, not as a literal: NIR would rewrite pow(x, 4.0) as x*x*x*x.
+float powField(float base, float e) {
+  float r = base > 0.0 ? pow(base, e) : 0.0;
+  return r < 1.17549435e-38 ? 0.0 : r;
+}
+
 #endif  // BLOBVK_EVAL_FORMULAS_GLSL

@@ -151,8 +151,7 @@ precise float evaluateGradient(vec3 p, uint n, bool wantColour, out vec3 gradien
     if (GRAD_HAS_OP(OP_POW) && op == OP_POW) {
       float base = max(a, 0.0);
       float e = uintBitsToFloat(in_.w);
-      // GLSL leaves pow(0, y) undefined; the C++ std::pow gives 0 for y > 0 (Ricci: y > 0).
-      v = base > 0.0 ? pow(base, e) : 0.0;
+      v = powField(base, e);  // a flushed result has derivative 0 (blobtree::powDerivative)
       precise float derivative = base > 0.0 ? e * v / base : 0.0;
       gv = ga * derivative;
     }

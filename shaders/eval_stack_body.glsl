@@ -59,8 +59,7 @@ precise float EVAL_NAME(EVAL_PARAMS) {
       } else {
         float v = vals[vsp - 1];
         if (op == OP_POW) {
-          float base = max(v, 0.0);
-          v = base > 0.0 ? pow(base, uintBitsToFloat(h.y)) : 0.0;
+          v = powField(v, uintBitsToFloat(h.y));
         } else {
           v = 1.0 - v;
         }

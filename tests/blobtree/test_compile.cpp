@@ -2,6 +2,7 @@
 // registers stay minimal for every tree shape, boxes never change the field, and records stay
 // small.
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/pow_field.h"
 #include "blobvk/blobtree/program.h"
 #include "test_helpers.h"
 #include "tree_walk.h"
@@ -175,6 +176,30 @@ TEST(Operators, CombineChildFields) {
   EXPECT_NEAR(fieldAt(op(OperatorType::Difference, {a, b}), p), std::min(fa, 1 - fb), 1e-6);
   EXPECT_NEAR(fieldAt(op(OperatorType::SmoothDifference, {a, b}), p), fa * (1 - fb), 1e-6);
   EXPECT_NEAR(fieldAt(op(OperatorType::Ricci, {a, b}, 4.0), p), std::pow(std::pow(fa, 4) + std::pow(fb, 4), 0.25), 1e-6);
+}
+
+// OP_POW's float semantics (blobtree/pow_field.h): std::pow on the clamped base, results below the
+// smallest normal float flushed to +0; its double bounds flush alike and overflow to +inf.
+TEST(Operators, PowFlushesResultsBelowTheSmallestNormalFloat) {
+  EXPECT_EQ(blobvk::blobtree::powField(0.9f, 2.0f), std::pow(0.9f, 2.0f));
+  EXPECT_EQ(blobvk::blobtree::powField(-0.5f, 3.0f), 0.0f);
+  EXPECT_GT(std::pow(0.7f, 250.0f), 0.0f);  // a denormal on the CPU, 0 where a device flushes
+  EXPECT_EQ(blobvk::blobtree::powField(0.7f, 250.0f), 0.0f);
+  EXPECT_EQ(blobvk::blobtree::powField(0.5f, 126.0f), std::ldexp(1.0f, -126));  // the smallest normal stays
+  double lo = 0.7, hi = 0.95;
+  blobvk::blobtree::powFieldBounds(lo, hi, 250.0);
+  EXPECT_EQ(lo, 0.0);
+  EXPECT_NEAR(hi, std::pow(0.95, 250.0), 1e-12);
+  lo = 1.2, hi = 2.0;
+  blobvk::blobtree::powFieldBounds(lo, hi, 300.0);  // 1.2^300 is 5e23; 2^300 overflows a float
+  EXPECT_EQ(lo, std::pow(1.2, 300.0));
+  EXPECT_TRUE(std::isinf(hi));
+  // A Ricci blend of fields of 0.7 at power 250: every term flushes, so the blend is 0.
+  const Node a = point({0, 0, 0}), b = point({0.5, 0, 0});
+  const glm::vec3 p{0.25f, 0.3f, 0};
+  ASSERT_GT(blobvk::testing::treeWalkField(a, p), 0.1);
+  ASSERT_LT(blobvk::testing::treeWalkField(a, p), 0.7);
+  EXPECT_EQ(fieldAt(op(OperatorType::Ricci, {a, b}, 250.0), p), 0.0f);
 }
 
 TEST(Warps, MovePointsAsDocumented) {

@@ -88,6 +88,9 @@ inline std::vector<std::pair<std::string, Node>> operatorModels() {
   std::vector<std::pair<std::string, Node>> out;
   out.emplace_back("blend", op(OperatorType::Blend, pair()));
   out.emplace_back("ricci", op(OperatorType::Ricci, pair(), 3.0));
+  // A power whose children's powers fall below the smallest normal float near the surface (0.5^200
+  // is 6e-61): OP_POW flushes them to 0 (blobtree/pow_field.h), and the bounds must hold that.
+  out.emplace_back("ricci_p200", op(OperatorType::Ricci, pair(), 200.0));
   out.emplace_back("union", op(OperatorType::Union, pair()));
   out.emplace_back("intersection", op(OperatorType::Intersection, pair()));
   out.emplace_back("difference", op(OperatorType::Difference, pair()));

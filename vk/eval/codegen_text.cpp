@@ -104,8 +104,7 @@ std::string unaryLine(std::uint32_t op, const std::string& d, std::uint32_t w) {
   if (op == layout::OP_ONE_MINUS) return d + " = 1.0 - " + d + ";";
   float e;
   std::memcpy(&e, &w, 4);
-  // GLSL leaves pow(0, y) undefined; std::pow gives 0 for y > 0 (as in eval_body.glsl).
-  return "{ float base = max(" + d + ", 0.0); " + d + " = base > 0.0 ? pow(base, " + lit(e) + ") : 0.0; }";
+  return d + " = powField(" + d + ", " + lit(e) + ");";  // shaders/eval_formulas.glsl
 }
 
 }  // namespace blobvk::vk::codegen

@@ -231,7 +231,7 @@ class GradientGenerator {
           // The exponent from the instruction, as the field code reads it; pow(0, y) is 0 (y > 0).
           const std::string d = named('r', dst), g = named('g', dst);
           line(depth, "{ float base = max(" + d + ", 0.0); float e = uintBitsToFloat(" + std::string(codeArray_) + "[" +
-                          std::to_string(pc) + "].w); " + d + " = base > 0.0 ? pow(base, e) : 0.0;");
+                          std::to_string(pc) + "].w); " + d + " = powField(base, e);");
           line(depth + 1, "precise float derivative = base > 0.0 ? e * " + d + " / base : 0.0; " + g + " = " + g +
                               " * derivative; }");
           break;

@@ -168,8 +168,8 @@ class Generator {
           // with a literal, NIR rewrites pow(x, 4.0) as x*x*x*x (pow is no arithmetic
           // instruction, so `precise` does not stop it), and the mesh would differ from the
           // interpreter's in the last bits (twisted_column's Ricci blend).
-          line(depth, "{ float base = max(" + d + ", 0.0); " + d + " = base > 0.0 ? pow(base, uintBitsToFloat(" +
-                          std::string(kCodeArray) + "[" + std::to_string(pc) + "].w)) : 0.0; }");
+          line(depth, d + " = powField(" + d + ", uintBitsToFloat(" + std::string(kCodeArray) + "[" + std::to_string(pc) +
+                          "].w));");
           break;
         }
         case layout::OP_WARP: {
