@@ -6,6 +6,7 @@
 #include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/blobtree/scene_json.h"
+#include "blobvk/blobtree/scene_limits.h"
 
 #include <CLI/CLI.hpp>
 
@@ -31,6 +32,23 @@ void save(blobtree::Node root, const std::string& name, const std::string& out) 
 // "-o -" streams the scene; a file must be .json, in a writable folder (checked first).
 void checkOutput(const std::string& out) { checkOutputFile(out, {".json"}, true, "a scene"); }
 
+std::size_t nodeCount(const blobtree::Node& root) {
+  const blobtree::TreeStats s = blobtree::treeStats(root);
+  return s.primitives + s.operators + s.warps;
+}
+
+// A tower's node count from one level's, before building it: a scene over the readers' limit
+// would take minutes and gigabytes to write and then not load.
+void checkTowerSize(int levels, int pillars, double radius, double height, int grid) {
+  const std::size_t level = nodeCount(blobtree::generateTower(1, pillars, radius, height, 1)) - 1;  // less its union
+  const std::size_t tower = std::size_t(levels) * level + 1;
+  const std::size_t nodes = std::size_t(grid) * std::size_t(grid) * tower + (grid > 1 ? 1 : 0);
+  if (nodes > blobtree::limits::kMaxNodes)
+    throw CLI::ValidationError("--levels/--pillars/--grid", "the tower would have " + std::to_string(nodes) +
+                               " nodes, more than the " + std::to_string(blobtree::limits::kMaxNodes) +
+                               " a scene may hold (docs/scene-format.md): fewer levels, pillars or towers");
+}
+
 }  // namespace
 
 void addGenerateCommand(CLI::App& app) {
@@ -52,6 +70,7 @@ void addGenerateCommand(CLI::App& app) {
   t->add_option("-o,--output", tower->out, "Output .json (- for standard output)")->required();
   t->callback([tower] {
     checkOutput(tower->out);
+    checkTowerSize(tower->levels, tower->pillars, tower->radius, tower->height, tower->grid);
     save(blobtree::generateTower(tower->levels, tower->pillars, tower->radius, tower->height,
                                  tower->grid),
          "tower", tower->out);

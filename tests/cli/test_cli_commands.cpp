@@ -61,6 +61,11 @@ TEST_F(CliCommands, GenerateWritesScenesThatLoad) {
     const nlohmann::json info = nlohmann::json::parse(runCliSplit("info g.json --json", cwd).out);
     EXPECT_EQ(info["nodes"]["primitives"].get<std::size_t>(), countJsonPrimitives(scene["root"])) << kind;
   }
+  // A tower over the readers' 4,000,000 nodes is refused before it is built, and no file is left.
+  const CliSplitRun big = runCliSplit("generate tower --levels 1000 --pillars 1000 -o big.json", cwd);
+  EXPECT_EQ(big.status, 2) << big.err;
+  EXPECT_NE(big.err.find("the tower would have 5002001 nodes"), std::string::npos) << big.err;
+  EXPECT_FALSE(fs::exists(cwd / "big.json"));
 }
 
 // convert keeps the model: the legacy file and its JSON mesh to the same bytes.
