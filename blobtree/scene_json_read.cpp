@@ -14,6 +14,9 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace blobvk::blobtree {
 namespace {
@@ -689,13 +692,70 @@ void checkNesting(std::string_view text, const std::string& source) {
   }
 }
 
+// A parser callback that refuses a key repeated within one object: nlohmann keeps the last value
+// and drops the others silently, and a reader that is strict must not guess which one was meant.
+// Tracks the containers being read (their keys, and each array's element count) for the pointer.
+class DuplicateKeyGuard {
+ public:
+  explicit DuplicateKeyGuard(std::string source) : source_(std::move(source)) {}
+
+  bool operator()(int, nlohmann::detail::parse_event_t event, Json& parsed) {
+    using Event = nlohmann::detail::parse_event_t;
+    switch (event) {
+      case Event::object_start:
+      case Event::array_start:
+        if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
+        frames_.push_back({event == Event::object_start, {}, {}, -1});
+        break;
+      case Event::object_end:
+      case Event::array_end:
+        if (!frames_.empty()) frames_.pop_back();
+        break;
+      case Event::key: {
+        Frame& top = frames_.back();
+        top.key = parsed.get<std::string>();
+        if (!top.keys.insert(top.key).second)
+          throw SceneError(source_, pointer(), "key \"" + top.key + "\" appears twice in one object");
+        break;
+      }
+      case Event::value:
+        if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
+        break;
+    }
+    return true;
+  }
+
+ private:
+  struct Frame {
+    bool object = true;
+    std::set<std::string> keys;
+    std::string key;       // an object's current key
+    long long index = -1;  // an array's current element
+  };
+  // The JSON pointer of the current key (RFC 6901: '~' as ~0, '/' as ~1).
+  std::string pointer() const {
+    std::string p;
+    for (const Frame& f : frames_) {
+      p += '/';
+      if (!f.object) {
+        p += std::to_string(f.index);
+        continue;
+      }
+      p += pointerToken(f.key);
+    }
+    return p;
+  }
+  std::string source_;
+  std::vector<Frame> frames_;
+};
+
 }  // namespace
 
 Scene parseSceneJson(std::string_view text, const std::string& sourceName) {
   checkNesting(text, sourceName);
   Json doc;
   try {
-    doc = Json::parse(text.begin(), text.end());
+    doc = Json::parse(text.begin(), text.end(), DuplicateKeyGuard(sourceName));
   } catch (const Json::parse_error& e) {
     // nlohmann says "...parse error at line L, column C: <problem>"; keep L, C and the problem.
     const std::string what = e.what();

@@ -347,6 +347,21 @@ TEST(SceneJson, ErrorsAreOneLineNamingFileAndPointer) {
   EXPECT_EQ(e.file(), "test.json");
 }
 
+// A key given twice in one object is refused (nlohmann would keep the last silently), at its
+// pointer, in objects nested in arrays too; the same key in two objects is fine.
+TEST(SceneJson, AKeyGivenTwiceInOneObjectIsAnError) {
+  SceneError e = parseError(sceneWithRoot(R"({"type": "point", "support": 1, "support": 2})"));
+  EXPECT_EQ(e.location(), "/root/support");
+  EXPECT_NE(e.problem().find("appears twice"), std::string::npos) << e.what();
+  e = parseError(sceneWithRoot(
+      R"({"type": "blend", "children": [{"type": "point"}, {"type": "point", "colour": [1, 0, 0], "colour": [0, 1, 0]}]})"));
+  EXPECT_EQ(e.location(), "/root/children/1/colour");
+  e = parseError(R"({"blobvk": 1, "root": {"type": "point"}, "root": {"type": "point"}})");
+  EXPECT_EQ(e.location(), "/root");
+  EXPECT_NO_THROW(parse(sceneWithRoot(R"({"type": "blend", "children": [{"type": "point", "support": 1},
+                                                                        {"type": "point", "support": 2}]})")));
+}
+
 TEST(SceneJson, UnreadableFilesAreSceneErrors) {
   EXPECT_THROW(readSceneJson("/nonexistent/dir/scene.json"), SceneError);
   EXPECT_THROW(loadScene("/nonexistent/dir/scene.blob"), SceneError);
