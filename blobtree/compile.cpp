@@ -301,8 +301,11 @@ class Compiler {
     out.primitives = child.primitives;
     out.warpDepth = child.warpDepth + 1;
     if (out.warpDepth + 1 > layout::MAX_POINT_REGISTERS) {
-      throw std::invalid_argument("warps nested deeper than " +
-                                  std::to_string(layout::MAX_POINT_REGISTERS - 1));
+      // Each nested warp takes a point register of the evaluators (shaders/program_layout.h).
+      throw std::invalid_argument("warps nested deeper than " + std::to_string(layout::MAX_POINT_REGISTERS - 1) +
+                                  ": a " + toString(warp.type) + " warp" +
+                                  (node.id.empty() ? std::string() : " (id \"" + node.id + "\")") + " holds " +
+                                  std::to_string(out.warpDepth - 1) + " more, one inside the other");
     }
     out.children.push_back(std::move(child));
     return out;

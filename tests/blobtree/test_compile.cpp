@@ -202,6 +202,27 @@ TEST(Operators, PowFlushesResultsBelowTheSmallestNormalFloat) {
   EXPECT_EQ(fieldAt(op(OperatorType::Ricci, {a, b}, 250.0), p), 0.0f);
 }
 
+// Warps nest at most 7 deep (8 point registers); an eighth is refused, naming the outermost
+// warp of the chain by its id.
+TEST(Warps, NestMostSevenDeep) {
+  Warp twist;
+  twist.type = WarpType::Twist;
+  twist.factor = 0.1;
+  Node n = point({0, 0, 0});
+  for (int k = 0; k < 7; ++k) n = blobvk::testing::warp(twist, std::move(n));
+  EXPECT_NO_THROW((void)compile(n));
+  n = blobvk::testing::warp(twist, std::move(n));
+  n.id = "outermost";
+  try {
+    (void)compile(n);
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("warps nested deeper than 7: a twist warp (id \"outermost\") holds 7 more"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Warps, MovePointsAsDocumented) {
   // A point at (1, 0, 1) twisted about z by 90 degrees per unit: the field peak sits where the
   // warp maps onto (1, 0, 1), i.e. rotated by -90 degrees: (0, -1, 1).
