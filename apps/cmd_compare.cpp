@@ -109,8 +109,22 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_flag("--validation", a->validation, "Run the Vulkan side under the validation layer");
   cmd->add_option("--traversal", a->traversal, "Vulkan evaluator: auto (default: the cost model picks per job), specialised, stackless or stack")
       ->check(CLI::IsMember(traversalNames()));
-  cmd->add_option("--max-field-diff", a->maxFieldDiff, "Fail above this max |field difference| (default 1e-4)");
-  cmd->add_option("--max-hausdorff", a->maxHausdorffCells, "Fail above this Hausdorff distance, in cells (default 0.05)");
+  // A NaN threshold would pass every comparison (every test against it is false).
+  const CLI::Validator finiteNonNegative(
+      [](std::string& text) -> std::string {
+        double v = 0;
+        try {
+          v = std::stod(text);
+        } catch (const std::exception&) {
+          return "'" + text + "' is not a number";
+        }
+        return std::isfinite(v) && v >= 0 ? std::string() : "'" + text + "' must be a finite number >= 0";
+      },
+      "NUMBER >= 0");
+  cmd->add_option("--max-field-diff", a->maxFieldDiff, "Fail above this max |field difference| (default 1e-4)")
+      ->check(finiteNonNegative);
+  cmd->add_option("--max-hausdorff", a->maxHausdorffCells, "Fail above this Hausdorff distance, in cells (default 0.05)")
+      ->check(finiteNonNegative);
   cmd->add_flag("--features", a->features, "Compare the meshes after the sharp-feature pass (blobvk mesh --features)");
   cmd->add_flag("--images", a->images, "Also render CPU mesh, GPU mesh and ray-cast and compare pixels");
   cmd->add_option("--image-size", a->imageSettings.width, "Image side in pixels (default 256)")->check(CLI::Range(16, kMaxImageSide));

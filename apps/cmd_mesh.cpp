@@ -132,7 +132,13 @@ void addMeshCommand(CLI::App& app) {
     if (a->settings.cpuWorker && a->settings.tiledVertices)
       throw UsageError("--cpu-worker shares the sparse extraction's batches; --tiled-vertices has none");
     checkDeviceList(a->settings);
-    if (!a->maxMemory.empty()) a->limits.maxMemoryBytes = parseByteSize(a->maxMemory);
+    if (!a->maxMemory.empty()) {
+      try {
+        a->limits.maxMemoryBytes = parseByteSize(a->maxMemory);
+      } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--max-memory: ") + e.what());
+      }
+    }
     const bool gltf = format == "gltf" || format == "glb";
     std::optional<mesh::SimplifyTarget> simplifyTarget;
     if (!a->simplify.empty()) {
@@ -207,6 +213,12 @@ void addMeshCommand(CLI::App& app) {
     a->settings.progress = nullptr;  // it refers to `progress`, which ends here
     progress.reset();
     checkTriangles(mesh.triangleCount(), a->limits);
+    // Written all the same (an empty mesh is a valid answer), but not without a word.
+    if (mesh.triangleCount() == 0 && !quiet())
+      std::fprintf(stderr,
+                   "blobvk: warning: the mesh is empty: no surface crosses the %s grid (a finer --resolution, or "
+                   "grid bounds that hold the model?)\n",
+                   gridText.c_str());
     std::optional<cpu::FeatureReport> featured;
     if (a->features) {
       cpu::FeatureOptions options;

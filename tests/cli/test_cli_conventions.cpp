@@ -42,17 +42,36 @@ TEST(CliConventions, VersionIsTheProjectVersion) {
   EXPECT_EQ(r.out, std::string("blobvk ") + BLOBVK_VERSION + "\n");
 }
 
+// An empty mesh is written (a valid answer) with exit 0, but with a warning that says why it
+// may be empty; -q keeps it quiet.
+TEST(CliConventions, AnEmptyMeshIsWrittenWithAWarning) {
+  const fs::path cwd = dir("empty");
+  CliSplitRun r = runCliSplit("mesh " + tower + " -o e.ply --resolution 2", cwd);
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: the mesh is empty: no surface crosses the 4 x 4 x 4 grid"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(cwd / "e.ply"));
+  r = runCliSplit("mesh " + tower + " -o e.ply --resolution 2 -q", cwd);
+  EXPECT_EQ(r.status, 0);
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+  r = runCliSplit("mesh " + tower + " -o f.ply --resolution 16", cwd);
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+}
+
 TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
   const fs::path cwd = dir("usage");
   for (const std::string& args : std::vector<std::string>{std::string(""), "mesh", "mesh " + tower + " -o x.ply --bogus",
                                  "mesh " + tower + " -o x.ply --resolution abc", "mesh " + tower + " -o x.ply --backend nope",
                                  "generate", "render " + tower + " -o t.jpg", "convert " + tower + " out.blob",
-                                 "mesh " + tower + " -o x.xyz", "bench " + tower + " --traversal sideways"}) {
+                                 "mesh " + tower + " -o x.xyz", "bench " + tower + " --traversal sideways",
+                                 "mesh " + tower + " -o x.ply --max-memory 0",
+                                 "compare " + tower + " --max-field-diff nan"}) {
     const CliSplitRun r = runCliSplit(args, cwd);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
     EXPECT_EQ(lineCount(r.err), 1u) << args << "\n" << r.err;
     EXPECT_NE(r.err.find("usage error"), std::string::npos) << args << "\n" << r.err;
   }
+  // The option is named, not only the value.
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --max-memory 0", cwd).err.find("--max-memory: '0'"), std::string::npos);
   EXPECT_TRUE(fs::is_empty(cwd)) << "a refused command wrote a file";
   EXPECT_EQ(runCliSplit("--help", cwd).status, 0);
   EXPECT_EQ(runCliSplit("mesh --help", cwd).status, 0);
