@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -31,7 +33,10 @@ GridSpec chooseGrid(const Program& program, const GridSettings& scene, const Gri
         "scene");
   }
   const glm::vec3 extent = box.hi - box.lo;
-  const float longest = std::max({extent.x, extent.y, extent.z, 1e-6f});
+  // A model of no extent (a degenerate box) still gets a grid; a small one gets its own size,
+  // not a floor (a floor of 1e-6 left a model of 2e-8 with no cell inside it).
+  float longest = std::max({extent.x, extent.y, extent.z});
+  if (!(longest > 0.0f)) longest = 1e-6f;
 
   float cell = 0.0f;
   if (request.cellSize) cell = *request.cellSize;
@@ -49,6 +54,19 @@ GridSpec chooseGrid(const Program& program, const GridSettings& scene, const Gri
   if (cellsLongest > 65536.0) {
     throw std::invalid_argument("grid of " + std::to_string(std::llround(cellsLongest)) +
                                 " cells along the longest side is too fine (limit 65536)");
+  }
+
+  // Grid points are floats: a cell under about four units in the last place of the coordinates it
+  // spans would put neighbouring points on the same float, and the mesh would be noise.
+  const float reach = std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z), std::abs(box.hi.x),
+                                std::abs(box.hi.y), std::abs(box.hi.z)}) + cell;
+  if (cell < 4.0f * reach * std::numeric_limits<float>::epsilon()) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "cells of %.3g at coordinates up to %.3g are below float precision; scale the model, move it "
+                  "nearer the origin or use coarser cells",
+                  double(cell), double(reach));
+    throw std::invalid_argument(text);
   }
 
   GridSpec grid;

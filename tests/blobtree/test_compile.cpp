@@ -2,6 +2,7 @@
 // registers stay minimal for every tree shape, boxes never change the field, and records stay
 // small.
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/pow_field.h"
 #include "blobvk/blobtree/program.h"
 #include "test_helpers.h"
@@ -204,6 +205,35 @@ TEST(Operators, PowFlushesResultsBelowTheSmallestNormalFloat) {
 
 // Warps nest at most 7 deep (8 point registers); an eighth is refused, naming the outermost
 // warp of the chain by its id.
+// The grid follows the model's own size however small (a floor of 1e-6 once left a model of
+// 2e-8 with no cell inside it), and cells finer than float resolves at the model's coordinates
+// are refused with a line saying so.
+TEST(Grid, SmallModelsGetTheirOwnCellsAndCellsBelowFloatPrecisionAreRefused) {
+  Node tiny = point({0, 0, 0});
+  tiny.transform.scale = {1e-8, 1e-8, 1e-8};
+  const Program small = compile(tiny);
+  const float extent = small.bounds.hi.x - small.bounds.lo.x;
+  ASSERT_GT(extent, 0.0f);
+  ASSERT_LT(extent, 1e-6f);
+  GridRequest request;
+  request.resolution = 16;
+  const GridSpec grid = chooseGrid(small, {}, request);
+  EXPECT_FLOAT_EQ(grid.cellSize, extent / 16.0f);
+  EXPECT_EQ(grid.cells.x, 18);  // 16 and a cell of margin on each side
+
+  Node far = point({0, 0, 0});
+  far.transform.translate = {1e6, 0, 0};
+  request.resolution = 10000;  // cells of 2e-4 at x = 1e6, where a float's step is 0.0625
+  try {
+    (void)chooseGrid(compile(far), {}, request);
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("below float precision"), std::string::npos) << e.what();
+  }
+  request.resolution = 2;  // cells of 1, 16 steps of a float there: fine
+  EXPECT_NO_THROW((void)chooseGrid(compile(far), {}, request));
+}
+
 TEST(Warps, NestMostSevenDeep) {
   Warp twist;
   twist.type = WarpType::Twist;
