@@ -234,14 +234,19 @@ TEST(Grid, SmallModelsGetTheirOwnCellsAndCellsBelowFloatPrecisionAreRefused) {
   EXPECT_NO_THROW((void)chooseGrid(compile(far), {}, request));
 }
 
-TEST(Warps, NestMostSevenDeep) {
+// `inner` inside `levels` twists, one inside the other.
+Node nestedTwists(int levels, double factor, Node inner) {
   Warp twist;
   twist.type = WarpType::Twist;
-  twist.factor = 0.1;
-  Node n = point({0, 0, 0});
-  for (int k = 0; k < 7; ++k) n = blobvk::testing::warp(twist, std::move(n));
+  twist.factor = factor;
+  for (int k = 0; k < levels; ++k) inner = blobvk::testing::warp(twist, std::move(inner));
+  return inner;
+}
+
+TEST(Warps, NestMostSevenDeep) {
+  Node n = nestedTwists(7, 0.1, point({0, 0, 0}));
   EXPECT_NO_THROW((void)compile(n));
-  n = blobvk::testing::warp(twist, std::move(n));
+  n = nestedTwists(1, 0.1, std::move(n));
   n.id = "outermost";
   try {
     (void)compile(n);
@@ -368,16 +373,12 @@ TEST(Registers, ReorderedDifferenceKeepsItsField) {
 }
 
 TEST(Registers, WarpsInsideWarpsUseOnePointRegisterPerLevel) {
-  Warp w;
-  w.type = WarpType::Twist;
-  w.factor = 0.3;
-  Node n = point({0.2, 0, 0});
-  for (int i = 0; i < 5; ++i) n = blobvk::testing::warp(w, std::move(n));
+  Node n = nestedTwists(5, 0.3, point({0.2, 0, 0}));
   const Program p = compile(n);
   EXPECT_EQ(p.pointRegisters, 6u);
   TreeMaker rng(5);
   EXPECT_LE(maxDifference(n, p, rng, 300), 1e-6);
-  for (int i = 0; i < 3; ++i) n = blobvk::testing::warp(w, std::move(n));
+  n = nestedTwists(3, 0.3, std::move(n));  // 8 deep: Warps.NestMostSevenDeep
   EXPECT_THROW(compile(n), std::invalid_argument);
 }
 
