@@ -39,6 +39,15 @@ nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
           {"tape_instructions", gpu.tapeInstructions},
           {"generated_classification", gpu.generatedClassification}, {"classify_tiles", gpu.classifyTiles}};
 }
+
+// An empty mesh is written all the same (a valid answer), but not without a word.
+void warnEmptyMesh(const std::string& gridText) {
+  if (quiet()) return;
+  std::fprintf(stderr,
+               "blobvk: warning: the mesh is empty: no surface crosses the %s grid (a finer --resolution, or grid "
+               "bounds that hold the model?)\n",
+               gridText.c_str());
+}
 }  // namespace
 
 void addMeshCommand(CLI::App& app) {
@@ -168,6 +177,7 @@ void addMeshCommand(CLI::App& app) {
       checkMemory(estimateStreamedBytes(grid, a->settings.mpuSize), a->limits, "streaming a " + gridText + " grid");
       const bool check = !toStdout && !(quiet() && !a->json);
       const StreamedMeshResult r = meshStreamed(model.program, grid, a->settings, a->out, format, a->ascii, check, a->limits);
+      if (!r.worker && r.triangles == 0) warnEmptyMesh(gridText);
       if (r.worker || !check) return;
       if (a->json) {
         nlohmann::json out = versionJson();
@@ -213,12 +223,7 @@ void addMeshCommand(CLI::App& app) {
     a->settings.progress = nullptr;  // it refers to `progress`, which ends here
     progress.reset();
     checkTriangles(mesh.triangleCount(), a->limits);
-    // Written all the same (an empty mesh is a valid answer), but not without a word.
-    if (mesh.triangleCount() == 0 && !quiet())
-      std::fprintf(stderr,
-                   "blobvk: warning: the mesh is empty: no surface crosses the %s grid (a finer --resolution, or "
-                   "grid bounds that hold the model?)\n",
-                   gridText.c_str());
+    if (mesh.triangleCount() == 0) warnEmptyMesh(gridText);
     std::optional<cpu::FeatureReport> featured;
     if (a->features) {
       cpu::FeatureOptions options;

@@ -50,6 +50,9 @@ TEST(CliConventions, AnEmptyMeshIsWrittenWithAWarning) {
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("warning: the mesh is empty: no surface crosses the 4 x 4 x 4 grid"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(cwd / "e.ply"));
+  r = runCliSplit("mesh " + tower + " -o s.ply --resolution 2 --stream", cwd);  // streamed alike
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: the mesh is empty"), std::string::npos) << r.err;
   r = runCliSplit("mesh " + tower + " -o e.ply --resolution 2 -q", cwd);
   EXPECT_EQ(r.status, 0);
   EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
