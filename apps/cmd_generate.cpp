@@ -10,6 +10,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <charconv>
+#include <cstdint>
 #include <cstdio>
 #include <memory>
 
@@ -92,7 +94,17 @@ void addGenerateCommand(CLI::App& app) {
   auto random = std::make_shared<Random>();
   auto* r = cmd->add_subcommand("random", "Blend of N random points (deterministic per seed)");
   r->add_option("--count", random->count, "Number of points")->check(CLI::Range(1, 1000000));
-  r->add_option("--seed", random->seed, "Random seed");
+  // CLI11 would read -1 into the unsigned seed as 2^64 - 1.
+  r->add_option("--seed", random->seed, "Random seed (0 to 2^64 - 1)")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            std::uint64_t v = 0;
+            const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+            return !text.empty() && ec == std::errc() && end == text.data() + text.size()
+                       ? std::string()
+                       : "'" + text + "' is not a whole number from 0 to 2^64 - 1";
+          },
+          "UINT64"));
   r->add_option("-o,--output", random->out, "Output .json (- for standard output)")->required();
   r->callback([random] {
     checkOutput(random->out);

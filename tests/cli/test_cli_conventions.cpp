@@ -67,7 +67,8 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
                                  "generate", "render " + tower + " -o t.jpg", "convert " + tower + " out.blob",
                                  "mesh " + tower + " -o x.xyz", "bench " + tower + " --traversal sideways",
                                  "mesh " + tower + " -o x.ply --max-memory 0",
-                                 "compare " + tower + " --max-field-diff nan"}) {
+                                 "compare " + tower + " --max-field-diff nan", "generate random --seed -1 -o r.json",
+                                 "generate random --seed 99999999999999999999999 -o r.json"}) {
     const CliSplitRun r = runCliSplit(args, cwd);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
     EXPECT_EQ(lineCount(r.err), 1u) << args << "\n" << r.err;
