@@ -164,7 +164,7 @@ void addEditCommand(CLI::App& app) {
     if (png) {
       renderer = std::make_unique<vk::MeshRenderer>(ctx->device(), width, height);
       // One camera for every frame, from the model as loaded, so frames compare.
-      camera = vk::resolveCamera(model.program.bounds, model.scene.camera, {}, float(width) / float(height));
+      camera = vk::resolveCamera(viewBounds(model), model.scene.camera, {}, float(width) / float(height));
     }
 #endif
     const auto write = [&](const mesh::TriMesh& m, int frame) {

@@ -21,6 +21,7 @@
 #endif
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -41,9 +42,9 @@ namespace {
     try {
       std::size_t used = 0;
       out.push_back(std::stof(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
+      if (used != item.size() || !std::isfinite(out.back())) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      throw CLI::ValidationError(what, "'" + text + "' is not a comma-separated list of numbers");
+      throw CLI::ValidationError(what, "'" + text + "' is not a comma-separated list of finite numbers");
     }
   }
   if (out.size() < minCount || out.size() > maxCount) {
@@ -140,7 +141,7 @@ void addRenderCommand(CLI::App& app) {
     }
     request.fovYDeg = a->fov;
     const vk::Camera camera =
-        vk::resolveCamera(model.program.bounds, model.scene.camera, request, float(width) / float(height));
+        vk::resolveCamera(viewBounds(model), model.scene.camera, request, float(width) / float(height));
 
     vk::StandaloneOptions options;
     options.device = a->settings.device;
@@ -180,7 +181,9 @@ void addRenderCommand(CLI::App& app) {
       renderer = std::make_unique<vk::MeshRenderer>(device, width, height, style);
       what += ", " + std::to_string(renderer->samples()) + "x MSAA";
     } else {
-      raycaster = std::make_unique<vk::Raycaster>(device, model.program);
+      vk::RaycastOptions rayOptions;
+      rayOptions.unboundedRegion = viewBounds(model);
+      raycaster = std::make_unique<vk::Raycaster>(device, model.program, rayOptions);
       char buf[96];
       const auto& cells = raycaster->lipschitzCells();
       std::snprintf(buf, sizeof(buf), "ray-cast, Lipschitz bound %.3g (largest of %ux%ux%u cells)",

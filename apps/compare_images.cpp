@@ -37,7 +37,7 @@ bool compareImages(const Model& model, const blobtree::GridSpec& grid, const Ima
   options.validation = settings.validation;
   vk::StandaloneContext ctx(options);
   auto& device = ctx.device();
-  const vk::Camera camera = vk::resolveCamera(model.program.bounds, model.scene.camera, {},
+  const vk::Camera camera = vk::resolveCamera(viewBounds(model), model.scene.camera, {},
                                               float(width) / float(height));
   vk::RenderStyle style;
   style.samples = 1;
@@ -50,6 +50,7 @@ bool compareImages(const Model& model, const blobtree::GridSpec& grid, const Ima
   const vk::Image gpuMesh = renderer.render(gpu.view(), camera);
   vk::RaycastOptions rayOptions;
   rayOptions.background = style.background;
+  rayOptions.unboundedRegion = viewBounds(model);
   vk::RaycastStats rayStats;
   const vk::Image raycast = vk::Raycaster(device, model.program, rayOptions).render(camera, width, height, &rayStats);
 

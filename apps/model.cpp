@@ -18,6 +18,14 @@ Model loadModel(const std::string& path) {
   return model;
 }
 
+blobtree::Aabb viewBounds(const Model& model) {
+  if (model.program.bounds.finite() || !model.scene.grid.boundsLo || !model.scene.grid.boundsHi) return model.program.bounds;
+  blobtree::Aabb box;
+  box.lo = glm::vec3(*model.scene.grid.boundsLo);
+  box.hi = glm::vec3(*model.scene.grid.boundsHi);
+  return box;
+}
+
 blobtree::GridSpec gridFor(const Model& model, std::optional<float> cellSize,
                            std::optional<int> resolution) {
   try {

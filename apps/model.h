@@ -18,6 +18,10 @@ struct Model {
 
 Model loadModel(const std::string& path);
 
+// The box to frame and to ray-march: the model's bounds, or, where those are infinite (an
+// unbounded warp at the root), the scene's grid bounds when it gives them.
+blobtree::Aabb viewBounds(const Model& model);
+
 // The grid for a model from the scene's grid section and the command line.
 blobtree::GridSpec gridFor(const Model& model, std::optional<float> cellSize,
                            std::optional<int> resolution);

@@ -253,6 +253,33 @@ TEST_F(CliCommands, RenderWritesTheImageAskedFor) {
   EXPECT_NE(fileBytes(cwd / "turn_000.png"), fileBytes(cwd / "turn_001.png"));
 }
 
+// A scene whose program is unbounded (a bend at the root) ray-casts within its grid bounds, as
+// it is polygonized: the cast picture matches the mesh's (it once marched [-2, 2]^3 and cut the
+// creature flat, PSNR 18.5 dB); its camera frames those bounds too.
+TEST_F(CliCommands, AnUnboundedSceneRayCastsItsGridBounds) {
+  const fs::path cwd = dir("unbounded");
+  const CliSplitRun r = runCliSplit("compare " + sourcePath("scenes/creature.json") + " --resolution 64 --images --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  const nlohmann::json report = nlohmann::json::parse(r.out);
+  for (const auto& pair : report["images"]["pairs"]) EXPECT_TRUE(pair["pass"].get<bool>()) << pair.dump();
+}
+
+// A camera nothing can be seen from is refused, not rendered blank: non-finite numbers are usage
+// errors; an eye on its target (here an orbit of distance 0) an error naming it.
+TEST_F(CliCommands, RenderRefusesCamerasThatSeeNothing) {
+  const fs::path cwd = dir("camera");
+  for (const std::string c : {"--camera nan,0", "--eye 1,inf,0", "--target 0,0,nan"}) {
+    const CliSplitRun r = runCliSplit("render " + tower + " -o x.png --size 32x32 " + c, cwd);
+    EXPECT_EQ(r.status, 2) << c << r.err;
+  }
+  CliSplitRun r = runCliSplit("render " + tower + " -o x.png --size 32x32 --camera 0,20,0", cwd);
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("eye and target coincide"), std::string::npos) << r.err;
+  r = runCliSplit("render " + tower + " -o x.png --size 32x32 --fov nan", cwd);
+  EXPECT_NE(r.status, 0) << r.err;
+  EXPECT_FALSE(fs::exists(cwd / "x.png"));
+}
+
 // --wireframe is honoured on every backend: the vk mesh is read back for its edges and the
 // picture equals the cpu backend's (same mesh), and differs from the plain one.
 TEST_F(CliCommands, RenderWireframeOnTheVulkanBackend) {

@@ -32,10 +32,14 @@ Raycaster::Raycaster(Device& device, const blobtree::Program& program, const Ray
     : device_(device), options_(options), program_(uploadProgram(device, program, options.traversal)) {
   region_ = program.bounds;
   if (!region_.finite()) {
-    // An unbounded warp at the root: march the unit-ish box around the primitives instead.
-    region_ = blobtree::Aabb{};
-    region_.lo = glm::vec3(-2.0f);
-    region_.hi = glm::vec3(2.0f);
+    // An unbounded warp at the root: march the box the caller gives (the scene's grid bounds),
+    // else the unit-ish box around the primitives.
+    region_ = options.unboundedRegion;
+    if (region_.empty() || !region_.finite()) {
+      region_ = blobtree::Aabb{};
+      region_.lo = glm::vec3(-2.0f);
+      region_.hi = glm::vec3(2.0f);
+    }
   }
   cells_ = lipschitzGrid(program, region_, options.lipschitzCells, options.lipschitzWork);
   lipschitz_ = cells_.largest();

@@ -24,6 +24,9 @@ inline constexpr std::uint32_t kRaycastBudgetMarker = 0xffff00ffu;
 
 struct RaycastOptions {
   std::array<float, 3> background{0.13f, 0.14f, 0.16f};  // display values, as RenderStyle's
+  // The box to march where the program's bounds are infinite (an unbounded warp at the root,
+  // such as a bend): the scene's grid bounds, as the polygonizers use; empty: [-2, 2]^3.
+  blobtree::Aabb unboundedRegion{};
   // The step floor near the surface: min(minStepFraction * bounds diagonal, minRise / L) in a
   // cell of bound L. No crossing where the field rises minRise or more above the iso value is
   // ever stepped over, however thin (it is at least 2 minRise / L long).

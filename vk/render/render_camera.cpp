@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace blobvk::vk {
 namespace {
@@ -59,6 +60,11 @@ Camera resolveCamera(const blobtree::Aabb& rawBounds, const std::optional<blobtr
         scene && scene->distance ? float(*scene->distance) : fit);
     cam.eye = orbitEye(cam.target, az, el, dist);
   }
+  // A camera nothing can be seen from: refused, not rendered as a blank image.
+  const auto finite3 = [](const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+  if (!finite3(cam.eye) || !finite3(cam.target) || !(cam.fovYDeg > 0.0f && cam.fovYDeg < 180.0f))
+    throw std::invalid_argument("the camera is not finite (eye, target or field of view)");
+  if (!(glm::length(cam.target - cam.eye) > 0.0f)) throw std::invalid_argument("the camera's eye and target coincide");
   if (glm::length(glm::cross(cam.target - cam.eye, cam.up)) < 1e-6f * glm::length(cam.target - cam.eye)) {
     cam.up = glm::vec3(0, 0, -1);  // looking straight down or up: pick another up
   }

@@ -33,8 +33,10 @@ struct CameraRequest {
   std::optional<glm::vec3> eye, target;
 };
 
-// Resolves a camera for `bounds` (the Program's bounds; an infinite or empty box is replaced by
-// a unit box). Near and far planes enclose the bounds seen from the eye.
+// Resolves a camera for `bounds` (the Program's bounds, or the scene's grid bounds where those
+// are infinite; an infinite or empty box is replaced by a unit box). Near and far planes enclose
+// the bounds seen from the eye. Throws std::invalid_argument for a camera nothing can be seen
+// from: a non-finite eye, target or field of view, or an eye on its target.
 Camera resolveCamera(const blobtree::Aabb& bounds, const std::optional<blobtree::Camera>& scene,
                      const CameraRequest& request, float aspect);
 
