@@ -7,6 +7,7 @@
 // nodes, FEM and cut milliseconds, the FEM solver's iterations and residual.
 #include "cli_conventions.h"
 #include "commands.h"
+#include "divergence_check.h"
 #include "resolution_limit.h"
 #include "frame_writer.h"
 #include "model.h"
@@ -149,8 +150,10 @@ void addCutCommand(CLI::App& app) {
     };
     writeFrame(0);
     Progress progress("cut+simulate", steps);
+    const DivergenceCheck divergence(soft.simulation(), a->scene);
     for (int s = 1; s <= steps; ++s) {
       run.step();
+      divergence.check(soft.simulation(), s, "reduce timeStep or the tools' stiffness, or raise the materials' E");
       femMsSinceFrame += soft.lastStepFemMs();
       femMsTotal += soft.lastStepFemMs();
       cutMsSinceFrame += soft.lastStepCutMs();

@@ -1,6 +1,7 @@
 // `blobvk simulate SCENE --steps N -o frames/`: the scene as a soft body pressed by its tools;
 // one PLY of the render surface per frame.
 #include "cli_conventions.h"
+#include "divergence_check.h"
 #include "commands.h"
 #include "resolution_limit.h"
 #include "frame_writer.h"
@@ -59,17 +60,14 @@ void addSimulateCommand(CLI::App& app) {
     Progress progress("simulate", steps);
     double totalMs = 0, maxForce = 0;
     frames.write(sim.renderSurface());
+    const DivergenceCheck divergence(sim, a->scene);
     for (int s = 1; s <= steps; ++s) {
       sim.step();
       totalMs += sim.lastStats().totalMs;
       for (const auto& c : sim.toolContacts()) {
         maxForce = std::max(maxForce, std::sqrt(c.force.x * c.force.x + c.force.y * c.force.y + c.force.z * c.force.z));
       }
-      for (const auto& x : sim.positions()) {
-        if (!std::isfinite(x.x) || !std::isfinite(x.y) || !std::isfinite(x.z)) {
-          throw std::runtime_error("the simulation diverged at step " + std::to_string(s) + " (NaN); reduce timeStep or tool stiffness");
-        }
-      }
+      divergence.check(sim, s, "reduce timeStep or the tools' stiffness, or raise the materials' E");
       if (s % every == 0 || s == steps) frames.write(sim.renderSurface());
       char note[64];
       std::snprintf(note, sizeof note, "%.2f ms/step", totalMs / s);

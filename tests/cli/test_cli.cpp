@@ -218,6 +218,25 @@ TEST(Cli, GenerateConvertInfoRoundTrip) {
   EXPECT_EQ(r.status, 0) << r.output;
 }
 
+// A soft body under too long a time step blows up: simulate and cut stop with one line naming the
+// scene and the step, instead of writing frames whose positions are past float range (infinities)
+// and exiting 0.
+TEST(Cli, ADivergingSimulationStopsWithAnError) {
+  std::ifstream in(source("scenes/soft_peanut.json"));
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["simulation"]["materials"][0]["E"] = 1;
+  scene["simulation"]["timeStep"] = 1;
+  const auto path = scratch("diverging.json");
+  std::ofstream(path) << scene.dump();
+  for (const char* command : {"simulate", "cut"}) {
+    const CliRun r = run(std::string(command) + " " + path.string() + " -o " + scratch(std::string("div_") + command).string() +
+                         " --steps 20 --no-png -q");
+    EXPECT_EQ(r.status, 1) << command << r.output;
+    EXPECT_NE(r.output.find("diverging.json: /simulation: the simulation diverged at step"), std::string::npos)
+        << command << r.output;
+  }
+}
+
 TEST(Cli, SimulateAndCutTheSoftPeanut) {
   const auto frames = scratch("sim");
   CliRun r = run("simulate " + source("scenes/soft_peanut.json") + " -o " + frames.string() + " --steps 20");
