@@ -63,7 +63,8 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("scenes", a->scenes, "Scene files")->required();
   cmd->add_option("--resolution", a->resolutions, "Cells along the longest side (several allowed)")
       ->check(resolutionRange());
-  cmd->add_option("--backend", a->backends, "Backends to run: cpu, reference, vk (several allowed)");
+  cmd->add_option("--backend", a->backends, "Backends to run: cpu, reference, vk (several allowed)")
+      ->check(CLI::IsMember(allBackendNames()));
   cmd->add_option("--threads", a->threads, "CPU thread counts (0 = all; several allowed)")
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--repeats", a->repeats, "Timed runs per configuration")->check(CLI::Range(1, 1000));

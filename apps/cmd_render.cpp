@@ -89,7 +89,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--fov", a->fov, "Vertical field of view in degrees")->check(CLI::Range(1.0, 170.0));
   cmd->add_option("--mode", a->mode, "mesh (rasterize the polygonized mesh, default) or raycast")
       ->check(CLI::IsMember({"mesh", "raycast"}));
-  cmd->add_option("--backend", a->settings.backend, "Polygonizer for mesh mode: cpu (default), reference, vk");
+  cmd->add_option("--backend", a->settings.backend, "Polygonizer for mesh mode: cpu (default), reference, vk")
+      ->check(CLI::IsMember(allBackendNames()));
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (mesh mode)")->check(CLI::PositiveNumber);
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side (mesh mode)")
       ->check(resolutionRange())

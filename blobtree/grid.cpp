@@ -52,8 +52,9 @@ GridSpec chooseGrid(const Program& program, const GridSettings& scene, const Gri
   }
   const double cellsLongest = std::ceil(double(longest) / double(cell));
   if (cellsLongest > 65536.0) {
-    throw std::invalid_argument("grid of " + std::to_string(std::llround(cellsLongest)) +
-                                " cells along the longest side is too fine (limit 65536)");
+    char text[120];  // %.0f: a count past 2^63 would overflow an integer conversion
+    std::snprintf(text, sizeof text, "grid of %.0f cells along the longest side is too fine (limit 65536)", cellsLongest);
+    throw std::invalid_argument(text);
   }
 
   // Grid points are floats: a cell under about four units in the last place of the coordinates it
