@@ -251,6 +251,13 @@ TEST_F(CliCommands, RenderWritesTheImageAskedFor) {
   ASSERT_EQ(r.status, 0) << r.err;
   for (const char* f : {"turn_000.png", "turn_001.png", "turn_002.png"}) EXPECT_EQ(decodePng(fileBytes(cwd / f)).width, 32u) << f;
   EXPECT_NE(fileBytes(cwd / "turn_000.png"), fileBytes(cwd / "turn_001.png"));
+  // A frame between the first and last that cannot be written: the error names why, and the
+  // frames written before it are removed.
+  fs::create_directories(cwd / "blocked_001.png");
+  r = runCliSplit("render " + tower + " -o blocked.png --size 32x32 --resolution 16 --turntable 3", cwd);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("cannot open for writing: Is a directory"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(cwd / "blocked_000.png"));
 }
 
 // A scene whose program is unbounded (a bend at the root) ray-casts within its grid bounds, as

@@ -2,9 +2,12 @@
 
 #include <png.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <stdexcept>
+#include <string>
 
 namespace blobvk::vk {
 namespace {
@@ -28,7 +31,7 @@ void writePng(const std::string& path, const Image& image) {
     fail(path, "image is empty or its pixel array has the wrong size");
   }
   File file{std::fopen(path.c_str(), "wb")};
-  if (!file.f) fail(path, "cannot open for writing");
+  if (!file.f) fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!info) {
