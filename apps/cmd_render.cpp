@@ -17,6 +17,7 @@
 #include "blobvk/vk/render/raycast.h"
 #include "blobvk/vk/render/render_gpu_mesh.h"
 #include "blobvk/vk/render/render_mesh.h"
+#include "blobvk/vk/device/error.h"
 #include "blobvk/vk/device/standalone.h"
 #endif
 
@@ -163,6 +164,17 @@ void addRenderCommand(CLI::App& app) {
       vk::RenderStyle style;
       style.wireframe = a->wireframe;
       style.samples = std::uint32_t(a->samples);
+      // The image's attachments first: one too large for the device fails before the polygonizing,
+      // naming the options that size it.
+      try {
+        renderer = std::make_unique<vk::MeshRenderer>(device, width, height, style);
+      } catch (const vk::VulkanError& e) {  // the allocator's advice names the polygonizer's knobs
+        if (e.result() != VK_ERROR_OUT_OF_DEVICE_MEMORY && e.result() != VK_ERROR_OUT_OF_HOST_MEMORY) throw;
+        throw std::runtime_error("a " + std::to_string(width) + "x" + std::to_string(height) + " image at " +
+                                 std::to_string(style.samples) + "x MSAA does not fit this device's memory (" +
+                                 (e.result() == VK_ERROR_OUT_OF_DEVICE_MEMORY ? "out of device memory" : "out of host memory") +
+                                 "); lower --size or --samples, or use --mode raycast");
+      }
       const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
       // The wireframe's edge list is built from the mesh on the host, so with --wireframe the vk
       // backend's mesh is read back (the generic path below) instead of drawn in place.
@@ -180,7 +192,6 @@ void addRenderCommand(CLI::App& app) {
         view = uploaded.view();
         what = "mesh, " + a->settings.backend + " backend, " + std::to_string(mesh.triangleCount()) + " triangles";
       }
-      renderer = std::make_unique<vk::MeshRenderer>(device, width, height, style);
       what += ", " + std::to_string(renderer->samples()) + "x MSAA";
     } else {
       vk::RaycastOptions rayOptions;
