@@ -19,7 +19,6 @@
 #include "blobvk/surgery/vtu_writer.h"
 
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cerrno>
@@ -28,6 +27,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 
 namespace blobvk::app {
@@ -39,14 +39,8 @@ using surgery::BladeKeyframe;
 std::vector<BladeKeyframe> readBladeFile(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open the blade path file: " + systemReason(errno));
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw std::runtime_error(path + ": malformed JSON: " + e.what());
-  }
-  if (!j.is_object() || !j.contains("blade")) throw std::runtime_error(path + ": expected an object with a \"blade\" array");
-  return surgery::parseSimulationConfig(nlohmann::json{{"blade", j["blade"]}}.dump(), path).blade;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return surgery::parseBladePath(text, path);
 }
 
 double norm(const mesh::Double3& v) { return std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z); }

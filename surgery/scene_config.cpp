@@ -158,6 +158,40 @@ blobtree::Program selector(const Json& j, const std::string& ptr, const std::str
 
 }  // namespace
 
+namespace {
+// A blade path at `ptr`: at least two keyframes {t, a, b}, times increasing strictly (the
+// scripted procedure sweeps between consecutive ones).
+std::vector<BladeKeyframe> readBlade(const Reader& r, const Json& b, const std::string& ptr) {
+  if (!b.is_array() || b.size() < 2) r.fail(ptr, "expected an array of at least 2 keyframes {t, a, b}");
+  std::vector<BladeKeyframe> blade;
+  double last = -1e300;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const std::string kp = ptr + "/" + std::to_string(i);
+    r.keys(b[i], kp, {"t", "a", "b"});
+    if (!b[i].contains("t") || !b[i].contains("a") || !b[i].contains("b")) r.fail(kp, "a blade keyframe needs \"t\", \"a\" and \"b\"");
+    BladeKeyframe k{r.number(b[i]["t"], kp + "/t", 0, 1e9), r.vec3(b[i]["a"], kp + "/a"), r.vec3(b[i]["b"], kp + "/b")};
+    if (k.time <= last) r.fail(kp + "/t", "keyframe times must increase strictly");
+    last = k.time;
+    blade.push_back(k);
+  }
+  return blade;
+}
+}  // namespace
+
+std::vector<BladeKeyframe> parseBladePath(const std::string& text, const std::string& file) {
+  Reader r(file);
+  Json j;
+  try {
+    j = Json::parse(text);
+  } catch (const std::exception& e) {
+    r.fail("/", std::string("malformed JSON: ") + e.what());
+  }
+  if (!j.is_object()) r.fail("/", "expected an object with a \"blade\" array");
+  r.keys(j, "", {"blade"});
+  if (!j.contains("blade")) r.fail("/blade", "missing: the blade path, an array of keyframes {t, a, b}");
+  return readBlade(r, j["blade"], "/blade");
+}
+
 SimulationConfig parseSimulationConfig(const std::string& text, const std::string& file) {
   Reader r(file);
   SimulationConfig c;
@@ -245,20 +279,7 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
     if (!t.is_array()) r.fail(p + "/tools", "expected an array of tools");
     for (std::size_t i = 0; i < t.size(); ++i) c.settings.tools.push_back(r.tool(t[i], p + "/tools/" + std::to_string(i)));
   }
-  if (j.contains("blade")) {
-    const Json& b = j["blade"];
-    if (!b.is_array() || b.size() < 2) r.fail(p + "/blade", "expected an array of at least 2 keyframes {t, a, b}");
-    double last = -1e300;
-    for (std::size_t i = 0; i < b.size(); ++i) {
-      const std::string kp = p + "/blade/" + std::to_string(i);
-      r.keys(b[i], kp, {"t", "a", "b"});
-      if (!b[i].contains("t") || !b[i].contains("a") || !b[i].contains("b")) r.fail(kp, "a blade keyframe needs \"t\", \"a\" and \"b\"");
-      BladeKeyframe k{r.number(b[i]["t"], kp + "/t", 0, 1e9), r.vec3(b[i]["a"], kp + "/a"), r.vec3(b[i]["b"], kp + "/b")};
-      if (k.time < last) r.fail(kp + "/t", "keyframe times must not decrease");
-      last = k.time;
-      c.blade.push_back(k);
-    }
-  }
+  if (j.contains("blade")) c.blade = readBlade(r, j["blade"], p + "/blade");
   if (j.contains("lift")) c.lift = r.lift(j["lift"], p + "/lift");
   if (j.contains("steps")) c.steps = r.integer(j["steps"], p + "/steps", 1, 10000000);
   if (j.contains("frameEvery")) c.frameEvery = r.integer(j["frameEvery"], p + "/frameEvery", 1, 1000000);

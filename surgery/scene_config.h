@@ -9,6 +9,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace blobvk::surgery {
 
@@ -58,5 +59,9 @@ struct SimulationConfig {
 
 // `json` is the section's text; `file` names the scene in error messages.
 SimulationConfig parseSimulationConfig(const std::string& json, const std::string& file);
+
+// A blade path file (`blobvk cut --blade`): {"blade": [{"t", "a", "b"}, ...]}, the simulation
+// section's `blade` alone; errors name `file` and the pointer in it.
+std::vector<BladeKeyframe> parseBladePath(const std::string& json, const std::string& file);
 
 }  // namespace blobvk::surgery
