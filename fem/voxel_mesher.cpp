@@ -2,7 +2,9 @@
 
 #include "blobvk/fem/tet_utils.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <tbb/parallel_for.h>
 
@@ -74,6 +76,13 @@ mesh::TetMesh voxelTetrahedralize(const ScalarField& field, const VoxelMesherSet
         keep[std::size_t((k * cy + j) * cx + i)] = in;
       }
   });
+  const std::size_t tets = 6 * std::size_t(std::count(keep.begin(), keep.end(), 1));
+  if (tets > s.maxTets) {
+    char text[160];
+    std::snprintf(text, sizeof text, "voxel mesher: cells of %.3g make %zu tets, more than the limit of %zu; raise cellSize",
+                  s.cellSize, tets, s.maxTets);
+    throw std::invalid_argument(text);
+  }
   return buildFromCells(s.boundsMin, h, cx, cy, cz, keep);
 }
 

@@ -6,6 +6,7 @@
 
 #include "blobvk/mesh/tetmesh.h"
 
+#include <cstddef>
 #include <functional>
 #include <vector>
 
@@ -18,6 +19,9 @@ struct VoxelMesherSettings {
   mesh::Double3 boundsMin, boundsMax;  // region to voxelize
   double cellSize = 0.05;              // edge length of the cubic cells (> 0)
   float iso = 0.5f;
+  // Refused above this many tets (6 per kept cell), before they are built: a simulated tet takes
+  // about 1.7 KB across the FEM, the cutter and the render surface, so 4 M is about 7 GB.
+  std::size_t maxTets = 4'000'000;
 };
 
 // Samples `field` at cell corners and centres; keeps a cell when its centre or any corner is

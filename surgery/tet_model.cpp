@@ -122,11 +122,17 @@ TetModel buildTetModel(const SceneModel& model, const blobtree::GridSpec& grid, 
     voxel.boundsMax = g.boundsHi ? mesh::Double3{g.boundsHi->x, g.boundsHi->y, g.boundsHi->z}
                                  : mesh::Double3{b.hi.x, b.hi.y, b.hi.z};
     voxel.cellSize = config.voxelCellSize > 0 ? config.voxelCellSize : 2.0 * grid.cellSize;
-    tets = fem::voxelTetrahedralize(
-        [&program](double x, double y, double z) {
-          return blobtree::evaluate(program, glm::vec3(float(x), float(y), float(z)));
-        },
-        voxel);
+    try {
+      tets = fem::voxelTetrahedralize(
+          [&program](double x, double y, double z) {
+            return blobtree::evaluate(program, glm::vec3(float(x), float(y), float(z)));
+          },
+          voxel);
+    } catch (const std::invalid_argument& e) {  // the mesher's problem, at the setting that made it
+      const bool fromOption = options.voxelCell.has_value();
+      throw std::runtime_error(model.name + ": " + (fromOption ? "--voxel-cell" : "/simulation/voxel/cellSize") + ": " +
+                               e.what());
+    }
     embedding = fem::embedPoints(tets, body.surface.positions);
   }
   if (tets.tets.empty()) throw std::runtime_error(model.name + ": the tetrahedral mesh is empty (model too thin for the voxel cell size?)");

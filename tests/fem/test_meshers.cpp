@@ -51,6 +51,25 @@ TEST(VoxelMesher, SphereFieldKeepsCellsWithCentreOrCornerInside) {
   EXPECT_NO_THROW(validateTetMesh(m));
 }
 
+// Too many tets for the settings' limit are refused before they are built, with the count: a
+// small cell once ran the process out of memory (std::bad_alloc after 5.5 GB).
+TEST(VoxelMesher, RefusesMoreTetsThanItsLimitBeforeBuildingThem) {
+  VoxelMesherSettings s;
+  s.boundsMin = {0, 0, 0};
+  s.boundsMax = {1, 1, 1};
+  s.cellSize = 0.1;  // 10^3 cells, all inside: 6,000 tets
+  const auto full = [](double, double, double) { return 1.0f; };
+  s.maxTets = 6000;
+  EXPECT_EQ(voxelTetrahedralize(full, s).tets.size(), 6000u);
+  s.maxTets = 5999;
+  try {
+    (void)voxelTetrahedralize(full, s);
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("make 6000 tets, more than the limit of 5999"), std::string::npos) << e.what();
+  }
+}
+
 TEST(VoxelMesher, SampledGridMatchesCallbackOnSameGrid) {
   SampledGrid g;
   g.origin = {0, 0, 0};
