@@ -85,13 +85,15 @@ void addCutCommand(CLI::App& app) {
   cmd->callback([a] {
     prepareOutputFolder(a->out);  // before the (long) tetrahedralization
     const Model model = loadModel(a->scene);
+    // The blade file too: its mistakes are found before the tetrahedralization.
+    const std::vector<BladeKeyframe> bladeFile = a->blade.empty() ? std::vector<BladeKeyframe>{} : readBladeFile(a->blade);
     // The scene's grid (its surface is what TetGen meshes: a thin shell needs the resolution the
     // scene asks for), else 48 cells along the longest side.
     const bool sceneGrid = model.scene.grid.resolution || model.scene.grid.cellSize;
     const blobtree::GridSpec grid = gridFor(model, std::nullopt, a->resolution ? a->resolution : sceneGrid ? std::nullopt : std::optional<int>(48));
     Progress::note("cut", "polygonizing and tetrahedralizing " + a->scene);
     surgery::TetModel body = buildTetModel(surgery::SceneModel{model.path, model.scene, model.program}, grid, {a->threads, a->voxelCell});
-    const std::vector<BladeKeyframe> keys = a->blade.empty() ? body.config.blade : readBladeFile(a->blade);
+    const std::vector<BladeKeyframe> keys = a->blade.empty() ? body.config.blade : bladeFile;
     if (keys.size() < 2) {
       throw std::runtime_error(a->scene + ": /simulation/blade: no blade path (give one in the scene or with --blade)");
     }
