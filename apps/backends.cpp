@@ -93,6 +93,12 @@ std::vector<vk::StandaloneContext*> listedContexts(const std::string& list, bool
   return contexts;
 }
 
+// The contexts the vk backend runs `settings` on: the one device, or those --devices lists.
+std::vector<vk::StandaloneContext*> contextsFor(const PolygonizeSettings& settings) {
+  if (settings.devices.empty()) return {&sharedContext(settings.device, settings.validation)};
+  return listedContexts(settings.devices, settings.validation);
+}
+
 std::uint64_t validationMessages(const std::vector<vk::StandaloneContext*>& contexts) {
   std::uint64_t n = 0;
   for (const vk::StandaloneContext* c : contexts) n += c->validationMessages();
@@ -135,10 +141,7 @@ double waitForBackgroundBuilds([[maybe_unused]] const PolygonizeSettings& settin
   const auto start = std::chrono::steady_clock::now();
 #ifdef BLOBVK_HAVE_VULKAN
   if (settings.backend == "vk") {
-    const std::vector<vk::StandaloneContext*> contexts =
-        settings.devices.empty() ? std::vector<vk::StandaloneContext*>{&sharedContext(settings.device, settings.validation)}
-                                 : listedContexts(settings.devices, settings.validation);
-    for (vk::StandaloneContext* c : contexts) c->device().waitForBackgroundBuilds();
+    for (vk::StandaloneContext* c : contextsFor(settings)) c->device().waitForBackgroundBuilds();
   }
 #endif
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -253,9 +256,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     evaluations = double(grid.pointCount());
 #ifdef BLOBVK_HAVE_VULKAN
   } else if (settings.backend == "vk") {
-    const std::vector<vk::StandaloneContext*> contexts =
-        settings.devices.empty() ? std::vector<vk::StandaloneContext*>{&sharedContext(settings.device, settings.validation)}
-                                 : listedContexts(settings.devices, settings.validation);
+    const std::vector<vk::StandaloneContext*> contexts = contextsFor(settings);
     const std::uint64_t messagesBefore = validationMessages(contexts);
     const vk::GpuPolygonizeOptions options = gpuOptions(settings);
     vk::GpuStats gpu;

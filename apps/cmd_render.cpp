@@ -211,37 +211,31 @@ void addRenderCommand(CLI::App& app) {
     // A failed turntable leaves no frames behind: the up-front check saw the first and last
     // names only, and a frame between them may still fail.
     int written = 0;
-    struct RemoveOnError {
-      const std::string& out;
-      int frames;
-      const int& written;
-      bool done = false;
-      ~RemoveOnError() {
-        if (done || frames < 2) return;
-        std::error_code ignored;
-        for (int f = 0; f < written; ++f) std::filesystem::remove(framePath(out, f, frames), ignored);
+    try {
+      for (int frame = 0; frame < a->turntable; ++frame) {
+        const vk::Camera c = vk::turned(camera, 360.0f * float(frame) / float(a->turntable));
+        vk::Image image;
+        if (renderer) {
+          image = renderer->render(view, c);
+          renderSeconds += renderer->lastSeconds();
+        } else {
+          vk::RaycastStats stats;
+          image = raycaster->render(c, width, height, &stats);
+          renderSeconds += stats.seconds;
+          exhaustedRays += stats.exhaustedRays;
+        }
+        const auto tp = std::chrono::steady_clock::now();
+        // libpng writes through stdio; /dev/stdout streams a single frame to a pipe or a file.
+        vk::writePng(toStdout ? std::string("/dev/stdout") : framePath(a->out, frame, a->turntable), image);
+        ++written;
+        pngSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count();
+        progress.update(frame + 1);
       }
-    } cleanup{a->out, a->turntable, written};
-    for (int frame = 0; frame < a->turntable; ++frame) {
-      const vk::Camera c = vk::turned(camera, 360.0f * float(frame) / float(a->turntable));
-      vk::Image image;
-      if (renderer) {
-        image = renderer->render(view, c);
-        renderSeconds += renderer->lastSeconds();
-      } else {
-        vk::RaycastStats stats;
-        image = raycaster->render(c, width, height, &stats);
-        renderSeconds += stats.seconds;
-        exhaustedRays += stats.exhaustedRays;
-      }
-      const auto tp = std::chrono::steady_clock::now();
-      // libpng writes through stdio; /dev/stdout streams a single frame to a pipe or a file.
-      vk::writePng(toStdout ? std::string("/dev/stdout") : framePath(a->out, frame, a->turntable), image);
-      ++written;
-      pngSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count();
-      progress.update(frame + 1);
+    } catch (...) {
+      std::error_code ignored;
+      for (int f = 0; a->turntable > 1 && f < written; ++f) std::filesystem::remove(framePath(a->out, f, a->turntable), ignored);
+      throw;
     }
-    cleanup.done = true;
     if (exhaustedRays > 0) {
       // Not an error (the image is written), but never silent: those pixels may hide a surface.
       std::fprintf(stderr, "blobvk render: warning: %llu ray(s) ran out of their step budget (or, on lavapipe, "

@@ -18,9 +18,9 @@ DivergenceCheck::DivergenceCheck(const fem::Simulation& sim, std::string scene) 
     for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], c[a]), hi[a] = std::max(hi[a], c[a]);
   }
   cx_ = 0.5 * (lo[0] + hi[0]), cy_ = 0.5 * (lo[1] + hi[1]), cz_ = 0.5 * (lo[2] + hi[2]);
-  const double size = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+  size_ = std::max(std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]), 1e-9);
   // Also below float range, which the frames are written in.
-  limit_ = std::min(1000.0 * std::max(size, 1e-9), 0.5 * double(std::numeric_limits<float>::max()));
+  limit_ = std::min(1000.0 * size_, 0.5 * double(std::numeric_limits<float>::max()));
 }
 
 void DivergenceCheck::check(const fem::Simulation& sim, int step, const std::string& advice) const {
@@ -31,7 +31,7 @@ void DivergenceCheck::check(const fem::Simulation& sim, int step, const std::str
     char where[160];
     if (finite)
       std::snprintf(where, sizeof where, "a node %.3g from the body's rest centre, %.0f times its size", d,
-                    d * 1000.0 / limit_);
+                    d / size_);
     else
       std::snprintf(where, sizeof where, "a node position is not finite");
     throw std::runtime_error(scene_ + ": /simulation: the simulation diverged at step " + std::to_string(step) + " (" + where +

@@ -20,7 +20,7 @@ class DivergenceCheck {
 
  private:
   std::string scene_;
-  double cx_ = 0, cy_ = 0, cz_ = 0, limit_ = 0;
+  double cx_ = 0, cy_ = 0, cz_ = 0, size_ = 0, limit_ = 0;
 };
 
 }  // namespace blobvk::app
