@@ -365,8 +365,8 @@ def main():
       "check a figure on your machine. The sections after it (lavapipe against the CPU by pass,\n"
       "out-of-core and MPI jobs, a discrete GPU, start-up) are measured by hand with the commands they\n"
       "give, and kept by the script.\n"
-      "Times are the **minimum of several repeats** (the machine is shared: the minimum is the\n"
-      "least disturbed run) and every ratio compares two figures of the same run.\n")
+      "Times are the **minimum of several repeats** (the run least disturbed by other work on the\n"
+      "cores) and every ratio compares two figures of the same run.\n")
     w("## Machine\n")
     w(table(["", ""], [
         ["CPU", machine.get("cpu", "?")],
