@@ -73,6 +73,22 @@ bool checkOutputFile(const std::string& path, std::initializer_list<std::string_
   return false;
 }
 
+void checkOutputFolder(const std::string& path) {
+  if (path == "-") throw UsageError("the output is a folder of frames; '-' (standard output) is not one");
+  std::error_code ec;
+  std::filesystem::path p = std::filesystem::absolute(std::filesystem::path(path), ec);
+  if (ec) throw std::runtime_error(printable(path) + ": cannot create the folder: " + ec.message());
+  if (std::filesystem::exists(p, ec)) {
+    if (!std::filesystem::is_directory(p, ec)) throw std::runtime_error(printable(path) + ": cannot create the folder: " + systemReason(EEXIST));
+    if (access(p.c_str(), W_OK | X_OK) != 0) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
+    return;
+  }
+  // The nearest ancestor that exists is where create_directories would start.
+  while (p.has_parent_path() && p.parent_path() != p && !std::filesystem::exists(p, ec)) p = p.parent_path();
+  if (!std::filesystem::is_directory(p, ec)) throw std::runtime_error(printable(path) + ": cannot create the folder: " + systemReason(ENOTDIR));
+  if (access(p.c_str(), W_OK | X_OK) != 0) throw std::runtime_error(printable(path) + ": cannot create the folder: " + systemReason(errno));
+}
+
 void prepareOutputFolder(const std::string& path) {
   if (path == "-") throw UsageError("the output is a folder of frames; '-' (standard output) is not one");
   std::error_code ec;

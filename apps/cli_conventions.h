@@ -44,7 +44,12 @@ std::string systemReason(int err);
 bool checkOutputFile(const std::string& path, std::initializer_list<std::string_view> extensions,
                      bool streamable, const char* what);
 
-// Creates an output folder (and its parents) up front; "PATH: cannot create the folder: <reason>".
+// Checks, creating nothing, that an output folder exists and is writable or could be created
+// (its nearest existing ancestor is a writable folder): the output place is checked before the
+// inputs are read, yet a job whose inputs fail leaves no folder behind.
+// "PATH: cannot create the folder: <reason>" / "PATH: cannot write: <reason>".
+void checkOutputFolder(const std::string& path);
+// Creates an output folder (and its parents); the same errors.
 void prepareOutputFolder(const std::string& path);
 
 // Writes bytes to standard output (binary-safe); throws naming "standard output" on failure.

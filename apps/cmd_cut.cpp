@@ -5,6 +5,7 @@
 // device, + .vtu with --vtu: the tet mesh with regions, parts and displacements) and stats.csv:
 // per frame the time, cut events so far, parts, the lift and every tool's force and contact
 // nodes, FEM and cut milliseconds, the FEM solver's iterations and residual.
+#include "body_size_check.h"
 #include "cli_conventions.h"
 #include "commands.h"
 #include "divergence_check.h"
@@ -80,13 +81,16 @@ void addCutCommand(CLI::App& app) {
       ->check(CLI::Range(0, 100000000));
   cmd->add_flag("--check-each-event", a->checkEachEvent, "Run the O(n) topology self-check after every cut event");
   cmd->add_flag("--vtu", a->vtu, "Also write frame_NNNNN.vtu: the tet mesh with regions, parts and node displacements (ParaView)");
-  cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)");
-  cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, kMaxImageSide));
-  cmd->callback([a] {
-    prepareOutputFolder(a->out);  // before the (long) tetrahedralization
+  auto* imageSize = cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, kMaxImageSide));
+  cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)")->excludes(imageSize);
+  cmd->callback([a, imageSize] {
+    checkOutputFolder(a->out);  // the output place first, as every command does
     const Model model = loadModel(a->scene);
     // The blade file too: its mistakes are found before the tetrahedralization.
     const std::vector<BladeKeyframe> bladeFile = a->blade.empty() ? std::vector<BladeKeyframe>{} : readBladeFile(a->blade);
+    // The renderer and the folder before the (long) tetrahedralization, once the inputs have
+    // loaded (inputs that fail leave nothing behind).
+    FrameWriter frames(a->out, !a->noPng, imageSize->count() > 0, a->imageSize, model.program.bounds, model.scene.camera);
     // The scene's grid (its surface is what TetGen meshes: a thin shell needs the resolution the
     // scene asks for), else 48 cells along the longest side.
     const bool sceneGrid = model.scene.grid.resolution || model.scene.grid.cellSize;
@@ -100,6 +104,7 @@ void addCutCommand(CLI::App& app) {
     if (!quiet()) std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.2f s, tets %.2f s\n", a->scene.c_str(),
                  body.surface.triangleCount(), body.tets.tetCount(), body.tets.nodeCount(), body.config.mesher.c_str(),
                  body.meshSeconds, body.tetSeconds);
+    warnIfCoarseBody(body, a->scene, "--voxel-cell");
     const cutting::QualityStats before = cutting::meshQuality(body.tets);
     surgery::SoftBodyOptions options;
     options.checkEachEvent = a->checkEachEvent;
@@ -115,7 +120,6 @@ void addCutCommand(CLI::App& app) {
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 60);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
     const std::size_t toolCount = body.config.settings.tools.size();
-    FrameWriter frames(a->out, !a->noPng, a->imageSize, model.program.bounds, model.scene.camera);
     const std::string statsPath = (std::filesystem::path(a->out) / "stats.csv").string();
     std::ofstream stats(statsPath);
     if (!stats) throw std::runtime_error(statsPath + ": cannot write");
@@ -156,7 +160,7 @@ void addCutCommand(CLI::App& app) {
       // The FEM's linear solve: mean CG iterations per step and the largest relative residual
       // it stopped at, since the previous frame.
       cgIterationsSinceFrame += soft.simulation().lastStats().cgIterations;
-      cgResidualSinceFrame = std::max(cgResidualSinceFrame, soft.simulation().lastStats().cgRelativeResidual);
+      cgResidualSinceFrame = fem::worseResidual(cgResidualSinceFrame, soft.simulation().lastStats().cgRelativeResidual);
       ++stepsSinceFrame;
       const bool lifted = run.lift() && run.lift()->started();
       for (std::size_t k = 0; k < toolCount; ++k) {

@@ -105,13 +105,14 @@ void addEditCommand(CLI::App& app) {
   cmd->add_option("--size", a->size, "PNG frames: image size WxH (default 512x512)");
   cmd->add_flag("--check", a->check, "Also re-mesh the whole grid after each edit and fail unless the bytes are equal");
   cmd->add_flag("--json", a->json, "Print per-edit timings as JSON");
-  cmd->callback([a] {
+  cmd->callback([a, cmd] {
     const std::string first = framePath(a->out, 0);
     const std::string dot = first.substr(std::min(first.size(), first.rfind('.') == std::string::npos ? first.size() : first.rfind('.')));
     checkOutputFile(first, {".ply", ".obj", ".stl", ".png"}, false, "a mesh or an image");
     std::string format = dot.empty() ? "" : dot.substr(1);
     for (char& c : format) c = char(std::tolower(static_cast<unsigned char>(c)));
     const bool png = format == "png";
+    if (!png && cmd->count("--size")) throw UsageError("--size is the size of PNG frames; these frames are ." + format + " meshes");
     unsigned width = 0, height = 0;
     if (png) {
       char x = 0;

@@ -106,7 +106,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
   (void)eye;
-  cmd->callback([a] {
+  cmd->callback([a, cmd] {
     // The command line is checked first, whatever this build can do: a usage error is one.
     unsigned width = 0, height = 0;
     char x = 0;
@@ -116,6 +116,11 @@ void addRenderCommand(CLI::App& app) {
       throw UsageError("--size: '" + a->size + "' is not WxH with 1 <= W, H <= " + std::to_string(kMaxImageSide));
     }
     if (a->mode != "mesh" && a->wireframe) throw UsageError("--wireframe draws mesh edges: it needs --mode mesh");
+    // The ray-caster meshes nothing and samples each pixel once: mesh mode's options would be
+    // ignored without a word.
+    if (a->mode != "mesh")
+      for (const char* option : {"--samples", "--backend", "--cell-size", "--resolution"})
+        if (cmd->count(option)) throw UsageError(std::string(option) + " is for --mode mesh (the ray-caster polygonizes nothing)");
     // The format and the place are checked before any work: PNG only (PNG streams, so "-" works
     // for a single frame).
     const bool toStdout = checkOutputFile(a->out, {".png"}, a->turntable == 1, "an image (blobvk writes PNG)");

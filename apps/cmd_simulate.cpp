@@ -1,5 +1,6 @@
 // `blobvk simulate SCENE --steps N -o frames/`: the scene as a soft body pressed by its tools;
 // one PLY of the render surface per frame.
+#include "body_size_check.h"
 #include "cli_conventions.h"
 #include "divergence_check.h"
 #include "commands.h"
@@ -39,21 +40,24 @@ void addSimulateCommand(CLI::App& app) {
                          ->check(resolutionRange(4));
   cmd->add_option("--cell-size", a->cellSize, "Polygonization cell size")->check(CLI::PositiveNumber)->excludes(resolution);
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
-  cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)");
-  cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, kMaxImageSide));
-  cmd->callback([a] {
-    prepareOutputFolder(a->out);  // before the (long) tetrahedralization
+  auto* imageSize = cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, kMaxImageSide));
+  cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)")->excludes(imageSize);
+  cmd->callback([a, imageSize] {
+    checkOutputFolder(a->out);  // the output place first, as every command does
     const Model model = loadModel(a->scene);
+    // The renderer and the folder before the (long) tetrahedralization, once the scene has
+    // loaded (a scene that fails leaves nothing behind).
+    FrameWriter frames(a->out, !a->noPng, imageSize->count() > 0, a->imageSize, model.program.bounds, model.scene.camera);
     // The scene's grid when it gives one (TetGen meshes that surface), else 48 cells.
     const bool sceneGrid = model.scene.grid.resolution || model.scene.grid.cellSize;
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution ? a->resolution : sceneGrid ? std::nullopt : std::optional<int>(48));
     Progress::note("simulate", "polygonizing and tetrahedralizing " + a->scene);
     surgery::TetModel body = surgery::buildTetModel(surgery::SceneModel{model.path, model.scene, model.program}, grid, {a->threads, {}});
+    warnIfCoarseBody(body, a->scene, "");
     fem::Simulation sim(std::move(body.tets), body.config.settings);
     if (!body.renderTetBoundary) sim.setRenderSurface(body.surface, std::move(body.embedding));
     const int steps = a->steps ? a->steps : (body.config.steps ? body.config.steps : 100);
     const int every = a->frameEvery ? a->frameEvery : body.config.frameEvery;
-    FrameWriter frames(a->out, !a->noPng, a->imageSize, model.program.bounds, model.scene.camera);
     if (!quiet()) std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.4f s, tets %.2f s\n",
                  a->scene.c_str(), body.surface.triangleCount(), sim.mesh().tetCount(), sim.mesh().nodeCount(),
                  body.config.mesher.c_str(), body.meshSeconds, body.tetSeconds);

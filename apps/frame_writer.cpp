@@ -1,5 +1,7 @@
 #include "frame_writer.h"
 
+#include "cli_conventions.h"
+
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/mesh/io.h"
 
@@ -7,6 +9,8 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <stdexcept>
+#include <string>
 
 #ifdef BLOBVK_HAVE_VULKAN
 #include "blobvk/vk/render/png_io.h"
@@ -31,25 +35,29 @@ struct FrameWriter::Renderer {
 struct FrameWriter::Renderer {};
 #endif
 
-FrameWriter::FrameWriter(std::string folder, bool png, int size, const blobtree::Aabb& bounds,
+FrameWriter::FrameWriter(std::string folder, bool png, bool pngRequired, int size, const blobtree::Aabb& bounds,
                          const std::optional<blobtree::Camera>& camera)
     : folder_(std::move(folder)) {
-  std::filesystem::create_directories(folder_);
 #ifdef BLOBVK_HAVE_VULKAN
   if (png) {
     try {
       renderer_ = std::make_unique<Renderer>(size, bounds, camera);
     } catch (const std::exception& e) {
-      // PNG frames are a bonus; the PLY frames are the product.
+      // PNG frames are a bonus; the PLY frames are the product. A size the user gave is a
+      // request, though: a run that drops it must not look like a success.
+      if (pngRequired) throw std::runtime_error("--image-size " + std::to_string(size) + ": cannot render PNG frames: " + e.what());
       std::fprintf(stderr, "blobvk: warning: no PNG frames: %s\n", e.what());
     }
   }
 #else
-  (void)png;
-  (void)size;
+  if (pngRequired)
+    throw std::runtime_error("--image-size " + std::to_string(size) + ": cannot render PNG frames: this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
+  if (png) std::fprintf(stderr, "blobvk: warning: no PNG frames: this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)\n");
   (void)bounds;
   (void)camera;
 #endif
+  // The folder last: a renderer that cannot be made leaves nothing behind.
+  prepareOutputFolder(folder_);
 }
 
 FrameWriter::~FrameWriter() = default;

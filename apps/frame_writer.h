@@ -21,7 +21,10 @@ mesh::TriMesh colourByRegion(mesh::TriMesh surface, const mesh::TetMesh& tets, c
 
 class FrameWriter {
  public:
-  FrameWriter(std::string folder, bool png, int size, const blobtree::Aabb& bounds,
+  // Makes, when `png`, the renderer, then creates `folder` (prepareOutputFolder). Without a
+  // Vulkan device PNG frames are left out with a warning, unless `pngRequired` (the user asked
+  // for a PNG size): then it throws, and creates nothing.
+  FrameWriter(std::string folder, bool png, bool pngRequired, int size, const blobtree::Aabb& bounds,
               const std::optional<blobtree::Camera>& camera);
   ~FrameWriter();
   void write(const mesh::TriMesh& surface);

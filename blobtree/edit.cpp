@@ -82,19 +82,26 @@ const Node& EditableTree::node(const NodePath& path) const {
 }
 
 std::optional<NodePath> EditableTree::find(std::string_view id) const {
+  std::vector<NodePath> found = findAll(id, 1);
+  if (found.empty()) return std::nullopt;
+  return std::move(found.front());
+}
+
+std::vector<NodePath> EditableTree::findAll(std::string_view id, std::size_t limit) const {
   // Iterative pre-order walk (trees may be thousands of levels deep).
+  std::vector<NodePath> found;
   std::vector<std::pair<const Node*, NodePath>> todo{{&root_, {}}};
-  while (!todo.empty()) {
+  while (!todo.empty() && found.size() < limit) {
     auto [n, path] = std::move(todo.back());
     todo.pop_back();
-    if (n->id == id) return path;
+    if (n->id == id) found.push_back(path);
     for (std::size_t c = n->children.size(); c-- > 0;) {
       NodePath p = path;
       p.push_back(c);
       todo.emplace_back(&n->children[c], std::move(p));
     }
   }
-  return std::nullopt;
+  return found;
 }
 
 Region EditableTree::apply(const Edit& edit) {

@@ -81,6 +81,9 @@ class EditableTree {
   const Node& node(const NodePath& path) const;
   // The first node in pre-order with this id.
   std::optional<NodePath> find(std::string_view id) const;
+  // The first `limit` nodes in pre-order with this id (scenes may repeat an id; an edit that
+  // names a node by id needs it to name one).
+  std::vector<NodePath> findAll(std::string_view id, std::size_t limit) const;
 
  private:
   Node root_;

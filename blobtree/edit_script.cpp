@@ -74,9 +74,12 @@ class Resolver {
   NodePath path(const EditableTree& tree) const {
     if (j_.contains("node")) {
       const std::string id = j_["node"].get<std::string>();
-      const auto found = tree.find(id);
-      if (!found) fail("/node", "no node with id " + detail::quotedText(id));
-      return *found;
+      const std::vector<NodePath> found = tree.findAll(id, 2);
+      if (found.empty()) fail("/node", "no node with id " + detail::quotedText(id));
+      if (found.size() > 1)
+        fail("/node", "the id " + detail::quotedText(id) + " names more than one node (" + toString(found[0]) + " and " +
+                          toString(found[1]) + "): name the node by \"path\"");
+      return found.front();
     }
     NodePath p;
     const Node* n = &tree.root();
@@ -106,6 +109,7 @@ class Resolver {
       if (!target.isOperator()) fail("/add", "children can be added to operators only; the node at " + toString(p) + " is not one");
       AddChild add;
       add.child = parseNode(j_["add"], 0, source_, at_ + "/add");
+      refuseTakenIds(tree, add.child, "/add");
       if (j_.contains("at")) add.at = j_["at"].get<std::size_t>();
       if (add.at != std::size_t(-1) && add.at > target.children.size())
         fail("/at", "the node at " + toString(p) + " has " + std::to_string(target.children.size()) +
@@ -127,13 +131,60 @@ class Resolver {
       if (value.is_null()) j.erase(key);
       else j[key] = value;
     }
-    SetNode change{parseNode(std::move(j), target.isPrimitive() ? 0 : target.isWarp() ? 1 : 2, source_, at_ + "/set")};
-    if (change.node.kind.index() != target.kind.index())
-      fail("/set/type", "the node at " + toString(p) + " cannot change between primitive, operator and warp: remove it and add another");
+    const std::string kindChange =
+        "the node at " + toString(p) + " cannot change between primitive, operator and warp: remove it and add another";
+    SetNode change;
+    const std::size_t ownChildren = target.isPrimitive() ? 0 : target.isWarp() ? 1 : 2;
+    try {
+      change.node = parseNode(j, ownChildren, source_, at_ + "/set");
+    } catch (const SceneError&) {
+      // The placeholder children stand for the node's own. A new type of another kind refuses
+      // them (or misses them), which is the kind change, not a key the script wrote: it is so
+      // when the node parses with another kind's children.
+      bool otherKindParses = false;
+      for (std::size_t children : {0, 1, 2}) {
+        if (children == ownChildren || !set.contains("type") || otherKindParses) continue;
+        try {
+          parseNode(j, children, source_, at_ + "/set");
+          otherKindParses = true;
+        } catch (const SceneError&) {
+        }
+      }
+      if (otherKindParses) fail("/set/type", kindChange);
+      throw;
+    }
+    if (change.node.kind.index() != target.kind.index()) fail("/set/type", kindChange);
+    if (set.contains("id") && !change.node.id.empty() && change.node.id != target.id) {
+      const std::vector<NodePath> taken = tree.findAll(change.node.id, 1);
+      if (!taken.empty())
+        fail("/set/id", "the node at " + toString(taken[0]) + " already has the id " + detail::quotedText(change.node.id) +
+                            ": an id names one node");
+    }
     return {p, std::move(change)};
   }
 
  private:
+  // A new subtree's ids must not repeat one already in the tree (nor each other), or a later
+  // edit naming that id would not know which node it means.
+  void refuseTakenIds(const EditableTree& tree, const Node& subtree, const std::string& key) const {
+    std::vector<std::pair<const Node*, std::string>> todo{{&subtree, key}};
+    std::vector<std::string> seen;
+    while (!todo.empty()) {
+      auto [n, pointer] = todo.back();
+      todo.pop_back();
+      if (!n->id.empty()) {
+        const std::vector<NodePath> taken = tree.findAll(n->id, 1);
+        if (!taken.empty())
+          fail(pointer + "/id", "the node at " + toString(taken[0]) + " already has the id " + detail::quotedText(n->id) +
+                                    ": an id names one node");
+        if (std::find(seen.begin(), seen.end(), n->id) != seen.end())
+          fail(pointer + "/id", "the id " + detail::quotedText(n->id) + " is given twice in this edit: an id names one node");
+        seen.push_back(n->id);
+      }
+      for (std::size_t c = 0; c < n->children.size(); ++c) todo.emplace_back(&n->children[c], pointer + "/children/" + std::to_string(c));
+    }
+  }
+
   std::string source_, at_;
   Json j_;
 };

@@ -125,7 +125,7 @@ void Simulation::Impl::recordSolve(const StepStats& s) {
   ++summary.steps;
   summary.iterations += s.cgIterations;
   summary.maxIterations = std::max(summary.maxIterations, s.cgIterations);
-  summary.maxRelativeResidual = std::max(summary.maxRelativeResidual, s.cgRelativeResidual);
+  summary.maxRelativeResidual = worseResidual(summary.maxRelativeResidual, s.cgRelativeResidual);
   if (s.preconditionerRebuilt) ++summary.preconditionerBuilds;
   if (s.cgConverged) return;
   if (++summary.capHits == 1 && settings.onWarning) {

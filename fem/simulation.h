@@ -11,6 +11,7 @@
 #include "blobvk/mesh/trimesh.h"
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -91,9 +92,13 @@ struct SolverSummary {
   long long steps = 0, iterations = 0;  // iterations: total over the steps
   long long capHits = 0;                // steps that stopped at cgMaxIterations above the tolerance
   int maxIterations = 0;
-  double maxRelativeResidual = 0;
+  double maxRelativeResidual = 0;  // NaN once a step's residual was NaN (a solve that broke down)
   long long preconditionerBuilds = 0;
 };
+
+// The larger residual, where a NaN is the largest: a broken-down solve must show in a maximum
+// (std::max(x, NaN) is x).
+inline double worseResidual(double a, double b) { return std::isnan(a) || std::isnan(b) ? a + b : (a < b ? b : a); }
 
 // What tool k did to the body in the last step.
 struct ToolContactReport {

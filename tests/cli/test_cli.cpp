@@ -321,20 +321,68 @@ TEST(Cli, CutRejectsAMalformedLiftNamingTheKey) {
   EXPECT_NE(r.output.find("/simulation/lift/grip"), std::string::npos) << r.output;
 }
 
-TEST(Cli, NoVulkanDriverGivesAClearError) {
-  // Point the loader at a driver manifest that does not exist: no device at all.
+// blobvk with the loader pointed at a driver manifest that does not exist: no device at all.
+CliRun runWithoutVulkanDriver(const std::string& args) {
   const std::string env = "VK_ICD_FILENAMES=/nonexistent/icd.json VK_DRIVER_FILES=/nonexistent/icd.json ";
-  const std::string command = env + BLOBVK_CLI + " mesh " + source("scenes/tower.json") + " -o " +
-                              scratch("novk.ply").string() + " --backend vk --resolution 16 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  std::string output;
+  FILE* pipe = popen((env + BLOBVK_CLI + " " + args + " 2>&1").c_str(), "r");
+  if (!pipe) return {-1, "popen failed"};
+  CliRun r;
   std::array<char, 4096> buf{};
-  while (std::fgets(buf.data(), int(buf.size()), pipe)) output += buf.data();
+  while (std::fgets(buf.data(), int(buf.size()), pipe)) r.output += buf.data();
   const int raw = pclose(pipe);
-  EXPECT_TRUE(WIFEXITED(raw) && WEXITSTATUS(raw) == 1) << output;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return r;
+}
+
+TEST(Cli, NoVulkanDriverGivesAClearError) {
+  const CliRun r = runWithoutVulkanDriver("mesh " + source("scenes/tower.json") + " -o " + scratch("novk.ply").string() +
+                                          " --backend vk --resolution 16");
+  EXPECT_EQ(r.status, 1) << r.output;
   // A build without the Vulkan backend (the sanitizer build) says so instead.
   const char* reason = BLOBVK_CLI_WITH_VULKAN ? "mesa-vulkan-drivers" : "built without Vulkan";
-  EXPECT_NE(output.find(reason), std::string::npos) << output;
+  EXPECT_NE(r.output.find(reason), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(scratch("novk.ply")));
+}
+
+// PNG frames of simulate and cut are left out with a warning where there is no device, unless
+// the user asked for a PNG size: then the run stops before any work and makes no folder.
+TEST(Cli, SimulateWithoutADeviceDropsPngFramesUnlessASizeWasAskedFor) {
+  const std::string scene = source("scenes/soft_peanut.json");
+  const auto asked = scratch("novk_sized"), plain = scratch("novk_plain");
+  std::filesystem::remove_all(asked);
+  CliRun r = runWithoutVulkanDriver("simulate " + scene + " -o " + asked.string() + " --steps 1 --resolution 12 --image-size 64");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("--image-size 64: cannot render PNG frames"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(asked));
+  r = runWithoutVulkanDriver("simulate " + scene + " -o " + plain.string() + " --steps 1 --resolution 12");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("warning: no PNG frames"), std::string::npos) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(plain / "frame_00001.ply")) << r.output;
+}
+
+// Inputs first: a scene or blade file that fails to load leaves no output folder; a PNG size
+// with --no-png is a usage error; a body of a handful of tets is run, with a warning saying so.
+TEST(Cli, SimulateAndCutMakeNothingUntilTheirInputsLoad) {
+  const auto out = scratch("never_made");
+  std::filesystem::remove_all(out);
+  for (const char* command : {"simulate", "cut"}) {
+    CliRun r = run(std::string(command) + " " + scratch("no_such_scene.json").string() + " -o " + out.string() + " --no-png");
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find("no_such_scene.json: cannot open"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(out)) << command;
+    r = run(std::string(command) + " " + source("scenes/soft_peanut.json") + " -o " + out.string() + " --no-png --image-size 64");
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(out)) << command;
+  }
+  const CliRun blade = run("cut " + source("scenes/soft_peanut.json") + " -o " + out.string() + " --no-png --blade " +
+                           scratch("no_such_blade.json").string());
+  EXPECT_EQ(blade.status, 1) << blade.output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  const CliRun coarse = run("simulate " + source("scenes/soft_peanut.json") + " -o " + out.string() + " --no-png --steps 1 --resolution 4");
+  EXPECT_EQ(coarse.status, 0) << coarse.output;
+  EXPECT_NE(coarse.output.find("warning: " + source("scenes/soft_peanut.json") + ": the soft body has only"), std::string::npos)
+      << coarse.output;
+  const CliRun fine = run("simulate " + source("scenes/soft_peanut.json") + " -o " + out.string() + " --no-png --steps 1 --resolution 16");
+  EXPECT_EQ(fine.status, 0) << fine.output;
+  EXPECT_EQ(fine.output.find("the soft body has only"), std::string::npos) << fine.output;
 }

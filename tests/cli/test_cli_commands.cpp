@@ -302,6 +302,13 @@ TEST_F(CliCommands, RenderWireframeOnTheVulkanBackend) {
   EXPECT_GT(vk.pixelsDifferingFrom(plain, 8), 96u * 96u / 100u);
   EXPECT_LE(vk.pixelsDifferingFrom(cpu, 8), 96u * 96u / 200u);
   EXPECT_EQ(runCliSplit(base + "-o x.png --mode raycast --wireframe", cwd).status, 2);
+  // The ray-caster meshes nothing: mesh mode's options are refused with it, not ignored.
+  for (const std::string option : {"--samples 2", "--backend vk", "--cell-size 0.5"}) {
+    r = runCliSplit("render " + tower + " --size 32x32 -o x.png --mode raycast " + option, cwd);
+    EXPECT_EQ(r.status, 2) << option;
+    EXPECT_NE(r.err.find("is for --mode mesh"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(cwd / "x.png"));
 }
 
 TEST_F(CliCommands, CompareJsonNamesVersionDeviceAndDriver) {

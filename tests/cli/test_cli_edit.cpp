@@ -171,7 +171,9 @@ TEST_F(CliEdit, BadScriptsNameFilePointerAndProblem) {
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"add\": {\"type\": \"blob\"}}]}", "bad.json: /edits/0/add/type: unknown node type"},
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"remove\": 0}]}", "bad.json: /edits/0/remove: the node at [0] has 0 children"},
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"set\": {\"type\": \"point\"}}]}",
-       "bad.json: /edits/0/set/"},
+       "bad.json: /edits/0/set/type: the node at [] cannot change between primitive, operator and warp"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"set\": {\"type\": \"blend\"}}]}",
+       "bad.json: /edits/0/set/type: the node at [0] cannot change between primitive, operator and warp"},
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"move\": 1}]}", "bad.json: /edits/0/move: unknown key"},
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"node\": \"x\", \"remove\": 0}]}", "bad.json: /edits/0: name the node by exactly one"},
   };
@@ -182,6 +184,38 @@ TEST_F(CliEdit, BadScriptsNameFilePointerAndProblem) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(fs::exists(cwd / "out_1.ply")) << script;
   }
+  // Ids name one node: an id the scene repeats is refused as a name, and an edit may not give a
+  // second node an id the tree already has.
+  Json twice = fixedGridScene();
+  twice["root"]["children"][0]["id"] = "a";
+  twice["root"]["children"][1]["id"] = "b";
+  twice["root"]["children"][2]["id"] = "b";
+  writeJson(cwd / "s.json", twice);
+  const std::pair<std::string, std::string> idCases[] = {
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"node\": \"b\", \"set\": {\"support\": 2}}]}",
+       "bad.json: /edits/0/node: the id 'b' names more than one node ([1] and [2]): name the node by \"path\""},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"add\": {\"type\": \"point\", \"id\": \"a\"}}]}",
+       "bad.json: /edits/0/add/id: the node at [0] already has the id 'a'"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"add\": {\"type\": \"blend\", \"children\": [{\"type\": \"point\", \"id\": \"c\"}, "
+       "{\"type\": \"point\", \"id\": \"c\"}]}}]}",
+       "is given twice in this edit"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [3], \"set\": {\"id\": \"a\"}}]}",
+       "bad.json: /edits/0/set/id: the node at [0] already has the id 'a'"},
+  };
+  for (const auto& [script, expected] : idCases) {
+    const CliSplitRun r = run(script);
+    EXPECT_EQ(r.status, 1) << script;
+    EXPECT_NE(r.err.find(expected), std::string::npos) << script << "\n" << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(cwd / "out_1.ply")) << script;
+  }
+  // Setting a node's own id again, and naming a node by an id it alone has, still work.
+  const CliSplitRun same = run("{\"blobvk_edits\": 1, \"edits\": [{\"node\": \"a\", \"set\": {\"id\": \"a\", \"support\": 2}}]}");
+  EXPECT_EQ(same.status, 0) << same.err;
+  // --size is the size of PNG frames: with mesh frames it is refused, not ignored.
+  const CliSplitRun size = runCliSplit("edit s.json bad.json -o out_%d.ply --size 64x64", cwd);
+  EXPECT_EQ(size.status, 2);
+  EXPECT_NE(size.err.find("--size is the size of PNG frames"), std::string::npos) << size.err;
   // The frame pattern is a usage error, found before any work.
   const CliSplitRun pattern = runCliSplit("edit s.json bad.json -o out.ply", cwd);
   EXPECT_EQ(pattern.status, 2);

@@ -191,6 +191,17 @@ TEST(Solver, DefaultsMeetTheToleranceOnAStiffAndSoftBody) {
   }
 }
 
+// A solve that broke down (NaN residual) must show in the summary's maximum, whichever step it
+// came at: std::max(x, NaN) would keep x and report the run as within tolerance.
+TEST(Solver, ANanResidualIsTheLargest) {
+  const double nan = std::nan("");
+  EXPECT_TRUE(std::isnan(worseResidual(1e-4, nan)));
+  EXPECT_TRUE(std::isnan(worseResidual(nan, 1e-4)));
+  EXPECT_TRUE(std::isnan(worseResidual(worseResidual(0, nan), 0.5)));
+  EXPECT_EQ(worseResidual(1e-4, 2e-4), 2e-4);
+  EXPECT_EQ(worseResidual(3e-4, 2e-4), 3e-4);
+}
+
 TEST(Solver, TheCapIsReportedOnceAndCountedEveryTime) {
   SimulationSettings s = pressedSettings(PreconditionerKind::BlockJacobi);
   s.cgMaxIterations = 3;
