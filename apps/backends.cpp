@@ -161,6 +161,7 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {
   options.sparseVertexTiles = settings.vertexTiles;
   options.brickTapes = settings.brickTapes;
   options.phaseNote = settings.phaseNote;
+  options.classifyProgress = settings.classifyProgress;
   if (settings.batchesPerDevice > 0) options.batchesPerDevice = std::uint32_t(settings.batchesPerDevice);
   options.expectedRuns = std::uint32_t(std::max(settings.expectedRuns, 1));
   return options;

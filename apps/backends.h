@@ -63,6 +63,8 @@ struct PolygonizeSettings {
   std::function<void(std::size_t done, std::size_t total)> progress;
   // vk sparse: a line before each long phase (vk::GpuPolygonizeOptions::phaseNote).
   std::function<void(const std::string&)> phaseNote;
+  // vk sparse: after each window of the classification (vk::GpuPolygonizeOptions::classifyProgress).
+  std::function<void(std::size_t done, std::size_t total)> classifyProgress;
   // cpu: mesh with this polygonizer, which keeps its scratch and MPU results for the next call
   // (bench repeats: meshing again as an editor does); null: a fresh one, freed after the call.
   std::shared_ptr<cpu::MpuPolygonizer> cpuPolygonizer;

@@ -217,6 +217,7 @@ void addMeshCommand(CLI::App& app) {
     } else {
       Progress::note("mesh", "polygonizing a " + gridText + " grid on the " + a->settings.backend + " backend");
       a->settings.phaseNote = [](const std::string& text) { Progress::note("mesh", text); };
+      a->settings.classifyProgress = restartingProgress("classify");
     }
     PolygonizeStats stats;
     mesh::TriMesh mesh = polygonize(model.program, grid, a->settings, &stats);

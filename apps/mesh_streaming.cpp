@@ -113,6 +113,7 @@ StreamedMeshResult meshStreamedOnDevice(const blobtree::Program& program, const 
     Progress progress("mesh", 0);
     settings.progress = [&progress](std::size_t done, std::size_t total) { progress.update(long(done), long(total)); };
     settings.phaseNote = [](const std::string& text) { Progress::note("mesh", text); };
+    settings.classifyProgress = restartingProgress("classify");
     PolygonizeStats stats;
     polygonizeStreamed(program, grid, settings, output.tee, &stats);
     result.pointEvaluations = stats.pointEvaluations;

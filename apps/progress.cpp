@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <memory>
 
 namespace blobvk::app {
 
@@ -52,6 +53,15 @@ void Progress::draw(long done, const std::string& note) {
 void Progress::note(const std::string& what, const std::string& text) {
   if (quiet()) return;
   std::fprintf(stderr, "%s: %s\n", what.c_str(), text.c_str());
+}
+
+std::function<void(std::size_t, std::size_t)> restartingProgress(std::string what) {
+  auto current = std::make_shared<std::unique_ptr<Progress>>();
+  return [current, what = std::move(what)](std::size_t done, std::size_t total) {
+    if (!*current || done <= 1) *current = std::make_unique<Progress>(what, long(total));
+    (*current)->update(long(done));
+    if (done >= total) current->reset();  // a finished bar ends its line
+  };
 }
 
 }  // namespace blobvk::app

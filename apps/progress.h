@@ -4,6 +4,8 @@
 #pragma once
 
 #include <chrono>
+#include <cstddef>
+#include <functional>
 #include <mutex>
 #include <string>
 
@@ -33,5 +35,9 @@ class Progress {
   std::chrono::steady_clock::time_point lastDraw_{};
   void draw(long done, const std::string& note);  // mutex_ held
 };
+
+// A (done, total) callback drawing a Progress named `what`, begun afresh whenever `done` starts
+// again from 1 (a phase run again, as the classification is with smaller bricks).
+std::function<void(std::size_t done, std::size_t total)> restartingProgress(std::string what);
 
 }  // namespace blobvk::app

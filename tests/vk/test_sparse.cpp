@@ -267,9 +267,15 @@ TEST_F(VulkanTest, WindowsOfTheBrickTablesGiveTheSameBytes) {
         const std::string what = std::string(name) + ", B=" + std::to_string(brickCells) + ", windows of " + std::to_string(windowLayers) +
                                  " layers, batches of " + std::to_string(batchBricks) + " bricks";
         vk::GpuStats cs;
+        std::vector<std::pair<std::size_t, std::size_t>> progress;
         const vk::ClassifiedBricks tables =
-            vk::classifyAndCompact(device(), sc.program, sc.grid, bricks, cs, nullptr, windowLayers);
+            vk::classifyAndCompact(device(), sc.program, sc.grid, bricks, cs, nullptr, windowLayers, vk::ClassifyChoice{},
+                                   [&](std::size_t done, std::size_t total) { progress.emplace_back(done, total); });
         EXPECT_EQ(tables.windows.size(), (bricks.z + windowLayers - 1) / windowLayers) << what;
+        // Progress: one report per window, in order, where there are several.
+        const std::size_t n = tables.windows.size();
+        ASSERT_EQ(progress.size(), n > 1 ? n : 0u) << what;
+        for (std::size_t k = 0; k < progress.size(); ++k) EXPECT_EQ(progress[k], std::make_pair(k + 1, n)) << what;
         EXPECT_EQ(tables.layerStarts, wholeTables.layerStarts) << what;
         EXPECT_EQ(tables.downloadList(device(), 0, tables.layerStarts.back()),
                   wholeTables.downloadList(device(), 0, wholeTables.layerStarts.back()))

@@ -129,7 +129,8 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   for (Device* d : devices) brickCells = brickCellsForLoopLimit(d->info(), program, options, brickCells);
   // One evaluator for every device: the bytes must not depend on which device ran a batch.
   const ClassifiedBricks classified = classifyToFit(first, program, grid, brickCells, rangeBricks, shares[0],
-                                                    options.windowLayers, {}, options.phaseNote);
+                                                    options.windowLayers, {}, options.phaseNote,
+                                                    options.classifyProgress);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
   s.bricks = std::uint32_t(bg.count());

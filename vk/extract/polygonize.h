@@ -99,6 +99,10 @@ struct GpuPolygonizeOptions {
   // classification, its rerun with smaller bricks, the batches), on the calling thread; empty:
   // none. The CLI prints it as a progress note.
   std::function<void(const std::string&)> phaseNote;
+  // Sparse: (done, total) after each window of brick layers the classification has finished, on
+  // the calling thread, when it takes more than one (the largest grids, where it takes minutes);
+  // a rerun with smaller bricks counts again from 1. Empty: none.
+  std::function<void(std::size_t done, std::size_t total)> classifyProgress;
 };
 
 struct GpuStats {

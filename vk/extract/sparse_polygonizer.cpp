@@ -467,7 +467,8 @@ std::vector<std::uint32_t> ClassifiedBricks::downloadList(Device& device, std::u
 
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                     const BrickGrid& bg, GpuStats& s, const BrickBox* only, std::uint32_t windowLayers,
-                                    const ClassifyChoice& choice) {
+                                    const ClassifyChoice& choice,
+                                    const std::function<void(std::size_t done, std::size_t total)>& progress) {
   ClassifiedBricks c;
   c.bricks = bg;
   // The classification interprets the register code, or runs it generated once that kernel is
@@ -600,6 +601,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
     for (std::uint32_t z = first; z <= scanEnd; ++z) c.layerStarts[z] = activeBase + starts[z - first];
     activeBase = c.layerStarts[end];
     c.windows.push_back(std::move(w));
+    if (progress && planned.size() > 1) progress(k + 1, planned.size());
   }
   s.activeBricks = c.layerStarts[layers];
   s.classifySeconds = since(t0);
@@ -617,7 +619,8 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
                                GpuStats& stats, std::uint32_t windowLayers, const ClassifyChoice& choice,
-                               const std::function<void(const std::string&)>& phaseNote) {
+                               const std::function<void(const std::string&)>& phaseNote,
+                               const std::function<void(std::size_t done, std::size_t total)>& progress) {
   constexpr std::uint32_t kSmallestFallbackCells = 4;
   double classifySeconds = 0.0;
   bool again = false;
@@ -630,7 +633,7 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
                 " cells on the device");
     }
     again = true;
-    ClassifiedBricks c = classifyAndCompact(device, program, grid, bricks, stats, nullptr, windowLayers, choice);
+    ClassifiedBricks c = classifyAndCompact(device, program, grid, bricks, stats, nullptr, windowLayers, choice, progress);
     classifySeconds += stats.classifySeconds;
     stats.classifySeconds = classifySeconds;
     const std::uint64_t range = rangeBricks(c.bricks);
@@ -710,7 +713,7 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
                       " iterations) with a program of " + std::to_string(program.code.size()) + " instructions");
   const ClassifiedBricks classified = classifyToFit(
       device, program, grid, brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s,
-      options.windowLayers, {options.classifyCode, options.expectedRuns}, options.phaseNote);
+      options.windowLayers, {options.classifyCode, options.expectedRuns}, options.phaseNote, options.classifyProgress);
   const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;

@@ -162,7 +162,8 @@ struct ClassifiedBricks {
 };
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                     const BrickGrid& bricks, GpuStats& stats, const BrickBox* only = nullptr,
-                                    std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {});
+                                    std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {},
+                                    const std::function<void(std::size_t done, std::size_t total)>& progress = {});
 
 // classifyAndCompact with bricks of `brickCells`, halved (down to 4) while two adjacent brick
 // layers hold more active bricks than `rangeBricks(bricks)` (what one storage buffer holds, the
@@ -170,11 +171,12 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
 // it (lavapipe's 128 MiB range holds 6,829 bricks of 16³; the tower at 2048³ needs 6,885).
 // Smaller bricks make thinner layers of smaller records. The mesh does not depend on the brick
 // size; the result's `bricks` is the grid used. `phaseNote` (GpuPolygonizeOptions::phaseNote)
-// hears of each classification before it runs.
+// hears of each classification before it runs, `progress` (classifyProgress) of its windows.
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
                                GpuStats& stats, std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {},
-                               const std::function<void(const std::string&)>& phaseNote = {});
+                               const std::function<void(const std::string&)>& phaseNote = {},
+                               const std::function<void(std::size_t done, std::size_t total)>& progress = {});
 
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);
