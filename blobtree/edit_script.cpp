@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <unordered_map>
 
 namespace blobvk::blobtree {
 namespace {
@@ -165,23 +166,30 @@ class Resolver {
 
  private:
   // A new subtree's ids must not repeat one already in the tree (nor each other), or a later
-  // edit naming that id would not know which node it means.
+  // edit naming that id would not know which node it means. One walk of each tree.
   void refuseTakenIds(const EditableTree& tree, const Node& subtree, const std::string& key) const {
+    std::unordered_map<std::string, std::string> added;  // id -> its pointer in the edit
     std::vector<std::pair<const Node*, std::string>> todo{{&subtree, key}};
-    std::vector<std::string> seen;
-    while (!todo.empty()) {
-      auto [n, pointer] = todo.back();
+    while (!todo.empty()) {  // pre-order, children in order
+      auto [n, pointer] = std::move(todo.back());
       todo.pop_back();
-      if (!n->id.empty()) {
-        const std::vector<NodePath> taken = tree.findAll(n->id, 1);
-        if (!taken.empty())
-          fail(pointer + "/id", "the node at " + toString(taken[0]) + " already has the id " + detail::quotedText(n->id) +
-                                    ": an id names one node");
-        if (std::find(seen.begin(), seen.end(), n->id) != seen.end())
-          fail(pointer + "/id", "the id " + detail::quotedText(n->id) + " is given twice in this edit: an id names one node");
-        seen.push_back(n->id);
+      if (!n->id.empty() && !added.emplace(n->id, pointer).second)
+        fail(pointer + "/id", "the id " + detail::quotedText(n->id) + " is given twice in this edit: an id names one node");
+      for (std::size_t c = n->children.size(); c-- > 0;) todo.emplace_back(&n->children[c], pointer + "/children/" + std::to_string(c));
+    }
+    if (added.empty()) return;
+    std::vector<std::pair<const Node*, NodePath>> walk{{&tree.root(), {}}};
+    while (!walk.empty()) {
+      auto [n, path] = std::move(walk.back());
+      walk.pop_back();
+      if (const auto it = added.find(n->id); !n->id.empty() && it != added.end())
+        fail(it->second + "/id", "the node at " + toString(path) + " already has the id " + detail::quotedText(n->id) +
+                                     ": an id names one node");
+      for (std::size_t c = n->children.size(); c-- > 0;) {
+        NodePath q = path;
+        q.push_back(c);
+        walk.emplace_back(&n->children[c], std::move(q));
       }
-      for (std::size_t c = 0; c < n->children.size(); ++c) todo.emplace_back(&n->children[c], pointer + "/children/" + std::to_string(c));
     }
   }
 

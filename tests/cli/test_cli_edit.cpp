@@ -198,7 +198,7 @@ TEST_F(CliEdit, BadScriptsNameFilePointerAndProblem) {
        "bad.json: /edits/0/add/id: the node at [0] already has the id 'a'"},
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"add\": {\"type\": \"blend\", \"children\": [{\"type\": \"point\", \"id\": \"c\"}, "
        "{\"type\": \"point\", \"id\": \"c\"}]}}]}",
-       "is given twice in this edit"},
+       "bad.json: /edits/0/add/children/1/id: the id 'c' is given twice in this edit"},
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [3], \"set\": {\"id\": \"a\"}}]}",
        "bad.json: /edits/0/set/id: the node at [0] already has the id 'a'"},
   };
