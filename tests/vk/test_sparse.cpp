@@ -270,7 +270,7 @@ TEST_F(VulkanTest, WindowsOfTheBrickTablesGiveTheSameBytes) {
         std::vector<std::pair<std::size_t, std::size_t>> progress;
         const vk::ClassifiedBricks tables =
             vk::classifyAndCompact(device(), sc.program, sc.grid, bricks, cs, nullptr, windowLayers, vk::ClassifyChoice{},
-                                   [&](std::size_t done, std::size_t total) { progress.emplace_back(done, total); });
+                                   {[&](std::size_t done, std::size_t total) { progress.emplace_back(done, total); }});
         EXPECT_EQ(tables.windows.size(), (bricks.z + windowLayers - 1) / windowLayers) << what;
         // Progress: one report per window, in order, where there are several.
         const std::size_t n = tables.windows.size();
@@ -434,6 +434,23 @@ TEST_F(VulkanTest, LayerPairsOverOneStorageBufferTakeSmallerBricks) {
                           groupedForTest(fitted.bricks.count()) + " bricks of 8x8x8 cells on the device");
   EXPECT_LE(largestPair(fitted), 1000000u);
   EXPECT_EQ(fitted.layerStarts.back(), stats.activeBricks);
+  // In windows of one layer, the classification of 16³ bricks stops at the window of the first
+  // pair over the range instead of classifying the rest for nothing; the second, of 8³, gives
+  // the same tables.
+  std::size_t firstOver = 0;
+  while (at16.layerStarts[std::min<std::size_t>(firstOver + 2, at16.bricks.z)] - at16.layerStarts[firstOver] <= pair16 - 1) ++firstOver;
+  ASSERT_LT(firstOver + 1, at16.bricks.z) << "the first pair over the range is in the last window: nothing to save";
+  std::vector<std::pair<std::size_t, std::size_t>> reports;
+  const vk::ClassifiedBricks windowed =
+      vk::classifyToFit(device(), sc.program, sc.grid, 16, range, stats, 1, {}, {},
+                        [&reports](std::size_t done, std::size_t total) { reports.emplace_back(done, total); });
+  EXPECT_EQ(windowed.bricks.log2B, 3u);
+  EXPECT_EQ(windowed.layerStarts, fitted.layerStarts);
+  EXPECT_FALSE(windowed.abandoned);
+  ASSERT_GT(reports.size(), firstOver + 1);
+  for (std::size_t k = 0; k <= firstOver; ++k) EXPECT_EQ(reports[k], std::make_pair(k + 1, std::size_t(at16.bricks.z)));
+  EXPECT_EQ(reports[firstOver + 1], std::make_pair(std::size_t(1), std::size_t(windowed.bricks.z)));  // the 8³ pass begins
+  EXPECT_EQ(reports.back(), std::make_pair(std::size_t(windowed.bricks.z), std::size_t(windowed.bricks.z)));
   // Nothing fits: it stops at bricks of 4³.
   const vk::ClassifiedBricks smallest =
       vk::classifyToFit(device(), sc.program, sc.grid, 16, [](const vk::BrickGrid&) { return 1ull; }, stats);

@@ -467,8 +467,7 @@ std::vector<std::uint32_t> ClassifiedBricks::downloadList(Device& device, std::u
 
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                     const BrickGrid& bg, GpuStats& s, const BrickBox* only, std::uint32_t windowLayers,
-                                    const ClassifyChoice& choice,
-                                    const std::function<void(std::size_t done, std::size_t total)>& progress) {
+                                    const ClassifyChoice& choice, const ClassifyWatch& watch) {
   ClassifiedBricks c;
   c.bricks = bg;
   // The classification interprets the register code, or runs it generated once that kernel is
@@ -519,6 +518,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   for (const ClassifyTile& t : tiles) c.scratchBytes += t.code.size();  // freed with the classification
   c.layerStarts.assign(layers + 1, 0);
   std::uint32_t activeBase = 0;
+  std::size_t ran = 0;  // windows classified
   for (std::size_t k = 0; k < planned.size(); ++k) {
     const auto [first, end] = planned[k];
     const std::uint32_t scanEnd = std::min(end + 2, layers);
@@ -601,14 +601,19 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
     for (std::uint32_t z = first; z <= scanEnd; ++z) c.layerStarts[z] = activeBase + starts[z - first];
     activeBase = c.layerStarts[end];
     c.windows.push_back(std::move(w));
-    if (progress && planned.size() > 1) progress(k + 1, planned.size());
+    ++ran;
+    if (watch.progress && planned.size() > 1) watch.progress(k + 1, planned.size());
+    // The window's pairs (from each of its layers; scanEnd reaches two layers past its end).
+    for (std::uint32_t z = first; z < end && !c.abandoned; ++z)
+      c.abandoned = c.layerStarts[std::min(z + 2, layers)] - c.layerStarts[z] > watch.abandonPairsOver;
+    if (c.abandoned) break;
   }
   s.activeBricks = c.layerStarts[layers];
   s.classifySeconds = since(t0);
   if (timer.enabled()) {
     s.deviceTimed = true;
     s.classifySeconds = 0.0;
-    for (std::uint32_t k = 0; k < planned.size(); ++k) {
+    for (std::uint32_t k = 0; k < ran; ++k) {
       s.classifySeconds += timer.seconds(4 * k, 4 * k + 1);
       if (countFirst) s.classifySeconds += timer.seconds(4 * k + 2, 4 * k + 3);
     }
@@ -633,22 +638,22 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
                 " cells on the device");
     }
     again = true;
-    ClassifiedBricks c = classifyAndCompact(device, program, grid, bricks, stats, nullptr, windowLayers, choice, progress);
+    // Eight times the bricks (their tables in windows of layers where they outgrow one buffer)
+    // where a pair does not fit: the smaller grid must still be valid. Without one, the pairs
+    // over the range are the batch planner's to name (planSparseBatches).
+    bool canHalve = brickCells > kSmallestFallbackCells;
+    if (canHalve) {
+      try {
+        brickGridFor(grid, brickCells / 2);
+      } catch (const VulkanError&) {
+        canHalve = false;
+      }
+    }
+    ClassifyWatch watch{progress, canHalve ? rangeBricks(bricks) : ~0ull};
+    ClassifiedBricks c = classifyAndCompact(device, program, grid, bricks, stats, nullptr, windowLayers, choice, watch);
     classifySeconds += stats.classifySeconds;
     stats.classifySeconds = classifySeconds;
-    const std::uint64_t range = rangeBricks(c.bricks);
-    const std::size_t layers = c.layerStarts.size() - 1;
-    bool fits = true;
-    for (std::size_t z = 0; z < layers && fits; ++z)
-      fits = c.layerStarts[std::min(z + 2, layers)] - c.layerStarts[z] <= range;
-    if (fits || brickCells <= kSmallestFallbackCells) return c;  // planSparseBatches names what does not fit
-    // Eight times the bricks (their tables in windows of layers where they outgrow one buffer):
-    // the smaller grid must still be valid.
-    try {
-      brickGridFor(grid, brickCells / 2);
-    } catch (const VulkanError&) {
-      return c;
-    }
+    if (!c.abandoned) return c;
     brickCells /= 2;
   }
 }

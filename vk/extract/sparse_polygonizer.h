@@ -153,6 +153,9 @@ struct ClassifiedBricks {
   std::vector<std::uint32_t> layerStarts;
   std::uint64_t bytes = 0;         // device memory of the tables above, held through the batches
   std::uint64_t scratchBytes = 0;  // the flags, their scan and the parent levels, freed before the batches
+  // True when the classification stopped at the first window with two adjacent layers over
+  // ClassifyWatch::abandonPairsOver: the tables are incomplete, for classifyToFit to run again.
+  bool abandoned = false;
   // The most device memory held at once: the classification's, or its tables with `batchBytes`.
   std::uint64_t peakBytes(std::uint64_t batchBytes) const;
   // Where batches must end: each window's end layer but the last.
@@ -160,18 +163,29 @@ struct ClassifiedBricks {
   // Active bricks [first, first + count) read back from the windows' lists, packed.
   std::vector<std::uint32_t> downloadList(Device& device, std::uint32_t first, std::uint32_t count) const;
 };
+// What the caller hears of a classification as it runs, and when it may stop.
+struct ClassifyWatch {
+  // (done, total) after each window of brick layers, when there are several.
+  std::function<void(std::size_t done, std::size_t total)> progress;
+  // Stop at the first window whose tables show two adjacent layers holding more active bricks
+  // than this (ClassifiedBricks::abandoned): the rest would be classified for nothing when the
+  // caller then runs it again with smaller bricks.
+  std::uint64_t abandonPairsOver = ~0ull;
+};
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                     const BrickGrid& bricks, GpuStats& stats, const BrickBox* only = nullptr,
                                     std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {},
-                                    const std::function<void(std::size_t done, std::size_t total)>& progress = {});
+                                    const ClassifyWatch& watch = {});
 
 // classifyAndCompact with bricks of `brickCells`, halved (down to 4) while two adjacent brick
 // layers hold more active bricks than `rangeBricks(bricks)` (what one storage buffer holds, the
 // least over the job's devices): a batch loads a layer pair, and a large grid's pair can exceed
 // it (lavapipe's 128 MiB range holds 6,829 bricks of 16³; the tower at 2048³ needs 6,885).
 // Smaller bricks make thinner layers of smaller records. The mesh does not depend on the brick
-// size; the result's `bricks` is the grid used. `phaseNote` (GpuPolygonizeOptions::phaseNote)
-// hears of each classification before it runs, `progress` (classifyProgress) of its windows.
+// size; the result's `bricks` is the grid used. A classification that can still halve its
+// bricks stops at the first layer pair over the range (ClassifyWatch::abandonPairsOver).
+// `phaseNote` (GpuPolygonizeOptions::phaseNote) hears of each classification before it runs,
+// `progress` (classifyProgress) of its windows.
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
                                GpuStats& stats, std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {},
