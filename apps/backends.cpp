@@ -1,6 +1,9 @@
 #include "backends.h"
+
+#include "cli_conventions.h"
 #include "json_report.h"
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
@@ -15,6 +18,7 @@
 #include "blobvk/vk/device/standalone.h"
 #endif
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <memory>
@@ -303,6 +307,26 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     stats->pointEvaluations = evaluations;
   }
   return mesh;
+}
+
+void refuseOptionsNoBackendUses(const CLI::App& command, const std::vector<std::string>& backends) {
+  const auto uses = [&backends](const char* backend) {
+    return std::find(backends.begin(), backends.end(), backend) != backends.end();
+  };
+  const auto refuse = [&command](std::initializer_list<const char*> options, const char* forWhom) {
+    for (const char* option : options) {
+      // bench's options are lists: count() is how often one was given.
+      const CLI::Option* o = command.get_option_no_throw(option);
+      if (o && o->count() > 0) throw UsageError(std::string(option) + " is for " + forWhom);
+    }
+  };
+  if (!uses("vk"))
+    refuse({"--device", "--devices", "--cpu-worker", "--validation", "--traversal", "--brick-cells", "--field-tiles",
+            "--tiled-vertices", "--vertex-tiles", "--brick-tapes", "--dense", "--batches-per-device"},
+           "the vk backend");
+  if (!uses("cpu") && !(uses("vk") && command.get_option_no_throw("--cpu-worker") &&
+                        command.get_option_no_throw("--cpu-worker")->count() > 0))
+    refuse({"--mpu", "--sub-block"}, "the cpu backend");
 }
 
 }  // namespace blobvk::app

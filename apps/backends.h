@@ -27,6 +27,10 @@ namespace blobvk::cpu {
 class MpuPolygonizer;  // cpu_simd/mpu_polygonizer.h
 }
 
+namespace CLI {
+class App;
+}
+
 namespace blobvk::app {
 
 struct PolygonizeSettings {
@@ -138,5 +142,10 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
 // builds without Vulkan.
 void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSpec& grid,
                         const PolygonizeSettings& settings, mesh::MeshSink& sink, PolygonizeStats* stats = nullptr);
+
+// Options of one backend given when no selected backend uses them would do nothing: a
+// UsageError naming the first ("--traversal is for the vk backend"). `backends` are the job's
+// (bench may run several); options never given on `command` are not looked at.
+void refuseOptionsNoBackendUses(const CLI::App& command, const std::vector<std::string>& backends);
 
 }  // namespace blobvk::app

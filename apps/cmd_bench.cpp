@@ -2,6 +2,7 @@
 // whole-scene polygonization timings, a table for people and JSON for machines.
 #include "backends.h"
 #include "commands.h"
+#include "json_report.h"
 #include "progress.h"
 #include "resolution_limit.h"
 #include "model.h"
@@ -37,6 +38,7 @@ struct Row {
   std::vector<std::pair<std::string, double>> phases;  // of the fastest run (cpu backend)
   double outputSeconds = 0;  // encoding the mesh as binary PLY, once, after the timed runs
   PolygonizeStats::Phases gpu;  // vk: of the median run
+  nlohmann::json device;        // vk: the device(s) and driver (backendDeviceJson); null otherwise
 };
 
 }  // namespace
@@ -99,7 +101,12 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--brick-tapes", a->brickTapes,
                 "vk sparse: the field pass interprets, per brick, the program pruned to the brick (the same mesh)");
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
-  cmd->callback([a] {
+  cmd->callback([a, cmd] {
+    refuseOptionsNoBackendUses(*cmd, a->backends);
+    // Every scene is loaded before any is timed: a bad one is found at once, not after minutes.
+    std::vector<Model> models;
+    models.reserve(a->scenes.size());
+    for (const std::string& path : a->scenes) models.push_back(loadModel(path));
     std::vector<Row> rows;
     // One progress step per timed configuration (scenes x resolutions x backends x threads, the
     // traversals counting on vk only).
@@ -107,8 +114,9 @@ void addBenchCommand(CLI::App& app) {
     for (const std::string& backend : a->backends)
       configurations += long(a->threads.size()) * long(backend == "vk" ? a->traversals.size() * a->deviceLists.size() : 1);
     Progress progress("bench", configurations * long(a->scenes.size() * a->resolutions.size()));
-    for (const std::string& path : a->scenes) {
-      const Model model = loadModel(path);
+    for (std::size_t scene = 0; scene < a->scenes.size(); ++scene) {
+      const std::string& path = a->scenes[scene];
+      const Model& model = models[scene];
       for (int resolution : a->resolutions) {
         const blobtree::GridSpec grid = gridFor(model, std::nullopt, resolution);
         for (const std::string& backend : a->backends) {
@@ -140,6 +148,7 @@ void addBenchCommand(CLI::App& app) {
             if (backend == "cpu") settings.cpuPolygonizer = std::make_shared<cpu::MpuPolygonizer>();
             const std::string label = backend == "vk" ? backend + "-" + traversal + (devices.empty() ? "" : "@" + devices) : backend;
             Row row{path, label, resolution, threads};
+            if (backend == "vk") row.device = backendDeviceJson(settings);
             std::vector<std::pair<double, PolygonizeStats::Phases>> times;
             mesh::TriMesh last;
             for (int i = 0; i < a->warmup + a->repeats; ++i) {
@@ -205,7 +214,11 @@ void addBenchCommand(CLI::App& app) {
                                    {"model_build_s", seconds(r.gpu.modelBuild)}, {"model_run_s", seconds(r.gpu.modelRun)}};
           }
         }
-        out.push_back({{"vk_phases", phases}, {"scene", r.scene}, {"backend", r.backend}, {"resolution", r.resolution},
+        // Each row stands alone (rows are often filtered or merged): the version, and where a
+        // Vulkan device ran, which, as every --json report gives them.
+        out.push_back(versionJson());
+        if (!r.device.is_null()) out.back()["device"] = r.device;
+        out.back().update({{"vk_phases", phases}, {"scene", r.scene}, {"backend", r.backend}, {"resolution", r.resolution},
                        {"threads", r.threads}, {"median_s", r.median}, {"min_s", r.min},
                        {"max_s", r.max}, {"first_s", r.first},
                        // vk start-up (kernel generation, glslang, pipelines, JIT) = first - steady.

@@ -104,7 +104,8 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("scene", a->scene, "Scene file")->required();
   auto* res = cmd->add_option("--resolution", a->resolution, "Cells along the longest side (default 64)")->check(resolutionRange(2));
   cmd->add_option("--cell-size", a->cellSize, "Grid cell size")->check(CLI::PositiveNumber)->excludes(res);
-  cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference");
+  cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference")
+      ->check(CLI::IsMember({"cpu", "reference"}));
   cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
   cmd->add_flag("--validation", a->validation, "Run the Vulkan side under the validation layer");
   cmd->add_option("--traversal", a->traversal, "Vulkan evaluator: auto (default: the cost model picks per job), specialised, stackless or stack")
@@ -126,9 +127,12 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("--max-hausdorff", a->maxHausdorffCells, "Fail above this Hausdorff distance, in cells (default 0.05)")
       ->check(finiteNonNegative);
   cmd->add_flag("--features", a->features, "Compare the meshes after the sharp-feature pass (blobvk mesh --features)");
-  cmd->add_flag("--images", a->images, "Also render CPU mesh, GPU mesh and ray-cast and compare pixels");
-  cmd->add_option("--image-size", a->imageSettings.width, "Image side in pixels (default 256)")->check(CLI::Range(16, kMaxImageSide));
-  cmd->add_option("--write-images", a->imageSettings.writeDir, "Folder for the rendered images");
+  auto* images = cmd->add_flag("--images", a->images, "Also render CPU mesh, GPU mesh and ray-cast and compare pixels");
+  // Without --images nothing is rendered: these would do nothing, so they need it.
+  cmd->add_option("--image-size", a->imageSettings.width, "Image side in pixels (default 256; with --images)")
+      ->check(CLI::Range(16, kMaxImageSide))
+      ->needs(images);
+  cmd->add_option("--write-images", a->imageSettings.writeDir, "Folder for the rendered images (with --images)")->needs(images);
   cmd->add_flag("--json", a->json, "Print the report as JSON (with the blobvk version, device and driver)");
   cmd->callback([a] {
 #ifndef BLOBVK_HAVE_VULKAN

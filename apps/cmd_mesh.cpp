@@ -116,10 +116,21 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_flag("--stream", a->stream,
                 "Always stream: write the mesh as it is made (cpu: layer by layer of MPUs; vk: batch by batch of brick layers), holding a few layers");
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
-  cmd->add_flag("--features", a->features,
+  auto* features = cmd->add_flag("--features", a->features,
                 "Sharp features: a vertex on the crease or corner in each cell whose normals disagree (extended marching cubes)");
+  // Range alone lets NaN through (every comparison with it is false).
   cmd->add_option("--feature-angle", a->featureAngle, "--features: degrees between normals that mark a crease (default 30)")
-      ->check(CLI::Range(1.0f, 179.0f));
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            try {
+              const double v = std::stod(text);
+              if (v >= 1.0 && v <= 179.0) return {};
+            } catch (const std::exception&) {
+            }
+            return "'" + text + "' is not a number of degrees in [1, 179]";
+          },
+          "DEGREES in [1, 179]"))
+      ->needs(features);
   cmd->add_option("--simplify", a->simplify,
                   "Simplify with meshoptimizer: RATIO of triangles kept (0.25) or ERROR% of the extent (0.5%); "
                   "a closed mesh stays closed");
@@ -128,7 +139,8 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_flag("--no-optimize", a->noOptimize, "Keep the polygonizer's grid-edge vertex order in .gltf/.glb")->excludes(opt);
   cmd->add_flag("--ascii", a->ascii, "Write ASCII PLY instead of binary");
   cmd->add_flag("--json", a->json, "Print the summary as JSON (with the blobvk version and, for vk, the device)");
-  cmd->callback([a] {
+  cmd->callback([a, cmd] {
+    refuseOptionsNoBackendUses(*cmd, {a->settings.backend});
     // Everything about the output is checked before the (possibly long) polygonization.
     const bool toStdout = checkOutputFile(a->out, {".ply", ".obj", ".stl", ".gltf", ".glb"}, true, "a mesh");
     if (toStdout && a->json) throw UsageError("--json and -o - both want standard output; write the mesh to a file");
@@ -136,8 +148,8 @@ void addMeshCommand(CLI::App& app) {
     std::string format = toStdout ? (a->format.empty() ? "ply" : a->format) : a->out.substr(a->out.rfind('.') + 1);
     for (char& c : format) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (a->ascii && format != "ply") throw UsageError("--ascii is for PLY output");
-    if (!a->settings.devices.empty() && a->settings.backend != "vk") throw UsageError("--devices is for the vk backend");
-    if (a->settings.cpuWorker && a->settings.backend != "vk") throw UsageError("--cpu-worker is for the vk backend");
+    if (a->noOptimize && format != "gltf" && format != "glb")
+      throw UsageError("--no-optimize is for .gltf/.glb (other formats keep the polygonizer's order unless --optimize)");
     if (a->settings.cpuWorker && a->settings.tiledVertices)
       throw UsageError("--cpu-worker shares the sparse extraction's batches; --tiled-vertices has none");
     checkDeviceList(a->settings);

@@ -7,9 +7,11 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <stdexcept>
 
 int main(int argc, char** argv) {
   // lavapipe tuning, set by the process (the library never touches the environment) and only
@@ -57,6 +59,11 @@ int main(int argc, char** argv) {
   } releaseDevices;
   try {
     app.parse(argc, argv);
+    // Reports printed on stdout (summaries, --json) are the command's output too: a full disk
+    // or closed pipe must not end in exit status 0 with an empty file.
+    errno = 0;
+    if (std::fflush(stdout) != 0 || std::ferror(stdout))
+      throw std::runtime_error("standard output: write error: " + systemReason(errno ? errno : EIO));
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
     return code == 0 ? 0 : kExitUsage;

@@ -381,8 +381,10 @@ std::string StreamedMeshFile::headerFor(std::uint64_t vertices, std::uint64_t tr
     out += " 1.0\ncomment written by blobvk\nelement vertex ";
     detail::appendUint(out, vertices);
     out += "\nproperty float x\nproperty float y\nproperty float z\n";
-    if (options_.normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
-    if (options_.colours) out += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    // An empty mesh in memory has no normal or colour arrays, so ply.cpp declares none: the
+    // same bytes here (with no vertex, the properties would describe nothing anyway).
+    if (options_.normals && vertices > 0) out += "property float nx\nproperty float ny\nproperty float nz\n";
+    if (options_.colours && vertices > 0) out += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     out += "element face ";
     detail::appendUint(out, triangles);
     out += "\nproperty list uchar int vertex_indices\nend_header\n";

@@ -53,6 +53,7 @@ TEST(CliConventions, AnEmptyMeshIsWrittenWithAWarning) {
   r = runCliSplit("mesh " + tower + " -o s.ply --resolution 2 --stream", cwd);  // streamed alike
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("warning: the mesh is empty"), std::string::npos) << r.err;
+  EXPECT_EQ(fileBytes(cwd / "s.ply"), fileBytes(cwd / "e.ply"));  // the same bytes, header included
   r = runCliSplit("mesh " + tower + " -o e.ply --resolution 2 -q", cwd);
   EXPECT_EQ(r.status, 0);
   EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
@@ -68,7 +69,15 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
                                  "mesh " + tower + " -o x.xyz", "bench " + tower + " --traversal sideways",
                                  "mesh " + tower + " -o x.ply --max-memory 0",
                                  "compare " + tower + " --max-field-diff nan", "generate random --seed -1 -o r.json",
-                                 "generate random --seed 99999999999999999999999 -o r.json"}) {
+                                 "generate random --seed 99999999999999999999999 -o r.json",
+                                 // Options that would do nothing: another backend's, or a switch's
+                                 // parameter without the switch.
+                                 "mesh " + tower + " -o x.ply --traversal stackless",
+                                 "mesh " + tower + " -o x.ply --device 0", "mesh " + tower + " -o x.ply --backend vk --mpu 8",
+                                 "bench " + tower + " --brick-cells 8", "mesh " + tower + " -o x.ply --feature-angle 20",
+                                 "mesh " + tower + " -o x.ply --features --feature-angle nan",
+                                 "mesh " + tower + " -o x.ply --no-optimize", "compare " + tower + " --image-size 64",
+                                 "compare " + tower + " --write-images out", "compare " + tower + " --cpu-backend vk"}) {
     const CliSplitRun r = runCliSplit(args, cwd);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
     EXPECT_EQ(lineCount(r.err), 1u) << args << "\n" << r.err;
@@ -124,6 +133,34 @@ TEST(CliConventions, UnwritableOutputFailsBeforeAnyWork) {
   EXPECT_NE(r.err.find("file/sub: cannot create the folder"), std::string::npos) << r.err;
   r = runCliSplit("mesh " + tower + " -o .", cwd);
   EXPECT_NE(r.status, 0);
+}
+
+// A full disk is an error wherever the output goes: reports printed on standard output (a
+// summary, --json) and PNG images alike exit 1 with one line, never 0 with an empty file.
+TEST(CliConventions, AFullDiskIsAnErrorForReportsAndImages) {
+  const fs::path cwd = dir("full");
+  const auto runToFull = [&cwd](const std::string& args) {
+    const std::string command = "cd '" + cwd.string() + "' && " + BLOBVK_CLI + " " + args + " </dev/null >/dev/full 2>err.txt";
+    const int raw = std::system(command.c_str());
+    return std::make_pair(WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, fileBytes(cwd / "err.txt"));
+  };
+  for (const std::string& args : std::vector<std::string>{"info " + tower, "info " + tower + " --json", "mesh " + tower + " -o m.ply --resolution 8",
+                                 "bench " + tower + " --resolution 8 --repeats 1 --json"}) {
+    const auto [status, err] = runToFull(args);
+    EXPECT_EQ(status, 1) << args << "\n" << err;
+    // Progress lines may come first; the error is the last line, and the only one.
+    EXPECT_NE(err.find("blobvk: error: standard output: write error: No space left on device\n"), std::string::npos) << args << "\n" << err;
+    EXPECT_EQ(err.find("blobvk: error"), err.rfind("blobvk: error")) << args << "\n" << err;
+  }
+  if (!BLOBVK_CLI_WITH_VULKAN) return;
+  fs::remove(cwd / "full.png");
+  fs::create_symlink("/dev/full", cwd / "full.png");
+  const CliSplitRun r = runCliSplit("render " + tower + " -o full.png --size 32x32", cwd);
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("write error: No space left on device"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("blobvk: error"), r.err.rfind("blobvk: error")) << r.err;
+  EXPECT_EQ(r.err.find("libpng"), std::string::npos) << r.err;  // no line of libpng's own
+  EXPECT_TRUE(fs::is_symlink(cwd / "full.png"));  // a device given as the output is left alone
 }
 
 TEST(CliConventions, ErrorsGiveTheSystemReasonAndOnlyPrintableBytes) {

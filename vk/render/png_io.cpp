@@ -1,6 +1,7 @@
 #include "blobvk/vk/render/png_io.h"
 
 #include <png.h>
+#include <sys/stat.h>
 
 #include <cerrno>
 #include <cstdio>
@@ -12,15 +13,50 @@
 namespace blobvk::vk {
 namespace {
 
-struct File {
-  std::FILE* f;
-  ~File() {
-    if (f) std::fclose(f);
-  }
-};
-
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
   throw std::runtime_error("PNG '" + path + "': " + what);
+}
+
+// libpng's own handlers print to stderr; these keep its message for the one error line instead
+// (and say nothing of warnings).
+struct PngErrors {
+  std::string message;
+};
+void onPngError(png_structp png, png_const_charp message) {
+  static_cast<PngErrors*>(png_get_error_ptr(png))->message = message ? message : "unknown error";
+  png_longjmp(png, 1);
+}
+void onPngWarning(png_structp, png_const_charp) {}
+
+// A file that failed half-written is removed, so no truncated image is left looking like a result;
+// only a regular file: a device or pipe given as the output (/dev/stdout) is left alone.
+void removePartial(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) std::remove(path.c_str());
+}
+
+// Encodes into an open file; returns "" or libpng's message. Nothing with a destructor lives in
+// this frame: libpng reports errors by longjmp.
+std::string encode(std::FILE* file, const Image& image) {
+  PngErrors errors;
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &errors, onPngError, onPngWarning);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!info) {
+    png_destroy_write_struct(&png, nullptr);
+    return "libpng initialisation failed";
+  }
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    return errors.message.empty() ? "libpng failed while writing" : errors.message;
+  }
+  png_init_io(png, file);
+  png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB_ALPHA,
+               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  for (std::uint32_t y = 0; y < image.height; ++y) png_write_row(png, const_cast<png_bytep>(image.pixel(0, y)));
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  return {};
 }
 
 }  // namespace
@@ -30,28 +66,18 @@ void writePng(const std::string& path, const Image& image) {
       image.rgba.size() != std::size_t(image.width) * image.height * 4) {
     fail(path, "image is empty or its pixel array has the wrong size");
   }
-  File file{std::fopen(path.c_str(), "wb")};
-  if (!file.f) fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!info) {
-    png_destroy_write_struct(&png, nullptr);
-    fail(path, "libpng initialisation failed");
-  }
-  // libpng reports errors by longjmp; nothing with a destructor is created past this point.
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    fail(path, "libpng failed while writing (disk full?)");
-  }
-  png_init_io(png, file.f);
-  png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB_ALPHA,
-               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  png_write_info(png, info);
-  for (std::uint32_t y = 0; y < image.height; ++y) {
-    png_write_row(png, const_cast<png_bytep>(image.pixel(0, y)));
-  }
-  png_write_end(png, nullptr);
-  png_destroy_write_struct(&png, &info);
+  std::FILE* file = std::fopen(path.c_str(), "wb");
+  if (!file) fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
+  errno = 0;
+  std::string problem = encode(file, image);
+  // The stdio buffer reaches the file at fflush/fclose: a full disk often shows only there.
+  int err = errno;
+  if (problem.empty() && (std::fflush(file) != 0 || std::ferror(file))) problem = "write error", err = errno;
+  if (std::fclose(file) != 0 && problem.empty()) problem = "write error", err = errno;
+  if (problem.empty()) return;
+  removePartial(path);
+  if (err != 0 && (problem == "write error" || problem == "Write Error")) problem = std::string("write error: ") + std::strerror(err);
+  fail(path, problem);
 }
 
 Image readPng(const std::string& path) {
