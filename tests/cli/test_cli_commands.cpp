@@ -271,6 +271,20 @@ TEST_F(CliCommands, AnUnboundedSceneRayCastsItsGridBounds) {
   for (const auto& pair : report["images"]["pairs"]) EXPECT_TRUE(pair["pass"].get<bool>()) << pair.dump();
 }
 
+// The meshes are compared pixel for pixel, a mesh and the ray-cast within the mesh's own error
+// (two grid cells on screen): the dice's CSG creases, which marching cubes cuts, fail no default.
+TEST_F(CliCommands, CompareImagesPassesOnSharpCreasesWithTheDefaults) {
+  const fs::path cwd = dir("creases");
+  const CliSplitRun r = runCliSplit("compare " + sourcePath("scenes/dice.json") + " --images --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  const nlohmann::json pairs = nlohmann::json::parse(r.out)["images"]["pairs"];
+  ASSERT_EQ(pairs.size(), 2u);
+  EXPECT_EQ(pairs[0]["search_radius_px"], 0);
+  EXPECT_EQ(pairs[0]["fraction_over_tolerance"], 0.0);
+  EXPECT_GE(pairs[1]["search_radius_px"].get<int>(), 2);
+  EXPECT_LE(pairs[1]["search_radius_px"].get<int>(), 8);
+}
+
 // A camera nothing can be seen from is refused, not rendered blank: non-finite numbers are usage
 // errors; an eye on its target (here an orbit of distance 0) an error naming it.
 TEST_F(CliCommands, RenderRefusesCamerasThatSeeNothing) {

@@ -198,5 +198,29 @@ TEST(ImageCompare, OneChangedPixelIsCountedAndPsnrFollowsTheMse) {
   EXPECT_THROW(vk::compareImages(a, gradient(10, 11), 0.1), std::invalid_argument);
 }
 
+// A silhouette moved by k pixels: over the tolerance in place, within it for a search radius of
+// k or more, not for less; in both directions (a shape only one image has is still counted).
+TEST(ImageCompare, DifferencesAShiftExplainsAreNotCountedWithinTheRadius) {
+  const auto disc = [](int shift) {
+    vk::Image img{64, 64, std::vector<std::uint8_t>(64 * 64 * 4, 255)};
+    for (std::uint32_t y = 0; y < 64; ++y)
+      for (std::uint32_t x = 0; x < 64; ++x) {
+        const int dx = int(x) - 32 - shift, dy = int(y) - 32;
+        if (dx * dx + dy * dy < 15 * 15) img.pixel(x, y)[0] = img.pixel(x, y)[1] = 40;
+      }
+    return img;
+  };
+  const vk::Image a = disc(0), b = disc(3);
+  EXPECT_GT(vk::compareImages(a, b, 0.1).fractionOver, 0.01);
+  EXPECT_EQ(vk::compareImagesWithin(a, b, 0.1, 0).fractionOver, vk::compareImages(a, b, 0.1).fractionOver);
+  EXPECT_GT(vk::compareImagesWithin(a, b, 0.1, 2).fractionOver, 0.0);
+  EXPECT_EQ(vk::compareImagesWithin(a, b, 0.1, 3).fractionOver, 0.0);
+  EXPECT_EQ(vk::compareImagesWithin(a, b, 0.1, 3).maxDifference, vk::compareImages(a, b, 0.1).maxDifference);
+  // A shape one image lacks is far from any match: counted whatever the radius up to its size.
+  vk::Image blank{64, 64, std::vector<std::uint8_t>(64 * 64 * 4, 255)};
+  EXPECT_GT(vk::compareImagesWithin(a, blank, 0.1, 8).fractionOver, 0.1);
+  EXPECT_GT(vk::compareImagesWithin(blank, a, 0.1, 8).fractionOver, 0.1);
+}
+
 }  // namespace
 }  // namespace blobvk::testing

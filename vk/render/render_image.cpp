@@ -40,6 +40,39 @@ ImageDifference compareImages(const Image& a, const Image& b, double tolerance) 
   return d;
 }
 
+namespace {
+// Whether pixel (x, y) of `a` has a pixel of `b` within `radius` whose largest channel
+// difference is at most `limit` (in 0..255 steps).
+bool matchesNearby(const Image& a, const Image& b, std::uint32_t x, std::uint32_t y, int radius, int limit) {
+  const std::uint8_t* p = &a.rgba[(std::size_t(y) * a.width + x) * 4];
+  const int y0 = std::max(0, int(y) - radius), y1 = std::min(int(b.height) - 1, int(y) + radius);
+  const int x0 = std::max(0, int(x) - radius), x1 = std::min(int(b.width) - 1, int(x) + radius);
+  for (int v = y0; v <= y1; ++v) {
+    for (int u = x0; u <= x1; ++u) {
+      const std::uint8_t* q = &b.rgba[(std::size_t(v) * b.width + std::size_t(u)) * 4];
+      if (std::abs(int(p[0]) - int(q[0])) <= limit && std::abs(int(p[1]) - int(q[1])) <= limit &&
+          std::abs(int(p[2]) - int(q[2])) <= limit)
+        return true;
+    }
+  }
+  return false;
+}
+}  // namespace
+
+ImageDifference compareImagesWithin(const Image& a, const Image& b, double tolerance, int radius) {
+  ImageDifference d = compareImages(a, b, tolerance);
+  if (radius <= 0 || d.fractionOver == 0.0) return d;
+  // The largest difference still within the tolerance, in 0..255 steps (pixelMax / 255 > tolerance
+  // is "over" in compareImages).
+  const int limit = int(std::floor(tolerance * 255.0));
+  std::size_t over = 0;
+  for (std::uint32_t y = 0; y < a.height; ++y)
+    for (std::uint32_t x = 0; x < a.width; ++x)
+      over += !matchesNearby(a, b, x, y, radius, limit) || !matchesNearby(b, a, x, y, radius, limit);
+  d.fractionOver = double(over) / (double(a.width) * a.height);
+  return d;
+}
+
 Image differenceImage(const Image& a, const Image& b, float gain) {
   compareImages(a, b, 1.0);  // size check
   Image out{a.width, a.height, std::vector<std::uint8_t>(a.rgba.size())};

@@ -27,6 +27,12 @@ struct ImageDifference {
 // Compares RGB (alpha ignored). Throws std::invalid_argument when the sizes differ.
 ImageDifference compareImages(const Image& a, const Image& b, double tolerance);
 
+// As compareImages, but a pixel counts as over the tolerance only when no pixel of the other
+// image within `radius` pixels (a square window) is within it, in both directions: differences a
+// shift of up to `radius` pixels explains are not counted (a mesh's silhouette and creases lie
+// within a grid cell of the surface a ray-cast finds). Max, mean and PSNR stay per pixel in place.
+ImageDifference compareImagesWithin(const Image& a, const Image& b, double tolerance, int radius);
+
 // |a - b| per channel scaled by `gain` (for looking at where two images differ).
 Image differenceImage(const Image& a, const Image& b, float gain = 4.0f);
 
