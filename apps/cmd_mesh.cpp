@@ -277,6 +277,7 @@ void addMeshCommand(CLI::App& app) {
         out["simplify"] = {{"triangles_before", simplified->trianglesBefore}, {"triangles_after", simplified->trianglesAfter},
                            {"error", simplified->error}, {"watertight_before", simplified->watertightBefore},
                            {"watertight_after", simplified->watertightAfter}, {"kept_input", simplified->keptInput},
+                           {"backed_off", simplified->backedOff}, {"triangles_first_try", simplified->trianglesFirstTry},
                            {"attempts", simplified->attempts}};
       if (ordered)
         out["vertex_order"] = {{"acmr_before", ordered->acmrBefore}, {"acmr_after", ordered->acmrAfter},

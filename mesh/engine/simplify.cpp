@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -82,6 +83,76 @@ void dropFinPairs(std::vector<unsigned>& indices) {
   indices.resize(w);
 }
 
+// One simplifier run to at most `targetTriangles` (0: as few as the error bound allows), with the
+// fin pairs removed. `closed` is the guard's test, and it asks for the same surface topology too:
+// watertight, the same Euler characteristic and components (a collapse that shuts a window of the
+// tower is not the same model).
+struct Try {
+  TriMesh mesh;
+  float error = 0.0f;
+  std::size_t reached = 0;  // the simplifier's triangles, before the fins are dropped
+  bool closed = false;
+};
+
+Try simplifyOnce(const TriMesh& mesh, const std::vector<unsigned>& indices, const MeshReport& before,
+                 std::size_t targetTriangles, float targetError, unsigned options) {
+  Try t;
+  std::vector<unsigned> out(indices.size());
+  const std::size_t count = meshopt_simplify(out.data(), indices.data(), indices.size(), &mesh.positions[0].x,
+                                             mesh.positions.size(), sizeof(Float3), 3 * targetTriangles, targetError,
+                                             options, &t.error);
+  out.resize(count);
+  t.reached = count / 3;
+  dropFinPairs(out);
+  t.mesh = packMesh(mesh, out);
+  const MeshReport after = checkMesh(t.mesh);
+  t.closed = after.watertight() && after.eulerCharacteristic == before.eulerCharacteristic &&
+             after.components == before.components;
+  return t;
+}
+
+// Above a triangle target that opened the mesh (`failed`), the smallest target found that keeps it
+// closed; the input's count (`total`) is closed, as the simplifier changes nothing there. Empty
+// when no target below `total` was closed.
+//
+// Closedness is not monotone in the target (4 triangles close a die that 2 or 150 do not), so no
+// search finds the smallest closed target for sure; this one backs off gradually and keeps the
+// result monotone in the request. The targets it tries lie on a lattice fixed by the mesh alone:
+// doublings from the fewest triangles a closed surface can have, then a bisection of the octave
+// where the first closed doubling lies, down to 1/32 of it. A target at or below `failed` counts
+// as open without a run: the error bound stops the simplifier there anyway (and a ratio asked for
+// no fewer). Above it, a target's result hardly depends on the error bound (the count stops the
+// simplifier first), so a looser request only turns more lattice points into candidates, and a
+// bisection over a fixed lattice never ends higher when more of its points are candidates: of two
+// requests that back off, the looser does not get more triangles. A tighter request whose first
+// try closed is not on the lattice, so a looser one that backs off can end a little above it (the
+// tower at 96: 1 % closes at 1384 triangles, 2 % backs off to 1536). About log2(total / failed) + 5
+// runs.
+std::optional<Try> backOff(const TriMesh& mesh, const std::vector<unsigned>& indices, const MeshReport& before,
+                           std::size_t failed, std::size_t total, float targetError, unsigned options, int& attempts) {
+  std::optional<Try> best;
+  auto closedAt = [&](std::size_t target) {
+    if (target <= failed) return false;
+    ++attempts;
+    Try t = simplifyOnce(mesh, indices, before, target, targetError, options);
+    if (!t.closed) return false;
+    best = std::move(t);  // the targets that close it only go down from here
+    return true;
+  };
+  // A closed surface has at least a tetrahedron's 4 triangles per component.
+  const std::size_t fewest = 4 * std::max<std::size_t>(before.components, 1);
+  std::size_t hi = fewest;
+  while (hi < total && !closedAt(hi)) hi *= 2;
+  if (!best) return best;
+  std::size_t lo = hi == fewest ? hi - 1 : hi / 2;  // the doubling below was open (or not a surface)
+  const std::size_t step = std::max<std::size_t>(1, hi / 32);
+  while (hi - lo > step) {
+    const std::size_t mid = lo + (hi - lo) / 2;
+    (closedAt(mid) ? hi : lo) = mid;
+  }
+  return best;
+}
+
 }  // namespace
 
 TriMesh simplifyMesh(const TriMesh& mesh, const SimplifyTarget& target, SimplifyReport* report) {
@@ -96,44 +167,34 @@ TriMesh simplifyMesh(const TriMesh& mesh, const SimplifyTarget& target, Simplify
   // A mesh with a boundary (cut by the grid's box) keeps its border in place, so it still meets
   // whatever it was cut against; a closed mesh has no border and the option changes nothing.
   const unsigned options = before.closed() ? 0u : unsigned(meshopt_SimplifyLockBorder);
-  std::size_t targetIndices = 0;
+  // An error target asks for as few triangles as that error allows (target 0); a ratio has no
+  // error bound. Backing off keeps the error bound: a gentler result must still be within it.
+  std::size_t targetTriangles = 0;
   float targetError = std::numeric_limits<float>::max();
-  if (target.kind == SimplifyTarget::Kind::Ratio) {
-    targetIndices = 3 * std::size_t(std::llround(double(target.value) * double(mesh.triangles.size())));
-  } else {
+  if (target.kind == SimplifyTarget::Kind::Ratio)
+    targetTriangles = std::size_t(std::llround(double(target.value) * double(mesh.triangles.size())));
+  else
     targetError = target.value;
-  }
 
-  // Edge collapses can pinch a thin part into a non-manifold edge. Each retry moves the target
-  // halfway back towards the input (and halves the error bound), which collapses fewer edges.
-  constexpr int kAttempts = 6;
-  std::vector<unsigned> out(indices.size());
-  TriMesh result;
-  bool found = false;
-  for (int attempt = 0; attempt < kAttempts && !found; ++attempt) {
-    ++r.attempts;
-    float error = 0.0f;
-    const std::size_t count = meshopt_simplify(out.data(), indices.data(), indices.size(), &mesh.positions[0].x,
-                                               mesh.positions.size(), sizeof(Float3), targetIndices, targetError,
-                                               options, &error);
-    std::vector<unsigned> kept(out.begin(), out.begin() + std::ptrdiff_t(count));
-    dropFinPairs(kept);
-    TriMesh candidate = packMesh(mesh, kept);
-    // Closed means the same surface topology too: watertight, the same Euler characteristic and
-    // components (a collapse that shuts a window of the tower is not the same model).
-    const MeshReport after = checkMesh(candidate);
-    const bool watertight = after.watertight() && after.eulerCharacteristic == before.eulerCharacteristic &&
-                            after.components == before.components;
-    if (watertight || !r.watertightBefore) {  // an open input has no closedness to lose
-      result = std::move(candidate);
-      r.error = error;
-      r.watertightAfter = watertight;
-      found = true;
-    }
-    targetIndices = (targetIndices + indices.size()) / 2 / 3 * 3;
-    if (target.kind == SimplifyTarget::Kind::Error) targetError *= 0.5f;
+  r.attempts = 1;
+  Try first = simplifyOnce(mesh, indices, before, targetTriangles, targetError, options);
+  r.trianglesFirstTry = first.reached;
+  std::optional<Try> chosen;
+  if (first.closed || !r.watertightBefore) {  // an open input has no closedness to lose
+    chosen = std::move(first);
+  } else {
+    // Edge collapses can pinch a thin part into a non-manifold edge, or shrink a part to nothing:
+    // fewer collapses avoid that, so look for the smallest count above the failing one that is closed.
+    r.backedOff = true;
+    chosen = backOff(mesh, indices, before, std::max(first.reached, targetTriangles), mesh.triangles.size(),
+                     targetError, options, r.attempts);
   }
-  if (!found) {  // keep it closed: the input as it is, without its grid-edge keys (as documented)
+  TriMesh result;
+  if (chosen) {
+    result = std::move(chosen->mesh);
+    r.error = chosen->error;
+    r.watertightAfter = chosen->closed;
+  } else {  // keep it closed: the input as it is, without its grid-edge keys (as documented)
     result = mesh;
     result.edgeKeys.clear();
     r.keptInput = true;
@@ -145,15 +206,21 @@ TriMesh simplifyMesh(const TriMesh& mesh, const SimplifyTarget& target, Simplify
 }
 
 std::string SimplifyReport::summary() const {
-  char line[256];
+  char line[384];
   if (keptInput) {
     std::snprintf(line, sizeof line, "simplify: every target opened the mesh, kept the input's %zu triangles", trianglesBefore);
-  } else {
-    std::snprintf(line, sizeof line, "simplified %zu -> %zu triangles (%.3g %%), error %.3g %% of the extent, %s",
-                  trianglesBefore, trianglesAfter,
-                  trianglesBefore ? 100.0 * double(trianglesAfter) / double(trianglesBefore) : 100.0, 100.0 * double(error),
-                  watertightAfter ? "still watertight" : (watertightBefore ? "NO LONGER watertight" : "open input, border locked"));
+    return line;
   }
+  int n = std::snprintf(line, sizeof line, "simplified %zu -> %zu triangles (%.3g %%), error %.3g %% of the extent, %s",
+                        trianglesBefore, trianglesAfter,
+                        trianglesBefore ? 100.0 * double(trianglesAfter) / double(trianglesBefore) : 100.0,
+                        100.0 * double(error),
+                        watertightAfter ? "still watertight"
+                                        : (watertightBefore ? "NO LONGER watertight" : "open input, border locked"));
+  // More triangles than were asked for is worth a word: the target was not met, and why.
+  if (backedOff && n > 0 && std::size_t(n) < sizeof line)
+    std::snprintf(line + n, sizeof line - std::size_t(n), " (backed off: the target's %zu triangles were not closed)",
+                  trianglesFirstTry);
   return line;
 }
 

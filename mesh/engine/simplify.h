@@ -1,7 +1,9 @@
 // Mesh simplification with meshoptimizer's edge-collapse simplifier, guarded so that a closed
 // mesh stays closed: back-to-back triangle pairs left by collapses are removed, a result that is
-// still not watertight (or changed the Euler characteristic) is retried with a gentler target, and the
-// input is kept when no gentler target closes it either. The report says which happened.
+// still not watertight (or changed the Euler characteristic) is retried with gentler triangle
+// targets above the count that opened it, within the same error bound (doublings, then a bisection
+// of the first octave that closes it), and the input is kept when no gentler target closes it
+// either. The report says which happened.
 #pragma once
 
 #include "blobvk/mesh/trimesh.h"
@@ -27,6 +29,10 @@ struct SimplifyReport {
   std::size_t trianglesBefore = 0, trianglesAfter = 0;
   float error = 0.0f;           // reached deviation, relative to the extent
   bool watertightBefore = false, watertightAfter = false;
+  // What the requested target reached (an error target: the fewest triangles within the error).
+  // When that opened the mesh, backedOff is set and the result has more triangles than asked for.
+  std::size_t trianglesFirstTry = 0;
+  bool backedOff = false;
   bool keptInput = false;       // every try opened the mesh: the input is returned unchanged
   int attempts = 0;             // simplifier runs (1 when the first target kept it closed)
   std::string summary() const;  // one clause for the CLI's check line

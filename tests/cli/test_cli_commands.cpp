@@ -121,6 +121,19 @@ TEST_F(CliCommands, MeshSimplifiesAndWritesGlb) {
   std::memcpy(&length, glb.data() + 8, 4);
   EXPECT_EQ(length, glb.size());
   EXPECT_EQ(runCliSplit("mesh " + tower + " -o x.ply --simplify 1.5", cwd).status, 2);
+
+  // An error bound that collapses the die to nothing backs off to a handful of triangles (it once
+  // kept half the mesh), and both the JSON and the check line say it backed off.
+  const std::string dice = sourcePath("scenes/dice.json");
+  r = runCliSplit("mesh " + dice + " -o d.ply --resolution 48 --simplify 99% --json", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["simplify"]["backed_off"].get<bool>()) << r.out;
+  EXPECT_TRUE(j["simplify"]["watertight_after"].get<bool>()) << r.out;
+  EXPECT_LT(j["triangles"].get<std::size_t>(), 100u) << r.out;
+  r = runCliSplit("mesh " + dice + " -o d.ply --resolution 48 --simplify 99%", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("still watertight (backed off: "), std::string::npos) << r.out;
   EXPECT_EQ(runCliSplit("mesh " + tower + " -o x.glb --optimize --no-optimize", cwd).status, 2);
 }
 

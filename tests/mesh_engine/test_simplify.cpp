@@ -73,6 +73,57 @@ TEST(Simplify, AnErrorBoundLimitsTheDeviation) {
   EXPECT_TRUE(checkMesh(b).watertight());
 }
 
+// Collapses through the die's pips open it at some error bounds (2 %: 230 triangles, 99 %: none
+// at all), and the guard backs off. The oracle is the request's order: a looser bound may not keep
+// more triangles (backing off once jumped to half the mesh), every result is closed with the
+// input's topology, within the bound asked for, and the report says when it backed off.
+TEST(Simplify, ALooserErrorBoundNeverKeepsMoreTriangles) {
+  const TriMesh mesh = shippedMesh("dice", 48);
+  const MeshReport before = checkMesh(mesh);
+  ASSERT_TRUE(before.watertight()) << before.summary();
+  std::size_t previous = mesh.triangles.size();
+  int backedOff = 0;
+  for (const char* bound : {"0.5%", "1%", "2%", "5%", "10%", "50%", "99%", "100%"}) {
+    const SimplifyTarget target = parseSimplifyTarget(bound);
+    SimplifyReport report;
+    const TriMesh out = simplifyMesh(mesh, target, &report);
+    const MeshReport after = checkMesh(out);
+    EXPECT_TRUE(after.watertight()) << bound << ": " << after.summary();
+    EXPECT_EQ(after.eulerCharacteristic, before.eulerCharacteristic) << bound;
+    EXPECT_EQ(after.components, before.components) << bound;
+    EXPECT_FALSE(report.keptInput) << bound;
+    EXPECT_LE(report.error, target.value * 1.0001f) << bound << ": " << report.summary();
+    EXPECT_LE(out.triangles.size(), previous) << bound << ": " << report.summary();
+    EXPECT_LT(out.triangles.size(), mesh.triangles.size() / 20) << bound << ": " << report.summary();
+    if (report.backedOff) {
+      ++backedOff;
+      EXPECT_GT(out.triangles.size(), report.trianglesFirstTry) << bound;
+      EXPECT_NE(report.summary().find("backed off"), std::string::npos) << report.summary();
+    } else {
+      EXPECT_EQ(report.attempts, 1) << bound;
+      EXPECT_EQ(report.summary().find("backed off"), std::string::npos) << report.summary();
+    }
+    previous = out.triangles.size();
+  }
+  EXPECT_GT(backedOff, 0) << "the sweep no longer exercises backing off: pick bounds that open the die";
+}
+
+// The same order for ratios: a tiny ratio that opens the die backs off to a handful of triangles,
+// not to half of them.
+TEST(Simplify, ALargerRatioNeverKeepsFewerTriangles) {
+  const TriMesh mesh = shippedMesh("dice", 48);
+  std::size_t previous = 0;
+  for (const float ratio : {0.0001f, 0.0002f, 0.001f, 0.005f, 0.01f, 0.05f, 0.25f}) {
+    SimplifyReport report;
+    const TriMesh out = simplifyMesh(mesh, {SimplifyTarget::Kind::Ratio, ratio}, &report);
+    EXPECT_TRUE(checkMesh(out).watertight()) << ratio;
+    EXPECT_GE(out.triangles.size(), previous) << ratio << ": " << report.summary();
+    EXPECT_LT(out.triangles.size(), std::max<std::size_t>(100, std::size_t(2.0 * ratio * double(mesh.triangles.size()))))
+        << ratio << ": " << report.summary();
+    previous = out.triangles.size();
+  }
+}
+
 // A bumpy open square: its 4 * n border vertices must all survive, at their places.
 TEST(Simplify, AnOpenMeshKeepsItsBorder) {
   const int n = 40;
