@@ -692,37 +692,38 @@ void checkNesting(std::string_view text, const std::string& source) {
   }
 }
 
-// A parser callback that refuses a key repeated within one object: nlohmann keeps the last value
-// and drops the others silently, and a reader that is strict must not guess which one was meant.
+// Refuses a key repeated within one object: nlohmann keeps the last value and drops the others
+// silently, and a reader that is strict must not guess which one was meant. A SAX pass of its
+// own rather than a parser callback: nlohmann's callback parser rescans the enclosing array at
+// every object's end, which made a node with n children cost O(n^2) to read.
 // Tracks the containers being read (their keys, and each array's element count) for the pointer.
-class DuplicateKeyGuard {
+class DuplicateKeyCheck : public nlohmann::json_sax<Json> {
  public:
-  explicit DuplicateKeyGuard(std::string source) : source_(std::move(source)) {}
+  explicit DuplicateKeyCheck(std::string source) : source_(std::move(source)) {}
 
-  bool operator()(int, nlohmann::detail::parse_event_t event, Json& parsed) {
-    using Event = nlohmann::detail::parse_event_t;
-    switch (event) {
-      case Event::object_start:
-      case Event::array_start:
-        if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
-        frames_.push_back({event == Event::object_start, {}, {}, -1});
-        break;
-      case Event::object_end:
-      case Event::array_end:
-        if (!frames_.empty()) frames_.pop_back();
-        break;
-      case Event::key: {
-        Frame& top = frames_.back();
-        top.key = parsed.get<std::string>();
-        if (!top.keys.insert(top.key).second)
-          throw SceneError(source_, pointer(), "key \"" + top.key + "\" appears twice in one object");
-        break;
-      }
-      case Event::value:
-        if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
-        break;
-    }
+  bool null() override { return value(); }
+  bool boolean(bool) override { return value(); }
+  bool number_integer(number_integer_t) override { return value(); }
+  bool number_unsigned(number_unsigned_t) override { return value(); }
+  bool number_float(number_float_t, const string_t&) override { return value(); }
+  bool string(string_t&) override { return value(); }
+  bool binary(binary_t&) override { return value(); }
+  bool start_object(std::size_t) override { return open(true); }
+  bool start_array(std::size_t) override { return open(false); }
+  bool end_object() override { return close(); }
+  bool end_array() override { return close(); }
+
+  bool key(string_t& key) override {
+    Frame& top = frames_.back();
+    top.key = key;
+    if (!top.keys.insert(key).second)
+      throw SceneError(source_, pointer(), "key \"" + key + "\" appears twice in one object");
     return true;
+  }
+
+  // Malformed JSON stops the check quietly; the parse that follows reports it in nlohmann's words.
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override {
+    return false;
   }
 
  private:
@@ -732,6 +733,21 @@ class DuplicateKeyGuard {
     std::string key;       // an object's current key
     long long index = -1;  // an array's current element
   };
+
+  bool value() {
+    if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
+    return true;
+  }
+  bool open(bool object) {
+    value();
+    frames_.push_back({object, {}, {}, -1});
+    return true;
+  }
+  bool close() {
+    if (!frames_.empty()) frames_.pop_back();
+    return true;
+  }
+
   // The JSON pointer of the current key (RFC 6901: '~' as ~0, '/' as ~1).
   std::string pointer() const {
     std::string p;
@@ -749,13 +765,21 @@ class DuplicateKeyGuard {
   std::vector<Frame> frames_;
 };
 
+// Run before the document is built, so that a repeated key earlier in the text than a syntax
+// error is the one reported, as when the check was a callback of the parse itself.
+void refuseDuplicateKeys(std::string_view text, const std::string& source) {
+  DuplicateKeyCheck check(source);
+  Json::sax_parse(text.begin(), text.end(), &check);
+}
+
 }  // namespace
 
 Scene parseSceneJson(std::string_view text, const std::string& sourceName) {
   checkNesting(text, sourceName);
+  refuseDuplicateKeys(text, sourceName);
   Json doc;
   try {
-    doc = Json::parse(text.begin(), text.end(), DuplicateKeyGuard(sourceName));
+    doc = Json::parse(text.begin(), text.end());
   } catch (const Json::parse_error& e) {
     // nlohmann says "...parse error at line L, column C: <problem>"; keep L, C and the problem.
     const std::string what = e.what();

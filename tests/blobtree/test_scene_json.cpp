@@ -362,6 +362,45 @@ TEST(SceneJson, AKeyGivenTwiceInOneObjectIsAnError) {
                                                                         {"type": "point", "support": 2}]})")));
 }
 
+// The check above once ran as a parser callback, and nlohmann's callback parser rescans the
+// enclosing array at every object's end: 400,000 children took about a minute. Now they take
+// well under a second; tests/blobtree/CMakeLists.txt gives this test a ctest timeout far below
+// that minute, so the quadratic reader fails instead of passing slowly.
+TEST(SceneJson, ANodeWithFourHundredThousandChildrenIsRead) {
+  constexpr std::size_t kChildren = 400'000;
+  std::string children;
+  children.reserve(kChildren * 20);
+  for (std::size_t i = 0; i < kChildren; ++i) children += i ? R"(, {"type": "point"})" : R"({"type": "point"})";
+  const Scene s = parse(sceneWithRoot(R"({"type": "blend", "children": [)" + children + "]}"));
+  EXPECT_EQ(s.root.children.size(), kChildren);
+}
+
+// Found in a long children list, deep in one child, the repeated key is still named at its
+// pointer; keys are compared unescaped; and a repeated key before a syntax error is the error
+// reported, one after it is not (the text is read in order, as by the parser itself).
+TEST(SceneJson, ARepeatedKeyIsNamedAtItsPointerWhereverItIs) {
+  constexpr std::size_t kChildren = 200'000, kBad = 199'990;
+  std::string children;
+  children.reserve(kChildren * 20);
+  for (std::size_t i = 0; i < kChildren; ++i) {
+    if (i) children += ", ";
+    children += i != kBad ? R"({"type": "point"})"
+                          : R"({"type": "blend", "children": [{"type": "point"}, {"type": "point", "support": 1, "support": 2}]})";
+  }
+  SceneError e = parseError(sceneWithRoot(R"({"type": "blend", "children": [)" + children + "]}"));
+  EXPECT_EQ(e.file(), "test.json");
+  EXPECT_EQ(e.location(), "/root/children/199990/children/1/support");
+  EXPECT_EQ(std::string(e.what()).rfind("test.json: /root/children/199990/children/1/support", 0), 0u) << e.what();
+  EXPECT_NE(e.problem().find("key \"support\" appears twice in one object"), std::string::npos) << e.what();
+
+  e = parseError(sceneWithRoot(R"({"type": "point", "support": 1, "supp\u006frt": 2})"));
+  EXPECT_EQ(e.location(), "/root/support");
+  e = parseError(sceneWithRoot(R"({"type": "point", "support": 1, "support": 2, })"));
+  EXPECT_EQ(e.location(), "/root/support");
+  e = parseError(sceneWithRoot(R"({"type": "point", "centre": [1, 2, ], "support": 1, "support": 2})"));
+  EXPECT_NE(e.problem().find("malformed JSON"), std::string::npos) << e.what();
+}
+
 TEST(SceneJson, UnreadableFilesAreSceneErrors) {
   EXPECT_THROW(readSceneJson("/nonexistent/dir/scene.json"), SceneError);
   EXPECT_THROW(loadScene("/nonexistent/dir/scene.blob"), SceneError);
