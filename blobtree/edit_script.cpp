@@ -200,6 +200,7 @@ class Resolver {
 }  // namespace
 
 EditScript parseEditScript(std::string_view text, const std::string& sourceName) {
+  refuseDuplicateKeys(text, sourceName);
   Json doc;
   try {
     doc = Json::parse(text.begin(), text.end());

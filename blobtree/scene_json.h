@@ -13,6 +13,11 @@ namespace blobvk::blobtree {
 // Instances are expanded, so the returned tree holds only primitives, operators and warps.
 Scene parseSceneJson(std::string_view text, const std::string& sourceName);
 
+// Throws SceneError naming `source` and the JSON pointer of the first key an object repeats (a
+// JSON parser keeps one of them without a word); returns quietly on malformed JSON, for the
+// parse that follows to report. Linear in the text. For every JSON file blobvk reads.
+void refuseDuplicateKeys(std::string_view text, const std::string& source);
+
 // Reads and parses a .json file; an unreadable file is a SceneError too.
 Scene readSceneJson(const std::string& path);
 

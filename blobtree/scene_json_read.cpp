@@ -765,14 +765,14 @@ class DuplicateKeyCheck : public nlohmann::json_sax<Json> {
   std::vector<Frame> frames_;
 };
 
+}  // namespace
+
 // Run before the document is built, so that a repeated key earlier in the text than a syntax
 // error is the one reported, as when the check was a callback of the parse itself.
 void refuseDuplicateKeys(std::string_view text, const std::string& source) {
   DuplicateKeyCheck check(source);
   Json::sax_parse(text.begin(), text.end(), &check);
 }
-
-}  // namespace
 
 Scene parseSceneJson(std::string_view text, const std::string& sourceName) {
   checkNesting(text, sourceName);

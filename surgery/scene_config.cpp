@@ -180,6 +180,7 @@ std::vector<BladeKeyframe> readBlade(const Reader& r, const Json& b, const std::
 
 std::vector<BladeKeyframe> parseBladePath(const std::string& text, const std::string& file) {
   Reader r(file);
+  blobtree::refuseDuplicateKeys(text, file);
   Json j;
   try {
     j = Json::parse(text);

@@ -175,6 +175,8 @@ TEST_F(CliEdit, BadScriptsNameFilePointerAndProblem) {
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"set\": {\"type\": \"blend\"}}]}",
        "bad.json: /edits/0/set/type: the node at [0] cannot change between primitive, operator and warp"},
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [], \"move\": 1}]}", "bad.json: /edits/0/move: unknown key"},
+      {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"set\": {\"support\": 2, \"support\": 3}}]}",
+       "bad.json: /edits/0/set/support: key \"support\" appears twice in one object"},
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"node\": \"x\", \"remove\": 0}]}", "bad.json: /edits/0: name the node by exactly one"},
   };
   for (const auto& [script, expected] : cases) {

@@ -49,6 +49,10 @@ TEST(BladePathFile, MistakesNameTheFileAndItsOwnPointer) {
   EXPECT_EQ(bladeError(R"({})").location(), "/blade");
   EXPECT_EQ(bladeError(R"({"blade": [)" + k0 + "]}").location(), "/blade");  // one keyframe
   EXPECT_EQ(bladeError("[1, 2").location(), "/");
+  // A repeated key (a JSON parser would keep one of them without a word).
+  e = bladeError(R"({"blade": [{"t": 0.1, "t": 0.3, "a": [0, 1, 0], "b": [0, -1, 0]}, )" + k0 + "]}");
+  EXPECT_EQ(e.location(), "/blade/0/t");
+  EXPECT_NE(e.problem().find("appears twice"), std::string::npos) << e.what();
   // In a scene the pointer is the section's.
   try {
     (void)parseSimulationConfig(R"({"blade": [)" + k0 + ", " + k0 + "]}", "scene.json");
