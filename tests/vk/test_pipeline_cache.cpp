@@ -206,6 +206,26 @@ TEST_F(VulkanTest, ABadPipelineCacheFileGivesOneWarningAndIsReplaced) {
   }
 }
 
+// A directory where the file goes cannot be replaced: one line says it is ignored and that no
+// cache is saved there (no second warning at exit), and two contexts of the process warn once.
+TEST_F(VulkanTest, ADirectoryInTheCacheFilesPlaceGivesOneWarningForTheProcess) {
+  TempDir dir;
+  const auto [file, data] = makeCacheFile(dir.path);
+  std::filesystem::remove(file);
+  std::filesystem::create_directory(file);
+  ::testing::internal::CaptureStderr();
+  {
+    vk::StandaloneContext first(optionsFor(dir.path.string()));
+    vk::StandaloneContext second(optionsFor(dir.path.string()));
+    buildKernels(first.device());
+    buildKernels(second.device());
+  }
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(linesMentioning(err, "pipeline cache"), 1) << err;
+  EXPECT_EQ(linesMentioning(err, "is not a regular file; ignoring it (and not saving one there)"), 1) << err;
+  EXPECT_TRUE(std::filesystem::is_directory(file));
+}
+
 TEST_F(VulkanTest, APipelineCacheSetOffWritesNothing) {
   TempDir dir;
   const char* saved = std::getenv("BLOBVK_PIPELINE_CACHE");

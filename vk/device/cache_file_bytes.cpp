@@ -3,6 +3,8 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <stdexcept>
@@ -24,12 +26,14 @@ void writeFileAtomically(const std::filesystem::path& file, std::span<const std:
   const auto temp = file.parent_path() /
                     (file.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" + hexDigits(random(), 8));
   {
+    errno = 0;
     std::ofstream o(temp, std::ios::binary | std::ios::trunc);
     o.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
     o.close();
     if (!o) {
+      const int err = errno;  // what open, write or close failed with (EACCES, ENOSPC, ...)
       std::filesystem::remove(temp, ec);
-      throw std::runtime_error(temp.string() + ": cannot write");
+      throw std::runtime_error(temp.string() + ": cannot write" + (err ? std::string(": ") + std::strerror(err) : ""));
     }
   }
   std::filesystem::rename(temp, file, ec);

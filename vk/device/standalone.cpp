@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <mutex>
+#include <set>
 
 namespace blobvk::vk {
 
@@ -24,6 +25,15 @@ struct StandaloneContext::Counters {
 };
 
 namespace {
+
+// Several contexts of one device (`--devices 0,0`) share its cache file: a warning about it is
+// printed by the first alone.
+void warnOncePerProcess(const std::string& key, const std::string& line) {
+  static std::mutex mutex;
+  static std::set<std::string> warned;
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (warned.insert(key).second) std::fprintf(stderr, "%s\n", line.c_str());
+}
 
 const char* kNoDevice =
     "no Vulkan device found: install mesa-vulkan-drivers (lavapipe) or a GPU driver, and check "
@@ -289,8 +299,17 @@ StandaloneContext::StandaloneContext(const StandaloneOptions& options)
       std::string problem;
       cacheLoaded_ = readPipelineCacheFile(cacheFile_, *cacheKey_, problem);
       if (!problem.empty()) {
-        std::fprintf(stderr, "blobvk: warning: pipeline cache %s %s; ignoring it (it is rewritten on exit)\n",
-                     cacheFile_.c_str(), problem.c_str());
+        // A directory or device in the file's place cannot be replaced: say so once, and do not
+        // try (and warn again) on exit.
+        std::error_code ec;
+        const bool replaceable = !std::filesystem::exists(cacheFile_, ec) || std::filesystem::is_regular_file(cacheFile_, ec);
+        // The same file in the same state is one warning; a file spoiled again is another.
+        const auto size = std::filesystem::is_regular_file(cacheFile_, ec) ? std::filesystem::file_size(cacheFile_, ec) : 0;
+        const auto time = std::filesystem::last_write_time(cacheFile_, ec).time_since_epoch().count();
+        warnOncePerProcess(cacheFile_.string() + "|" + problem + "|" + std::to_string(size) + "|" + std::to_string(time), "blobvk: warning: pipeline cache " + cacheFile_.string() + " " + problem +
+                                                     (replaceable ? "; ignoring it (it is rewritten on exit)"
+                                                                  : "; ignoring it (and not saving one there)"));
+        if (!replaceable) cacheFile_.clear();
       }
       deviceOptions.pipelineCacheData = cacheLoaded_;
       deviceOptions.spirvCacheDir = dir.string();
