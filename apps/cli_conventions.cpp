@@ -1,11 +1,15 @@
 #include "cli_conventions.h"
 
+#include "blobvk/mesh/output_place.h"
+
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -107,11 +111,40 @@ void writeStdout(std::string_view bytes) {
 
 void writeOutput(const std::string& path, std::string_view bytes) {
   if (path == "-") return writeStdout(bytes);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
-  out.write(bytes.data(), std::streamsize(bytes.size()));
-  out.close();
-  if (!out) throw std::runtime_error(printable(path) + ": write error: " + systemReason(errno));
+  const mesh::OutputPlace place = mesh::resolveOutputPlace(path);
+  if (!place.replaceByRename) {  // a device or FIFO: written into
+    std::ofstream out(place.path, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+    out.close();
+    if (!out) throw std::runtime_error(printable(path) + ": write error: " + systemReason(errno));
+    return;
+  }
+  // A temporary beside the file, renamed over it once whole: a full disk leaves the old file, not
+  // a truncated one, and a symlink keeps pointing where it did.
+  std::string temp = mesh::directoryOf(place.path) + "/.blobvk-out-XXXXXX";
+  const int fd = ::mkstemp(temp.data());
+  if (fd < 0) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
+  const auto fail = [&](const char* what) {
+    const int err = errno;
+    ::unlink(temp.c_str());
+    throw std::runtime_error(printable(path) + ": " + what + ": " + systemReason(err ? err : EIO));
+  };
+  for (std::size_t done = 0; done < bytes.size();) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      ::close(fd);
+      fail("write error");
+    }
+    done += std::size_t(n);
+  }
+  // mkstemp makes 0600; give the file the mode an ordinary create would (0666 less umask).
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  ::fchmod(fd, 0666 & ~mask);
+  if (::close(fd) != 0) fail("write error");
+  if (::rename(temp.c_str(), place.path.c_str()) != 0) fail("cannot write");
 }
 
 }  // namespace blobvk::app

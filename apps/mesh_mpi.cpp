@@ -8,6 +8,7 @@
 
 #include "progress.h"
 
+#include "blobvk/mesh/output_place.h"
 #include "blobvk/mesh/streamed_check.h"
 
 #include <fcntl.h>
@@ -245,7 +246,12 @@ class LayerJob {
 
  public:
   LayerJob(const MpiWorld& world, cpu::LayerPolygonizer& layers, const MpiMeshOutput& output)
-      : world_(world), layers_(layers), output_(output), L_(layers.layerCount()), file_(output.path, output.file) {
+      : world_(world), layers_(layers), output_(output), L_(layers.layerCount()), file_(output.path, output.file),
+        place_(mesh::resolveOutputPlace(output.path)) {
+    // The ranks place their parts at offsets in a temporary renamed into place: a device or FIFO
+    // (/dev/null, a pipe) cannot be one; "-" is copied out at the end.
+    if (output.path != "-" && !place_.replaceByRename)
+      throw std::runtime_error(output.path + ": under mpirun the output must be a regular file or a new one, or - (standard output)");
     MPI_Comm_dup(MPI_COMM_WORLD, &comm_);
     MPI_Comm_dup(MPI_COMM_WORLD, &checkComm_);
     S_ = file_.sectionBytes().size();
@@ -586,9 +592,7 @@ class LayerJob {
       const char* tmp = std::getenv("TMPDIR");
       return tmp && *tmp ? tmp : "/tmp";
     }
-    const std::size_t slash = output_.path.rfind('/');
-    if (slash == std::string::npos) return ".";
-    return slash == 0 ? "/" : output_.path.substr(0, slash);
+    return mesh::directoryOf(place_.path);  // beside the file it becomes (a symlink's target)
   }
 
   int makeTemporary(std::string& name) const {
@@ -614,7 +618,7 @@ class LayerJob {
       ::fchmod(fd, 0666 & ~mask);
       const int closed = ::close(std::exchange(fd, -1));
       if (closed != 0) throw std::runtime_error(output_.path + ": write error: " + std::strerror(errno));
-      if (::rename(name.c_str(), output_.path.c_str()) != 0)
+      if (::rename(name.c_str(), place_.path.c_str()) != 0)
         throw std::runtime_error(output_.path + ": cannot write: " + std::strerror(errno));
     } catch (...) {
       if (fd >= 0) ::close(fd);
@@ -629,6 +633,7 @@ class LayerJob {
   const int L_;
   std::size_t S_ = 0;  // sections of the file format
   mesh::StreamedMeshFile file_;  // this rank's spools; never finished, placed instead
+  mesh::OutputPlace place_;  // where the file goes: a symlink followed
   MPI_Comm comm_ = MPI_COMM_NULL, checkComm_ = MPI_COMM_NULL;
   bool checks_ = false, keepPositions_ = false;
   PhaseTimes times_;

@@ -2,6 +2,7 @@
 // and stl.cpp's byte for byte; tests compare whole files against those writers.
 #include "blobvk/mesh/streamed_writer.h"
 #include "blobvk/mesh/io_detail.h"
+#include "blobvk/mesh/output_place.h"
 
 #include <fcntl.h>
 #include <sys/sendfile.h>
@@ -122,12 +123,6 @@ void copyPieces(const std::vector<CopyPiece>& pieces, int out, const std::string
   if (failure) std::rethrow_exception(failure);
 }
 
-std::string directoryOf(const std::string& path) {
-  const std::size_t slash = path.rfind('/');
-  if (slash == std::string::npos) return ".";
-  return slash == 0 ? "/" : path.substr(0, slash);
-}
-
 // A temporary file in `dir` from mkstemp; the caller unlinks or renames it.
 int makeTemporary(const std::string& dir, const std::string& stem, std::string& name) {
   name = dir + "/" + stem + "XXXXXX";
@@ -234,10 +229,13 @@ StreamedMeshFile::StreamedMeshFile(const std::string& path, const StreamedFileOp
   std::transform(f.begin(), f.end(), f.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   if (f != "ply" && f != "obj" && f != "stl")
     throw std::invalid_argument("streamed mesh file: unknown format '" + options.format + "' (ply, obj or stl)");
+  // The spooled sections beside the file they become (one file system, so the final copy can
+  // share extents), or in TMPDIR where the output is a stream or device.
+  const OutputPlace place = resolveOutputPlace(path);
   std::string dir = options_.spoolDirectory;
   if (dir.empty()) {
     const char* tmp = std::getenv("TMPDIR");
-    dir = path == "-" ? (tmp && *tmp ? tmp : "/tmp") : directoryOf(path);
+    dir = path == "-" || !place.replaceByRename ? (tmp && *tmp ? tmp : "/tmp") : directoryOf(place.path);
   }
   const int sections = f == "stl" ? 1 : f == "ply" ? 2 : (options_.normals ? 3 : 2);
   for (int i = 0; i < sections; ++i) sections_.push_back(std::make_unique<Spool>(dir, path));
@@ -413,8 +411,22 @@ std::uint64_t StreamedMeshFile::finish() {
     for (auto& s : sections_) copyAll(s->fd(), STDOUT_FILENO, s->size(), "standard output");
     return total;
   }
+  const OutputPlace place = resolveOutputPlace(path_);
+  if (!place.replaceByRename) {  // a device or FIFO: written into, never renamed over
+    const int out = ::open(place.path.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+    if (out < 0) throw std::runtime_error(path_ + ": cannot write: " + reason());
+    try {
+      writeAll(out, head.data(), head.size(), path_);
+      for (auto& s : sections_) copyAll(s->fd(), out, s->size(), path_);
+    } catch (...) {
+      ::close(out);
+      throw;
+    }
+    if (::close(out) != 0) throw std::runtime_error(path_ + ": write error: " + reason());
+    return total;
+  }
   std::string name;
-  int fd = makeTemporary(directoryOf(path_), ".blobvk-out-", name);
+  int fd = makeTemporary(directoryOf(place.path), ".blobvk-out-", name);
   try {
     writeAll(fd, head.data(), head.size(), path_);
     // Each section in pieces, copied to its place in the file.
@@ -434,7 +446,7 @@ std::uint64_t StreamedMeshFile::finish() {
     const int closed = ::close(fd);
     fd = -1;
     if (closed != 0) throw std::runtime_error(path_ + ": write error: " + reason());
-    if (::rename(name.c_str(), path_.c_str()) != 0)
+    if (::rename(name.c_str(), place.path.c_str()) != 0)
       throw std::runtime_error(path_ + ": cannot write: " + reason());
   } catch (...) {
     if (fd >= 0) ::close(fd);

@@ -7,6 +7,7 @@
 #include "blobvk/mesh/io.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <nlohmann/json.hpp>
 
 #include <cstdio>
@@ -161,6 +162,33 @@ TEST(CliConventions, AFullDiskIsAnErrorForReportsAndImages) {
   EXPECT_EQ(r.err.find("blobvk: error"), r.err.rfind("blobvk: error")) << r.err;
   EXPECT_EQ(r.err.find("libpng"), std::string::npos) << r.err;  // no line of libpng's own
   EXPECT_TRUE(fs::is_symlink(cwd / "full.png"));  // a device given as the output is left alone
+}
+
+// An output that is a symlink is written through it (the link stays), and a FIFO is written
+// into, never renamed over, in memory and streamed alike: the same bytes as a plain file.
+TEST(CliConventions, SymlinksAndFifosAsOutputsAreWrittenThrough) {
+  const fs::path cwd = dir("places");
+  ASSERT_EQ(runCliSplit("mesh " + tower + " -o plain.ply --resolution 16", cwd).status, 0);
+  const std::string plain = fileBytes(cwd / "plain.ply");
+  for (const std::string mode : {"", " --stream"}) {
+    fs::remove(cwd / "real.ply");
+    fs::remove(cwd / "link.ply");
+    std::ofstream(cwd / "real.ply") << "old";
+    fs::create_symlink("real.ply", cwd / "link.ply");
+    CliSplitRun r = runCliSplit("mesh " + tower + " -o link.ply --resolution 16" + mode, cwd);
+    ASSERT_EQ(r.status, 0) << mode << r.err;
+    EXPECT_TRUE(fs::is_symlink(cwd / "link.ply")) << mode;
+    EXPECT_EQ(fileBytes(cwd / "real.ply"), plain) << mode;
+    fs::remove(cwd / "fifo.ply");
+    fs::remove(cwd / "copy.ply");
+    ASSERT_EQ(::mkfifo((cwd / "fifo.ply").c_str(), 0600), 0);
+    // The reader in the background; the shell waits for it before answering.
+    const std::string command = "cd '" + cwd.string() + "' && { cat fifo.ply > copy.ply & " + BLOBVK_CLI + " -q mesh " + tower +
+                                " -o fifo.ply --resolution 16" + mode + "; status=$?; wait; exit $status; }";
+    ASSERT_EQ(std::system(command.c_str()), 0) << mode;
+    EXPECT_EQ(fs::status(cwd / "fifo.ply").type(), fs::file_type::fifo) << mode;
+    EXPECT_EQ(fileBytes(cwd / "copy.ply"), plain) << mode;
+  }
 }
 
 TEST(CliConventions, ErrorsGiveTheSystemReasonAndOnlyPrintableBytes) {
