@@ -195,13 +195,16 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
                         const PolygonizeSettings& settings, mesh::MeshSink& sink, PolygonizeStats* stats) {
   if (settings.backend != "vk") throw std::invalid_argument("polygonizeStreamed: the vk backend only, not " + settings.backend);
 #ifdef BLOBVK_HAVE_VULKAN
-  if (!settings.devices.empty()) throw std::runtime_error("streamed meshing on the vk backend runs on one device (drop --devices)");
   if (settings.cpuWorker)
     throw std::runtime_error("streamed meshing on the vk backend runs on one device (drop --cpu-worker)");
   const auto start = std::chrono::steady_clock::now();
-  vk::StandaloneContext& context = sharedContext(settings.device, settings.validation);
+  // A --devices list of one device is that device.
+  const std::vector<vk::StandaloneContext*> contexts = contextsFor(settings);
+  if (contexts.size() > 1)
+    throw std::runtime_error("streamed meshing on the vk backend runs on one device; --devices lists " +
+                             std::to_string(contexts.size()));
+  vk::StandaloneContext& context = *contexts.front();
   startWarmUp(context, settings);
-  const std::vector<vk::StandaloneContext*> contexts{&context};
   const std::uint64_t messagesBefore = validationMessages(contexts);
   vk::GpuStats gpu;
   vk::polygonizeStreamed(context.device(), program, grid, gpuOptions(settings), sink, &gpu,
