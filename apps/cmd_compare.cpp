@@ -2,6 +2,7 @@
 // cell by cell and mesh by mesh. A non-zero exit (3) when a threshold is exceeded, so users can
 // put it in their CI.
 #include "backends.h"
+#include "number_checks.h"
 #include "commands.h"
 #include "json_report.h"
 #include "progress.h"
@@ -103,7 +104,7 @@ void addCompareCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("compare", "Compare the CPU and Vulkan backends on a scene");
   cmd->add_option("scene", a->scene, "Scene file")->required();
   auto* res = cmd->add_option("--resolution", a->resolution, "Cells along the longest side (default 64)")->check(resolutionRange(2));
-  cmd->add_option("--cell-size", a->cellSize, "Grid cell size")->check(CLI::PositiveNumber)->excludes(res);
+  cmd->add_option("--cell-size", a->cellSize, "Grid cell size")->check(positiveFinite())->excludes(res);
   cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference")
       ->check(CLI::IsMember({"cpu", "reference"}));
   cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
@@ -111,17 +112,7 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("--traversal", a->traversal, "Vulkan evaluator: auto (default: the cost model picks per job), specialised, stackless or stack")
       ->check(CLI::IsMember(traversalNames()));
   // A NaN threshold would pass every comparison (every test against it is false).
-  const CLI::Validator finiteNonNegative(
-      [](std::string& text) -> std::string {
-        double v = 0;
-        try {
-          v = std::stod(text);
-        } catch (const std::exception&) {
-          return "'" + text + "' is not a number";
-        }
-        return std::isfinite(v) && v >= 0 ? std::string() : "'" + text + "' must be a finite number >= 0";
-      },
-      "NUMBER >= 0");
+  const CLI::Validator finiteNonNegative = nonNegativeFinite();
   cmd->add_option("--max-field-diff", a->maxFieldDiff, "Fail above this max |field difference| (default 1e-4)")
       ->check(finiteNonNegative);
   cmd->add_option("--max-hausdorff", a->maxHausdorffCells, "Fail above this Hausdorff distance, in cells (default 0.05)")

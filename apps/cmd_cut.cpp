@@ -6,6 +6,7 @@
 // per frame the time, cut events so far, parts, the lift and every tool's force and contact
 // nodes, FEM and cut milliseconds, the FEM solver's iterations and residual.
 #include "body_size_check.h"
+#include "number_checks.h"
 #include "cli_conventions.h"
 #include "commands.h"
 #include "divergence_check.h"
@@ -73,7 +74,7 @@ void addCutCommand(CLI::App& app) {
   cmd->add_option("--steps", a->steps, "Time steps of the whole run (default: the scene's, else 60)")->check(CLI::Range(1, 10000000));
   cmd->add_option("--frame-every", a->frameEvery, "Write a frame every K steps")->check(CLI::Range(1, 1000000));
   cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side (default: the scene's grid, else 48)")->check(resolutionRange(4));
-  cmd->add_option("--voxel-cell", a->voxelCell, "Voxel mesher cell size (default: the scene's simulation.voxel.cellSize)")->check(CLI::PositiveNumber);
+  cmd->add_option("--voxel-cell", a->voxelCell, "Voxel mesher cell size (default: the scene's simulation.voxel.cellSize)")->check(positiveFinite());
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
   cmd->add_option("--fragments", a->fragments, "Parts much smaller than the body: remove (resect them) or keep; reported either way")
       ->check(CLI::IsMember({"remove", "keep"}));

@@ -6,6 +6,7 @@
 // (vk/extract/incremental_extract.h); --check compares each result with a full re-mesh, byte for
 // byte.
 #include "backends.h"
+#include "number_checks.h"
 #include "cli_conventions.h"
 #include "commands.h"
 #include "edit_remesher.h"
@@ -87,7 +88,7 @@ void addEditCommand(CLI::App& app) {
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
   cmd->add_option("edits", a->edits, "Edit script (.json, see docs/editing.md)")->required();
   cmd->add_option("-o,--output", a->out, "Frames: a pattern with %d or %0Nd (.ply, .obj, .stl or .png), e.g. out_%03d.ply")->required();
-  auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")->check(CLI::PositiveNumber);
+  auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")->check(positiveFinite());
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model as loaded")
       ->check(resolutionRange())
       ->excludes(cs);

@@ -1,5 +1,6 @@
 // `blobvk generate tower|eggshell|random -o scene.json`: the thesis' procedural test models.
 #include "cli_conventions.h"
+#include "number_checks.h"
 #include "commands.h"
 #include "progress.h"
 
@@ -66,8 +67,8 @@ void addGenerateCommand(CLI::App& app) {
   auto* t = cmd->add_subcommand("tower", "The thesis' 'Piza' tower, instanced on a grid");
   t->add_option("--levels", tower->levels, "Stacked levels")->check(CLI::Range(1, 1000));
   t->add_option("--pillars", tower->pillars, "Pillars per level")->check(CLI::Range(1, 1000));
-  t->add_option("--radius", tower->radius, "Radius of the pillar circle")->check(CLI::Range(0.01, 1e4));
-  t->add_option("--height", tower->height, "Pillar height")->check(CLI::Range(0.01, 1e4));
+  t->add_option("--radius", tower->radius, "Radius of the pillar circle")->check(finiteRange(0.01, 1e4));
+  t->add_option("--height", tower->height, "Pillar height")->check(finiteRange(0.01, 1e4));
   t->add_option("--grid", tower->grid, "Towers per side of the I x I grid")->check(CLI::Range(1, 100));
   t->add_option("-o,--output", tower->out, "Output .json (- for standard output)")->required();
   t->callback([tower] {

@@ -3,6 +3,7 @@
 // write glTF 2.0 (engine-ready: vertex-cache/fetch ordered unless --no-optimize); --simplify
 // reduces the mesh with meshoptimizer and the check line says whether it stayed closed.
 #include "backends.h"
+#include "number_checks.h"
 #include "cli_conventions.h"
 #include "commands.h"
 #include "json_report.h"
@@ -75,7 +76,7 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_option("--format", a->format, "Format for -o - (ply, obj, stl, gltf, glb; default ply)")
       ->check(CLI::IsMember(std::vector<std::string>{"ply", "obj", "stl", "gltf", "glb"}));
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")
-                 ->check(CLI::PositiveNumber);
+                 ->check(positiveFinite());
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model")
       ->check(meshResolutionRange())
       ->excludes(cs);
@@ -118,18 +119,8 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
   auto* features = cmd->add_flag("--features", a->features,
                 "Sharp features: a vertex on the crease or corner in each cell whose normals disagree (extended marching cubes)");
-  // Range alone lets NaN through (every comparison with it is false).
   cmd->add_option("--feature-angle", a->featureAngle, "--features: degrees between normals that mark a crease (default 30)")
-      ->check(CLI::Validator(
-          [](std::string& text) -> std::string {
-            try {
-              const double v = std::stod(text);
-              if (v >= 1.0 && v <= 179.0) return {};
-            } catch (const std::exception&) {
-            }
-            return "'" + text + "' is not a number of degrees in [1, 179]";
-          },
-          "DEGREES in [1, 179]"))
+      ->check(finiteRange(1.0, 179.0))
       ->needs(features);
   cmd->add_option("--simplify", a->simplify,
                   "Simplify with meshoptimizer: RATIO of triangles kept (0.25) or ERROR% of the extent (0.5%); "
@@ -170,6 +161,11 @@ void addMeshCommand(CLI::App& app) {
       }
     }
     const bool optimize = a->optimize || (gltf && !a->noOptimize);
+    // --stream asked for what cannot stream: a usage error, found before any work (a job that
+    // streams because it is over the --max-memory budget is told so where it is decided).
+    if (a->stream && gltf) throw UsageError("--stream writes .ply, .obj or .stl; ." + format + " needs the whole mesh in memory");
+    if (a->stream && a->settings.backend == "reference")
+      throw UsageError("--stream runs on the cpu and vk backends, not reference");
 
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);

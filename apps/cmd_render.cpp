@@ -1,6 +1,7 @@
 // `blobvk render SCENE -o out.png`: headless rendering with the offscreen rasterizer (mesh mode,
 // the mesh from any polygonizer backend; the vk backend draws from the GPU without a read-back)
 // or the compute ray-caster (raycast mode). --turntable N writes N frames around the target.
+#include "number_checks.h"
 #include "render_command.h"
 
 #include "backends.h"
@@ -88,12 +89,12 @@ void addRenderCommand(CLI::App& app) {
   auto* cam = cmd->add_option("--camera", a->camera, "Orbit: azimuth,elevation[,distance] in degrees / world units");
   auto* eye = cmd->add_option("--eye", a->eye, "Camera position x,y,z")->excludes(cam);
   cmd->add_option("--target", a->target, "Point looked at x,y,z (default: the scene's, else the centre)");
-  cmd->add_option("--fov", a->fov, "Vertical field of view in degrees")->check(CLI::Range(1.0, 170.0));
+  cmd->add_option("--fov", a->fov, "Vertical field of view in degrees")->check(finiteRange(1.0, 170.0));
   cmd->add_option("--mode", a->mode, "mesh (rasterize the polygonized mesh, default) or raycast")
       ->check(CLI::IsMember({"mesh", "raycast"}));
   cmd->add_option("--backend", a->settings.backend, "Polygonizer for mesh mode: cpu (default), reference, vk")
       ->check(CLI::IsMember(allBackendNames()));
-  auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (mesh mode)")->check(CLI::PositiveNumber);
+  auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (mesh mode)")->check(positiveFinite());
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side (mesh mode)")
       ->check(resolutionRange())
       ->excludes(cs);

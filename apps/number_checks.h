@@ -1,0 +1,17 @@
+// CLI11 checks for floating-point options. CLI::Range and CLI::PositiveNumber let NaN through
+// (every comparison with it is false), so `--cell-size nan` reached the work and failed there
+// as an error (exit 1) instead of a usage error (exit 2). These refuse NaN and infinities.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace blobvk::app {
+
+// A finite number in [lo, hi].
+CLI::Validator finiteRange(double lo, double hi);
+// A finite number > 0.
+CLI::Validator positiveFinite();
+// A finite number >= 0.
+CLI::Validator nonNegativeFinite();
+
+}  // namespace blobvk::app
