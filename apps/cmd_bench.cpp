@@ -6,6 +6,7 @@
 #include "progress.h"
 #include "resolution_limit.h"
 #include "model.h"
+#include "number_checks.h"
 
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "blobvk/mesh/io.h"
@@ -75,10 +76,11 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--sub-block", a->subBlock,
                   "cpu: cells per leaf block of the sparse field cache (0 = every grid point; default 3, or 4 with --mpu)")
       ->check(CLI::Range(0, 64));
-  auto* one = cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
+  auto* one = cmd->add_option("--device", a->device, "Vulkan device (name substring or index)")->check(nonEmptyText());
   cmd->add_option("--devices", a->deviceLists,
                   "vk: device lists to compare, each as `mesh --devices` (all, or 0,1; a device named twice is opened "
                   "twice; several allowed: --devices 0 --devices 0,0)")
+      ->check(nonEmptyText())
       ->excludes(one);
   cmd->add_option("--batches-per-device", a->batchesPerDevice,
                   "vk, several devices: batches of brick layers per device (0: the library's default, 1)")

@@ -107,7 +107,7 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("--cell-size", a->cellSize, "Grid cell size")->check(positiveFinite())->excludes(res);
   cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference")
       ->check(CLI::IsMember({"cpu", "reference"}));
-  cmd->add_option("--device", a->device, "Vulkan device (name substring or index)");
+  cmd->add_option("--device", a->device, "Vulkan device (name substring or index)")->check(nonEmptyText());
   cmd->add_flag("--validation", a->validation, "Run the Vulkan side under the validation layer");
   cmd->add_option("--traversal", a->traversal, "Vulkan evaluator: auto (default: the cost model picks per job), specialised, stackless or stack")
       ->check(CLI::IsMember(traversalNames()));

@@ -87,10 +87,11 @@ void addMeshCommand(CLI::App& app) {
       ->check(CLI::Range(0, 64));
   cmd->add_option("--refine", a->settings.refineSteps, "Root refinement steps per vertex")
       ->check(CLI::Range(0, 16));
-  auto* one = cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
+  auto* one = cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)")->check(nonEmptyText());
   cmd->add_option("--devices", a->settings.devices,
                   "vk: several Vulkan devices sharing the bricks, same bytes as one: all, or indices/names "
                   "(0,1; a device named twice is opened twice)")
+      ->check(nonEmptyText())
       ->excludes(one);
   cmd->add_flag("--cpu-worker", a->settings.cpuWorker,
                 "vk: the CPU polygonizer takes bricks beside the Vulkan devices (on --threads threads, default 1), same bytes");
@@ -113,10 +114,12 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_flag("--brick-tapes", a->settings.brickTapes,
                 "vk sparse: the field pass interprets, per brick, the program pruned to the brick (the same mesh)");
   cmd->add_option("--max-memory", a->maxMemory,
-                  "Memory budget (e.g. 2G; default: available): a cpu or vk job whose mesh may not fit is streamed to the file layer by layer");
+                  "Memory budget (e.g. 2G; default: available): a cpu or vk job whose mesh may not fit is streamed to the file layer by layer")
+      ->check(nonEmptyText());
   cmd->add_flag("--stream", a->stream,
                 "Always stream: write the mesh as it is made (cpu: layer by layer of MPUs; vk: batch by batch of brick layers), holding a few layers");
-  cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles");
+  cmd->add_option("--max-triangles", a->limits.maxTriangles, "Refuse meshes with more triangles (at least 1)")
+      ->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 62));
   auto* features = cmd->add_flag("--features", a->features,
                 "Sharp features: a vertex on the crease or corner in each cell whose normals disagree (extended marching cubes)");
   cmd->add_option("--feature-angle", a->featureAngle, "--features: degrees between normals that mark a crease (default 30)")
@@ -124,7 +127,8 @@ void addMeshCommand(CLI::App& app) {
       ->needs(features);
   cmd->add_option("--simplify", a->simplify,
                   "Simplify with meshoptimizer: RATIO of triangles kept (0.25) or ERROR% of the extent (0.5%); "
-                  "a closed mesh stays closed");
+                  "a closed mesh stays closed")
+      ->check(nonEmptyText());
   auto* opt = cmd->add_flag("--optimize", a->optimize,
                             "Order triangles and vertices for the GPU's vertex cache and fetch (default for .gltf/.glb)");
   cmd->add_flag("--no-optimize", a->noOptimize, "Keep the polygonizer's grid-edge vertex order in .gltf/.glb")->excludes(opt);

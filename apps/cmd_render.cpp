@@ -104,7 +104,7 @@ void addRenderCommand(CLI::App& app) {
       ->check(CLI::IsMember({1, 2, 4, 8}));
   cmd->add_flag("--wireframe", a->wireframe,
                 "Overlay the mesh edges (mesh mode; with --backend vk the mesh is read back to build the edge list)");
-  cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)");
+  cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)")->check(nonEmptyText());
   cmd->add_flag("--validation", a->settings.validation, "Enable the Vulkan validation layer");
   (void)eye;
   cmd->callback([a, cmd] {

@@ -38,4 +38,9 @@ CLI::Validator nonNegativeFinite() {
   return finiteCheck([](double v) { return v >= 0; }, "a finite number >= 0");
 }
 
+CLI::Validator nonEmptyText() {
+  return CLI::Validator([](std::string& text) { return text.empty() ? std::string("an empty value means nothing here") : std::string(); },
+                        "TEXT");
+}
+
 }  // namespace blobvk::app

@@ -1,4 +1,4 @@
-// CLI11 checks for floating-point options. CLI::Range and CLI::PositiveNumber let NaN through
+// CLI11 checks for floating-point options (and one for text). CLI::Range and CLI::PositiveNumber let NaN through
 // (every comparison with it is false), so `--cell-size nan` reached the work and failed there
 // as an error (exit 1) instead of a usage error (exit 2). These refuse NaN and infinities.
 #pragma once
@@ -13,5 +13,8 @@ CLI::Validator finiteRange(double lo, double hi);
 CLI::Validator positiveFinite();
 // A finite number >= 0.
 CLI::Validator nonNegativeFinite();
+// Any text but the empty one: `--device ''` or `--simplify ''` would otherwise read as the
+// option not given.
+CLI::Validator nonEmptyText();
 
 }  // namespace blobvk::app

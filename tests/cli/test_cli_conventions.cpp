@@ -83,7 +83,10 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
                                  "mesh " + tower + " -o x.ply --cell-size nan", "render " + tower + " -o x.png --fov nan",
                                  "generate tower --radius nan -o t.json", "compare " + tower + " --max-hausdorff inf",
                                  // What cannot stream, asked to.
-                                 "mesh " + tower + " -o x.glb --stream", "mesh " + tower + " -o x.ply --stream --backend reference"}) {
+                                 "mesh " + tower + " -o x.glb --stream", "mesh " + tower + " -o x.ply --stream --backend reference",
+                                 // An empty value is not the option left out; --max-triangles 0 read as no limit.
+                                 "mesh " + tower + " -o x.ply --simplify ''", "mesh " + tower + " -o x.ply --backend vk --device ''",
+                                 "mesh " + tower + " -o x.ply --max-triangles 0"}) {
     const CliSplitRun r = runCliSplit(args, cwd);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
     EXPECT_EQ(lineCount(r.err), 1u) << args << "\n" << r.err;
