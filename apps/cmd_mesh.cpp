@@ -180,13 +180,17 @@ void addMeshCommand(CLI::App& app) {
     const std::uint64_t budget = a->limits.maxMemoryBytes ? a->limits.maxMemoryBytes : availableMemoryBytes();
     const std::uint64_t inMemory = estimatePolygonizeBytes(grid, a->settings.backend);
     const bool streams = a->settings.backend == "cpu" || (a->settings.backend == "vk" && a->settings.devices.empty() && !a->settings.cpuWorker);
-    const bool stream = a->stream || launchedByMpi() || (streams && budget != 0 && inMemory > budget);
+    // Streaming only where it needs less: on a small grid its layer buffers can outweigh the
+    // whole mesh, and a job refused for the streamed need could have run in memory.
+    const std::uint64_t streamedNeed = estimateStreamedBytes(grid, a->settings.mpuSize);
+    const bool stream =
+        a->stream || launchedByMpi() || (streams && budget != 0 && inMemory > budget && streamedNeed < inMemory);
     if (stream && (simplifyTarget || a->optimize || a->features)) {
       throw UsageError("--features, --simplify and --optimize need the whole mesh in memory; they cannot be combined with streaming"
                        " (--stream, an MPI launch, or a mesh over the --max-memory budget)");
     }
     if (stream) {
-      checkMemory(estimateStreamedBytes(grid, a->settings.mpuSize), a->limits, "streaming a " + gridText + " grid");
+      checkMemory(streamedNeed, a->limits, "streaming a " + gridText + " grid");
       const bool check = !toStdout && !(quiet() && !a->json);
       const StreamedMeshResult r = meshStreamed(model.program, grid, a->settings, a->out, format, a->ascii, check, a->limits);
       if (!r.worker && r.triangles == 0) warnEmptyMesh(gridText);
