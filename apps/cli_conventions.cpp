@@ -109,42 +109,65 @@ void writeStdout(std::string_view bytes) {
   }
 }
 
+namespace {
+// Truncates and writes in place: for devices and FIFOs, and where a temporary cannot be made or
+// renamed (a folder not writable, a file bind-mounted into a container).
+void writeInPlace(const std::string& shown, const std::string& path, std::string_view bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw std::runtime_error(printable(shown) + ": cannot write: " + systemReason(errno));
+  out.write(bytes.data(), std::streamsize(bytes.size()));
+  out.close();
+  if (!out) throw std::runtime_error(printable(shown) + ": write error: " + systemReason(errno));
+}
+
+// errno values for which a temporary beside the file, or renaming it, cannot work while writing
+// the file itself may.
+bool renameImpossible(int err) { return err == EACCES || err == EPERM || err == EROFS || err == EBUSY || err == EXDEV; }
+}  // namespace
+
 void writeOutput(const std::string& path, std::string_view bytes) {
   if (path == "-") return writeStdout(bytes);
   const mesh::OutputPlace place = mesh::resolveOutputPlace(path);
-  if (!place.replaceByRename) {  // a device or FIFO: written into
-    std::ofstream out(place.path, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    out.close();
-    if (!out) throw std::runtime_error(printable(path) + ": write error: " + systemReason(errno));
-    return;
-  }
+  if (!place.replaceByRename) return writeInPlace(path, place.path, bytes);  // a device or FIFO
   // A temporary beside the file, renamed over it once whole: a full disk leaves the old file, not
   // a truncated one, and a symlink keeps pointing where it did.
   std::string temp = mesh::directoryOf(place.path) + "/.blobvk-out-XXXXXX";
   const int fd = ::mkstemp(temp.data());
-  if (fd < 0) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
-  const auto fail = [&](const char* what) {
-    const int err = errno;
+  if (fd < 0) {
+    if (renameImpossible(errno)) return writeInPlace(path, place.path, bytes);
+    throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
+  }
+  const auto fail = [&](const char* what, int err) {
     ::unlink(temp.c_str());
-    throw std::runtime_error(printable(path) + ": " + what + ": " + systemReason(err ? err : EIO));
+    throw std::runtime_error(printable(path) + ": " + what + ": " + systemReason(err));
   };
   for (std::size_t done = 0; done < bytes.size();) {
     const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
+      const int err = n < 0 ? errno : EIO;
       ::close(fd);
-      fail("write error");
+      fail("write error", err);
     }
     done += std::size_t(n);
   }
-  // mkstemp makes 0600; give the file the mode an ordinary create would (0666 less umask).
-  const mode_t mask = ::umask(0);
-  ::umask(mask);
-  ::fchmod(fd, 0666 & ~mask);
-  if (::close(fd) != 0) fail("write error");
-  if (::rename(temp.c_str(), place.path.c_str()) != 0) fail("cannot write");
+  // The mode of the file replaced, else the one an ordinary create would give (0666 less umask):
+  // mkstemp makes 0600.
+  struct stat old {};
+  if (::stat(place.path.c_str(), &old) == 0) {
+    ::fchmod(fd, old.st_mode & 07777);
+  } else {
+    const mode_t mask = ::umask(0);
+    ::umask(mask);
+    ::fchmod(fd, 0666 & ~mask);
+  }
+  if (::close(fd) != 0) fail("write error", errno);
+  if (::rename(temp.c_str(), place.path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(temp.c_str());
+    if (renameImpossible(err)) return writeInPlace(path, place.path, bytes);
+    throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(err));
+  }
 }
 
 }  // namespace blobvk::app

@@ -68,7 +68,9 @@ bool compareImages(const Model& model, const blobtree::GridSpec& grid, const Ima
   // cells, in pixels at the target's distance.
   const float targetDistance = glm::length(camera.eye - camera.target);
   const float pixelsPerUnit = float(height) / (2.0f * targetDistance * std::tan(glm::radians(camera.fovYDeg) * 0.5f));
-  const int meshErrorPixels = int(std::ceil(std::min(2.0f * grid.cellSize * pixelsPerUnit, float(std::max(width, height)))));
+  // At most 16 pixels: a coarse grid on a large image would otherwise let any colour near a
+  // pixel match it (and cost a search of the whole window per pixel).
+  const int meshErrorPixels = int(std::ceil(std::min(2.0f * grid.cellSize * pixelsPerUnit, 16.0f)));
   report["width"] = width;
   report["height"] = height;
   report["tolerance"] = settings.tolerance;

@@ -14,7 +14,11 @@ CLI::Validator finiteCheck(std::function<bool(double)> accepts, const std::strin
       [accepts, what](std::string& text) -> std::string {
         char* end = nullptr;
         const double v = std::strtod(text.c_str(), &end);
-        if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v) || !accepts(v))
+        // Many of these options are floats: a value past float range (1e39) would become
+        // infinite there, and one below it (1e-50) zero.
+        const float f = float(v);
+        if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v) || !std::isfinite(f) ||
+            (v != 0 && f == 0) || !accepts(v))
           return "'" + text + "' is not " + what;
         return {};
       },

@@ -1,6 +1,7 @@
 // CLI11 checks for floating-point options (and one for text). CLI::Range and CLI::PositiveNumber let NaN through
 // (every comparison with it is false), so `--cell-size nan` reached the work and failed there
-// as an error (exit 1) instead of a usage error (exit 2). These refuse NaN and infinities.
+// as an error (exit 1) instead of a usage error (exit 2). These refuse NaN, infinities and values
+// a float cannot hold (beyond its range, or so small they would round to zero).
 #pragma once
 
 #include <CLI/CLI.hpp>

@@ -6,13 +6,17 @@ namespace blobvk::mesh {
 
 OutputPlace resolveOutputPlace(const std::string& path) {
   namespace fs = std::filesystem;
-  OutputPlace place{path, true};
   std::error_code ec;
-  if (fs::is_symlink(fs::symlink_status(path, ec))) {
-    // weakly_canonical follows every link, also to a target that does not exist yet.
-    const fs::path target = fs::weakly_canonical(path, ec);
-    if (!ec) place.path = target.string();
+  // Follow the links by hand: weakly_canonical stops at a link whose target does not exist yet,
+  // and renaming onto that link would replace it with a file. 40 hops, as the kernel allows.
+  fs::path p(path);
+  int hops = 0;
+  while (fs::is_symlink(fs::symlink_status(p, ec))) {
+    const fs::path target = fs::read_symlink(p, ec);
+    if (ec || ++hops > 40) return {path, false};  // a loop or an unreadable link: written into, failing there
+    p = target.is_absolute() ? target : p.parent_path() / target;
   }
+  OutputPlace place{hops ? p.lexically_normal().string() : path, true};
   const fs::file_status status = fs::status(place.path, ec);
   place.replaceByRename = !fs::exists(status) || fs::is_regular_file(status);
   return place;

@@ -8,10 +8,12 @@
 namespace blobvk::mesh {
 
 struct OutputPlace {
-  // The path to write: the symlink's target where `path` is a symlink (followed to the end).
+  // The path to write: the symlink's target where `path` is a symlink (followed to the end, also
+  // to a target that does not exist yet).
   std::string path;
   // True for a regular file or a new one: write a temporary beside it and rename it into place,
-  // so a failed write leaves the old file. False for a device, FIFO or socket: written into.
+  // so a failed write leaves the old file. False for a device, FIFO or socket (and a symlink
+  // loop): written into.
   bool replaceByRename = true;
 };
 

@@ -412,8 +412,10 @@ std::uint64_t StreamedMeshFile::finish() {
     return total;
   }
   const OutputPlace place = resolveOutputPlace(path_);
-  if (!place.replaceByRename) {  // a device or FIFO: written into, never renamed over
-    const int out = ::open(place.path.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+  // Into the file itself: a device or FIFO (never renamed over), or a file whose folder takes no
+  // temporary or whose place takes no rename (a file bind-mounted into a container).
+  const auto writeInPlace = [&] {
+    const int out = ::open(place.path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
     if (out < 0) throw std::runtime_error(path_ + ": cannot write: " + reason());
     try {
       writeAll(out, head.data(), head.size(), path_);
@@ -423,10 +425,20 @@ std::uint64_t StreamedMeshFile::finish() {
       throw;
     }
     if (::close(out) != 0) throw std::runtime_error(path_ + ": write error: " + reason());
+  };
+  const auto renameImpossible = [](int err) { return err == EACCES || err == EPERM || err == EROFS || err == EBUSY || err == EXDEV; };
+  if (!place.replaceByRename) {
+    writeInPlace();
     return total;
   }
-  std::string name;
-  int fd = makeTemporary(directoryOf(place.path), ".blobvk-out-", name);
+  std::string name = directoryOf(place.path) + "/.blobvk-out-XXXXXX";
+  int fd = ::mkstemp(name.data());
+  if (fd < 0) {
+    if (!renameImpossible(errno))
+      throw std::runtime_error(directoryOf(place.path) + ": cannot create a temporary file: " + reason());
+    writeInPlace();
+    return total;
+  }
   try {
     writeAll(fd, head.data(), head.size(), path_);
     // Each section in pieces, copied to its place in the file.
@@ -439,15 +451,25 @@ std::uint64_t StreamedMeshFile::finish() {
       at += s->size();
     }
     copyPieces(pieces, fd, path_);
-    // mkstemp makes 0600; give the file the mode an ordinary create would (0666 less umask).
-    const mode_t mask = ::umask(0);
-    ::umask(mask);
-    ::fchmod(fd, 0666 & ~mask);
+    // The mode of the file replaced, else the one an ordinary create would give (0666 less
+    // umask): mkstemp makes 0600.
+    struct stat old {};
+    if (::stat(place.path.c_str(), &old) == 0) {
+      ::fchmod(fd, old.st_mode & 07777);
+    } else {
+      const mode_t mask = ::umask(0);
+      ::umask(mask);
+      ::fchmod(fd, 0666 & ~mask);
+    }
     const int closed = ::close(fd);
     fd = -1;
     if (closed != 0) throw std::runtime_error(path_ + ": write error: " + reason());
-    if (::rename(name.c_str(), place.path.c_str()) != 0)
-      throw std::runtime_error(path_ + ": cannot write: " + reason());
+    if (::rename(name.c_str(), place.path.c_str()) != 0) {
+      const int err = errno;
+      if (!renameImpossible(err)) throw std::runtime_error(path_ + ": cannot write: " + std::strerror(err));
+      ::unlink(name.c_str());
+      writeInPlace();  // the spools are still there
+    }
   } catch (...) {
     if (fd >= 0) ::close(fd);
     ::unlink(name.c_str());

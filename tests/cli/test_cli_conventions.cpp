@@ -187,6 +187,16 @@ TEST(CliConventions, SymlinksAndFifosAsOutputsAreWrittenThrough) {
     ASSERT_EQ(r.status, 0) << mode << r.err;
     EXPECT_TRUE(fs::is_symlink(cwd / "link.ply")) << mode;
     EXPECT_EQ(fileBytes(cwd / "real.ply"), plain) << mode;
+    // A link whose target does not exist yet, through a second link: the target is made.
+    fs::remove(cwd / "made.ply");
+    fs::remove(cwd / "dangling.ply");
+    fs::remove(cwd / "chain.ply");
+    fs::create_symlink("made.ply", cwd / "dangling.ply");
+    fs::create_symlink("dangling.ply", cwd / "chain.ply");
+    r = runCliSplit("mesh " + tower + " -o chain.ply --resolution 16" + mode, cwd);
+    ASSERT_EQ(r.status, 0) << mode << r.err;
+    EXPECT_TRUE(fs::is_symlink(cwd / "chain.ply") && fs::is_symlink(cwd / "dangling.ply")) << mode;
+    EXPECT_EQ(fileBytes(cwd / "made.ply"), plain) << mode;
     fs::remove(cwd / "fifo.ply");
     fs::remove(cwd / "copy.ply");
     ASSERT_EQ(::mkfifo((cwd / "fifo.ply").c_str(), 0600), 0);

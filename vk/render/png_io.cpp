@@ -29,10 +29,11 @@ void onPngError(png_structp png, png_const_charp message) {
 void onPngWarning(png_structp, png_const_charp) {}
 
 // A file that failed half-written is removed, so no truncated image is left looking like a result;
-// only a regular file: a device or pipe given as the output (/dev/stdout) is left alone.
+// only a path that is itself a regular file: a symlink (/dev/stdout, a user's link) or a device is
+// left alone, since removing the path would remove the link, not what was written.
 void removePartial(const std::string& path) {
   struct stat st {};
-  if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) std::remove(path.c_str());
+  if (::lstat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) std::remove(path.c_str());
 }
 
 // Encodes into an open file; returns "" or libpng's message. Nothing with a destructor lives in
