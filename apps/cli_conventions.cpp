@@ -119,10 +119,6 @@ void writeInPlace(const std::string& shown, const std::string& path, std::string
   out.close();
   if (!out) throw std::runtime_error(printable(shown) + ": write error: " + systemReason(errno));
 }
-
-// errno values for which a temporary beside the file, or renaming it, cannot work while writing
-// the file itself may.
-bool renameImpossible(int err) { return err == EACCES || err == EPERM || err == EROFS || err == EBUSY || err == EXDEV; }
 }  // namespace
 
 void writeOutput(const std::string& path, std::string_view bytes) {
@@ -134,7 +130,7 @@ void writeOutput(const std::string& path, std::string_view bytes) {
   std::string temp = mesh::directoryOf(place.path) + "/.blobvk-out-XXXXXX";
   const int fd = ::mkstemp(temp.data());
   if (fd < 0) {
-    if (renameImpossible(errno)) return writeInPlace(path, place.path, bytes);
+    if (mesh::renameImpossible(errno)) return writeInPlace(path, place.path, bytes);
     throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
   }
   const auto fail = [&](const char* what, int err) {
@@ -151,21 +147,12 @@ void writeOutput(const std::string& path, std::string_view bytes) {
     }
     done += std::size_t(n);
   }
-  // The mode of the file replaced, else the one an ordinary create would give (0666 less umask):
-  // mkstemp makes 0600.
-  struct stat old {};
-  if (::stat(place.path.c_str(), &old) == 0) {
-    ::fchmod(fd, old.st_mode & 07777);
-  } else {
-    const mode_t mask = ::umask(0);
-    ::umask(mask);
-    ::fchmod(fd, 0666 & ~mask);
-  }
+  mesh::setReplacementMode(fd, place.path);
   if (::close(fd) != 0) fail("write error", errno);
   if (::rename(temp.c_str(), place.path.c_str()) != 0) {
     const int err = errno;
     ::unlink(temp.c_str());
-    if (renameImpossible(err)) return writeInPlace(path, place.path, bytes);
+    if (mesh::renameImpossible(err)) return writeInPlace(path, place.path, bytes);
     throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(err));
   }
 }

@@ -1,5 +1,8 @@
 #include "blobvk/mesh/output_place.h"
 
+#include <sys/stat.h>
+
+#include <cerrno>
 #include <filesystem>
 
 namespace blobvk::mesh {
@@ -20,6 +23,19 @@ OutputPlace resolveOutputPlace(const std::string& path) {
   const fs::file_status status = fs::status(place.path, ec);
   place.replaceByRename = !fs::exists(status) || fs::is_regular_file(status);
   return place;
+}
+
+bool renameImpossible(int err) { return err == EACCES || err == EPERM || err == EROFS || err == EBUSY || err == EXDEV; }
+
+void setReplacementMode(int fd, const std::string& path) {
+  struct stat old {};
+  if (::stat(path.c_str(), &old) == 0) {
+    ::fchmod(fd, old.st_mode & 07777);
+    return;
+  }
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  ::fchmod(fd, 0666 & ~mask);
 }
 
 std::string directoryOf(const std::string& path) {

@@ -19,6 +19,14 @@ struct OutputPlace {
 
 OutputPlace resolveOutputPlace(const std::string& path);
 
+// errno values for which a temporary beside the file, or renaming it over the file, cannot work
+// while writing the file itself may (a folder not writable, a file bind-mounted into a container).
+bool renameImpossible(int err);
+
+// Gives a finished temporary `fd` the mode of the file at `path` it will replace, else the one an
+// ordinary create would give (0666 less the umask): mkstemp makes 0600.
+void setReplacementMode(int fd, const std::string& path);
+
 // The folder of a path as written ("." for a bare name, "/" for one under the root).
 std::string directoryOf(const std::string& path);
 

@@ -426,7 +426,6 @@ std::uint64_t StreamedMeshFile::finish() {
     }
     if (::close(out) != 0) throw std::runtime_error(path_ + ": write error: " + reason());
   };
-  const auto renameImpossible = [](int err) { return err == EACCES || err == EPERM || err == EROFS || err == EBUSY || err == EXDEV; };
   if (!place.replaceByRename) {
     writeInPlace();
     return total;
@@ -451,16 +450,7 @@ std::uint64_t StreamedMeshFile::finish() {
       at += s->size();
     }
     copyPieces(pieces, fd, path_);
-    // The mode of the file replaced, else the one an ordinary create would give (0666 less
-    // umask): mkstemp makes 0600.
-    struct stat old {};
-    if (::stat(place.path.c_str(), &old) == 0) {
-      ::fchmod(fd, old.st_mode & 07777);
-    } else {
-      const mode_t mask = ::umask(0);
-      ::umask(mask);
-      ::fchmod(fd, 0666 & ~mask);
-    }
+    setReplacementMode(fd, place.path);
     const int closed = ::close(fd);
     fd = -1;
     if (closed != 0) throw std::runtime_error(path_ + ": write error: " + reason());

@@ -159,6 +159,14 @@ TEST_F(CliEdit, BadScriptsNameFilePointerAndProblem) {
     std::ofstream(cwd / "bad.json") << script;
     return runCliSplit("edit s.json bad.json -o out_%d.ply", cwd);
   };
+  // One error line naming the file, the pointer and the problem; no frame after the first.
+  const auto expectRefused = [&](const std::string& script, const std::string& expected) {
+    const CliSplitRun r = run(script);
+    EXPECT_EQ(r.status, 1) << script;
+    EXPECT_NE(r.err.find(expected), std::string::npos) << script << "\n" << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(cwd / "out_1.ply")) << script;
+  };
   const std::pair<std::string, std::string> cases[] = {
       {"{\"blobvk_edits\": 1, \"edits\": [", "bad.json: line 1, column 31: malformed JSON"},
       {"{\"edits\": []}", "bad.json: /: missing key \"blobvk_edits\""},
@@ -179,13 +187,7 @@ TEST_F(CliEdit, BadScriptsNameFilePointerAndProblem) {
        "bad.json: /edits/0/set/support: key \"support\" appears twice in one object"},
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [0], \"node\": \"x\", \"remove\": 0}]}", "bad.json: /edits/0: name the node by exactly one"},
   };
-  for (const auto& [script, expected] : cases) {
-    const CliSplitRun r = run(script);
-    EXPECT_EQ(r.status, 1) << script;
-    EXPECT_NE(r.err.find(expected), std::string::npos) << script << "\n" << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    EXPECT_FALSE(fs::exists(cwd / "out_1.ply")) << script;
-  }
+  for (const auto& [script, expected] : cases) expectRefused(script, expected);
   // Ids name one node: an id the scene repeats is refused as a name, and an edit may not give a
   // second node an id the tree already has.
   Json twice = fixedGridScene();
@@ -204,13 +206,7 @@ TEST_F(CliEdit, BadScriptsNameFilePointerAndProblem) {
       {"{\"blobvk_edits\": 1, \"edits\": [{\"path\": [3], \"set\": {\"id\": \"a\"}}]}",
        "bad.json: /edits/0/set/id: the node at [0] already has the id 'a'"},
   };
-  for (const auto& [script, expected] : idCases) {
-    const CliSplitRun r = run(script);
-    EXPECT_EQ(r.status, 1) << script;
-    EXPECT_NE(r.err.find(expected), std::string::npos) << script << "\n" << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    EXPECT_FALSE(fs::exists(cwd / "out_1.ply")) << script;
-  }
+  for (const auto& [script, expected] : idCases) expectRefused(script, expected);
   // Setting a node's own id again, and naming a node by an id it alone has, still work.
   const CliSplitRun same = run("{\"blobvk_edits\": 1, \"edits\": [{\"node\": \"a\", \"set\": {\"id\": \"a\", \"support\": 2}}]}");
   EXPECT_EQ(same.status, 0) << same.err;
