@@ -55,7 +55,9 @@ void prepareOutputFolder(const std::string& path);
 // Writes bytes to standard output (binary-safe); throws naming "standard output" on failure.
 void writeStdout(std::string_view bytes);
 
-// Writes bytes to `path`, or to standard output when path is "-".
+// Writes bytes to `path`, or to standard output when path is "-". A regular file (or a new one)
+// is written to a temporary beside it and renamed into place once whole; a symlink is followed;
+// a device or FIFO is written into.
 void writeOutput(const std::string& path, std::string_view bytes);
 
 }  // namespace blobvk::app

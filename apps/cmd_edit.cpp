@@ -173,7 +173,7 @@ void addEditCommand(CLI::App& app) {
       const std::string path = framePath(a->out, frame);
 #ifdef BLOBVK_HAVE_VULKAN
       if (png) {
-        vk::writePng(path, renderer->render(m, *camera));
+        writeOutput(path, vk::encodePng(renderer->render(m, *camera)));
         return path;
       }
 #endif

@@ -231,8 +231,9 @@ void addRenderCommand(CLI::App& app) {
           exhaustedRays += stats.exhaustedRays;
         }
         const auto tp = std::chrono::steady_clock::now();
-        // libpng writes through stdio; /dev/stdout streams a single frame to a pipe or a file.
-        vk::writePng(toStdout ? std::string("/dev/stdout") : framePath(a->out, frame, a->turntable), image);
+        // Placed as every output is (cli_conventions.h): "-" is standard output as it stands (a
+        // file opened for appending stays so), a file is replaced only once whole.
+        writeOutput(toStdout ? std::string("-") : framePath(a->out, frame, a->turntable), vk::encodePng(image));
         ++written;
         pngSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count();
         progress.update(frame + 1);

@@ -4,6 +4,7 @@
 #include "compare_images.h"
 
 #include "backends.h"
+#include "cli_conventions.h"
 
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
@@ -98,12 +99,12 @@ bool compareImages(const Model& model, const blobtree::GridSpec& grid, const Ima
     list.push_back(entry);
     if (!settings.writeDir.empty()) {
       std::filesystem::create_directories(settings.writeDir);
-      vk::writePng(settings.writeDir + "/diff_" + images[i].name + "_" + images[j].name + ".png",
-                   vk::differenceImage(*images[i].image, *images[j].image));
+      writeOutput(settings.writeDir + "/diff_" + images[i].name + "_" + images[j].name + ".png",
+                  vk::encodePng(vk::differenceImage(*images[i].image, *images[j].image)));
     }
   }
   if (!settings.writeDir.empty()) {
-    for (const auto& n : images) vk::writePng(settings.writeDir + "/" + n.name + ".png", *n.image);
+    for (const auto& n : images) writeOutput(settings.writeDir + "/" + n.name + ".png", vk::encodePng(*n.image));
   }
   report["pairs"] = list;
   report["validation_messages"] = ctx.validationMessages();

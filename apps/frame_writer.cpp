@@ -88,7 +88,7 @@ void FrameWriter::write(const mesh::TriMesh& surface) {
   mesh::writePly(surface, base.string() + ".ply");
 #ifdef BLOBVK_HAVE_VULKAN
   if (renderer_ && surface.triangleCount() > 0) {
-    vk::writePng(base.string() + ".png", renderer_->renderer.render(surface, renderer_->camera));
+    writeOutput(base.string() + ".png", vk::encodePng(renderer_->renderer.render(surface, renderer_->camera)));
   }
 #endif
 }

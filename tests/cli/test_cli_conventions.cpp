@@ -322,6 +322,11 @@ TEST(CliConventions, DashWritesToStandardOutput) {
   const Rgba image = decodePng(r.out);
   EXPECT_EQ(image.width, 40u);
   EXPECT_EQ(image.height, 30u);
+  // Standard output as the shell gave it: a file opened for appending (>>) keeps what it held.
+  std::ofstream(cwd / "log.bin", std::ios::binary) << "kept";
+  const std::string command = "cd '" + cwd.string() + "' && " + BLOBVK_CLI + " render " + tower + " -o - --size 40x30 >>log.bin 2>/dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  EXPECT_EQ(fileBytes(cwd / "log.bin"), "kept" + r.out);
 #endif
   EXPECT_FALSE(fs::exists(cwd / "-"));
   // Where stdout cannot carry the product, "-" is refused as a usage error.

@@ -36,9 +36,17 @@ void removePartial(const std::string& path) {
   if (::lstat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) std::remove(path.c_str());
 }
 
-// Encodes into an open file; returns "" or libpng's message. Nothing with a destructor lives in
-// this frame: libpng reports errors by longjmp.
-std::string encode(std::FILE* file, const Image& image) {
+// Appends libpng's output to a std::string (set as the write pointer).
+void appendBytes(png_structp png, png_bytep data, png_size_t length) {
+  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), length);
+}
+void noFlush(png_structp) {}
+
+// Encodes into `out`; returns "" or libpng's message. Nothing with a destructor lives in this
+// frame: libpng reports errors by longjmp.
+std::string encode(std::string& out, const Image& image) {
+  if (image.width == 0 || image.height == 0 || image.rgba.size() != std::size_t(image.width) * image.height * 4)
+    return "image is empty or its pixel array has the wrong size";
   PngErrors errors;
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &errors, onPngError, onPngWarning);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
@@ -48,9 +56,9 @@ std::string encode(std::FILE* file, const Image& image) {
   }
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
-    return errors.message.empty() ? "libpng failed while writing" : errors.message;
+    return errors.message.empty() ? "libpng failed while encoding" : errors.message;
   }
-  png_init_io(png, file);
+  png_set_write_fn(png, &out, appendBytes, noFlush);
   png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB_ALPHA,
                PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
@@ -62,23 +70,24 @@ std::string encode(std::FILE* file, const Image& image) {
 
 }  // namespace
 
+std::string encodePng(const Image& image) {
+  std::string bytes;
+  if (const std::string problem = encode(bytes, image); !problem.empty()) throw std::runtime_error("PNG: " + problem);
+  return bytes;
+}
+
 void writePng(const std::string& path, const Image& image) {
-  if (image.width == 0 || image.height == 0 ||
-      image.rgba.size() != std::size_t(image.width) * image.height * 4) {
-    fail(path, "image is empty or its pixel array has the wrong size");
-  }
+  std::string bytes;
+  if (const std::string problem = encode(bytes, image); !problem.empty()) fail(path, problem);
   std::FILE* file = std::fopen(path.c_str(), "wb");
   if (!file) fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
-  errno = 0;
-  std::string problem = encode(file, image);
   // The stdio buffer reaches the file at fflush/fclose: a full disk often shows only there.
+  bool ok = std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size() && std::fflush(file) == 0;
   int err = errno;
-  if (problem.empty() && (std::fflush(file) != 0 || std::ferror(file))) problem = "write error", err = errno;
-  if (std::fclose(file) != 0 && problem.empty()) problem = "write error", err = errno;
-  if (problem.empty()) return;
+  if (std::fclose(file) != 0 && ok) ok = false, err = errno;
+  if (ok) return;
   removePartial(path);
-  if (err != 0 && (problem == "write error" || problem == "Write Error")) problem = std::string("write error: ") + std::strerror(err);
-  fail(path, problem);
+  fail(path, std::string("write error: ") + std::strerror(err));
 }
 
 Image readPng(const std::string& path) {
