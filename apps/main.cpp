@@ -7,11 +7,14 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 int main(int argc, char** argv) {
   // lavapipe tuning, set by the process (the library never touches the environment) and only
@@ -25,6 +28,10 @@ int main(int argc, char** argv) {
   // Global flags may also follow the subcommand (`blobvk mesh ... -q`): subcommands created
   // below inherit fallthrough and hand options they do not know to this parent.
   app.fallthrough();
+  // A flag is given or not: `--stream=false` would count as given for every rule between options
+  // (`--feature-angle` needs `--features`) while it turned the flag off, so values are refused.
+  // Subcommands copy these defaults when created below.
+  app.option_defaults()->disable_flag_override();
   bool quietFlag = false;
   app.add_flag("-q,--quiet", quietFlag, "No progress or informational lines on stderr (mesh, render: no summary)");
   app.parse_complete_callback([&quietFlag] { setQuiet(quietFlag); });
@@ -38,9 +45,31 @@ int main(int argc, char** argv) {
       ->trigger_on_parse();
   // Usage errors are one line and exit 2 whatever CLI11's own code for them.
   app.failure_message([](const CLI::App* failed, const CLI::Error& e) {
-    std::string command;  // "generate tower " for a nested subcommand, "" for the tool itself
-    for (const CLI::App* a = failed; a && a->get_parent(); a = a->get_parent()) command = a->get_name() + " " + command;
-    return "blobvk: usage error: " + printable(e.what()) + " (see blobvk " + command + "--help)\n";
+    // CLI11 reports through the tool itself; the help to point at is the innermost subcommand
+    // that was given ("generate tower "), "" where none was.
+    std::string command;
+    for (const CLI::App* a = failed; a;) {
+      const std::vector<const CLI::App*> given = a->get_subcommands([](const CLI::App* s) { return s->parsed(); });
+      a = given.empty() ? nullptr : given.front();
+      if (a) command += a->get_name() + " ";
+    }
+    std::string what = e.what();
+    // CLI11 says "stream was given a disallowed flag override" (its name without dashes).
+    const std::string override = " was given a disallowed flag override";
+    if (const auto at = what.find(override); at != std::string::npos && at + override.size() == what.size())
+      what = "--" + what.substr(0, at) + " is a flag: it takes no value";
+    // A mistyped command reads as a missing one to CLI11: name the word and the commands.
+    if (command.empty() && what == "A subcommand is required") {
+      const std::vector<std::string> left = failed->remaining();
+      const auto word = std::find_if(left.begin(), left.end(), [](const std::string& w) { return !w.empty() && w[0] != '-'; });
+      if (word != left.end()) {
+        what = "'" + *word + "' is not a command (";
+        for (const CLI::App* s : failed->get_subcommands([](const CLI::App*) { return true; }))
+          what += (what.back() == '(' ? "" : ", ") + s->get_name();
+        what += ")";
+      }
+    }
+    return "blobvk: usage error: " + printable(what) + " (see blobvk " + command + "--help)\n";
   });
   addGenerateCommand(app);
   addMeshCommand(app);

@@ -86,14 +86,21 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
                                  "mesh " + tower + " -o x.glb --stream", "mesh " + tower + " -o x.ply --stream --backend reference",
                                  // An empty value is not the option left out; --max-triangles 0 read as no limit.
                                  "mesh " + tower + " -o x.ply --simplify ''", "mesh " + tower + " -o x.ply --backend vk --device ''",
-                                 "mesh " + tower + " -o x.ply --max-triangles 0"}) {
+                                 "mesh " + tower + " -o x.ply --max-triangles 0",
+                                 // A flag given a value (it would count as given while off).
+                                 "mesh " + tower + " -o x.ply --stream=false",
+                                 "mesh " + tower + " -o x.ply --features=false --feature-angle 30", "mesj " + tower}) {
     const CliSplitRun r = runCliSplit(args, cwd);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
     EXPECT_EQ(lineCount(r.err), 1u) << args << "\n" << r.err;
     EXPECT_NE(r.err.find("usage error"), std::string::npos) << args << "\n" << r.err;
   }
-  // The option is named, not only the value.
+  // The option is named, not only the value, and the help pointed at is the command's.
   EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --max-memory 0", cwd).err.find("--max-memory: '0'"), std::string::npos);
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --resolution abc", cwd).err.find("(see blobvk mesh --help)"), std::string::npos);
+  EXPECT_NE(runCliSplit("generate tower --radius nan -o t.json", cwd).err.find("(see blobvk generate tower --help)"), std::string::npos);
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --stream=false", cwd).err.find("--stream is a flag: it takes no value"), std::string::npos);
+  EXPECT_NE(runCliSplit("--pipeline-cache off mesj " + tower, cwd).err.find("'mesj' is not a command (generate, mesh,"), std::string::npos);
   EXPECT_TRUE(fs::is_empty(cwd)) << "a refused command wrote a file";
   EXPECT_EQ(runCliSplit("--help", cwd).status, 0);
   EXPECT_EQ(runCliSplit("mesh --help", cwd).status, 0);
