@@ -589,9 +589,17 @@ class Reader {
       // Parse the target where it stands; errors inside it name its own pointer.
       const std::size_t counted = nodeCount_;
       const Ptr at{nullptr, &it->second.pointer, {}, 0, false};
-      node(*it->second.json, at, depth);
+      // In progress while it is read: a target that is itself an instance is not tracked by
+      // node(), and a cycle made of instances only would otherwise recurse without end.
+      inProgress_.insert(target);
+      const Node n = node(*it->second.json, at, depth);
+      inProgress_.erase(target);
       nodeCount_ = counted;
       cached = resolved_.find(target);
+      if (cached == resolved_.end()) {  // an instance of an instance: node() remembers no instance
+        remember(n);
+        cached = resolved_.find(target);
+      }
     }
     const detail::SubtreeSize size = resolvedSize_.at(target);
     if (depth + size.height - 1 > limits::kMaxDepth) fail(ptr, "nodes nested deeper than 4096 levels after instancing");

@@ -70,6 +70,9 @@ const BadCase kCases[] = {
     {"j31_instance_ambiguous.json", "/root/children/2/of", "defined twice"},
     {"j39_definition_without_id.json", "/definitions/0", "needs an \"id\""},
     {"j44_mutual_instances.json", "/definitions/1/children/0/of", "'a' contains itself"},
+    // Cycles made of instances only (no operator between them) once recursed until the stack ran out.
+    {"j49_instance_of_itself.json", "/root/of", "instance of 'a' contains itself"},
+    {"j50_instances_only_cycle.json", "/definitions/0/of", "contains itself"},
     // JSON: camera and grid
     {"j32_grid_both.json", "/grid", "not both"},
     {"j33_grid_bounds.json", "/grid/bounds/hi/0", "lo < hi"},

@@ -313,6 +313,25 @@ TEST(SceneJson, InstancesOfInstancesExpandFully) {
   EXPECT_EQ(blobvk::testing::countNodes(s.root).operators, 1023u);
 }
 
+// An instance whose target is itself an instance, in the tree rather than among the definitions,
+// before or after it: the placements compose (this once failed with "map::at").
+TEST(SceneJson, AnInstanceOfAnInstanceInTheTreeComposesThePlacements) {
+  for (const bool targetFirst : {true, false}) {
+    const std::string target = R"({"type": "instance", "of": "p", "id": "a", "transform": {"translate": [3, 0, 0]}})";
+    const std::string user = R"({"type": "instance", "of": "a", "transform": {"translate": [0, 5, 0]}})";
+    const Scene s = parse(R"({"blobvk": 1, "root": {"type": "union", "children": [
+        {"type": "point", "id": "p", "centre": [1, 0, 0]}, )" +
+                          (targetFirst ? target + ", " + user : user + ", " + target) + "]}}");
+    const auto& c = s.root.children;
+    ASSERT_EQ(c.size(), 3u);
+    const Node& twice = c[targetFirst ? 2 : 1];
+    ASSERT_TRUE(twice.isPrimitive());
+    const Transform& t = twice.transform;
+    // The point's centre (1, 0, 0) lands at (4, 5, 0).
+    EXPECT_NEAR(glm::length(t.translate + t.rotate * (t.scale * Vec3(1.0, 0.0, 0.0)) - Vec3(4.0, 5.0, 0.0)), 0.0, 1e-12) << targetFirst;
+  }
+}
+
 TEST(SceneJson, ExponentialInstancingIsStoppedByTheNodeLimit) {
   std::string defs = R"({"type": "point", "id": "d0"})";
   for (int i = 1; i <= 30; ++i)
