@@ -87,6 +87,8 @@ void addCutCommand(CLI::App& app) {
   cmd->callback([a, imageSize] {
     checkOutputFolder(a->out);  // the output place first, as every command does
     const Model model = loadModel(a->scene);
+    const surgery::SceneModel sceneModel{model.path, model.scene, model.program};
+    surgery::simulationConfigOf(sceneModel);  // the simulation section's mistakes too
     // The blade file too: its mistakes are found before the tetrahedralization.
     const std::vector<BladeKeyframe> bladeFile = a->blade.empty() ? std::vector<BladeKeyframe>{} : readBladeFile(a->blade);
     // The renderer and the folder before the (long) tetrahedralization, once the inputs have
@@ -97,7 +99,7 @@ void addCutCommand(CLI::App& app) {
     const bool sceneGrid = model.scene.grid.resolution || model.scene.grid.cellSize;
     const blobtree::GridSpec grid = gridFor(model, std::nullopt, a->resolution ? a->resolution : sceneGrid ? std::nullopt : std::optional<int>(48));
     Progress::note("cut", "polygonizing and tetrahedralizing " + a->scene);
-    surgery::TetModel body = buildTetModel(surgery::SceneModel{model.path, model.scene, model.program}, grid, {a->threads, a->voxelCell});
+    surgery::TetModel body = buildTetModel(sceneModel, grid, {a->threads, a->voxelCell});
     const std::vector<BladeKeyframe> keys = a->blade.empty() ? body.config.blade : bladeFile;
     if (keys.size() < 2) {
       throw std::runtime_error(a->scene + ": /simulation/blade: no blade path (give one in the scene or with --blade)");

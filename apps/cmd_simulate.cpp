@@ -46,6 +46,8 @@ void addSimulateCommand(CLI::App& app) {
   cmd->callback([a, imageSize] {
     checkOutputFolder(a->out);  // the output place first, as every command does
     const Model model = loadModel(a->scene);
+    const surgery::SceneModel sceneModel{model.path, model.scene, model.program};
+    surgery::simulationConfigOf(sceneModel);  // the simulation section's mistakes too
     // The renderer and the folder before the (long) tetrahedralization, once the scene has
     // loaded (a scene that fails leaves nothing behind).
     FrameWriter frames(a->out, !a->noPng, imageSize->count() > 0, a->imageSize, model.program.bounds, model.scene.camera);
@@ -53,7 +55,7 @@ void addSimulateCommand(CLI::App& app) {
     const bool sceneGrid = model.scene.grid.resolution || model.scene.grid.cellSize;
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution ? a->resolution : sceneGrid ? std::nullopt : std::optional<int>(48));
     Progress::note("simulate", "polygonizing and tetrahedralizing " + a->scene);
-    surgery::TetModel body = surgery::buildTetModel(surgery::SceneModel{model.path, model.scene, model.program}, grid, {a->threads, {}});
+    surgery::TetModel body = surgery::buildTetModel(sceneModel, grid, {a->threads, {}});
     warnIfCoarseBody(body, a->scene, "");
     fem::Simulation sim(std::move(body.tets), body.config.settings);
     if (!body.renderTetBoundary) sim.setRenderSurface(body.surface, std::move(body.embedding));

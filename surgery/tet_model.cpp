@@ -64,12 +64,16 @@ SceneModel loadSceneModel(const std::string& path) {
   return model;
 }
 
-TetModel buildTetModel(const SceneModel& model, const blobtree::GridSpec& grid, const TetModelOptions& options) {
+SimulationConfig simulationConfigOf(const SceneModel& model) {
   if (model.scene.simulationJson.empty()) {
     throw std::runtime_error(model.name + ": the scene has no \"simulation\" section (see docs/fem.md)");
   }
+  return parseSimulationConfig(model.scene.simulationJson, model.name);
+}
+
+TetModel buildTetModel(const SceneModel& model, const blobtree::GridSpec& grid, const TetModelOptions& options) {
   TetModel body;
-  body.config = parseSimulationConfig(model.scene.simulationJson, model.name);
+  body.config = simulationConfigOf(model);
   SimulationConfig& config = body.config;
   if (options.voxelCell) config.voxelCellSize = *options.voxelCell;
 

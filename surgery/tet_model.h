@@ -23,6 +23,10 @@ struct SceneModel {
 };
 // Loads and compiles a scene file; errors name the file.
 SceneModel loadSceneModel(const std::string& path);
+// The scene's "simulation" section, parsed and checked (errors name the file and the place; a
+// scene without one is an error): what buildTetModel uses, for callers that check a scene
+// before the long polygonization and tetrahedralization.
+SimulationConfig simulationConfigOf(const SceneModel& model);
 
 struct TetModelOptions {
   int threads = 0;                          // polygonizer threads (0: all cores)

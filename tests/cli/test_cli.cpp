@@ -373,6 +373,22 @@ TEST(Cli, SimulateAndCutMakeNothingUntilTheirInputsLoad) {
     r = run(std::string(command) + " " + source("scenes/soft_peanut.json") + " -o " + out.string() + " --no-png --image-size 64");
     EXPECT_EQ(r.status, 2) << r.output;
     EXPECT_FALSE(std::filesystem::exists(out)) << command;
+    // A scene that loads but has no simulation section, or a bad one, is refused before the folder.
+    r = run(std::string(command) + " " + source("scenes/tower.json") + " -o " + out.string() + " --no-png");
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find("tower.json: the scene has no \"simulation\" section"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(out)) << command;
+  }
+  std::ifstream in(source("scenes/soft_peanut.json"));
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["simulation"]["timeStep"] = -1;
+  const auto badSection = scratch("bad_section.json");
+  std::ofstream(badSection) << scene.dump();
+  for (const char* command : {"simulate", "cut"}) {
+    const CliRun r = run(std::string(command) + " " + badSection.string() + " -o " + out.string() + " --no-png");
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find("bad_section.json: /simulation/timeStep"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(out)) << command;
   }
   const CliRun blade = run("cut " + source("scenes/soft_peanut.json") + " -o " + out.string() + " --no-png --blade " +
                            scratch("no_such_blade.json").string());
