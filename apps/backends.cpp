@@ -22,6 +22,7 @@
 #include <chrono>
 #include <map>
 #include <memory>
+#include <optional>
 #include <tuple>
 #include <stdexcept>
 
@@ -182,6 +183,39 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.tapeSeconds, gpu.readbackDeviceSeconds};
 }
 
+// `--cpu-worker`: the CPU polygonizer takes batches beside the devices. Its MPUs are the bricks,
+// so its layers are the batches' brick layers; its polygonizer is made on the worker's thread,
+// once the job's brick size is known.
+class CpuBatchWorker {
+ public:
+  CpuBatchWorker(const blobtree::Program& program, const blobtree::GridSpec& grid, const PolygonizeSettings& settings) {
+    worker_.run = [this, &program, grid, threads = settings.threads, refine = settings.refineSteps](
+                      std::uint32_t first, std::uint32_t end, std::uint32_t brickCells) {
+      if (!layers_) {
+        cpu::MpuOptions o;
+        o.threads = threads > 0 ? threads : 1;
+        o.refineSteps = refine;
+        o.mpuCells = int(brickCells);
+        layers_ = std::make_unique<cpu::LayerPolygonizer>(program, grid, o);
+      }
+      return cpu::polygonizeLayerRange(*layers_, int(first), int(end));
+    };
+  }
+  CpuBatchWorker(const CpuBatchWorker&) = delete;
+  CpuBatchWorker& operator=(const CpuBatchWorker&) = delete;
+  const vk::HostBatchWorker* get() const { return &worker_; }
+
+ private:
+  std::unique_ptr<cpu::LayerPolygonizer> layers_;
+  vk::HostBatchWorker worker_;
+};
+
+std::vector<vk::Device*> devicesOf(const std::vector<vk::StandaloneContext*>& contexts) {
+  std::vector<vk::Device*> devices;
+  for (vk::StandaloneContext* c : contexts) devices.push_back(&c->device());
+  return devices;
+}
+
 void checkValidation(const std::vector<vk::StandaloneContext*>& contexts, std::uint64_t messagesBefore) {
   if (validationMessages(contexts) != messagesBefore) {
     throw std::runtime_error("the Vulkan validation layer reported " +
@@ -195,21 +229,20 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
                         const PolygonizeSettings& settings, mesh::MeshSink& sink, PolygonizeStats* stats) {
   if (settings.backend != "vk") throw std::invalid_argument("polygonizeStreamed: the vk backend only, not " + settings.backend);
 #ifdef BLOBVK_HAVE_VULKAN
-  if (settings.cpuWorker)
-    throw std::runtime_error("streamed meshing on the vk backend runs on one device (drop --cpu-worker)");
   const auto start = std::chrono::steady_clock::now();
-  // A --devices list of one device is that device.
   const std::vector<vk::StandaloneContext*> contexts = contextsFor(settings);
-  if (contexts.size() > 1)
-    throw std::runtime_error("streamed meshing on the vk backend runs on one device; --devices lists " +
-                             std::to_string(contexts.size()));
-  vk::StandaloneContext& context = *contexts.front();
-  startWarmUp(context, settings);
   const std::uint64_t messagesBefore = validationMessages(contexts);
   vk::GpuStats gpu;
-  vk::polygonizeStreamed(context.device(), program, grid, gpuOptions(settings), sink, &gpu,
-                         settings.progress ? std::function<void(std::size_t, std::size_t)>(settings.progress)
-                                           : std::function<void(std::size_t, std::size_t)>());
+  const auto progress = settings.progress ? std::function<void(std::size_t, std::size_t)>(settings.progress)
+                                          : std::function<void(std::size_t, std::size_t)>();
+  if (contexts.size() == 1 && !settings.cpuWorker) {
+    startWarmUp(*contexts[0], settings);
+    vk::polygonizeStreamed(contexts[0]->device(), program, grid, gpuOptions(settings), sink, &gpu, progress);
+  } else {
+    const std::optional<CpuBatchWorker> cpu = settings.cpuWorker ? std::make_optional<CpuBatchWorker>(program, grid, settings) : std::nullopt;
+    vk::polygonizeOnDevicesStreamed(devicesOf(contexts), program, grid, gpuOptions(settings), sink, &gpu, nullptr,
+                                    cpu ? cpu->get() : nullptr, progress);
+  }
   firstJobDone();
   checkValidation(contexts, messagesBefore);
   if (stats) {
@@ -273,24 +306,8 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
       mesh = std::move(recycled);
       vk::polygonizeInto(contexts[0]->device(), program, grid, options, mesh, &gpu);
     } else {
-      std::vector<vk::Device*> devices;
-      for (vk::StandaloneContext* c : contexts) devices.push_back(&c->device());
-      // The CPU worker's MPUs are the bricks, so its layers are the batches' brick layers.
-      std::unique_ptr<cpu::LayerPolygonizer> layers;
-      vk::HostBatchWorker host;
-      if (settings.cpuWorker) {
-        host.run = [&](std::uint32_t first, std::uint32_t end, std::uint32_t brickCells) {
-          if (!layers) {  // on the worker's thread, once the job's brick size is known
-            cpu::MpuOptions o;
-            o.threads = settings.threads > 0 ? settings.threads : 1;
-            o.refineSteps = settings.refineSteps;
-            o.mpuCells = int(brickCells);
-            layers = std::make_unique<cpu::LayerPolygonizer>(program, grid, o);
-          }
-          return cpu::polygonizeLayerRange(*layers, int(first), int(end));
-        };
-      }
-      mesh = vk::polygonizeOnDevices(devices, program, grid, options, &gpu, nullptr, settings.cpuWorker ? &host : nullptr);
+      const std::optional<CpuBatchWorker> cpu = settings.cpuWorker ? std::make_optional<CpuBatchWorker>(program, grid, settings) : std::nullopt;
+      mesh = vk::polygonizeOnDevices(devicesOf(contexts), program, grid, options, &gpu, nullptr, cpu ? cpu->get() : nullptr);
     }
     firstJobDone();
     evaluations = double(gpu.fieldEvaluations);

@@ -205,14 +205,7 @@ EditScript parseEditScript(std::string_view text, const std::string& sourceName)
   try {
     doc = Json::parse(text.begin(), text.end());
   } catch (const Json::exception& e) {
-    const std::string what = e.what();
-    const auto at = what.find("at line ");
-    if (at != std::string::npos) {
-      const auto colon = what.find(": ", at);
-      if (colon != std::string::npos)
-        throw SceneError(sourceName, what.substr(at + 3, colon - at - 3), "malformed JSON: " + what.substr(colon + 2));
-    }
-    throw SceneError(sourceName, "/", "malformed JSON: " + what);
+    throw malformedJson(e, text, sourceName);
   }
   const auto fail = [&](const std::string& where, const std::string& problem) {
     throw SceneError(sourceName, where, problem);

@@ -2,7 +2,10 @@
 // grid sections. Readers validate strictly and throw SceneError naming the JSON pointer at fault.
 #pragma once
 
+#include "blobvk/blobtree/scene_error.h"
 #include "blobvk/blobtree/tree.h"
+
+#include <exception>
 
 #include <string>
 #include <string_view>
@@ -17,6 +20,10 @@ Scene parseSceneJson(std::string_view text, const std::string& sourceName);
 // JSON parser keeps one of them without a word); returns quietly on malformed JSON, for the
 // parse that follows to report. Linear in the text. For every JSON file blobvk reads.
 void refuseDuplicateKeys(std::string_view text, const std::string& source);
+
+// The one-line error for JSON text the parser refused (`parseFailure`, what nlohmann::json::parse
+// threw): "line L, column C: malformed JSON: <problem>", for every JSON file blobvk reads.
+SceneError malformedJson(const std::exception& parseFailure, std::string_view text, const std::string& source);
 
 // Reads and parses a .json file; an unreadable file is a SceneError too.
 Scene readSceneJson(const std::string& path);

@@ -782,16 +782,11 @@ void refuseDuplicateKeys(std::string_view text, const std::string& source) {
   Json::sax_parse(text.begin(), text.end(), &check);
 }
 
-Scene parseSceneJson(std::string_view text, const std::string& sourceName) {
-  checkNesting(text, sourceName);
-  refuseDuplicateKeys(text, sourceName);
-  Json doc;
-  try {
-    doc = Json::parse(text.begin(), text.end());
-  } catch (const Json::parse_error& e) {
+SceneError malformedJson(const std::exception& parseFailure, std::string_view text, const std::string& sourceName) {
+  if (const auto* e = dynamic_cast<const Json::parse_error*>(&parseFailure)) {
     // nlohmann says "...parse error at line L, column C: <problem>"; keep L, C and the problem.
-    const std::string what = e.what();
-    std::string location = "byte " + std::to_string(e.byte), problem = what;
+    const std::string what = e->what();
+    std::string location = "byte " + std::to_string(e->byte), problem = what;
     const auto at = what.find("at line ");
     if (at != std::string::npos) {
       const auto colon = what.find(": ", at);
@@ -800,24 +795,34 @@ Scene parseSceneJson(std::string_view text, const std::string& sourceName) {
         problem = what.substr(colon + 2);
       }
     }
-    throw SceneError(sourceName, location, "malformed JSON: " + problem);
-  } catch (const Json::exception& e) {
-    // Number overflow ("number overflow parsing '1e999'") carries no position: find the token.
-    std::string what = e.what();
-    const auto bracket = what.find("] ");
-    if (bracket != std::string::npos) what = what.substr(bracket + 2);
-    std::string location = "line 1";
-    const auto q0 = what.find('\''), q1 = what.rfind('\'');
-    if (q0 != std::string::npos && q1 > q0) {
-      const auto at = text.find(what.substr(q0 + 1, q1 - q0 - 1));
-      if (at != std::string_view::npos) {
-        const auto lineStart = text.rfind('\n', at);
-        const std::size_t line = 1 + std::size_t(std::count(text.begin(), text.begin() + long(at), '\n'));
-        const std::size_t column = at - (lineStart == std::string_view::npos ? 0 : lineStart + 1) + 1;
-        location = "line " + std::to_string(line) + ", column " + std::to_string(column);
-      }
+    return SceneError(sourceName, location, "malformed JSON: " + problem);
+  }
+  // Number overflow ("number overflow parsing '1e999'") carries no position: find the token.
+  std::string what = parseFailure.what();
+  const auto bracket = what.find("] ");
+  if (bracket != std::string::npos) what = what.substr(bracket + 2);
+  std::string location = "line 1";
+  const auto q0 = what.find('\''), q1 = what.rfind('\'');
+  if (q0 != std::string::npos && q1 > q0) {
+    const auto at = text.find(what.substr(q0 + 1, q1 - q0 - 1));
+    if (at != std::string_view::npos) {
+      const auto lineStart = text.rfind('\n', at);
+      const std::size_t line = 1 + std::size_t(std::count(text.begin(), text.begin() + long(at), '\n'));
+      const std::size_t column = at - (lineStart == std::string_view::npos ? 0 : lineStart + 1) + 1;
+      location = "line " + std::to_string(line) + ", column " + std::to_string(column);
     }
-    throw SceneError(sourceName, location, "malformed JSON: " + what);
+  }
+  return SceneError(sourceName, location, "malformed JSON: " + what);
+}
+
+Scene parseSceneJson(std::string_view text, const std::string& sourceName) {
+  checkNesting(text, sourceName);
+  refuseDuplicateKeys(text, sourceName);
+  Json doc;
+  try {
+    doc = Json::parse(text.begin(), text.end());
+  } catch (const Json::exception& e) {
+    throw malformedJson(e, text, sourceName);
   }
   return Reader(sourceName).read(doc);
 }

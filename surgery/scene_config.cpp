@@ -184,8 +184,8 @@ std::vector<BladeKeyframe> parseBladePath(const std::string& text, const std::st
   Json j;
   try {
     j = Json::parse(text);
-  } catch (const std::exception& e) {
-    r.fail("/", std::string("malformed JSON: ") + e.what());
+  } catch (const Json::exception& e) {
+    throw blobtree::malformedJson(e, text, file);
   }
   if (!j.is_object()) r.fail("/", "expected an object with a \"blade\" array");
   r.keys(j, "", {"blade"});

@@ -232,12 +232,16 @@ TEST_F(CliCommands, MeshOnSeveralDevicesWritesTheOneDeviceBytes) {
   EXPECT_EQ(fileBytes(cwd / "cpuw.ply"), one);
   EXPECT_EQ(fileBytes(cwd / "cpuw2.ply"), one);
   EXPECT_EQ(fileBytes(cwd / "cpu.ply"), one);
-  // Streamed, a list of one device is that device; a list of two is refused with one line.
+  // Streamed, a list of one device is that device; two devices, and the CPU beside one, stream
+  // the same file.
   ASSERT_EQ(runCliSplit(base + "-o one_streamed.ply --backend vk --devices 0 --stream -q", cwd).status, 0);
   EXPECT_EQ(fileBytes(cwd / "one_streamed.ply"), one);
   r = runCliSplit(base + "-o two_streamed.ply --backend vk --devices 0,0 --stream -q", cwd);
-  EXPECT_EQ(r.status, 1);
-  EXPECT_NE(r.err.find("runs on one device; --devices lists 2"), std::string::npos) << r.err;
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(fileBytes(cwd / "two_streamed.ply"), one);
+  r = runCliSplit(base + "-o cpuw_streamed.ply --backend vk --cpu-worker --stream -q", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(fileBytes(cwd / "cpuw_streamed.ply"), one);
   for (const auto& [list, problem] : std::vector<std::pair<std::string, std::string>>{
            {"0,nosuchgpu", "entry 'nosuchgpu' matches no Vulkan device (see `blobvk devices`)"},
            {"0,,0", "entry 2 is empty (a comma-separated list of device indices or names, or all)"},

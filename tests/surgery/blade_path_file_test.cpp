@@ -48,7 +48,12 @@ TEST(BladePathFile, MistakesNameTheFileAndItsOwnPointer) {
   EXPECT_EQ(bladeError(R"({"keyframes": []})").location(), "/keyframes");
   EXPECT_EQ(bladeError(R"({})").location(), "/blade");
   EXPECT_EQ(bladeError(R"({"blade": [)" + k0 + "]}").location(), "/blade");  // one keyframe
-  EXPECT_EQ(bladeError("[1, 2").location(), "/");
+  // Malformed JSON is placed by line and column, as in a scene (not nlohmann's own text).
+  e = bladeError("{\"blade\": [\n");
+  EXPECT_EQ(e.location(), "line 2, column 1");
+  EXPECT_EQ(e.problem().rfind("malformed JSON: syntax error", 0), 0u) << e.what();
+  EXPECT_EQ(std::string(e.what()).find("json.exception"), std::string::npos) << e.what();
+  EXPECT_EQ(bladeError("{\"blade\": [1e999]}").location(), "line 1, column 12");
   // A repeated key (a JSON parser would keep one of them without a word).
   e = bladeError(R"({"blade": [{"t": 0.1, "t": 0.3, "a": [0, 1, 0], "b": [0, -1, 0]}, )" + k0 + "]}");
   EXPECT_EQ(e.location(), "/blade/0/t");

@@ -10,6 +10,7 @@
 #include "blobvk/vk/extract/multi_device.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/extract/sparse_batches.h"
+#include "joining_sink.h"
 #include "reference_checks.h"
 #include "shipped_scenes.h"
 #include "vk_fixture.h"
@@ -162,6 +163,51 @@ TEST_F(MultiDeviceTest, TheCpuWorkerRefusesProgramsLavapipeDoesNotComputeBitForB
       EXPECT_NE(std::string(e.what()).find(std::string("this one has ") + found), std::string::npos) << e.what();
       EXPECT_NE(std::string(e.what()).find("without the CPU worker"), std::string::npos) << e.what();
     }
+  }
+}
+
+// Streamed (a mesh larger than the host's memory) on two devices, and on one device with the CPU
+// beside it: the runs join into the one device's bytes, every triangle's corners lie in the window
+// it comes with, and the host holds a few batches, not the mesh.
+TEST_F(MultiDeviceTest, StreamedOnSeveralWorkersGivesTheOneDeviceBytes) {
+  const ShippedScene sc = shipped("tower", 48);
+  vk::GpuPolygonizeOptions o;
+  o.traversal = vk::Traversal::Stackless;
+  o.brickCells = 4;
+  const mesh::TriMesh one = vk::polygonize(device(), sc.program, sc.grid, o);
+  cpu::MpuOptions mpu;
+  mpu.threads = 1;
+  mpu.mpuCells = int(o.brickCells);
+  cpu::LayerPolygonizer layers(sc.program, sc.grid, mpu);
+  vk::HostBatchWorker host;
+  host.run = [&layers](std::uint32_t first, std::uint32_t end, std::uint32_t) {
+    return cpu::polygonizeLayerRange(layers, int(first), int(end));
+  };
+  const bool cpuWorker = device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;  // it joins lavapipe only
+  for (const auto& [n, withHost] : {std::pair{std::size_t(2), false}, {std::size_t(1), true}, {std::size_t(2), true}}) {
+    if (withHost && !cpuWorker) continue;
+    const std::string what = std::to_string(n) + (withHost ? " devices and the CPU" : " devices");
+    o.maxBatchBricks = 8;
+    JoiningSink sink;
+    vk::GpuStats st;
+    std::vector<vk::GpuStats> shares;
+    std::size_t lastDone = 0, total = 0;
+    vk::polygonizeOnDevicesStreamed(devices(n), sc.program, sc.grid, o, sink, &st, &shares, withHost ? &host : nullptr,
+                                    [&](std::size_t done, std::size_t all) { lastDone = done, total = all; });
+    ASSERT_GE(st.batches, 6u) << what;
+    EXPECT_EQ(sink.vertexRuns, st.batches) << what;
+    EXPECT_EQ(sink.triangleRuns, st.batches) << what;
+    EXPECT_EQ(lastDone, total) << what;
+    EXPECT_EQ(total, st.batches) << what;
+    EXPECT_EQ(sink.outsideWindow, 0u) << what;
+    EXPECT_EQ(sink.wrongWindowVertex, 0u) << what;
+    EXPECT_LT(sink.largestWindow, one.positions.size() / 2) << what << ": a window as large as the mesh";
+    ASSERT_EQ(shares.size(), n + (withHost ? 1 : 0)) << what;
+    for (const vk::GpuStats& share : shares) EXPECT_GT(share.batches, 0u) << what << ": a worker took no batch";
+    EXPECT_TRUE(sameBytes(sink.mesh.positions, one.positions)) << what;
+    EXPECT_TRUE(sameBytes(sink.mesh.normals, one.normals)) << what;
+    EXPECT_TRUE(sameBytes(sink.mesh.colours, one.colours)) << what;
+    EXPECT_EQ(sink.mesh.triangles, one.triangles) << what;
   }
 }
 

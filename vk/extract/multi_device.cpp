@@ -5,11 +5,13 @@
 #include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
+#include "blobvk/vk/extract/streamed_extract.h"
 
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <exception>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -68,12 +70,10 @@ void join(mesh::TriMesh& mesh, const mesh::TriMesh& piece) {
     for (std::uint32_t& v : mesh.triangles[t]) v += offset;
 }
 
-}  // namespace
-
-mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtree::Program& program,
-                                  const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options,
-                                  GpuStats* stats, std::vector<GpuStats>* perDevice,
-                                  const HostBatchWorker* host) {
+// The workers checked: distinct devices, and a host worker only beside CPU-type devices and for
+// programs they compute as the CPU does. Returns the host worker to use (null: none).
+const HostBatchWorker* checkWorkers(std::span<Device* const> devices, const blobtree::Program& program,
+                                    const HostBatchWorker* host) {
   if (devices.empty()) throw VulkanError("GPU polygonizer: no device to run on");
   for (std::size_t i = 0; i < devices.size(); ++i) {
     if (!devices[i]) throw VulkanError("GPU polygonizer: device " + std::to_string(i) + " is null");
@@ -99,15 +99,24 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
                         "blends and twist or bend warps, and this one has " + what +
                         ": the mesh would depend on which worker took which batch (run without the CPU worker)");
   }
+  return host;
+}
+
+// Whether one worker runs the whole job (no batches to share).
+bool oneWorker(std::span<Device* const> devices, const HostBatchWorker* host, const blobtree::GridSpec& grid) {
+  return devices.size() + (host ? 1 : 0) == 1 || grid.cells.x < 1 || grid.cells.y < 1 || grid.cells.z < 1;
+}
+
+// A finished batch's piece, handed over in batch order: its vertices, and its triangles with
+// indices counted from its first vertex (corners on the next batch's vertices numbered past its own).
+using PieceTaker = std::function<void(mesh::TriMesh& piece, std::size_t batch, std::size_t batches)>;
+
+// The job on several workers (checked by checkWorkers), each piece given to `take` in batch order.
+void runOnDevices(std::span<Device* const> devices, const blobtree::Program& program, const blobtree::GridSpec& grid,
+                  const GpuPolygonizeOptions& options, GpuStats* stats, std::vector<GpuStats>* perDevice,
+                  const HostBatchWorker* host, const PieceTaker& takePiece) {
   const std::size_t n = devices.size();
   const std::size_t workers = n + (host ? 1 : 0);
-  if (workers == 1 || grid.cells.x < 1 || grid.cells.y < 1 || grid.cells.z < 1) {
-    GpuStats one;
-    mesh::TriMesh mesh = polygonize(*devices[0], program, grid, options, &one);
-    if (stats) *stats = one;
-    if (perDevice) perDevice->assign(1, one);
-    return mesh;
-  }
   if (!options.sparse || options.tiledVertexPass) {
     throw VulkanError("GPU polygonizer: several devices need the sparse extraction (not the dense one, nor tiled vertices)");
   }
@@ -248,7 +257,6 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
     share.seconds = since(busyStart);
   };
 
-  mesh::TriMesh mesh;
   {
     std::vector<std::jthread> threads;
     if (!batches.empty()) {
@@ -265,7 +273,7 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
           piece = std::move(*q.pieces[b]);
           q.pieces[b].reset();
         }
-        join(mesh, piece);
+        takePiece(piece, b, batches.size());
         {
           std::lock_guard lock(q.mutex);
           q.joined = b + 1;
@@ -299,7 +307,68 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
   s.hostSeconds = std::max(0.0, s.seconds - s.classifySeconds - s.fieldSeconds - s.extractSeconds - s.readbackSeconds);
   if (stats) *stats = s;
   if (perDevice) *perDevice = std::move(shares);
+}
+
+}  // namespace
+
+mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtree::Program& program,
+                                  const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options,
+                                  GpuStats* stats, std::vector<GpuStats>* perDevice,
+                                  const HostBatchWorker* host) {
+  host = checkWorkers(devices, program, host);
+  if (oneWorker(devices, host, grid)) {
+    GpuStats one;
+    mesh::TriMesh mesh = polygonize(*devices[0], program, grid, options, &one);
+    if (stats) *stats = one;
+    if (perDevice) perDevice->assign(1, one);
+    return mesh;
+  }
+  mesh::TriMesh mesh;
+  runOnDevices(devices, program, grid, options, stats, perDevice, host,
+               [&mesh](mesh::TriMesh& piece, std::size_t, std::size_t) { join(mesh, piece); });
   return mesh;
+}
+
+void polygonizeOnDevicesStreamed(std::span<Device* const> devices, const blobtree::Program& program,
+                                 const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options,
+                                 mesh::MeshSink& sink, GpuStats* stats, std::vector<GpuStats>* perDevice,
+                                 const HostBatchWorker* host,
+                                 const std::function<void(std::size_t done, std::size_t total)>& progress) {
+  host = checkWorkers(devices, program, host);
+  if (oneWorker(devices, host, grid)) {
+    GpuStats one;
+    polygonizeStreamed(*devices[0], program, grid, options, sink, &one, progress);
+    if (stats) *stats = one;
+    if (perDevice) perDevice->assign(1, one);
+    return;
+  }
+  // Batches as small as one device's streamed job takes (streamed_extract.h), so the pieces
+  // waiting for the join (at most 2 x workers) and the one held back stay small.
+  GpuPolygonizeOptions streamed = options;
+  if (streamed.maxBatchBricks == 0) streamed.maxBatchBricks = kStreamedBatchBricks;
+  // The piece before holds back its triangles until the next piece's vertices are in the sink
+  // (its corners on the next layer are numbered past its own vertices), as on one device.
+  mesh::TriMesh previous;
+  std::uint64_t previousFirst = 0;
+  bool pending = false;
+  const auto globalise = [](mesh::TriMesh& piece, std::uint64_t first) {
+    for (auto& t : piece.triangles)
+      for (std::uint32_t& v : t) v += std::uint32_t(first);
+  };
+  runOnDevices(devices, program, grid, streamed, stats, perDevice, host,
+               [&](mesh::TriMesh& piece, std::size_t b, std::size_t count) {
+                 const std::uint64_t first = pending ? previousFirst + previous.positions.size() : 0;
+                 if (first + piece.positions.size() > 0xffffffffull)
+                   throw VulkanError("GPU polygonizer: the mesh has more than 2^32 vertices (32-bit indices): use a smaller grid");
+                 sink.vertices(piece.positions, piece.normals, piece.colours);
+                 if (pending) sink.triangles(previous.triangles, mesh::VertexWindow{previousFirst, previous.positions, piece.positions});
+                 globalise(piece, first);
+                 previous = std::move(piece);
+                 previousFirst = first;
+                 pending = true;
+                 if (progress) progress(b + 1, count);
+               });
+  if (pending) sink.triangles(previous.triangles, mesh::VertexWindow{previousFirst, previous.positions, {}});
 }
 
 }  // namespace blobvk::vk

@@ -7,9 +7,11 @@
 
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
+#include "blobvk/mesh/mesh_sink.h"
 #include "blobvk/mesh/trimesh.h"
 #include "blobvk/vk/extract/polygonize.h"
 
+#include <cstddef>
 #include <functional>
 #include <span>
 #include <vector>
@@ -47,5 +49,16 @@ mesh::TriMesh polygonizeOnDevices(std::span<Device* const> devices, const blobtr
                                   const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options = {},
                                   GpuStats* stats = nullptr, std::vector<GpuStats>* perDevice = nullptr,
                                   const HostBatchWorker* host = nullptr);
+
+// The same job handed to a mesh sink in batch order, for meshes larger than the host's memory
+// (streamed_extract.h): batches of at most kStreamedBatchBricks active bricks where
+// options.maxBatchBricks is 0, and the host holds the pieces waiting for the join (at most 2 x
+// workers) and one more. The sink gets the mesh of polygonizeStreamed() on one device, so a
+// streamed file is byte-identical to one device's. `progress(done, total)` after each batch.
+void polygonizeOnDevicesStreamed(std::span<Device* const> devices, const blobtree::Program& program,
+                                 const blobtree::GridSpec& grid, const GpuPolygonizeOptions& options,
+                                 mesh::MeshSink& sink, GpuStats* stats = nullptr,
+                                 std::vector<GpuStats>* perDevice = nullptr, const HostBatchWorker* host = nullptr,
+                                 const std::function<void(std::size_t done, std::size_t total)>& progress = {});
 
 }  // namespace blobvk::vk
