@@ -124,6 +124,8 @@ void addRenderCommand(CLI::App& app) {
         if (cmd->count(option)) throw UsageError(std::string(option) + " is for --mode mesh (the ray-caster polygonizes nothing)");
     // The format and the place are checked before any work: PNG only (PNG streams, so "-" works
     // for a single frame).
+    if (a->out == "-" && a->turntable > 1)
+      throw UsageError("--turntable writes a file per frame (NAME_000.png, ...): give a file name, not '-'");
     const bool toStdout = checkOutputFile(a->out, {".png"}, a->turntable == 1, "an image (blobvk writes PNG)");
     if (a->turntable > 1) {
       for (int frame : {0, a->turntable - 1}) checkOutputFile(framePath(a->out, frame, a->turntable), {".png"}, false, "an image");

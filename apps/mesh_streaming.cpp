@@ -10,9 +10,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
+#include <span>
 #include <chrono>
 #include <cstdlib>
 #include <stdexcept>
+#include <string>
 
 namespace blobvk::app {
 
@@ -71,8 +75,26 @@ CLI::Validator meshResolutionRange() {
 }
 
 namespace {
+// --max-triangles while the mesh streams: the job stops at the run that passes the limit, not
+// after the whole grid (the spooled sections go with the file; nothing is written).
+class TriangleLimitSink final : public mesh::MeshSink {
+ public:
+  explicit TriangleLimitSink(std::uint64_t limit) : limit_(limit) {}
+  void vertices(std::span<const mesh::Float3>, std::span<const mesh::Float3>, std::span<const mesh::Float3>) override {}
+  void triangles(std::span<const std::array<std::uint32_t, 3>> triangles, const mesh::VertexWindow&) override {
+    seen_ += triangles.size();
+    if (limit_ != 0 && seen_ > limit_)
+      throw std::runtime_error("the mesh has more than --max-triangles " + std::to_string(limit_) + " triangles (" +
+                               std::to_string(seen_) + " so far); nothing was written");
+  }
+
+ private:
+  std::uint64_t limit_, seen_ = 0;
+};
+
 // The streamed file and, when asked for, the streamed check beside it, fed by one tee.
 struct StreamedOutput {
+  TriangleLimitSink limit;
   mesh::StreamedMeshFile file;
   mesh::StreamedMeshCheck checker;
   mesh::TeeSink tee;
@@ -84,9 +106,10 @@ struct StreamedOutput {
     o.asciiPly = asciiPly;
     return o;
   }
-  StreamedOutput(const std::string& out, const std::string& format, bool asciiPly, bool check)
-      : file(out, fileOptions(format, asciiPly)),
-        tee(check ? std::vector<mesh::MeshSink*>{&file, &checker} : std::vector<mesh::MeshSink*>{&file}),
+  StreamedOutput(const std::string& out, const std::string& format, bool asciiPly, bool check, const Limits& limits)
+      : limit(limits.maxTriangles),
+        file(out, fileOptions(format, asciiPly)),
+        tee(check ? std::vector<mesh::MeshSink*>{&limit, &file, &checker} : std::vector<mesh::MeshSink*>{&limit, &file}),
         check(check) {}
 
   // Counts, the triangle limit (before anything is written: the spools go with `file`), the
@@ -108,7 +131,7 @@ StreamedMeshResult meshStreamedOnDevice(const blobtree::Program& program, const 
     throw std::runtime_error("MPI ranks share the cpu backend's layers; the vk backend runs in one process (use --backend cpu under mpirun)");
   const auto start = std::chrono::steady_clock::now();
   StreamedMeshResult result;
-  StreamedOutput output(out, format, asciiPly, check);
+  StreamedOutput output(out, format, asciiPly, check, limits);
   {
     Progress progress("mesh", 0);
     settings.progress = [&progress](std::size_t done, std::size_t total) { progress.update(long(done), long(total)); };
@@ -153,7 +176,7 @@ StreamedMeshResult meshStreamed(const blobtree::Program& program, const blobtree
       result.pointEvaluations = double(layers.stats().pointEvaluations);  // this rank's
       result.worker = world.rank != 0;
     } else {
-      StreamedOutput output(out, format, asciiPly, check);
+      StreamedOutput output(out, format, asciiPly, check, limits);
       {
         Progress progress("mesh", layers.layerCount());
         cpu::LayerJoiner join(output.tee);

@@ -201,6 +201,13 @@ TEST(Cli, ResourceLimitsRefuseEarly) {
   EXPECT_NE(tris.status, 0);
   EXPECT_NE(tris.output.find("--max-triangles"), std::string::npos) << tris.output;
   EXPECT_FALSE(std::filesystem::exists(scratch("t.ply")));
+  // Streamed, the job stops at the first layer that passes the limit (of 4 layers of MPUs here).
+  const CliRun streamed = run("mesh " + source("scenes/tower.json") + " -o " + scratch("t.ply").string() +
+                              " --resolution 64 --stream --max-triangles 10");
+  EXPECT_EQ(streamed.status, 1);
+  EXPECT_NE(streamed.output.find("more than --max-triangles 10 triangles ("), std::string::npos) << streamed.output;
+  EXPECT_EQ(streamed.output.find("mesh 100%"), std::string::npos) << streamed.output;
+  EXPECT_FALSE(std::filesystem::exists(scratch("t.ply")));
 }
 
 TEST(Cli, GenerateConvertInfoRoundTrip) {
