@@ -31,7 +31,7 @@
 //    with a barrier to COMPUTE_SHADER); Program buffers are uploaded at construction, by a
 //    blocking submit when they are not host visible unless a vk::UploadBatch is open: then
 //    batch.record(cmd) records the copies and a TRANSFER -> COMPUTE_SHADER|TRANSFER barrier
-//    (docs/embedding.md, point 6).
+//    (docs/embedding.md, point 7).
 //  - Leaves (after every record* call): its shader writes made available to COMPUTE_SHADER,
 //    TRANSFER and DRAW_INDIRECT (SHADER_READ|WRITE, TRANSFER_READ|WRITE, INDIRECT_COMMAND_READ).
 //    To draw, add VERTEX_INPUT (VERTEX_ATTRIBUTE_READ | INDEX_READ) yourself, as embed_host does.
