@@ -21,7 +21,14 @@ for scene in scenes/*.json; do
     echo "gallery: $name failed: $(echo "$info" | tail -1)" >&2
     exit 1
   fi
-  line="$(echo "$info" | grep -m1 ': ' | sed 's/^[^:]*: //')"
+  # The caption is render's summary, "docs/gallery/NAME.png: 384x384, mesh, cpu backend, ...",
+  # picked by its form: progress lines ("render: polygonizing ...") also hold ': '.
+  summary="docs/gallery/$name.png: "
+  line="$(printf '%s\n' "$info" | awk -v p="$summary" 'index($0, p) == 1 { print substr($0, length(p) + 1); exit }')"
+  if [ -z "$line" ]; then
+    echo "gallery: $name: no '$summary...' line in the output of blobvk render" >&2
+    exit 1
+  fi
   cut_line="-"
   if python3 -c 'import json,sys; sys.exit(0 if json.load(open(sys.argv[1])).get("simulation", {}).get("blade") else 1)' "$scene"; then
     echo "gallery: $name (blobvk cut)" >&2
@@ -33,7 +40,7 @@ for scene in scenes/*.json; do
     last="$(ls "$work"/frame_*.png | tail -1)"
     cp "$last" "docs/gallery/${name}_cut.png"
     # "80 steps, 17 frames (PLY + PNG) in DIR; T ms/step; max tool force F N; N tets, M nodes; stats in F"
-    cut_line="$(echo "$cut_info" | grep -m1 'steps, ' |
+    cut_line="$(echo "$cut_info" | grep -m1 -E '^[0-9]+ steps, [0-9]+ frames ' |
       sed -e 's/ (PLY + PNG) in [^;]*;/;/' -e 's/ [0-9.]* ms\/step;//' -e 's/; stats in .*$//')"
     rm -rf "$work"
   fi
