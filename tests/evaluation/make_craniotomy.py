@@ -92,7 +92,7 @@ scene = {
         "timeStep": 0.01,
         "gravity": [0, -9.81, 0],
         "damping": {"mass": 0.5, "stiffness": 0.01},
-        "solver": {"maxIterations": 100, "tolerance": 1e-6},
+        "solver": {"maxIterations": 500, "tolerance": 1e-3},
         "fixed": fixed,
         # The retractor waits above the crown until the flap has been lifted out of its way,
         # then enters the opening and presses the CSF and brain (held at the brain stem).
