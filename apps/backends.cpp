@@ -239,7 +239,7 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
     startWarmUp(*contexts[0], settings);
     vk::polygonizeStreamed(contexts[0]->device(), program, grid, gpuOptions(settings), sink, &gpu, progress);
   } else {
-    const std::optional<CpuBatchWorker> cpu = settings.cpuWorker ? std::make_optional<CpuBatchWorker>(program, grid, settings) : std::nullopt;
+    std::optional<CpuBatchWorker> cpu = settings.cpuWorker ? std::make_optional<CpuBatchWorker>(program, grid, settings) : std::nullopt;
     vk::polygonizeOnDevicesStreamed(devicesOf(contexts), program, grid, gpuOptions(settings), sink, &gpu, nullptr,
                                     cpu ? cpu->get() : nullptr, progress);
   }
@@ -306,7 +306,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
       mesh = std::move(recycled);
       vk::polygonizeInto(contexts[0]->device(), program, grid, options, mesh, &gpu);
     } else {
-      const std::optional<CpuBatchWorker> cpu = settings.cpuWorker ? std::make_optional<CpuBatchWorker>(program, grid, settings) : std::nullopt;
+      std::optional<CpuBatchWorker> cpu = settings.cpuWorker ? std::make_optional<CpuBatchWorker>(program, grid, settings) : std::nullopt;
       mesh = vk::polygonizeOnDevices(devicesOf(contexts), program, grid, options, &gpu, nullptr, cpu ? cpu->get() : nullptr);
     }
     firstJobDone();

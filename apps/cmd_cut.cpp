@@ -88,9 +88,13 @@ void addCutCommand(CLI::App& app) {
     checkOutputFolder(a->out);  // the output place first, as every command does
     const Model model = loadModel(a->scene);
     const surgery::SceneModel sceneModel{model.path, model.scene, model.program};
-    surgery::simulationConfigOf(sceneModel);  // the simulation section's mistakes too
-    // The blade file too: its mistakes are found before the tetrahedralization.
-    const std::vector<BladeKeyframe> bladeFile = a->blade.empty() ? std::vector<BladeKeyframe>{} : readBladeFile(a->blade);
+    // The simulation section and the blade file too: their mistakes, and a missing blade path,
+    // are found before the folder is made and the tetrahedralization runs.
+    const std::vector<BladeKeyframe> keys =
+        a->blade.empty() ? surgery::simulationConfigOf(sceneModel).blade : readBladeFile(a->blade);
+    if (keys.size() < 2) {
+      throw std::runtime_error(a->scene + ": /simulation/blade: no blade path (give one in the scene or with --blade)");
+    }
     // The renderer and the folder before the (long) tetrahedralization, once the inputs have
     // loaded (inputs that fail leave nothing behind).
     FrameWriter frames(a->out, !a->noPng, imageSize->count() > 0, a->imageSize, model.program.bounds, model.scene.camera);
@@ -100,10 +104,6 @@ void addCutCommand(CLI::App& app) {
     const blobtree::GridSpec grid = gridFor(model, std::nullopt, a->resolution ? a->resolution : sceneGrid ? std::nullopt : std::optional<int>(48));
     Progress::note("cut", "polygonizing and tetrahedralizing " + a->scene);
     surgery::TetModel body = buildTetModel(sceneModel, grid, {a->threads, a->voxelCell});
-    const std::vector<BladeKeyframe> keys = a->blade.empty() ? body.config.blade : bladeFile;
-    if (keys.size() < 2) {
-      throw std::runtime_error(a->scene + ": /simulation/blade: no blade path (give one in the scene or with --blade)");
-    }
     if (!quiet()) std::fprintf(stderr, "%s: %zu triangles -> %zu tets, %zu nodes (%s); mesh %.2f s, tets %.2f s\n", a->scene.c_str(),
                  body.surface.triangleCount(), body.tets.tetCount(), body.tets.nodeCount(), body.config.mesher.c_str(),
                  body.meshSeconds, body.tetSeconds);

@@ -48,10 +48,11 @@ int main(int argc, char** argv) {
     // CLI11 reports through the tool itself; the help to point at is the innermost subcommand
     // that was given ("generate tower "), "" where none was.
     std::string command;
+    const CLI::App* innermost = failed;
     for (const CLI::App* a = failed; a;) {
       const std::vector<const CLI::App*> given = a->get_subcommands([](const CLI::App* s) { return s->parsed(); });
       a = given.empty() ? nullptr : given.front();
-      if (a) command += a->get_name() + " ";
+      if (a) command += a->get_name() + " ", innermost = a;
     }
     std::string what = e.what();
     // CLI11 says "stream was given a disallowed flag override" (its name without dashes).
@@ -59,12 +60,12 @@ int main(int argc, char** argv) {
     if (const auto at = what.find(override); at != std::string::npos && at + override.size() == what.size())
       what = "--" + what.substr(0, at) + " is a flag: it takes no value";
     // A mistyped command reads as a missing one to CLI11: name the word and the commands.
-    if (command.empty() && what == "A subcommand is required") {
-      const std::vector<std::string> left = failed->remaining();
+    if (what == "A subcommand is required") {
+      const std::vector<std::string> left = failed->remaining(true);
       const auto word = std::find_if(left.begin(), left.end(), [](const std::string& w) { return !w.empty() && w[0] != '-'; });
       if (word != left.end()) {
-        what = "'" + *word + "' is not a command (";
-        for (const CLI::App* s : failed->get_subcommands([](const CLI::App*) { return true; }))
+        what = "'" + *word + "' is not a command of blobvk " + command + "(";
+        for (const CLI::App* s : innermost->get_subcommands([](const CLI::App*) { return true; }))
           what += (what.back() == '(' ? "" : ", ") + s->get_name();
         what += ")";
       }

@@ -397,6 +397,18 @@ TEST(Cli, SimulateAndCutMakeNothingUntilTheirInputsLoad) {
     EXPECT_NE(r.output.find("bad_section.json: /simulation/timeStep"), std::string::npos) << r.output;
     EXPECT_FALSE(std::filesystem::exists(out)) << command;
   }
+  // cut without a blade path (none in the scene, no --blade): refused before the folder too.
+  in.clear();
+  in.seekg(0);
+  nlohmann::json bladeless = nlohmann::json::parse(in);
+  ASSERT_TRUE(bladeless["simulation"].contains("blade"));
+  bladeless["simulation"].erase("blade");
+  const auto noBlade = scratch("no_blade.json");
+  std::ofstream(noBlade) << bladeless.dump();
+  const CliRun cut = run("cut " + noBlade.string() + " -o " + out.string() + " --no-png");
+  EXPECT_EQ(cut.status, 1) << cut.output;
+  EXPECT_NE(cut.output.find("no_blade.json: /simulation/blade: no blade path"), std::string::npos) << cut.output;
+  EXPECT_FALSE(std::filesystem::exists(out));
   const CliRun blade = run("cut " + source("scenes/soft_peanut.json") + " -o " + out.string() + " --no-png --blade " +
                            scratch("no_such_blade.json").string());
   EXPECT_EQ(blade.status, 1) << blade.output;

@@ -100,7 +100,8 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
   EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --resolution abc", cwd).err.find("(see blobvk mesh --help)"), std::string::npos);
   EXPECT_NE(runCliSplit("generate tower --radius nan -o t.json", cwd).err.find("(see blobvk generate tower --help)"), std::string::npos);
   EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --stream=false", cwd).err.find("--stream is a flag: it takes no value"), std::string::npos);
-  EXPECT_NE(runCliSplit("--pipeline-cache off mesj " + tower, cwd).err.find("'mesj' is not a command (generate, mesh,"), std::string::npos);
+  EXPECT_NE(runCliSplit("--pipeline-cache off mesj " + tower, cwd).err.find("'mesj' is not a command of blobvk (generate, mesh,"), std::string::npos);
+  EXPECT_NE(runCliSplit("generate towr", cwd).err.find("'towr' is not a command of blobvk generate (tower, eggshell, random)"), std::string::npos);
   EXPECT_TRUE(fs::is_empty(cwd)) << "a refused command wrote a file";
   EXPECT_EQ(runCliSplit("--help", cwd).status, 0);
   EXPECT_EQ(runCliSplit("mesh --help", cwd).status, 0);

@@ -203,7 +203,11 @@ TEST_F(MultiDeviceTest, StreamedOnSeveralWorkersGivesTheOneDeviceBytes) {
     EXPECT_EQ(sink.wrongWindowVertex, 0u) << what;
     EXPECT_LT(sink.largestWindow, one.positions.size() / 2) << what << ": a window as large as the mesh";
     ASSERT_EQ(shares.size(), n + (withHost ? 1 : 0)) << what;
-    for (const vk::GpuStats& share : shares) EXPECT_GT(share.batches, 0u) << what << ": a worker took no batch";
+    // Who took which batch is timing (a device still building its kernels may take none): every
+    // batch ran exactly once.
+    std::uint32_t run = 0;
+    for (const vk::GpuStats& share : shares) run += share.batches;
+    EXPECT_EQ(run, st.batches) << what;
     EXPECT_TRUE(sameBytes(sink.mesh.positions, one.positions)) << what;
     EXPECT_TRUE(sameBytes(sink.mesh.normals, one.normals)) << what;
     EXPECT_TRUE(sameBytes(sink.mesh.colours, one.colours)) << what;

@@ -259,11 +259,13 @@ void runOnDevices(std::span<Device* const> devices, const blobtree::Program& pro
 
   {
     std::vector<std::jthread> threads;
-    if (!batches.empty()) {
-      for (std::size_t d = 0; d < n; ++d) threads.emplace_back(work, d);
-      if (host) threads.emplace_back(hostWork);
-    }
     try {
+      // A thread that cannot start fails the job (inside the try): the ones started see the
+      // error in take() and end, so their joins below cannot wait for ever.
+      if (!batches.empty()) {
+        for (std::size_t d = 0; d < n; ++d) threads.emplace_back(work, d);
+        if (host) threads.emplace_back(hostWork);
+      }
       for (std::size_t b = 0; b < batches.size(); ++b) {
         mesh::TriMesh piece;
         {

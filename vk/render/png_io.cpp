@@ -36,14 +36,22 @@ void removePartial(const std::string& path) {
   if (::lstat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) std::remove(path.c_str());
 }
 
-// Appends libpng's output to a std::string (set as the write pointer).
+// Appends libpng's output to a std::string (set as the write pointer). No exception may cross
+// libpng's C frames: a failed append becomes libpng's error (a longjmp back to encode()).
 void appendBytes(png_structp png, png_bytep data, png_size_t length) {
-  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), length);
+  bool full = false;
+  try {
+    static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), length);
+  } catch (const std::exception&) {
+    full = true;
+  }
+  if (full) png_error(png, "out of memory for the encoded image");
 }
 void noFlush(png_structp) {}
 
-// Encodes into `out`; returns "" or libpng's message. Nothing with a destructor lives in this
-// frame: libpng reports errors by longjmp.
+// Encodes into `out`; returns "" or libpng's message. libpng reports errors by a longjmp back to
+// this frame, so nothing with a destructor may live in the frames between (libpng's and the
+// callbacks', which catch their own exceptions).
 std::string encode(std::string& out, const Image& image) {
   if (image.width == 0 || image.height == 0 || image.rgba.size() != std::size_t(image.width) * image.height * 4)
     return "image is empty or its pixel array has the wrong size";
