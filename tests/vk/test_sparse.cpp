@@ -455,6 +455,24 @@ TEST_F(VulkanTest, LayerPairsOverOneStorageBufferTakeSmallerBricks) {
   const vk::ClassifiedBricks smallest =
       vk::classifyToFit(device(), sc.program, sc.grid, 16, [](const vk::BrickGrid&) { return 1ull; }, stats);
   EXPECT_EQ(smallest.bricks.log2B, 2u);
+  // Where a batch may hold a layer alone (one device, corners matched by key), only a layer over
+  // the range halves the bricks: the same range keeps 16³, one below the largest layer does not.
+  std::uint32_t layer16 = 0;
+  for (std::size_t z = 0; z + 1 < at16.layerStarts.size(); ++z) layer16 = std::max(layer16, at16.layerStarts[z + 1] - at16.layerStarts[z]);
+  ASSERT_LT(layer16, pair16);
+  notes.clear();
+  const vk::ClassifiedBricks alone = vk::classifyToFit(device(), sc.program, sc.grid, 16, range, stats, 0, {},
+                                                       [&notes](const std::string& n) { notes.push_back(n); }, {}, 1);
+  EXPECT_EQ(alone.bricks.log2B, 4u);
+  EXPECT_EQ(alone.layerStarts, at16.layerStarts);
+  EXPECT_EQ(notes.size(), 1u);
+  const auto belowLayer = [layer16](const vk::BrickGrid& b) -> std::uint64_t { return b.log2B >= 4 ? layer16 - 1 : 1000000; };
+  notes.clear();
+  const vk::ClassifiedBricks halved = vk::classifyToFit(device(), sc.program, sc.grid, 16, belowLayer, stats, 0, {},
+                                                        [&notes](const std::string& n) { notes.push_back(n); }, {}, 1);
+  EXPECT_EQ(halved.bricks.log2B, 3u);
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_EQ(notes[1].rfind("a brick layer holds more active bricks than one storage buffer; classifying", 0), 0u) << notes[1];
 }
 
 }  // namespace

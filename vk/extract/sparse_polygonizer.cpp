@@ -605,7 +605,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
     if (watch.progress && planned.size() > 1) watch.progress(k + 1, planned.size());
     // The window's pairs (from each of its layers; scanEnd reaches two layers past its end).
     for (std::uint32_t z = first; z < end && !c.abandoned; ++z)
-      c.abandoned = c.layerStarts[std::min(z + 2, layers)] - c.layerStarts[z] > watch.abandonPairsOver;
+      c.abandoned = c.layerStarts[std::min(z + watch.abandonLayers, layers)] - c.layerStarts[z] > watch.abandonPairsOver;
     if (c.abandoned) break;
   }
   s.activeBricks = c.layerStarts[layers];
@@ -625,7 +625,8 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
                                GpuStats& stats, std::uint32_t windowLayers, const ClassifyChoice& choice,
                                const std::function<void(const std::string&)>& phaseNote,
-                               const std::function<void(std::size_t done, std::size_t total)>& progress) {
+                               const std::function<void(std::size_t done, std::size_t total)>& progress,
+                               std::uint32_t layersPerLoad) {
   constexpr std::uint32_t kSmallestFallbackCells = 4;
   double classifySeconds = 0.0;
   bool again = false;
@@ -633,7 +634,9 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
     const BrickGrid bricks = brickGridFor(grid, brickCells);
     if (phaseNote) {
       const std::string size = std::to_string(brickCells);
-      phaseNote(std::string(again ? "two adjacent brick layers hold more active bricks than one storage buffer; " : "") +
+      phaseNote(std::string(!again                ? ""
+                            : layersPerLoad == 1 ? "a brick layer holds more active bricks than one storage buffer; "
+                                                 : "two adjacent brick layers hold more active bricks than one storage buffer; ") +
                 "classifying " + groupedCount(bricks.count()) + " bricks of " + size + "x" + size + "x" + size +
                 " cells on the device");
     }
@@ -649,7 +652,7 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
         canHalve = false;
       }
     }
-    ClassifyWatch watch{progress, canHalve ? rangeBricks(bricks) : ~0ull};
+    ClassifyWatch watch{progress, canHalve ? rangeBricks(bricks) : ~0ull, std::max<std::uint32_t>(1, layersPerLoad)};
     ClassifiedBricks c = classifyAndCompact(device, program, grid, bricks, stats, nullptr, windowLayers, choice, watch);
     classifySeconds += stats.classifySeconds;
     stats.classifySeconds = classifySeconds;
@@ -718,7 +721,8 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
                       " iterations) with a program of " + std::to_string(program.code.size()) + " instructions");
   const ClassifiedBricks classified = classifyToFit(
       device, program, grid, brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s,
-      options.windowLayers, {options.classifyCode, options.expectedRuns}, options.phaseNote, options.classifyProgress);
+      options.windowLayers, {options.classifyCode, options.expectedRuns}, options.phaseNote, options.classifyProgress,
+      1);  // one device matches a lone layer's corners by key (planSparseBatches, KeyedBatches::Allow)
   const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;

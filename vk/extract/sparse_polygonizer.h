@@ -167,30 +167,35 @@ struct ClassifiedBricks {
 struct ClassifyWatch {
   // (done, total) after each window of brick layers, when there are several.
   std::function<void(std::size_t done, std::size_t total)> progress;
-  // Stop at the first window whose tables show two adjacent layers holding more active bricks
-  // than this (ClassifiedBricks::abandoned): the rest would be classified for nothing when the
-  // caller then runs it again with smaller bricks.
+  // Stop at the first window whose tables show `abandonLayers` adjacent layers (a pair, or one
+  // layer) holding more active bricks than this (ClassifiedBricks::abandoned): the rest would be
+  // classified for nothing when the caller then runs it again with smaller bricks.
   std::uint64_t abandonPairsOver = ~0ull;
+  std::uint32_t abandonLayers = 2;
 };
 ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                     const BrickGrid& bricks, GpuStats& stats, const BrickBox* only = nullptr,
                                     std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {},
                                     const ClassifyWatch& watch = {});
 
-// classifyAndCompact with bricks of `brickCells`, halved (down to 4) while two adjacent brick
-// layers hold more active bricks than `rangeBricks(bricks)` (what one storage buffer holds, the
-// least over the job's devices): a batch loads a layer pair, and a large grid's pair can exceed
-// it (lavapipe's 128 MiB range holds 6,829 bricks of 16³; the tower at 2048³ needs 6,885).
-// Smaller bricks make thinner layers of smaller records. The mesh does not depend on the brick
-// size; the result's `bricks` is the grid used. A classification that can still halve its
-// bricks stops at the first layer pair over the range (ClassifyWatch::abandonPairsOver).
+// classifyAndCompact with bricks of `brickCells`, halved (down to 4) while `layersPerLoad`
+// adjacent brick layers hold more active bricks than `rangeBricks(bricks)` (what one storage
+// buffer holds, the least over the job's devices). A batch loads a layer pair (2), or, where its
+// corners on the next layer may be matched by key (one device: planSparseBatches'
+// KeyedBatches::Allow), a layer alone (1); a large grid's pair can exceed the range (lavapipe's
+// 128 MiB range holds 6,829 bricks of 16³; the tower at 2048³ needs 6,885). Smaller bricks make
+// thinner layers of smaller records, but evaluate more points per triangle, so one device keeps
+// its bricks while single layers fit. The mesh does not depend on the brick size; the result's
+// `bricks` is the grid used. A classification that can still halve its bricks stops at the
+// first span over the range (ClassifyWatch::abandonPairsOver).
 // `phaseNote` (GpuPolygonizeOptions::phaseNote) hears of each classification before it runs,
 // `progress` (classifyProgress) of its windows.
 ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                std::uint32_t brickCells, const std::function<std::uint64_t(const BrickGrid&)>& rangeBricks,
                                GpuStats& stats, std::uint32_t windowLayers = 0, const ClassifyChoice& choice = {},
                                const std::function<void(const std::string&)>& phaseNote = {},
-                               const std::function<void(std::size_t done, std::size_t total)>& progress = {});
+                               const std::function<void(std::size_t done, std::size_t total)>& progress = {},
+                               std::uint32_t layersPerLoad = 2);
 
 mesh::TriMesh polygonizeSparse(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                                const GpuPolygonizeOptions& options, GpuStats* stats);
