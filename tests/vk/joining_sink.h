@@ -5,12 +5,16 @@
 
 #include "blobvk/mesh/mesh_sink.h"
 #include "blobvk/mesh/trimesh.h"
+#include "reference_checks.h"
+
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 
 namespace blobvk::testing {
 
@@ -42,5 +46,19 @@ class JoiningSink final : public mesh::MeshSink {
     mesh.triangles.insert(mesh.triangles.end(), t.begin(), t.end());
   }
 };
+
+// What every streamed job's runs must be: one vertex run and one triangle run per batch, every
+// corner inside the window it came with, and joined, the bytes of `whole` (the same job in
+// memory; a sink gets no edge keys).
+inline void expectJoinedRuns(const JoiningSink& sink, std::size_t batches, const mesh::TriMesh& whole, const std::string& what) {
+  EXPECT_EQ(sink.vertexRuns, batches) << what;
+  EXPECT_EQ(sink.triangleRuns, batches) << what;
+  EXPECT_EQ(sink.outsideWindow, 0u) << what;
+  EXPECT_EQ(sink.wrongWindowVertex, 0u) << what;
+  EXPECT_TRUE(sameBytes(sink.mesh.positions, whole.positions)) << what;
+  EXPECT_TRUE(sameBytes(sink.mesh.normals, whole.normals)) << what;
+  EXPECT_TRUE(sameBytes(sink.mesh.colours, whole.colours)) << what;
+  EXPECT_EQ(sink.mesh.triangles, whole.triangles) << what;
+}
 
 }  // namespace blobvk::testing
