@@ -180,7 +180,9 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.vertexGradient, gpu.modelBuildSeconds, gpu.modelRunSeconds,
           gpu.edgesSeconds, gpu.scansSeconds, gpu.sourcesSeconds, gpu.verticesSeconds, gpu.trianglesSeconds,
           gpu.fieldTiles, gpu.vertexTiles, gpu.generatedClassification, gpu.classifyTiles, gpu.tapeInstructions, gpu.tapeWords,
-          gpu.tapeSeconds, gpu.readbackDeviceSeconds};
+          gpu.tapeSeconds, gpu.readbackDeviceSeconds,
+          {gpu.hostSteps.classification, gpu.hostSteps.preparation, gpu.hostSteps.fieldSubmits, gpu.hostSteps.emitSubmits,
+           gpu.hostSteps.grow, gpu.hostSteps.copy, gpu.hostSteps.corners}};
 }
 
 // `--cpu-worker`: the CPU polygonizer takes batches beside the devices. Its MPUs are the bricks,

@@ -104,6 +104,11 @@ struct PolygonizeStats {
     std::uint64_t tapeInstructions = 0, tapeWords = 0;
     double tapeSeconds = 0.0;
     double readbackDevice = 0.0;  // of `readback`: the device's copy into read-back memory (device time)
+    // Where the host's wall time went (vk::HostSteps, vk/extract/polygonize.h; sparse, one device).
+    struct HostSteps {
+      double classification = 0.0, preparation = 0.0, fieldSubmits = 0.0, emitSubmits = 0.0, grow = 0.0, copy = 0.0,
+             corners = 0.0;
+    } hostSteps;
   } gpu;
 };
 

@@ -209,7 +209,12 @@ void addBenchCommand(CLI::App& app) {
                     {"device_bytes", r.gpu.deviceBytes},
                     {"extraction_passes_s", {{"edges", r.gpu.edges}, {"scans", r.gpu.scans},
                                              {"sources", r.gpu.sources}, {"vertices", r.gpu.vertices},
-                                             {"triangles", r.gpu.triangles}}}};
+                                             {"triangles", r.gpu.triangles}}},
+                    {"host_steps", {{"classification", r.gpu.hostSteps.classification},
+                                    {"preparation", r.gpu.hostSteps.preparation},
+                                    {"field_submits", r.gpu.hostSteps.fieldSubmits},
+                                    {"emit_submits", r.gpu.hostSteps.emitSubmits}, {"grow", r.gpu.hostSteps.grow},
+                                    {"copy", r.gpu.hostSteps.copy}, {"corners", r.gpu.hostSteps.corners}}}};
           if (!r.gpu.evaluator.empty()) {
             auto seconds = [](double v) { return v >= 0 ? nlohmann::json(v) : nlohmann::json(nullptr); };
             phases["evaluator"] = {{"traversal", r.gpu.evaluator}, {"generated_gradient", r.gpu.vertexGradient},

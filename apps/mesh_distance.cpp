@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -12,7 +13,7 @@ namespace {
 
 class VertexHash {
  public:
-  VertexHash(const std::vector<mesh::Float3>& points, float cell) : points_(points), cell_(cell) {
+  VertexHash(std::span<const mesh::Float3> points, float cell) : points_(points), cell_(cell) {
     for (std::uint32_t i = 0; i < points.size(); ++i) buckets_[key(cellOf(points[i]))].push_back(i);
   }
 
@@ -52,7 +53,7 @@ class VertexHash {
     return (std::uint64_t(std::uint32_t(c[0]) & 0x1fffff) << 42) | (std::uint64_t(std::uint32_t(c[1]) & 0x1fffff) << 21) |
            std::uint64_t(std::uint32_t(c[2]) & 0x1fffff);
   }
-  const std::vector<mesh::Float3>& points_;
+  std::span<const mesh::Float3> points_;
   float cell_;
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> buckets_;
 };

@@ -53,8 +53,8 @@ struct DirtySegment {
 };
 
 // Moves every run of `v` in place (see the file comment for why this order is safe).
-template <class T>
-void moveRuns(std::vector<T>& v, const std::vector<Run>& runs, std::size_t oldSize, std::size_t newSize) {
+template <class T, class A>
+void moveRuns(std::vector<T, A>& v, const std::vector<Run>& runs, std::size_t oldSize, std::size_t newSize) {
   if (newSize > oldSize) v.resize(newSize);
   for (const Run& r : runs)
     if (r.delta < 0 && r.count) std::memmove(v.data() + (r.from + r.delta), v.data() + r.from, r.count * sizeof(T));

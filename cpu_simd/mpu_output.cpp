@@ -64,10 +64,10 @@ double msSince(Clock::time_point t0) {
 // need not survive a reallocation; a large fresh array is advised onto transparent huge pages
 // (where the system allows them on request), which makes its first touch one fault per 2 MiB
 // instead of one per 4 KiB.
-template <class T>
-void sizeOutput(std::vector<T>& v, std::size_t n) {
+template <class T, class A>
+void sizeOutput(std::vector<T, A>& v, std::size_t n) {
   if (v.capacity() < n) {
-    std::vector<T>().swap(v);
+    std::vector<T, A>().swap(v);
     v.reserve(n);
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
     constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;

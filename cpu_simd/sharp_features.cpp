@@ -107,8 +107,8 @@ class FeaturePass {
       }
       cellOfTriangle[t] = c;
     }
-    const std::vector<Triangle> input = std::move(mesh_.triangles);
-    std::vector<Triangle> output;
+    const auto input = std::move(mesh_.triangles);
+    decltype(mesh_.triangles) output;
     output.reserve(input.size() + input.size() / 4);
     fanOf_.clear();
     fanOf_.reserve(output.capacity());

@@ -45,7 +45,7 @@ SurfaceEmbedding identityEmbedding(std::size_t count) {
   return e;
 }
 
-SurfaceEmbedding embedPoints(const mesh::TetMesh& m, const std::vector<mesh::Float3>& points) {
+SurfaceEmbedding embedPoints(const mesh::TetMesh& m, std::span<const mesh::Float3> points) {
   if (m.tets.empty()) throw std::invalid_argument("embedPoints: empty tet mesh");
   // Uniform grid of tet bounding boxes, cell size ~ the mean tet extent.
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max()), hi = -lo;
@@ -165,7 +165,7 @@ mesh::TriMesh boundarySurface(const mesh::TetMesh& m) {
   s.positions.resize(m.positions.size());
   for (std::size_t i = 0; i < m.positions.size(); ++i)
     s.positions[i] = {float(m.positions[i].x), float(m.positions[i].y), float(m.positions[i].z)};
-  s.triangles = m.boundaryFaces;
+  s.triangles.assign(m.boundaryFaces.begin(), m.boundaryFaces.end());
   computeNormals(s);
   return s;
 }

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace blobvk::fem {
@@ -22,7 +23,7 @@ SurfaceEmbedding identityEmbedding(std::size_t vertexCount);
 // Barycentric coordinates of each point in the rest tet that contains it; a point outside every
 // tet uses the nearest tet (by centroid, among tets in nearby cells) with extrapolated weights,
 // which is still exact for affine motions.
-SurfaceEmbedding embedPoints(const mesh::TetMesh& mesh, const std::vector<mesh::Float3>& points);
+SurfaceEmbedding embedPoints(const mesh::TetMesh& mesh, std::span<const mesh::Float3> points);
 
 // Writes the embedded vertex positions of `surface` from node positions and recomputes normals.
 void applyEmbedding(const SurfaceEmbedding& embedding, const std::vector<mesh::Double3>& nodePositions,

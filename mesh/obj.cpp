@@ -134,7 +134,7 @@ TriMesh readObj(const std::string& path) {
   }
   // Per-corner normals only become per-vertex normals when they pair one to one.
   if (anyCornerNormal && normalsPairOneToOne && normals.size() == mesh.positions.size())
-    mesh.normals = std::move(normals);
+    mesh.normals.assign(normals.begin(), normals.end());
   return mesh;
 }
 

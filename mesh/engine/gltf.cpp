@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 
@@ -33,7 +34,7 @@ int addView(tinygltf::Model& model, const void* bytes, std::size_t size, int tar
   return int(model.bufferViews.size() - 1);
 }
 
-int addVec3Accessor(tinygltf::Model& model, const std::vector<Float3>& values, bool withBounds) {
+int addVec3Accessor(tinygltf::Model& model, std::span<const Float3> values, bool withBounds) {
   tinygltf::Accessor a;
   a.bufferView = addView(model, values.data(), values.size() * sizeof(Float3), kArrayBuffer);
   a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;

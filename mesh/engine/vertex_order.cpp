@@ -20,10 +20,10 @@ void measure(const TriMesh& mesh, const std::vector<unsigned>& indices, float& a
   overfetch = meshopt_analyzeVertexFetch(indices.data(), indices.size(), mesh.positions.size(), vertexBytes).overfetch;
 }
 
-template <class T>
-void permute(std::vector<T>& values, const std::vector<unsigned>& remap, std::size_t count) {
+template <class T, class A>
+void permute(std::vector<T, A>& values, const std::vector<unsigned>& remap, std::size_t count) {
   if (values.empty()) return;
-  std::vector<T> out(count);
+  std::vector<T, A> out(count, T{});
   for (std::size_t v = 0; v < values.size(); ++v)
     if (remap[v] != ~0u) out[remap[v]] = values[v];
   values = std::move(out);

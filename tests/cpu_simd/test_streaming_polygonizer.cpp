@@ -30,8 +30,8 @@ using namespace blobvk;
 
 const std::string kScenes = BLOBVK_SOURCE_DIR "/scenes/";
 
-template <class T>
-bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
+template <class T, class A, class B>
+bool sameBytes(const std::vector<T, A>& a, const std::vector<T, B>& b) {
   return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
 }
 
@@ -190,7 +190,7 @@ TEST(StreamedCheck, FindsMisorientedAndNonManifoldEdges) {
   const std::vector<mesh::Float3> p{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
   const std::vector<std::array<std::uint32_t, 3>> t{{0, 1, 2}, {0, 1, 3}, {1, 0, 4}};
   mesh::TriMesh m;
-  m.positions = p, m.triangles = t;
+  m.positions.assign(p.begin(), p.end()), m.triangles.assign(t.begin(), t.end());
   mesh::StreamedMeshCheck check;
   check.vertices(p, {}, {});
   mesh::VertexWindow w;
@@ -215,7 +215,7 @@ TEST(StreamedCheck, MatchesCheckMeshOnRandomSoupsStreamedInRuns) {
     std::uniform_real_distribution<float> coord(-1.0f, 1.0f);
     for (auto& v : p) v = {coord(rng), coord(rng), coord(rng)};
     mesh::TriMesh m;
-    m.positions = p;
+    m.positions.assign(p.begin(), p.end());
     std::vector<std::vector<std::array<std::uint32_t, 3>>> runs(blocks);
     for (std::uint32_t k = 0; k < blocks; ++k) {
       const std::uint32_t lo = k * perBlock, span = (k + 1 < blocks ? 2 : 1) * perBlock;

@@ -44,7 +44,7 @@ inline mesh::TriMesh icosphere(int levels) {
     const double l = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
     s.positions.push_back({float(q.x / l), float(q.y / l), float(q.z / l)});
   }
-  s.triangles = f;
+  s.triangles.assign(f.begin(), f.end());
   return s;
 }
 

@@ -26,7 +26,7 @@ TEST(VoxelMesher, BoxIsConformingWithExactVolumeAndClosedBoundary) {
   EXPECT_EQ(m.boundaryFaces.size(), 2u * 2u * (4 * 3 + 4 * 2 + 3 * 2));
   mesh::TriMesh surface;
   for (const auto& p : m.positions) surface.positions.push_back({float(p.x), float(p.y), float(p.z)});
-  surface.triangles = m.boundaryFaces;
+  surface.triangles.assign(m.boundaryFaces.begin(), m.boundaryFaces.end());
   const mesh::MeshReport report = mesh::checkMesh(surface);
   EXPECT_TRUE(report.watertight()) << report.summary();
   EXPECT_NEAR(report.volume, 0.4 * 0.3 * 0.2, 1e-6);  // outward orientation
@@ -129,7 +129,7 @@ TEST(TetgenMesher, CubeGivesQualityTetsWithExactVolume) {
   // Boundary = the cube's surface.
   mesh::TriMesh surface;
   for (const auto& p : m.positions) surface.positions.push_back({float(p.x), float(p.y), float(p.z)});
-  surface.triangles = m.boundaryFaces;
+  surface.triangles.assign(m.boundaryFaces.begin(), m.boundaryFaces.end());
   EXPECT_NEAR(mesh::checkMesh(surface).volume, 1.0, 1e-5);
 }
 

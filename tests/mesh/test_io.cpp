@@ -3,6 +3,7 @@
 #include "blobvk/mesh/checks.h"
 #include "blobvk/mesh/io.h"
 
+#include <span>
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -55,7 +56,7 @@ mesh::TriMesh attributedCube() {
   return m;
 }
 
-void expectNear(const std::vector<mesh::Float3>& a, const std::vector<mesh::Float3>& b, float tol) {
+void expectNear(std::span<const mesh::Float3> a, std::span<const mesh::Float3> b, float tol) {
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i) {
     EXPECT_NEAR(a[i].x, b[i].x, tol) << i;

@@ -3,6 +3,7 @@
 #include "blobvk/mesh/engine/gltf.h"
 #include "shipped_mesh.h"
 
+#include <span>
 #include <gtest/gtest.h>
 #include <tiny_gltf.h>
 
@@ -39,7 +40,7 @@ std::vector<unsigned char> accessorBytes(const tinygltf::Model& model, int acces
   return {data.begin() + std::ptrdiff_t(begin), data.begin() + std::ptrdiff_t(begin + size)};
 }
 
-void expectVec3(const tinygltf::Model& model, const tinygltf::Primitive& p, const char* name, const std::vector<Float3>& values) {
+void expectVec3(const tinygltf::Model& model, const tinygltf::Primitive& p, const char* name, std::span<const Float3> values) {
   ASSERT_TRUE(p.attributes.count(name)) << name;
   const int index = p.attributes.at(name);
   const tinygltf::Accessor& a = model.accessors.at(std::size_t(index));

@@ -45,8 +45,8 @@ inline blobtree::GridSpec gridAt(const blobtree::Program& program, int resolutio
   return blobtree::chooseGrid(program, {}, request);
 }
 
-template <class T>
-bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
+template <class T, class A, class B>
+bool sameBytes(const std::vector<T, A>& a, const std::vector<T, B>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
 }
 

@@ -116,7 +116,7 @@ TEST_F(CapacityTest, OnlyTheSideThatDoesNotFitIsFlagged) {
   EXPECT_EQ(exact.args[0], 3 * T);
   for (std::size_t w = std::size_t(V) * 3; w < exact.positions.size(); ++w) ASSERT_EQ(exact.positions[w], kGuard);
   for (std::size_t w = std::size_t(T) * 3; w < exact.indices.size(); ++w) ASSERT_EQ(exact.indices[w], kGuard);
-  std::vector<std::array<std::uint32_t, 3>> tris(T);
+  mesh::MeshArray<std::array<std::uint32_t, 3>> tris(T);
   std::memcpy(tris.data(), exact.indices.data(), std::size_t(T) * 12);
   EXPECT_EQ(tris, ref_.triangles);
   // Zero capacity (a caller that forgot to say): nothing written, overflow reported.

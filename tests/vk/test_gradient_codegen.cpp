@@ -177,7 +177,7 @@ TEST(SpecialisedGradient, TheCostModelTakesItWhereItsBuildFits) {
     }
 }
 
-::testing::AssertionResult sameBytes(const std::vector<mesh::Float3>& a, const std::vector<mesh::Float3>& b) {
+::testing::AssertionResult sameBytes(std::span<const mesh::Float3> a, std::span<const mesh::Float3> b) {
   if (a.size() != b.size()) return ::testing::AssertionFailure() << a.size() << " against " << b.size() << " values";
   for (std::size_t i = 0; i < a.size(); ++i)
     if (std::memcmp(&a[i], &b[i], sizeof(mesh::Float3)) != 0)
@@ -187,7 +187,7 @@ TEST(SpecialisedGradient, TheCostModelTakesItWhereItsBuildFits) {
   return ::testing::AssertionSuccess();
 }
 
-float worstDifference(const std::vector<mesh::Float3>& a, const std::vector<mesh::Float3>& b) {
+float worstDifference(std::span<const mesh::Float3> a, std::span<const mesh::Float3> b) {
   if (a.size() != b.size()) return INFINITY;
   float w = 0.0f;
   for (std::size_t i = 0; i < a.size(); ++i)

@@ -26,8 +26,8 @@ namespace {
 
 class IncrementalDraw : public VulkanTest {};
 
-template <class T>
-bool deviceHolds(vk::Device& device, const vk::Buffer& buffer, const std::vector<T>& want) {
+template <class T, class A>
+bool deviceHolds(vk::Device& device, const vk::Buffer& buffer, const std::vector<T, A>& want) {
   if (want.empty()) return true;
   std::vector<T> got(want.size());
   device.download(buffer, got.data(), got.size() * sizeof(T));

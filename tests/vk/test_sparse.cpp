@@ -148,6 +148,12 @@ TEST_F(VulkanTest, ThreeSubmitsAndStagedReadBackGiveTheSameMesh) {
   EXPECT_TRUE(sameBytes(staged.triangles, mapped.triangles));
   for (const vk::GpuStats& st : {mappedStats, stagedStats}) {
     EXPECT_EQ(st.submits, 3u);
+    // The host's steps are disjoint spans of the job's wall time, each one taken.
+    const vk::HostSteps& h = st.hostSteps;
+    for (double step : {h.classification, h.preparation, h.fieldSubmits, h.emitSubmits, h.grow, h.copy})
+      EXPECT_GT(step, 0.0);
+    EXPECT_LE(h.classification + h.preparation + h.fieldSubmits + h.emitSubmits + h.copy + h.corners, st.seconds);
+    EXPECT_EQ(h.corners, 0.0);  // one batch: no keyed corners
     EXPECT_EQ(st.deviceTimed, device().timestampPeriodNs() > 0.0);
     if (!st.deviceTimed) continue;
     EXPECT_GT(st.classifySeconds, 0.0);
@@ -320,6 +326,7 @@ TEST_F(VulkanTest, KeyedCornerBatchesGiveTheSameBytes) {
       vk::GpuStats st;
       const auto m = vk::polygonize(device(), sc.program, sc.grid, o, &st);
       EXPECT_EQ(st.batches, layers) << what;
+      EXPECT_GT(st.hostSteps.corners, 0.0) << what;
       expectSameBytes(m, whole, what);
     }
   }

@@ -24,8 +24,8 @@ void copyParallel(void* dst, const void* src, std::size_t bytes);
 // into room for max(reserveFor, twice its size) elements, what it holds copied over the cores
 // (only the part it will fill is mapped now). Allocates on the calling thread, so that a vector
 // freed there is reused there (each thread has its own malloc arena).
-template <class T>
-void roomFor(std::vector<T>& v, std::size_t n, std::size_t reserveFor = 0) {
+template <class T, class A>
+void roomFor(std::vector<T, A>& v, std::size_t n, std::size_t reserveFor = 0) {
   static_assert(std::is_trivially_copyable_v<T>);
   const std::size_t old = v.size(), bytes = n * sizeof(T);
   if (bytes < kParallelCopyBytes) {
@@ -33,7 +33,7 @@ void roomFor(std::vector<T>& v, std::size_t n, std::size_t reserveFor = 0) {
     return;
   }
   if (v.capacity() < old + n) {
-    std::vector<T> grown;
+    std::vector<T, A> grown;
     const std::size_t needed = std::max(old + n, 2 * old);
     try {
       grown.reserve(std::max(needed, reserveFor));
@@ -56,25 +56,26 @@ inline std::size_t roomAhead(std::size_t size, double ratio) {
   return ratio > 1.0 ? std::size_t(double(size) * ratio) : 0;
 }
 
-// v grown by n value-initialised elements in the room roomFor made; returns the first new one.
-// The fill is one thread's (std::vector value-initialises): callers grow several vectors at once,
-// or while the device works (vk/extract/sparse_batches.cpp).
-template <class T>
-T* appendZeros(std::vector<T>& v, std::size_t n) {
+// v grown by n elements in the room roomFor made; returns the first new one. A mesh's arrays
+// (mesh::MeshArray) leave them unwritten, for the copy that follows; a std::vector
+// value-initialises them, a fill that is one thread's: callers grow several vectors at once, or
+// while the device works (vk/extract/sparse_batches.cpp).
+template <class T, class A>
+T* appendElements(std::vector<T, A>& v, std::size_t n) {
   v.resize(v.size() + n);
   return v.data() + v.size() - n;
 }
 
-// roomFor, then appendZeros.
-template <class T>
-T* growParallel(std::vector<T>& v, std::size_t n, std::size_t reserveFor = 0) {
+// roomFor, then appendElements.
+template <class T, class A>
+T* growParallel(std::vector<T, A>& v, std::size_t n, std::size_t reserveFor = 0) {
   roomFor(v, n, reserveFor);
-  return appendZeros(v, n);
+  return appendElements(v, n);
 }
 
 // v.insert(v.end(), src, src + n), with the page faults and the copy spread over the cores.
-template <class T>
-void appendParallel(std::vector<T>& v, const T* src, std::size_t n) {
+template <class T, class A>
+void appendParallel(std::vector<T, A>& v, const T* src, std::size_t n) {
   static_assert(std::is_trivially_copyable_v<T>);
   if (n * sizeof(T) < kParallelCopyBytes) {
     v.insert(v.end(), src, src + n);

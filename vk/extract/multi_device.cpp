@@ -48,8 +48,8 @@ std::string inexactOnLavapipe(const blobtree::Program& program) {
   return {};
 }
 
-template <class T>
-void appendAll(std::vector<T>& to, const std::vector<T>& from) {
+template <class T, class A>
+void appendAll(std::vector<T, A>& to, const std::vector<T, A>& from) {
   appendParallel(to, from.data(), from.size());
 }
 

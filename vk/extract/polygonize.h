@@ -105,6 +105,19 @@ struct GpuPolygonizeOptions {
   std::function<void(std::size_t done, std::size_t total)> classifyProgress;
 };
 
+// Sparse: where the host's wall time goes, on the calling thread (`blobvk bench --json`:
+// vk_phases.host_steps). The submits' figures hold the device's work and the host's wait for it;
+// on a discrete GPU the mesh arrays grow during the second submit, so `grow` is inside `emitSubmits`.
+struct HostSteps {
+  double classification = 0.0;  // the bricks classified and compacted: host setup, submits, read-backs
+  double preparation = 0.0;     // evaluator choice, batch plan, the batch runner (kernels, buffers)
+  double fieldSubmits = 0.0;    // per batch: field to scans, recorded, submitted, waited for, counts read
+  double emitSubmits = 0.0;     // per batch: output buffers, sources to the read-back copy, waited for
+  double grow = 0.0;            // the mesh arrays grown for each batch's outputs
+  double copy = 0.0;            // each batch's outputs copied into the mesh arrays
+  double corners = 0.0;         // keyed-corner batches: triangle corners found by edge key
+};
+
 struct GpuStats {
   double seconds = 0.0;          // wall time of all submits and readbacks
   // Dense: field, flags, cell counts, scans. Sparse: the bricks' classification and compaction.
@@ -125,6 +138,7 @@ struct GpuStats {
   // they are wall time per submit (the field counted in extract).
   bool deviceTimed = false;
   double hostSeconds = 0.0;
+  HostSteps hostSteps;
   std::uint32_t submits = 0;     // sparse: queue submissions (each one a host round trip)
   std::uint32_t batches = 0;     // sparse: batches of brick layers (1 + 2 x batches submits)
   std::uint32_t devices = 1;     // devices that shared the batches (multi_device.h)

@@ -53,8 +53,8 @@ Plan makePlan(std::vector<Segment> segments, std::uint64_t oldSize) {
 }
 
 // Moves the kept runs of `v` and writes the segments from `piece`; returns the elements moved.
-template <class T>
-std::uint64_t applyPlan(const Plan& p, std::vector<T>& v, const T* piece) {
+template <class T, class A>
+std::uint64_t applyPlan(const Plan& p, std::vector<T, A>& v, const T* piece) {
   static_assert(std::is_trivially_copyable_v<T>);
   const std::size_t n = p.segments.size();
   const auto runFrom = [&](std::size_t i) { return p.segments[i].oldTo; };
@@ -120,7 +120,7 @@ void spliceRows(mesh::TriMesh& m, const std::array<std::uint32_t, 3>& cells, con
       (colours && piece.colours.size() != pieceVertices) || cornerKeys.size() % 3) {
     broken("the re-run's vertex arrays differ in length");
   }
-  const std::vector<std::uint64_t>& keys = m.edgeKeys;
+  const auto& keys = m.edgeKeys;
   const std::uint64_t* pk = piece.edgeKeys.data();
 
   // 1. Vertex rows: the keys of points [pointFirst.x, pointEnd.x) of each point row of the box.

@@ -523,6 +523,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   // neighbours and segment record; crossing edges and counts per row; the two scans; the counts
   // of the layers the batch emits.
   auto t0 = Clock::now();
+  const auto fieldStart = t0;
   submit([&](Recorder& rec) {
     if (run == 0) st.timer.reset(rec);
     rec.computeBarrier();  // the last batch's reads and writes of the shared buffers come first
@@ -613,6 +614,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     throw VulkanError("GPU polygonizer: the mesh has more than 2^32 vertices (32-bit indices): use a smaller grid");
   }
   s.extractSeconds += since(t0);
+  s.hostSteps.fieldSubmits += since(fieldStart);
 
   // 6-7: the batch's vertices and triangles, copied in the same submit into one read-back
   // buffer (skipped where the device buffers are host-readable, as on lavapipe).
@@ -636,7 +638,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   // room (roomFor), grow(true) appends the elements and returns where they start.
   auto grow = [](auto& vec, std::uint64_t count, double ratio) {
     return std::function<void*(bool)>([&vec, count, ratio](bool fill) -> void* {
-      if (fill) return appendZeros(vec, count);
+      if (fill) return appendElements(vec, count);
       roomFor(vec, count, roomAhead(vec.size() + count, ratio));
       return nullptr;
     });
@@ -658,12 +660,14 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   // The arrays grow side by side: each one's value-initialising fill is a single thread's, and
   // at 512^3 on a discrete GPU those fills took longer than the device's whole job. Their
   // memory comes from this thread (roomFor).
-  auto growOutputs = [&outputs] {
+  auto growOutputs = [&outputs, &s] {
+    const auto growStart = Clock::now();
     for (Output& o : outputs)
       if (o.bytes) o.grow(false);
     tbb::parallel_for(std::size_t(0), outputs.size(), [&outputs](std::size_t i) {
       if (outputs[i].bytes) outputs[i].to = outputs[i].grow(true);
     });
+    s.hostSteps.grow += since(growStart);
   };
   std::uint64_t stagingBytes = 0;
   for (Output& o : outputs) {
@@ -757,15 +761,18 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     rec.hostBarrier();
   }, stagingBytes ? std::function<void()>(growOutputs) : std::function<void()>());
   s.extractSeconds += since(t0);
+  s.hostSteps.emitSubmits += since(t0);
 
   t0 = Clock::now();
   if (!stagingBytes) growOutputs();
+  const auto copyStart = Clock::now();
   for (const Output& o : outputs) {
     if (o.bytes == 0) continue;
     copyParallel(o.to, o.buffer->hostReadable() ? o.buffer->mapped() : static_cast<const char*>(staging.mapped()) + o.offset,
                  o.bytes);
   }
   s.readbackSeconds += since(t0);
+  s.hostSteps.copy += since(copyStart);
 }
 
 }  // namespace blobvk::vk

@@ -723,6 +723,8 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
       device, program, grid, brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s,
       options.windowLayers, {options.classifyCode, options.expectedRuns}, options.phaseNote, options.classifyProgress,
       1);  // one device matches a lone layer's corners by key (planSparseBatches, KeyedBatches::Allow)
+  s.hostSteps.classification = since(wallStart);
+  const auto preparationStart = Clock::now();
   const SparseEvaluator evaluator = resolveSparseEvaluator(device, program, grid, options, &classified);
   const BrickGrid& bg = classified.bricks;
   s.brickCells = 1u << bg.log2B;
@@ -742,6 +744,7 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
     for (const SparseBatch& b : batches) maxLoaded = std::max(maxLoaded, b.loadedActive);
     SparseBatchRunner runner(device, program, grid, resolved, resolved.traversal, bg, classified.windows, maxLoaded,
                              s.batches);
+    s.hostSteps.preparation = since(preparationStart);
     std::uint64_t vertexBase = 0;
     KeyedCorners waiting;  // a keyed batch's triangles, until the next batch's vertices are known
     for (std::size_t i = 0; i < batches.size(); ++i) {
@@ -755,12 +758,14 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
       const double reserveRatio = sink.accumulates && done < all ? std::min(4.0, 1.05 * all / done) : 1.0;
       runner.run(batches[i], vertexBase, into, s, keyed ? &corners : nullptr, reserveRatio);
       const std::size_t added = into.positions.size() - before;
+      const auto cornersStart = Clock::now();
       if (waiting.pending) waiting.resolve(sink.meshOf(i - 1), {into.edgeKeys.data() + before, added});
       if (keyed) {
         growParallel(into.triangles, corners.size() / 3, roomAhead(trianglesBefore + corners.size() / 3, reserveRatio));
         waiting.hold(std::move(corners), before, added, vertexBase, trianglesBefore);
         if (i + 1 == batches.size()) waiting.resolve(into, {});
       }
+      if (keyed || (i > 0 && batches[i - 1].keyedCorners)) s.hostSteps.corners += since(cornersStart);
       vertexBase += added;
       if (sink.done) sink.done(i, batches.size());
     }

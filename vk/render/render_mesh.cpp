@@ -98,8 +98,8 @@ UploadedMesh uploadMesh(Device& device, const mesh::TriMesh& m, const RenderStyl
   UploadedMesh u;
   const std::size_t n = m.positions.size();
   u.positions = uploadArray(device, m.positions.data(), n * 12);
-  const auto normals = m.normals.size() == n ? m.normals : vertexNormals(m);
-  u.normals = uploadArray(device, normals.data(), n * 12);
+  const std::vector<mesh::Float3> computed = m.normals.size() == n ? std::vector<mesh::Float3>{} : vertexNormals(m);
+  u.normals = uploadArray(device, m.normals.size() == n ? m.normals.data() : computed.data(), n * 12);
   std::vector<mesh::Float3> fill;
   if (m.colours.size() != n) {
     fill.assign(n, {style.defaultColour[0], style.defaultColour[1], style.defaultColour[2]});
