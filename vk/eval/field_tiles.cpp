@@ -1,5 +1,7 @@
 #include "blobvk/vk/eval/field_tiles.h"
 
+#include "blobvk/vk/eval/host_memo.h"
+
 #include <algorithm>
 
 namespace blobvk::vk {
@@ -36,6 +38,19 @@ PointRegion regionOfPoints(const blobtree::GridSpec& grid, const std::array<std:
 bool specialiseTile(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
   if (!canSpecialise(program, region, loops)) return false;
   return canSpecialise(program, {}, loops) || specialisedCodeSize(program, region, loops) <= kMaxTileInstructions;
+}
+
+std::vector<char> specialiseTiles(const blobtree::Program& program, std::uint64_t fingerprint,
+                                  std::span<const PointRegion> regions, const LoopOptions& loops) {
+  static HostMemo<std::vector<char>> memo;
+  MemoKey key;
+  key.add(fingerprint).add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
+  for (const PointRegion& r : regions) key.add(r.valid).add(r.lo).add(r.hi);
+  return memo.get(key, [&] {
+    std::vector<char> own(regions.size());
+    for (std::size_t t = 0; t < regions.size(); ++t) own[t] = specialiseTile(program, regions[t], loops);
+    return own;
+  });
 }
 
 std::vector<FieldTile> planFieldTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,

@@ -19,6 +19,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace blobvk::vk {
@@ -53,6 +54,11 @@ inline constexpr std::uint32_t kMaxTileInstructions = 1024;
 
 // True when a tile of `program` gets its own specialised kernel (generated with `loops`).
 bool specialiseTile(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops = {});
+// specialiseTile for each region (1 or 0), remembered for the programs and plans asked about
+// last (host_memo.h): a repeated job asks each run, and a program of thousands of instructions
+// takes milliseconds a tile. `fingerprint` is programFingerprint(program).
+std::vector<char> specialiseTiles(const blobtree::Program& program, std::uint64_t fingerprint,
+                                  std::span<const PointRegion> regions, const LoopOptions& loops);
 
 // Tiles covering every grid point exactly once, chosen greedily (k-d splits at an eighth of a
 // tile's extent along any axis, the one removing the most work first).

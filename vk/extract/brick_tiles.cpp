@@ -1,14 +1,17 @@
 #include "blobvk/vk/extract/brick_tiles.h"
 
 #include "blobvk/vk/eval/field_tiles.h"
+#include "blobvk/vk/eval/host_memo.h"
+#include "blobvk/vk/eval/program_codegen.h"
 
 #include <algorithm>
 #include <stdexcept>
 
 namespace blobvk::vk {
 
-std::vector<BrickTile> planBrickTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                      const BrickGrid& bricks, std::uint32_t maxTiles) {
+namespace {
+std::vector<BrickTile> planTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                 const BrickGrid& bricks, std::uint32_t maxTiles) {
   const std::uint32_t B = 1u << bricks.log2B;
   const std::array<std::uint32_t, 3> count{bricks.x, bricks.y, bricks.z};
   // A grid whose point i is brick i's first point: its tiles of points are tiles of bricks (the
@@ -36,6 +39,16 @@ std::vector<BrickTile> planBrickTiles(const blobtree::Program& program, const bl
     tiles.push_back(t);
   }
   return tiles;
+}
+}  // namespace
+
+std::vector<BrickTile> planBrickTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                      const BrickGrid& bricks, std::uint32_t maxTiles) {
+  static HostMemo<std::vector<BrickTile>> memo;
+  MemoKey key;
+  key.add(programFingerprint(program)).add(grid.origin).add(grid.cellSize).add(grid.cells);
+  key.add(bricks.log2B).add(bricks.x).add(bricks.y).add(bricks.z).add(maxTiles);
+  return memo.get(key, [&] { return planTiles(program, grid, bricks, maxTiles); });
 }
 
 BrickTileOrder orderBricksByTile(std::span<const BrickTile> tiles, const BrickGrid& bricks,

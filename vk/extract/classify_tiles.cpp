@@ -2,6 +2,8 @@
 
 #include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/eval/field_tiles.h"  // regionOfPoints
+#include "blobvk/vk/eval/host_memo.h"
+#include "blobvk/vk/eval/program_codegen.h"  // programFingerprint
 #include "blobvk/vk/eval/region_tape.h"
 #include "blobvk/vk/extract/classify_kernel.h"
 
@@ -51,9 +53,9 @@ Split splitTop(const blobtree::Program& program, const blobtree::GridSpec& grid,
 
 }  // namespace
 
-ClassifyTilesPlan planClassifyTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                    const BrickGrid& finest, const BrickGrid& top, std::uint32_t emptyBox,
-                                    std::uint32_t maxTiles) {
+namespace {
+ClassifyTilesPlan planTiles(const blobtree::Program& program, const blobtree::GridSpec& grid, const BrickGrid& finest,
+                            const BrickGrid& top, std::uint32_t emptyBox, std::uint32_t maxTiles) {
   ClassifyTilesPlan plan;
   if (maxTiles < 8 || program.code.empty() || top.count() < 2) return plan;
   // A tape costs a host walk of the code, so trying regular splits is cheaper than planning
@@ -72,6 +74,20 @@ ClassifyTilesPlan planClassifyTiles(const blobtree::Program& program, const blob
   if (plan.tiles.size() < 2) plan.tiles.clear();
   plan.pays = !plan.tiles.empty() && plan.seconds < costs::kClassifyTilesMargin * plan.wholeSeconds;
   return plan;
+}
+}  // namespace
+
+ClassifyTilesPlan planClassifyTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                    const BrickGrid& finest, const BrickGrid& top, std::uint32_t emptyBox,
+                                    std::uint32_t maxTiles) {
+  // The tapes are host walks of the code per tile and split tried (random128 at 512 cells: 4 ms
+  // of a 18 ms job on an H100), the same each run of a repeated job.
+  static HostMemo<ClassifyTilesPlan, 16> memo;
+  MemoKey key;
+  key.add(programFingerprint(program)).add(grid.origin).add(grid.cellSize).add(grid.cells);
+  for (const BrickGrid& b : {finest, top}) key.add(b.log2B).add(b.x).add(b.y).add(b.z);
+  key.add(emptyBox).add(maxTiles);
+  return memo.get(key, [&] { return planTiles(program, grid, finest, top, emptyBox, maxTiles); });
 }
 
 std::vector<ClassifyTile> uploadClassifyTiles(Device& device, const ClassifyTilesPlan& plan, std::uint64_t uniformBlock) {

@@ -310,8 +310,12 @@ struct SparseBatchRunner::State {
       c.region = tiles[t].region;
       return c;
     };
-    std::vector<char> ownTile(tiles.size());
-    for (std::size_t t = 0; t < tiles.size(); ++t) ownTile[t] = specialiseTile(program, tiles[t].region, gpu.codegen.loops);
+    std::vector<PointRegion> regions;
+    for (const BrickTile& t : tiles) regions.push_back(t.region);
+    // Which tiles get a kernel of their own: a program too large to specialise whole may still
+    // fit once pruned to a tile.
+    const std::vector<char> ownTile =
+        specialiseTiles(program, print ? print : gpu.fingerprint, regions, gpu.codegen.loops);
     auto ownTileKernel = [ownTile](std::size_t t) { return ownTile[t] != 0; };
     // Runs on the vertex kernels' thread, after this constructor: the program is gpu's copy.
     auto buildVertexTile = [this, print, tiledVertexShader, wg, traversal, ownTileKernel,
@@ -393,11 +397,9 @@ struct SparseBatchRunner::State {
       tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
       builds.push_back([&] { return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal); });
     } else {
-      for (const BrickTile& t : tiles) {
-        builds.push_back([&, region = t.region]() -> KernelPtr {
-          // A program too large to specialise whole may still fit once pruned to a tile.
-          if (!specialiseTile(program, region, gpu.codegen.loops))
-            return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal);
+      for (std::size_t t = 0; t < tiles.size(); ++t) {
+        builds.push_back([&, region = tiles[t].region, own = ownTileKernel(t)]() -> KernelPtr {
+          if (!own) return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal);
           CodegenOptions c = gpu.codegen;
           c.region = region;
           return specialisedKernel(device, program, print, c, "brick_field", fieldGroupSize);

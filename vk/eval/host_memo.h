@@ -1,0 +1,52 @@
+// Host plans that a repeated job would compute again every run (an engine re-meshing the same
+// model, `blobvk bench`'s repeats): the tiles' plan and which tiles get kernels of their own take
+// tens of milliseconds for a program of thousands of instructions (tower_L6P8I4: 97 ms of a
+// 130 ms job on an H100). Remembered process-wide, thread-safe, under a 64-bit FNV-1a key of
+// everything the plan depends on (the program's fingerprint included: the trust the kernel
+// cache already puts in programFingerprint).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <mutex>
+#include <unordered_map>
+#include <utility>
+
+namespace blobvk::vk {
+
+struct MemoKey {
+  std::uint64_t h = 14695981039346656037ull;
+  MemoKey& bytes(const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+    return *this;
+  }
+  template <class T>
+  MemoKey& add(const T& v) {
+    return bytes(&v, sizeof v);
+  }
+};
+
+// At most `Capacity` plans; a full memo starts again empty (jobs repeat the last few models).
+template <class Value, std::size_t Capacity = 64>
+class HostMemo {
+ public:
+  template <class Compute>
+  Value get(const MemoKey& key, Compute&& compute) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (auto it = values_.find(key.h); it != values_.end()) return it->second;
+    }
+    Value v = compute();  // outside the lock: plans for different keys may run at once
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (values_.size() >= Capacity) values_.clear();
+    values_.emplace(key.h, v);
+    return v;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::unordered_map<std::uint64_t, Value> values_;
+};
+
+}  // namespace blobvk::vk
