@@ -4,6 +4,7 @@
 // of one unpruned kernel.
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/vk/device/error.h"
+#include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/polygonize.h"
@@ -115,6 +116,44 @@ TEST(BrickTiles, CoverEveryBrickOnceWithRegionsHoldingTheirPoints) {
 
 // Kernels pruned per tile give the reference mesh and the bytes of one whole-program kernel, in
 // one batch and in batches of a few bricks (each batch orders its own bricks by tile).
+// Plans are remembered per program and grid (vk/eval/host_memo.h): a later job of another program
+// or grid gets its own plan, never the last one's, and asking again gives the same plan.
+TEST(BrickTiles, PlansAreRememberedPerProgramAndGrid) {
+  const ShippedScene tower = shipped("tower", 96), random = shipped("random128", 96);
+  auto same = [](const std::vector<vk::BrickTile>& a, const std::vector<vk::BrickTile>& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      if (a[i].first != b[i].first || a[i].last != b[i].last) return false;
+      for (int k = 0; k < 3; ++k)
+        if (a[i].region.lo[k] != b[i].region.lo[k] || a[i].region.hi[k] != b[i].region.hi[k]) return false;
+    }
+    return true;
+  };
+  const vk::BrickGrid bg = vk::brickGridFor(tower.grid, 8);
+  const auto randomFirst = vk::planBrickTiles(random.program, tower.grid, bg, 7);
+  const auto towerPlan = vk::planBrickTiles(tower.program, tower.grid, bg, 7);
+  EXPECT_FALSE(same(randomFirst, towerPlan)) << "two models on one grid should tile differently";
+  EXPECT_TRUE(same(vk::planBrickTiles(random.program, tower.grid, bg, 7), randomFirst));
+  blobtree::GridSpec moved = tower.grid;
+  moved.origin.x += 4.0f * tower.grid.cellSize;
+  const auto movedPlan = vk::planBrickTiles(tower.program, moved, bg, 7);
+  ASSERT_FALSE(movedPlan.empty());
+  EXPECT_NE(movedPlan.front().region.lo[0], towerPlan.front().region.lo[0]) << "a moved grid's regions move";
+
+  // Which tiles get kernels of their own: the answer for each region, remembered.
+  const ShippedScene large = shipped("tower_L6P8I4", 64);
+  std::vector<vk::PointRegion> regions;
+  for (const auto& t : vk::planBrickTiles(large.program, large.grid, vk::brickGridFor(large.grid, 8), 16))
+    regions.push_back(t.region);
+  ASSERT_GT(regions.size(), 1u);
+  const vk::LoopOptions loops;
+  std::vector<char> each;
+  for (const auto& r : regions) each.push_back(vk::specialiseTile(large.program, r, loops));
+  const std::uint64_t print = vk::programFingerprint(large.program);
+  EXPECT_EQ(vk::specialiseTiles(large.program, print, regions, loops), each);
+  EXPECT_EQ(vk::specialiseTiles(large.program, print, regions, loops), each);
+}
+
 TEST_F(VulkanTest, FieldTilesGiveTheBytesOfOneKernel) {
   for (const char* name : {"tower", "random128"}) {
     const ShippedScene sc = shipped(name, 48);
