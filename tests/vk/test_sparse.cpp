@@ -148,11 +148,13 @@ TEST_F(VulkanTest, ThreeSubmitsAndStagedReadBackGiveTheSameMesh) {
   EXPECT_TRUE(sameBytes(staged.triangles, mapped.triangles));
   for (const vk::GpuStats& st : {mappedStats, stagedStats}) {
     EXPECT_EQ(st.submits, 3u);
-    // The host's steps are disjoint spans of the job's wall time, each one taken.
+    // The host's steps are disjoint spans of the job's wall time, each one taken (the copies
+    // made during the emit submit, with a read-back copy, counted in both).
     const vk::HostSteps& h = st.hostSteps;
     for (double step : {h.classification, h.preparation, h.fieldSubmits, h.emitSubmits, h.grow, h.copy})
       EXPECT_GT(step, 0.0);
-    EXPECT_LE(h.classification + h.preparation + h.fieldSubmits + h.emitSubmits + h.copy + h.corners, st.seconds);
+    EXPECT_LE(h.classification + h.preparation + h.fieldSubmits + h.emitSubmits + h.corners, st.seconds);
+    EXPECT_LE(h.copy, st.seconds);
     EXPECT_EQ(h.corners, 0.0);  // one batch: no keyed corners
     EXPECT_EQ(st.deviceTimed, device().timestampPeriodNs() > 0.0);
     if (!st.deviceTimed) continue;

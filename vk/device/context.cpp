@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <thread>
 
 namespace blobvk::vk {
 
@@ -112,6 +113,7 @@ Device::~Device() {
   kernels_.clear();
   kernelLru_.clear();
   d_.vkDestroyFence(host_.device, fence_, nullptr);
+  for (VkEvent e : hostEvents_) d_.vkDestroyEvent(host_.device, e, nullptr);
   d_.vkDestroyCommandPool(host_.device, commandPool_, nullptr);
   if (ownsPipelineCache_) d_.vkDestroyPipelineCache(host_.device, pipelineCache_, nullptr);
   memory_.reset();
@@ -493,6 +495,31 @@ void Device::run(const std::function<void(Recorder&)>& record, const std::functi
       },
       whileRunning);
   recorder->markExecuted();
+}
+
+std::span<const VkEvent> Device::hostEvents(std::uint32_t count) {
+  while (hostEvents_.size() < count) {
+    VkEventCreateInfo info{VK_STRUCTURE_TYPE_EVENT_CREATE_INFO};
+    VkEvent e = VK_NULL_HANDLE;
+    check(d_.vkCreateEvent(host_.device, &info, nullptr, &e), "vkCreateEvent");
+    hostEvents_.push_back(e);
+  }
+  for (std::uint32_t i = 0; i < count; ++i) check(d_.vkResetEvent(host_.device, hostEvents_[i]), "vkResetEvent");
+  return {hostEvents_.data(), count};
+}
+
+void Device::waitForHostEvent(VkEvent event) {
+  for (;;) {
+    const VkResult r = d_.vkGetEventStatus(host_.device, event);
+    if (r == VK_EVENT_SET) return;
+    if (r != VK_EVENT_RESET) check(r, "vkGetEventStatus");
+    std::this_thread::yield();
+  }
+}
+
+void Recorder::signalHost(VkEvent event) {
+  hostBarrier();
+  device_.d().vkCmdSetEvent(cmd_, event, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT);
 }
 
 void Recorder::markExecuted() {

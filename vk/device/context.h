@@ -214,6 +214,13 @@ class Device {
                      const std::function<void()>& whileRunning = {});
   // The same with a Recorder that stays alive (with its descriptor sets) until the fence.
   void run(const std::function<void(class Recorder&)>& record, const std::function<void()>& whileRunning = {});
+  // `count` events the device sets (Recorder::signalHost) and the host waits for during a run's
+  // whileRunning, to use each result as soon as the device has it (the sparse extraction copies
+  // each output into the mesh while the device copies out the next). Owned by the Device and
+  // reset here: ask for them before recording, use them in one run at a time.
+  std::span<const VkEvent> hostEvents(std::uint32_t count);
+  // Waits (polling) until the device has set `event`; throws VulkanError on device loss.
+  void waitForHostEvent(VkEvent event);
 
   // The VkPipelineCache every pipeline is created with: the host's, or the Device's own.
   VkPipelineCache pipelineCache() const { return pipelineCache_; }
@@ -250,6 +257,7 @@ class Device {
   VkCommandPool commandPool_ = VK_NULL_HANDLE;
   VkFence fence_ = VK_NULL_HANDLE;
   bool fencePending_ = false;  // submitted and not yet seen signalled (an error path)
+  std::vector<VkEvent> hostEvents_;
   bool forceStaging_ = false;
   double timestampPeriod_ = 0.0;
   // The pipeline cache: most recently used first; kernelMutex_ guards it and shadersUsed_.
@@ -337,6 +345,9 @@ class Recorder {
   void computeBarrier();
   // Compute/transfer writes -> host reads, before the fence the host waits on.
   void hostBarrier();
+  // hostBarrier, then sets `event` (Device::hostEvents): once the host sees it set
+  // (Device::waitForHostEvent), it may read what the commands before it wrote.
+  void signalHost(VkEvent event);
   void fill(const Buffer& b, std::uint32_t value);
   void copy(const Buffer& src, VkDeviceSize srcOffset, const Buffer& dst, VkDeviceSize dstOffset,
             VkDeviceSize bytes);

@@ -67,6 +67,11 @@ namespace blobvk::vk {
   X(vkDestroyFence)                    \
   X(vkWaitForFences)                   \
   X(vkResetFences)                     \
+  X(vkCreateEvent)                     \
+  X(vkDestroyEvent)                    \
+  X(vkGetEventStatus)                  \
+  X(vkResetEvent)                      \
+  X(vkCmdSetEvent)                     \
   X(vkQueueSubmit)
 
 struct Dispatch {

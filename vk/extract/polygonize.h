@@ -114,7 +114,8 @@ struct HostSteps {
   double fieldSubmits = 0.0;    // per batch: field to scans, recorded, submitted, waited for, counts read
   double emitSubmits = 0.0;     // per batch: output buffers, sources to the read-back copy, waited for
   double grow = 0.0;            // the mesh arrays grown for each batch's outputs
-  double copy = 0.0;            // each batch's outputs copied into the mesh arrays
+  double copy = 0.0;            // each batch's outputs copied into the mesh arrays (with a read-back
+                                // copy, all but the last output's during emitSubmits)
   double corners = 0.0;         // keyed-corner batches: triangle corners found by edge key
 };
 
