@@ -17,18 +17,24 @@ namespace blobvk::mesh {
 template <class T>
 struct GrowWithoutFill : std::allocator<T> {
   using value_type = T;
+  using is_always_equal = std::true_type;
+  template <class U>
+  struct rebind {  // explicit: before C++20 std::allocator's own would rebind to itself
+    using other = GrowWithoutFill<U>;
+  };
   GrowWithoutFill() noexcept = default;
   template <class U>
   GrowWithoutFill(const GrowWithoutFill<U>&) noexcept {}
 
   // Default construction of a plain-data element (trivially copyable and destructible: an
-  // implicit-lifetime type, which the allocation already created) writes nothing.
+  // implicit-lifetime type, which the allocation already created) writes nothing, default member
+  // initialisers too (Float3's zeros): resize(n, {}) gives them.
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
     if constexpr (!(std::is_trivially_copyable_v<U> && std::is_trivially_destructible_v<U>)) ::new (static_cast<void*>(p)) U();
   }
   template <class U, class... Args>
-  void construct(U* p, Args&&... args) {
+  void construct(U* p, Args&&... args) noexcept(std::is_nothrow_constructible_v<U, Args...>) {
     ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
   }
   template <class U>

@@ -498,6 +498,10 @@ void Device::run(const std::function<void(Recorder&)>& record, const std::functi
 }
 
 std::span<const VkEvent> Device::hostEvents(std::uint32_t count) {
+  if (fencePending_) {  // an earlier wait failed: its commands may still set these events
+    check(d_.vkWaitForFences(host_.device, 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+    fencePending_ = false;
+  }
   while (hostEvents_.size() < count) {
     VkEventCreateInfo info{VK_STRUCTURE_TYPE_EVENT_CREATE_INFO};
     VkEvent e = VK_NULL_HANDLE;
@@ -513,11 +517,21 @@ void Device::waitForHostEvent(VkEvent event) {
     const VkResult r = d_.vkGetEventStatus(host_.device, event);
     if (r == VK_EVENT_SET) return;
     if (r != VK_EVENT_RESET) check(r, "vkGetEventStatus");
+    // The run's fence signals after every command, the event's too: a signalled fence with the
+    // event unset is a caller's error, and a lost device shows here if not in the event.
+    const VkResult f = d_.vkGetFenceStatus(host_.device, fence_);
+    if (f == VK_SUCCESS && d_.vkGetEventStatus(host_.device, event) != VK_EVENT_SET)
+      throw VulkanError("waitForHostEvent: the run ended without setting the event");
+    if (f != VK_SUCCESS && f != VK_NOT_READY) check(f, "vkGetFenceStatus");
     std::this_thread::yield();
   }
 }
 
 void Recorder::signalHost(VkEvent event) {
+  // vkCmdSetEvent (Vulkan 1.0) orders the signal after the earlier transfers and shaders; the
+  // barrier before it makes their writes available to the host (coherent memory: the read-back
+  // types blobvk allocates). vkCmdSetEvent2's own dependency would state that in one command
+  // but needs Vulkan 1.3 or synchronization2, which the library does not require.
   hostBarrier();
   device_.d().vkCmdSetEvent(cmd_, event, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT);
 }

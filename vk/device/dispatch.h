@@ -67,6 +67,7 @@ namespace blobvk::vk {
   X(vkDestroyFence)                    \
   X(vkWaitForFences)                   \
   X(vkResetFences)                     \
+  X(vkGetFenceStatus)                  \
   X(vkCreateEvent)                     \
   X(vkDestroyEvent)                    \
   X(vkGetEventStatus)                  \

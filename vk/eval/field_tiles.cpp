@@ -44,13 +44,15 @@ std::vector<char> specialiseTiles(const blobtree::Program& program, std::uint64_
                                   std::span<const PointRegion> regions, const LoopOptions& loops) {
   static HostMemo<std::vector<char>> memo;
   MemoKey key;
-  key.add(fingerprint).add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
+  key.add(fingerprint ? fingerprint : programFingerprint(program)).add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
   for (const PointRegion& r : regions) key.add(r.valid).add(r.lo).add(r.hi);
-  return memo.get(key, [&] {
+  auto compute = [&] {
     std::vector<char> own(regions.size());
     for (std::size_t t = 0; t < regions.size(); ++t) own[t] = specialiseTile(program, regions[t], loops);
     return own;
-  });
+  };
+  std::vector<char> own = memo.get(key, compute);
+  return own.size() == regions.size() ? own : compute();  // a 64-bit key collision: never index past it
 }
 
 std::vector<FieldTile> planFieldTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,

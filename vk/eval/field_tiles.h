@@ -56,7 +56,7 @@ inline constexpr std::uint32_t kMaxTileInstructions = 1024;
 bool specialiseTile(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops = {});
 // specialiseTile for each region (1 or 0), remembered for the programs and plans asked about
 // last (host_memo.h): a repeated job asks each run, and a program of thousands of instructions
-// takes milliseconds a tile. `fingerprint` is programFingerprint(program).
+// takes milliseconds a tile. `fingerprint` is programFingerprint(program) (0: computed here).
 std::vector<char> specialiseTiles(const blobtree::Program& program, std::uint64_t fingerprint,
                                   std::span<const PointRegion> regions, const LoopOptions& loops);
 
