@@ -11,9 +11,12 @@
 #include <mutex>
 #include <unordered_map>
 #include <utility>
+#include <vector>
 
 namespace blobvk::vk {
 
+// FNV-1a, 64 bits, over plain data without padding holes: these memos' keys and the program and
+// evaluator fingerprints (programFingerprint, evaluatorFingerprint).
 struct MemoKey {
   std::uint64_t h = 14695981039346656037ull;
   MemoKey& bytes(const void* p, std::size_t n) {
@@ -24,6 +27,11 @@ struct MemoKey {
   template <class T>
   MemoKey& add(const T& v) {
     return bytes(&v, sizeof v);
+  }
+  template <class T>
+  MemoKey& array(const std::vector<T>& v) {  // its length, then its elements
+    add(std::uint64_t(v.size()));
+    return bytes(v.data(), v.size() * sizeof(T));
   }
 };
 

@@ -2,6 +2,7 @@
 
 #include "blobvk/vk/eval/codegen_text.h"
 #include "blobvk/vk/eval/gradient_codegen.h"
+#include "blobvk/vk/eval/host_memo.h"
 #include "blobvk/vk/eval/program_codegen_loops.h"
 
 #include <algorithm>
@@ -253,53 +254,33 @@ std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const Point
   return count;
 }
 
-namespace {
-// FNV-1a, 64 bits: fast, and the records are plain data without padding holes (the layout header
-// asserts their sizes).
-struct Fnv {
-  std::uint64_t h = 14695981039346656037ull;
-  void bytes(const void* p, std::size_t n) {
-    const auto* b = static_cast<const unsigned char*>(p);
-    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
-  }
-  template <class T>
-  void array(const std::vector<T>& v) {
-    const std::uint64_t n = v.size();
-    bytes(&n, sizeof n);
-    bytes(v.data(), v.size() * sizeof(T));
-  }
-  template <class T>
-  void value(const T& v) { bytes(&v, sizeof v); }
-};
-}  // namespace
-
 std::uint64_t programFingerprint(const blobtree::Program& program) {
-  Fnv f;
+  MemoKey f;  // the records are plain data without padding holes (the layout header asserts their sizes)
   f.array(program.code);
   f.array(program.primitives);
   f.array(program.matrices);
   f.array(program.boxes);
   f.array(program.warps);
   f.array(program.primitiveBoxes);
-  f.value(program.fieldRegisters);
-  f.value(program.pointRegisters);
+  f.add(program.fieldRegisters);
+  f.add(program.pointRegisters);
   return f.h;
 }
 
 std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const CodegenOptions& options) {
-  Fnv f;
-  f.value(programFingerprint);
-  f.value(options.branchOnSkips);
-  f.value(options.minBranchInstructions);
-  f.value(options.region.valid);
-  f.value(options.loops.enabled);
-  f.value(options.loops.minCount);
-  f.value(options.loops.minInstructions);
-  f.value(options.loops.minProgramInstructions);
-  f.value(options.gradient);
+  MemoKey f;
+  f.add(programFingerprint);
+  f.add(options.branchOnSkips);
+  f.add(options.minBranchInstructions);
+  f.add(options.region.valid);
+  f.add(options.loops.enabled);
+  f.add(options.loops.minCount);
+  f.add(options.loops.minInstructions);
+  f.add(options.loops.minProgramInstructions);
+  f.add(options.gradient);
   if (options.region.valid) {
-    f.value(options.region.lo);
-    f.value(options.region.hi);
+    f.add(options.region.lo);
+    f.add(options.region.hi);
   }
   return f.h;
 }

@@ -794,11 +794,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   t0 = Clock::now();
   if (!stagingBytes) growOutputs();
   const auto copyStart = Clock::now();
-  for (std::size_t i = 0; i < outputs.size(); ++i) {
-    const bool copiedWhileRunning = !staged.empty() && i != staged.back() &&
-                                    std::find(staged.begin(), staged.end(), i) != staged.end();
-    if (outputs[i].bytes && !copiedWhileRunning) copyOut(i);
-  }
+  for (std::size_t i = 0; i < outputs.size(); ++i)
+    if (outputs[i].bytes && outputs[i].buffer->hostReadable()) copyOut(i);
+  if (!staged.empty()) copyOut(staged.back());
   s.readbackSeconds += since(t0);
   s.hostSteps.copy += since(copyStart);
 }
