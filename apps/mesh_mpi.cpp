@@ -267,6 +267,7 @@ class LayerJob {
   }
 
   MpiMeshResult run(const Limits& limits) {
+    if (world_.rank == 0) maxTriangles_ = limits.maxTriangles;
     std::optional<Progress> progress;
     if (world_.rank == 0) progress.emplace("mesh", L_);
     std::vector<int> own;
@@ -324,6 +325,12 @@ class LayerJob {
     if (z < 0 || z >= L_ || vertices_[std::size_t(z)] >= 0)
       throw std::runtime_error("MPI: counts of layer " + std::to_string(z) + " twice or out of range");
     vertices_[std::size_t(z)] = std::int64_t(vertices), triangles_[std::size_t(z)] = std::int64_t(triangles);
+    // --max-triangles as the counts come in (rank 0 hears of every layer): the job stops at the
+    // layer that passes the limit, not after the whole grid; the caller aborts every rank.
+    countedTriangles_ += triangles;
+    if (maxTriangles_ != 0 && countedTriangles_ > maxTriangles_)
+      throw std::runtime_error("the mesh has more than --max-triangles " + std::to_string(maxTriangles_) + " triangles (" +
+                               std::to_string(countedTriangles_) + " so far); nothing was written");
     while (prefix_ < L_ && vertices_[std::size_t(prefix_)] >= 0) {
       first_[std::size_t(prefix_) + 1] = first_[std::size_t(prefix_)] + std::uint64_t(vertices_[std::size_t(prefix_)]);
       if (first_[std::size_t(prefix_) + 1] >= (1ull << 31))
@@ -642,6 +649,8 @@ class LayerJob {
   std::vector<std::int64_t> vertices_, triangles_;  // per layer; -1 until known
   std::vector<std::uint64_t> first_;  // global index of each layer's first vertex, for z <= prefix_
   int prefix_ = 0;                    // the counts of layers below prefix_ are known
+  std::uint64_t maxTriangles_ = 0;      // rank 0: --max-triangles (0: none)
+  std::uint64_t countedTriangles_ = 0;  // the triangles of the layers whose counts are known
   std::deque<Pending> pending_;
   std::map<int, Bottom> bottoms_;
   std::deque<Send> sends_, checkSends_;

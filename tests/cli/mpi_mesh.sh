@@ -89,4 +89,12 @@ fi
 grep -q "blobvk: error: BLOBVK_MPI_ROOT_SHARE: expected a number from 0 to 1, got '1.5'" "$dir/log" ||
   { cat "$dir/log"; echo "no clear line for a bad share"; exit 1; }
 [ ! -e "$dir/bad.ply" ] || { echo "a bad share left a file"; exit 1; }
+# --max-triangles stops the ranks as the counts come in (rank 0 hears of every layer), with one
+# line and no file, not once every layer is meshed.
+if mpi -n 2 "$blobvk" mesh "$scene" $grid --threads 1 --max-triangles 1000 -o "$dir/big.ply" -q >"$dir/log" 2>&1; then
+  cat "$dir/log"; echo "--max-triangles 1000 was not enforced under mpirun"; exit 1
+fi
+grep -q "blobvk: error: the mesh has more than --max-triangles 1000 triangles (.* so far); nothing was written" "$dir/log" ||
+  { cat "$dir/log"; echo "no clear line for --max-triangles under mpirun"; exit 1; }
+[ ! -e "$dir/big.ply" ] || { echo "--max-triangles under mpirun left a file"; exit 1; }
 echo "1 to 4 ranks, every format, empty layers, ranks without layers, rank 0 shares 0 to 1: identical files"
