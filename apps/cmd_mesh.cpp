@@ -240,6 +240,7 @@ void addMeshCommand(CLI::App& app) {
     a->settings.progress = nullptr;  // it refers to `progress`, which ends here
     progress.reset();
     checkTriangles(mesh.triangleCount(), a->limits);
+    checkFiniteVertices(mesh.positions);
     if (mesh.triangleCount() == 0) warnEmptyMesh(gridText);
     std::optional<cpu::FeatureReport> featured;
     if (a->features) {

@@ -75,12 +75,16 @@ CLI::Validator meshResolutionRange() {
 }
 
 namespace {
-// --max-triangles while the mesh streams: the job stops at the run that passes the limit, not
-// after the whole grid (the spooled sections go with the file; nothing is written).
+// --max-triangles while the mesh streams, and finite vertices: the job stops at the run that
+// passes the limit or brings a non-finite vertex, not after the whole grid (the spooled sections
+// go with the file; nothing is written).
 class TriangleLimitSink final : public mesh::MeshSink {
  public:
   explicit TriangleLimitSink(std::uint64_t limit) : limit_(limit) {}
-  void vertices(std::span<const mesh::Float3>, std::span<const mesh::Float3>, std::span<const mesh::Float3>) override {}
+  void vertices(std::span<const mesh::Float3> positions, std::span<const mesh::Float3>, std::span<const mesh::Float3>) override {
+    checkFiniteVertices(positions, vertices_);
+    vertices_ += positions.size();
+  }
   void triangles(std::span<const std::array<std::uint32_t, 3>> triangles, const mesh::VertexWindow&) override {
     seen_ += triangles.size();
     if (limit_ != 0 && seen_ > limit_)
@@ -89,7 +93,7 @@ class TriangleLimitSink final : public mesh::MeshSink {
   }
 
  private:
-  std::uint64_t limit_, seen_ = 0;
+  std::uint64_t limit_, seen_ = 0, vertices_ = 0;
 };
 
 // The streamed file and, when asked for, the streamed check beside it, fed by one tee.

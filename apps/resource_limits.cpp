@@ -90,6 +90,18 @@ void checkMemory(std::uint64_t estimate, const Limits& limits, const std::string
   }
 }
 
+void checkFiniteVertices(std::span<const mesh::Float3> positions, std::uint64_t first) {
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    const mesh::Float3& p = positions[i];
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) continue;
+    char where[160];
+    std::snprintf(where, sizeof where, "vertex %llu is at (%g, %g, %g)", static_cast<unsigned long long>(first + i),
+                  double(p.x), double(p.y), double(p.z));
+    throw std::runtime_error(std::string(where) +
+                             ": the model's field is not finite there (it overflows a 32-bit float); nothing was written");
+  }
+}
+
 void checkTriangles(std::uint64_t triangles, const Limits& limits) {
   if (limits.maxTriangles != 0 && triangles > limits.maxTriangles) {
     throw std::runtime_error("the mesh has " + std::to_string(triangles) +

@@ -3,8 +3,10 @@
 #pragma once
 
 #include "blobvk/blobtree/grid.h"
+#include "blobvk/mesh/trimesh.h"
 
 #include <cstdint>
+#include <span>
 #include <string>
 
 namespace blobvk::app {
@@ -29,6 +31,10 @@ void checkMemory(std::uint64_t estimateBytes, const Limits& limits, const std::s
 
 // Throws when a finished mesh exceeds the triangle limit (the mesh is then not written).
 void checkTriangles(std::uint64_t triangles, const Limits& limits);
+
+// Throws, naming the first one, when a vertex position is not finite (a field that overflows a
+// float makes NaN vertices): such a mesh is never written. `first` is the index of positions[0].
+void checkFiniteVertices(std::span<const mesh::Float3> positions, std::uint64_t first = 0);
 
 std::string formatBytes(std::uint64_t bytes);
 

@@ -267,13 +267,15 @@ class BlobReader {
   Node copy(const Node& n, std::size_t refLine, std::size_t depth) {
     const detail::SubtreeSize size = detail::measure(n);
     if (depth + size.height - 1 > limits::kMaxDepth) fail(refLine, "nodes nested deeper than 4096 levels");
-    countNodes(size.nodes, refLine);
+    countNodes(size.nodes, refLine, size.idBytes);
     return n;
   }
 
-  void countNodes(std::size_t n, std::size_t line) {
+  void countNodes(std::size_t n, std::size_t line, std::size_t idBytes) {
     nodeCount_ += n;
     if (nodeCount_ > limits::kMaxNodes) fail(line, "more than 4000000 nodes");
+    idBytes_ += idBytes;
+    if (idBytes_ > limits::kMaxIdBytes) fail(line, "the ids of the nodes after instancing take more than 64 MiB");
   }
 
   bool isOperator(const Section& s) const {
@@ -304,7 +306,7 @@ class BlobReader {
   }
 
   Node fresh(const Section& s, std::size_t depth) {
-    countNodes(1, s.line);
+    countNodes(1, s.line, s.id.size());
     Node n;
     n.id = s.id;
     n.transform = transform(s);
@@ -368,7 +370,10 @@ class BlobReader {
       p.type = PrimitiveType::QuadricPoint;
       p.a = position();
       p.scale = positive(required(s, "scale", "scale"), "scale");
-      p.support = positive(required(s, "radius", "radius"), "radius");
+      const Entry& radius = required(s, "radius", "radius");
+      p.support = positive(radius, "radius");
+      if (p.support < limits::kMinSupport)
+        fail(radius.line, "radius " + detail::number(p.support) + " is below " + detail::number(limits::kMinSupport));
     } else if (type == "NULL") {
       fail(typeEntry.line, "a NULL primitive may only pad an operator's children");
     } else {
@@ -424,7 +429,11 @@ class BlobReader {
       n.kind = Operator{OperatorType::Blend, 2.0};
     } else if (type == "RICCIBLEND" || type == "RICCI") {
       const Entry* power = find(s, "power");
-      n.kind = Operator{OperatorType::Ricci, power ? positive(*power, "power") : 2.0};
+      const double ricciPower = power ? positive(*power, "power") : 2.0;
+      if (ricciPower < limits::kMinRicciPower)
+        fail(power->line, "power " + detail::number(ricciPower) + " is below " + detail::number(limits::kMinRicciPower) +
+                              ": the Ricci blend would overflow a float");
+      n.kind = Operator{OperatorType::Ricci, ricciPower};
     } else if (type == "INTERSECTION" || type == "INTERSECT") {
       n.kind = Operator{OperatorType::Intersection, 2.0};
     } else if (type == "DIFFERENCE" || type == "DIF") {
@@ -492,6 +501,7 @@ class BlobReader {
   std::set<std::string> onPath_;
   std::map<std::string, Node> built_;
   std::size_t nodeCount_ = 0;
+  std::size_t idBytes_ = 0;  // limits::kMaxIdBytes
 };
 
 }  // namespace

@@ -50,10 +50,11 @@ Node instantiate(const Node& original, const Transform& placement, const std::st
 }
 
 SubtreeSize measure(const Node& node) {
-  SubtreeSize size{1, 1};
+  SubtreeSize size{1, 1, node.id.size()};
   for (const Node& child : node.children) {
     const SubtreeSize c = measure(child);
     size.nodes += c.nodes;
+    size.idBytes += c.idBytes;
     size.height = std::max(size.height, c.height + 1);
   }
   return size;

@@ -23,6 +23,7 @@ bool isIdentityTransform(const Transform& t);
 struct SubtreeSize {
   std::size_t nodes = 0;
   std::size_t height = 0;  // 1 for a leaf
+  std::size_t idBytes = 0;  // the nodes' ids' characters
 };
 SubtreeSize measure(const Node& node);
 

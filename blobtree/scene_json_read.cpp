@@ -375,6 +375,7 @@ class Reader {
     if (info->category == Category::Instance) return instance(j, ptr, n, depth);
 
     if (++nodeCount_ > limits::kMaxNodes) fail(ptr, "more than 4000000 nodes");
+    countIdBytes(n.id.size(), ptr);
     const bool tracked = !n.id.empty() && referenced_.count(n.id) && ids_[n.id].json == &j;
     if (tracked) inProgress_.insert(n.id);
 
@@ -414,6 +415,8 @@ class Reader {
     p.type = type;
     if (j.contains("colour")) p.colour = colour(j["colour"], child(ptr, "colour"));
     p.support = optionalPositive(j, ptr, "support", 1.0);
+    if (p.support < limits::kMinSupport)
+      fail(child(ptr, "support"), "support " + detail::number(p.support) + " is below " + detail::number(limits::kMinSupport));
     switch (type) {
       case PrimitiveType::Point: p.a = optionalVec3(j, ptr, "centre", Vec3(0.0)); break;
       case PrimitiveType::Line:
@@ -467,7 +470,12 @@ class Reader {
   [[gnu::noinline]] Operator op(const Json& j, const Ptr& ptr, OperatorType type) const {
     Operator o;
     o.type = type;
-    if (type == OperatorType::Ricci) o.power = optionalPositive(j, ptr, "power", 2.0);
+    if (type == OperatorType::Ricci) {
+      o.power = optionalPositive(j, ptr, "power", 2.0);
+      if (o.power < limits::kMinRicciPower)
+        fail(child(ptr, "power"), "power " + detail::number(o.power) + " is below " + detail::number(limits::kMinRicciPower) +
+                                      ": the Ricci blend would overflow a float");
+    }
     return o;
   }
 
@@ -565,14 +573,14 @@ class Reader {
     const Json& defs = doc["definitions"];
     if (!defs.is_array()) fail(dp, "expected an array of nodes, got " + typeOf(defs));
     // Definitions are not part of the model: validate them, but do not count their nodes.
-    const std::size_t counted = nodeCount_;
+    const std::size_t counted = nodeCount_, countedIdBytes = idBytes_;
     for (std::size_t i = 0; i < defs.size(); ++i) {
       const Json& d = defs[i];
       if (d.is_object() && !d.contains("id")) fail(child(dp, i), "a definition needs an \"id\" to be instanced");
       const Node n = node(d, child(dp, i), 1);
       if (!resolved_.count(n.id) && ids_[n.id].json == &d) remember(n);
     }
-    nodeCount_ = counted;
+    nodeCount_ = counted, idBytes_ = countedIdBytes;
   }
 
   [[gnu::noinline]] Node instance(const Json& j, const Ptr& ptr, const Node& header, std::size_t depth) {
@@ -587,14 +595,14 @@ class Reader {
     auto cached = resolved_.find(target);
     if (cached == resolved_.end()) {
       // Parse the target where it stands; errors inside it name its own pointer.
-      const std::size_t counted = nodeCount_;
+      const std::size_t counted = nodeCount_, countedIdBytes = idBytes_;
       const Ptr at{nullptr, &it->second.pointer, {}, 0, false};
       // In progress while it is read: a target that is itself an instance is not tracked by
       // node(), and a cycle made of instances only would otherwise recurse without end.
       inProgress_.insert(target);
       const Node n = node(*it->second.json, at, depth);
       inProgress_.erase(target);
-      nodeCount_ = counted;
+      nodeCount_ = counted, idBytes_ = countedIdBytes;
       cached = resolved_.find(target);
       if (cached == resolved_.end()) {  // an instance of an instance: node() remembers no instance
         remember(n);
@@ -605,6 +613,7 @@ class Reader {
     if (depth + size.height - 1 > limits::kMaxDepth) fail(ptr, "nodes nested deeper than 4096 levels after instancing");
     nodeCount_ += size.nodes;
     if (nodeCount_ > limits::kMaxNodes) fail(ptr, "more than 4000000 nodes after instancing");
+    countIdBytes(size.idBytes, ptr);
     return detail::instantiate(cached->second, header.transform, header.id);
   }
 
@@ -673,6 +682,12 @@ class Reader {
   std::map<std::string, detail::SubtreeSize> resolvedSize_;
   std::set<std::string> inProgress_;
   std::size_t nodeCount_ = 0;
+  std::size_t idBytes_ = 0;  // limits::kMaxIdBytes
+
+  void countIdBytes(std::size_t bytes, const Ptr& ptr) {
+    idBytes_ += bytes;
+    if (idBytes_ > limits::kMaxIdBytes) fail(ptr, "the ids of the nodes after instancing take more than 64 MiB");
+  }
 };
 
 // Our readers recurse once per nesting level; refuse absurd nesting before nlohmann even

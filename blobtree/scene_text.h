@@ -5,11 +5,11 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <string_view>
 
 #include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_limits.h"
 
 namespace blobvk::blobtree::detail {
 
@@ -42,14 +42,22 @@ inline std::string number(double v) {
   return buf;
 }
 
-// Whole file as bytes; SceneError when it cannot be opened or read.
+// Whole file as bytes; SceneError when it cannot be opened or read, or holds more than
+// limits::kMaxSceneBytes (a device such as /dev/zero would otherwise be read until memory ends).
 inline std::string readWholeFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw SceneError(path, "cannot open", std::strerror(errno));
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
+  std::string bytes;
+  constexpr std::size_t kChunk = std::size_t(1) << 20;
+  while (in) {
+    const std::size_t have = bytes.size();
+    if (have >= limits::kMaxSceneBytes) throw SceneError(path, "file", "more than 256 MiB: too large for a scene file");
+    bytes.resize(have + kChunk);
+    in.read(bytes.data() + have, std::streamsize(kChunk));
+    bytes.resize(have + std::size_t(in.gcount()));
+  }
   if (in.bad()) throw SceneError(path, "file", "read error");
-  return buffer.str();
+  return bytes;
 }
 
 }  // namespace blobvk::blobtree::detail

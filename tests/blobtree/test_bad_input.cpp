@@ -1,12 +1,17 @@
 // The bad-input catalogue: every malformed file in tests/data/bad/ must be refused with a
 // SceneError that names the file, the exact JSON pointer or line, and the problem.
 #include "blobvk/blobtree/scene_error.h"
+#include "blobvk/blobtree/scene_blob.h"
 #include "blobvk/blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_json.h"
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <set>
+#include <string>
 
 using namespace blobvk::blobtree;
 
@@ -50,6 +55,8 @@ const BadCase kCases[] = {
     {"j24_zero_quaternion.json", "/root/transform/rotate/quaternion", "cannot be normalised"},
     {"j25_zero_scale.json", "/root/transform/scale/1", "scale must be > 0"},
     {"j26_ricci_power_zero.json", "/root/power", "power must be > 0"},
+    {"j51_ricci_power_small.json", "/root/power", "power 0.001 is below 0.1: the Ricci blend would overflow a float"},
+    {"j52_tiny_support.json", "/root/support", "support 1e-300 is below 1e-06"},
     {"j27_bad_axis_name.json", "/root/axis", "unknown axis 'w'"},
     {"j28_same_axes.json", "/root/taperAxis", "must differ"},
     {"j35_colour_range.json", "/root/colour/0", "within [0, 1]"},
@@ -106,6 +113,7 @@ const BadCase kCases[] = {
     {"b25_nan.blob", "line 4", "not finite"},
     {"b26_null_root.blob", "line 3", "NULL primitive may only pad"},
     {"b27_ricci_power.blob", "line 4", "power must be > 0"},
+    {"b28_ricci_power_small.blob", "line 4", "power 0.0001 is below 0.1"},
 };
 
 class BadInput : public ::testing::TestWithParam<BadCase> {};
@@ -142,4 +150,79 @@ TEST(BadInputCatalogue, EveryFileIsListedOnce) {
   for (const auto& entry : std::filesystem::directory_iterator(kBad)) present.insert(entry.path().filename().string());
   EXPECT_EQ(listed, present);
   EXPECT_GE(listed.size(), 30u);
+}
+
+// Inputs too large to ship as files, built in memory: each is refused with one line before it
+// can exhaust memory.
+namespace {
+// A chain of definitions, each instancing the one below twice, whose first node has a long id:
+// 2^levels copies of the id after instancing, in a text of a few hundred kilobytes.
+std::string doublingInstances(std::size_t idLength, int levels) {
+  const std::string big(idLength, 'x');
+  std::string defs = R"({"type":"point","id":"d0"},{"type":"blend","id":")" + big +
+                     R"(","children":[{"type":"instance","of":"d0"}]})";
+  std::string below = big;
+  for (int i = 1; i <= levels; ++i) {
+    std::string id = std::to_string(i);
+    id.insert(id.begin(), 'e');  // not "e" + ...: GCC 12 warns of a false overlap (-Wrestrict)
+    defs += R"(,{"type":"blend","id":")" + id + R"(","children":[{"type":"instance","of":")" + below +
+            R"("},{"type":"instance","of":")" + below + R"("}]})";
+    below = id;
+  }
+  return R"({"blobvk":1,"definitions":[)" + defs + R"(],"root":{"type":"instance","of":")" + below + R"("}})";
+}
+}  // namespace
+
+TEST(BadInputGenerated, LongIdsInstancedManyTimesAreRefusedByTheirBytes) {
+  // 2^12 copies of a 200,000-character id: 800 MB of ids from 4,097 nodes, far inside the
+  // node limit.
+  try {
+    parseSceneJson(doublingInstances(200000, 12), "laughs.json");
+    FAIL() << "accepted";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("the ids of the nodes after instancing take more than 64 MiB"), std::string::npos)
+        << e.what();
+    EXPECT_EQ(std::string(e.location()).rfind("/definitions/", 0), 0u) << e.what();
+  }
+  // The same chain with short ids is a model (8,193 nodes).
+  EXPECT_NO_THROW(parseSceneJson(doublingInstances(8, 12), "small.json"));
+}
+
+TEST(BadInputGenerated, LegacyNodesSharedManyTimesAreRefusedByTheirIdBytes) {
+  // [BLOBNODE i] blends node i + 1 twice; the leaf's id is 100,000 digits long.
+  std::string leaf(100000, '0');
+  leaf[0] = '1';
+  std::string text;
+  const int levels = 12;
+  for (int i = 0; i < levels; ++i) {
+    const std::string next = i + 1 < levels ? std::to_string(i + 1) : leaf;
+    text += "[BLOBNODE " + std::to_string(i) + "]\nIsOperator=1\nOperatorType=BLEND\nChildrenIDs=(" + next + ", " +
+            next + ")\n\n";
+  }
+  text += "[BLOBNODE " + leaf + "]\nIsOperator=0\nPrimitiveType=POINT\n\n[Global]\nRootIDs=(0)\n";
+  try {
+    parseSceneBlob(text, "dag.blob");
+    FAIL() << "accepted";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("the ids of the nodes after instancing take more than 64 MiB"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(BadInputGenerated, EndlessFilesAreRefusedBySize) {
+  // /dev/zero under a scene name: read up to the size limit, then refused with the file's name.
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("blobvk_endless_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  for (const char* name : {"zero.json", "zero.blob"}) {
+    const std::filesystem::path link = dir / name;
+    std::filesystem::remove(link);
+    std::filesystem::create_symlink("/dev/zero", link);
+    try {
+      loadScene(link.string());
+      FAIL() << name << " accepted";
+    } catch (const SceneError& e) {
+      EXPECT_EQ(std::string(e.what()), link.string() + ": file: more than 256 MiB: too large for a scene file");
+    }
+  }
+  std::filesystem::remove_all(dir);
 }
