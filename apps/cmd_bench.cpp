@@ -72,7 +72,7 @@ void addBenchCommand(CLI::App& app) {
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--repeats", a->repeats, "Timed runs per configuration")->check(CLI::Range(1, 1000));
   cmd->add_option("--warmup", a->warmup, "Untimed runs first")->check(CLI::Range(0, 100));
-  cmd->add_option("--mpu", a->mpuSize, "Cells per MPU side (cpu; 0 = default, 24)")->check(CLI::Range(0, 64));
+  cmd->add_option("--mpu", a->mpuSize, "Cells per MPU side (cpu; 0 = default, 24)")->check(mpuCells());
   cmd->add_option("--sub-block", a->subBlock,
                   "cpu: cells per leaf block of the sparse field cache (0 = every grid point; default 3, or 4 with --mpu)")
       ->check(CLI::Range(0, 64));

@@ -16,10 +16,14 @@
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+#include <unistd.h>
 
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <memory>
 #include <stdexcept>
 
@@ -129,6 +133,15 @@ void addCompareCommand(CLI::App& app) {
 #ifndef BLOBVK_HAVE_VULKAN
     throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
 #else
+    // The image folder before any work, as every output is checked first.
+    if (!a->imageSettings.writeDir.empty()) {
+      const std::string& dir = a->imageSettings.writeDir;
+      std::error_code ec;
+      std::filesystem::create_directories(dir, ec);
+      if (ec) throw std::runtime_error(dir + ": cannot create the image folder: " + ec.message());
+      if (!std::filesystem::is_directory(dir, ec)) throw std::runtime_error(dir + ": is not a folder (--write-images)");
+      if (::access(dir.c_str(), W_OK) != 0) throw std::runtime_error(dir + ": cannot write into the image folder: " + std::strerror(errno));
+    }
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->cellSize ? a->resolution : a->resolution.value_or(64));
     nlohmann::json report = versionJson();

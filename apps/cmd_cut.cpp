@@ -39,9 +39,16 @@ using surgery::BladeKeyframe;
 
 // --blade file: {"blade": [{"t":0, "a":[..], "b":[..]}, ...]}, validated by the same parser.
 std::vector<BladeKeyframe> readBladeFile(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw std::runtime_error(path + ": is a directory, not a blade path file");
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open the blade path file: " + systemReason(errno));
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string text;
+  try {
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  } catch (const std::ios_base::failure&) {  // libstdc++ throws from a read that fails
+    throw std::runtime_error(path + ": cannot read the blade path file: " + systemReason(errno));
+  }
   return surgery::parseBladePath(text, path);
 }
 
@@ -90,8 +97,11 @@ void addCutCommand(CLI::App& app) {
     const surgery::SceneModel sceneModel{model.path, model.scene, model.program};
     // The simulation section and the blade file too: their mistakes, and a missing blade path,
     // are found before the folder is made and the tetrahedralization runs.
-    const std::vector<BladeKeyframe> keys =
-        a->blade.empty() ? surgery::simulationConfigOf(sceneModel).blade : readBladeFile(a->blade);
+    const surgery::SimulationConfig config = surgery::simulationConfigOf(sceneModel);
+    if (a->voxelCell && config.mesher != "voxel")  // an option that would do nothing is refused
+      throw UsageError("--voxel-cell is for the voxel mesher; " + a->scene + " is meshed with " + config.mesher +
+                       " (simulation.mesher)");
+    const std::vector<BladeKeyframe> keys = a->blade.empty() ? config.blade : readBladeFile(a->blade);
     if (keys.size() < 2) {
       throw std::runtime_error(a->scene + ": /simulation/blade: no blade path (give one in the scene or with --blade)");
     }

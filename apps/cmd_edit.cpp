@@ -93,7 +93,7 @@ void addEditCommand(CLI::App& app) {
       ->check(resolutionRange())
       ->excludes(cs);
   cmd->add_option("--threads", a->threads, "CPU threads (0 = all cores)")->check(CLI::Range(0, 1024));
-  cmd->add_option("--mpu", a->mpu, "cpu: cells per MPU side (0 = default)")->check(CLI::Range(0, 64));
+  cmd->add_option("--mpu", a->mpu, "cpu: cells per MPU side (0 = default)")->check(mpuCells());
   cmd->add_option("--backend", a->backend, "cpu (default) or vk")->check(CLI::IsMember({"cpu", "vk"}));
   cmd->add_option("--device", a->device, "vk: Vulkan device (name substring or index)")->check(nonEmptyText());
   cmd->add_option("--traversal", a->traversal,

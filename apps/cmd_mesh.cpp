@@ -84,7 +84,7 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_option("--threads", a->settings.threads, "CPU threads (0 = all cores)")
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--mpu", a->settings.mpuSize, "Cells per MPU side (cpu backend; 0 = default)")
-      ->check(CLI::Range(0, 64));
+      ->check(mpuCells());
   cmd->add_option("--refine", a->settings.refineSteps, "Root refinement steps per vertex")
       ->check(CLI::Range(0, 16));
   auto* one = cmd->add_option("--device", a->settings.device, "Vulkan device (name substring or index)")->check(nonEmptyText());

@@ -11,6 +11,8 @@
 #include "progress.h"
 #include "resolution_limit.h"
 
+#include "blobvk/blobtree/scene_limits.h"
+
 #include <CLI/CLI.hpp>
 
 #ifdef BLOBVK_HAVE_VULKAN
@@ -49,6 +51,9 @@ namespace {
     } catch (const std::exception&) {
       throw CLI::ValidationError(what, "'" + text + "' is not a comma-separated list of finite numbers");
     }
+    // The scene format's range for any number (blobtree/scene_limits.h): a camera 1e30 away sees nothing.
+    if (std::abs(out.back()) > blobtree::limits::kMaxAbsValue)
+      throw CLI::ValidationError(what, "'" + item + "' is out of range (|x| must be <= 1e6)");
   }
   if (out.size() < minCount || out.size() > maxCount) {
     throw CLI::ValidationError(what, "'" + text + "' needs " + std::to_string(minCount) +
@@ -140,6 +145,8 @@ void addRenderCommand(CLI::App& app) {
       const auto v = parseNumbers(a->camera, "--camera", 2, 3);
       request.azimuthDeg = v[0];
       request.elevationDeg = v[1];
+      if (std::abs(v[1]) > 90.0f) throw CLI::ValidationError("--camera", "elevation must be within [-90, 90] degrees");
+      if (v.size() == 3 && !(v[2] > 0.0f)) throw CLI::ValidationError("--camera", "distance must be > 0");
       if (v.size() == 3) request.distance = v[2];
     }
     if (!a->eye.empty()) {

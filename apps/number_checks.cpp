@@ -42,6 +42,17 @@ CLI::Validator nonNegativeFinite() {
   return finiteCheck([](double v) { return v >= 0; }, "a finite number >= 0");
 }
 
+CLI::Validator mpuCells() {
+  return CLI::Validator(
+      [](std::string& text) {
+        int v = 0;
+        if (!CLI::detail::lexical_cast(text, v)) return "'" + text + "' is not a whole number";
+        if (v == 0 || (v >= 2 && v <= 64)) return std::string();
+        return "cells per MPU side must be 0 (the default) or 2 to 64, got " + text;
+      },
+      "0 or 2 to 64");
+}
+
 CLI::Validator nonEmptyText() {
   return CLI::Validator([](std::string& text) { return text.empty() ? std::string("an empty value means nothing here") : std::string(); },
                         "TEXT");

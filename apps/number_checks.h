@@ -14,6 +14,8 @@ CLI::Validator finiteRange(double lo, double hi);
 CLI::Validator positiveFinite();
 // A finite number >= 0.
 CLI::Validator nonNegativeFinite();
+// Cells per MPU side: 0 (the default) or 2 to 64 (an MPU of one cell holds no interior corner).
+CLI::Validator mpuCells();
 // Any text but the empty one: `--device ''` or `--simplify ''` would otherwise read as the
 // option not given.
 CLI::Validator nonEmptyText();

@@ -657,8 +657,10 @@ class Reader {
       const Json& r = j["resolution"];
       const Ptr rp = child(ptr, "resolution");
       if (!r.is_number_integer()) fail(rp, "expected an integer, got " + (r.is_number() ? std::string("a fraction") : typeOf(r)));
-      const auto v = r.get<std::int64_t>();
-      if (v < 1 || v > 16384) fail(rp, "resolution must be within [1, 16384], got " + std::to_string(v));
+      // Unsigned integers above 2^63 read as negative int64s: name them as written.
+      const std::string written = r.is_number_unsigned() ? std::to_string(r.get<std::uint64_t>()) : std::to_string(r.get<std::int64_t>());
+      const auto v = r.is_number_unsigned() && r.get<std::uint64_t>() > 16384u ? std::int64_t(16385) : r.get<std::int64_t>();
+      if (v < 1 || v > 16384) fail(rp, "resolution must be within [1, 16384], got " + written);
       g.resolution = int(v);
     }
     if (j.contains("bounds")) {

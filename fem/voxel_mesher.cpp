@@ -53,10 +53,11 @@ mesh::TetMesh voxelTetrahedralize(const ScalarField& field, const VoxelMesherSet
   if (!(s.cellSize > 0)) throw std::invalid_argument("voxel mesher: cellSize must be > 0");
   const double ex = s.boundsMax.x - s.boundsMin.x, ey = s.boundsMax.y - s.boundsMin.y, ez = s.boundsMax.z - s.boundsMin.z;
   if (!(ex > 0 && ey > 0 && ez > 0)) throw std::invalid_argument("voxel mesher: empty bounds");
-  const int cx = std::max(1, int(std::ceil(ex / s.cellSize - 1e-9)));
-  const int cy = std::max(1, int(std::ceil(ey / s.cellSize - 1e-9)));
-  const int cz = std::max(1, int(std::ceil(ez / s.cellSize - 1e-9)));
-  if (double(cx) * cy * cz > 5e7) throw std::invalid_argument("voxel mesher: more than 5e7 cells; raise cellSize");
+  // Cells per axis in double first: a tiny cellSize would overflow an int (and pass the check).
+  const double fx = std::max(1.0, std::ceil(ex / s.cellSize - 1e-9)), fy = std::max(1.0, std::ceil(ey / s.cellSize - 1e-9)),
+               fz = std::max(1.0, std::ceil(ez / s.cellSize - 1e-9));
+  if (!(fx * fy * fz <= 5e7)) throw std::invalid_argument("voxel mesher: more than 5e7 cells; raise cellSize");
+  const int cx = int(fx), cy = int(fy), cz = int(fz);
   const double h = s.cellSize;
   const long px = cx + 1, py = cy + 1;
   std::vector<unsigned char> inside(std::size_t(px * py * (cz + 1)));

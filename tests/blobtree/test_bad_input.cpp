@@ -85,6 +85,7 @@ const BadCase kCases[] = {
     {"j33_grid_bounds.json", "/grid/bounds/hi/0", "lo < hi"},
     {"j34_camera_fov.json", "/camera/fovYDeg", "field of view"},
     {"j41_resolution_fraction.json", "/grid/resolution", "expected an integer"},
+    {"j53_resolution_huge.json", "/grid/resolution", "resolution must be within [1, 16384], got 18446744073709551615"},
     // legacy .blob
     {"b01_no_global.blob", "line 4", "no [Global] section"},
     {"b02_no_rootids.blob", "line 5", "has no RootIDs"},

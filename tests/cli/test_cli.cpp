@@ -414,6 +414,12 @@ TEST(Cli, SimulateAndCutMakeNothingUntilTheirInputsLoad) {
                            scratch("no_such_blade.json").string());
   EXPECT_EQ(blade.status, 1) << blade.output;
   EXPECT_FALSE(std::filesystem::exists(out));
+  // A folder given as the blade file: named, in one line.
+  const CliRun folder = run("cut " + source("scenes/soft_peanut.json") + " -o " + out.string() + " --no-png --blade " +
+                            scratch("").string());
+  EXPECT_EQ(folder.status, 1) << folder.output;
+  EXPECT_NE(folder.output.find(": is a directory, not a blade path file"), std::string::npos) << folder.output;
+  EXPECT_FALSE(std::filesystem::exists(out));
   const CliRun coarse = run("simulate " + source("scenes/soft_peanut.json") + " -o " + out.string() + " --no-png --steps 1 --resolution 4");
   EXPECT_EQ(coarse.status, 0) << coarse.output;
   EXPECT_NE(coarse.output.find("warning: " + source("scenes/soft_peanut.json") + ": the soft body has only"), std::string::npos)

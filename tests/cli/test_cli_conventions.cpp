@@ -87,6 +87,11 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
                                  // An empty value is not the option left out; --max-triangles 0 read as no limit.
                                  "mesh " + tower + " -o x.ply --simplify ''", "mesh " + tower + " -o x.ply --backend vk --device ''",
                                  "mesh " + tower + " -o x.ply --max-triangles 0",
+                                 // An MPU of one cell: the help's range, not the polygonizer's own error.
+                                 "mesh " + tower + " -o x.ply --mpu 1", "bench " + tower + " --mpu 1",
+                                 // The scene format's camera ranges; the voxel mesher's cell on a TetGen body.
+                                 "render " + tower + " -o x.png --camera 30,20,-5", "render " + tower + " -o x.png --eye 1e30,0,0",
+                                 "cut " + sourcePath("scenes/soft_peanut.json") + " -o cut_out --voxel-cell 0.05",
                                  // A flag given a value (it would count as given while off).
                                  "mesh " + tower + " -o x.ply --stream=false",
                                  "mesh " + tower + " -o x.ply --features=false --feature-angle 30", "mesj " + tower}) {
@@ -148,6 +153,11 @@ TEST(CliConventions, UnwritableOutputFailsBeforeAnyWork) {
   r = runCliSplit("simulate nope.json -o file/sub", cwd);
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.err.find("file/sub: cannot create the folder"), std::string::npos) << r.err;
+  // compare's image folder too, before the scene is read.
+  r = runCliSplit("compare nope.json --images --write-images file/imgs", cwd);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+  EXPECT_NE(r.err.find("file/imgs: cannot create the image folder"), std::string::npos) << r.err;
   r = runCliSplit("mesh " + tower + " -o .", cwd);
   EXPECT_NE(r.status, 0);
 }

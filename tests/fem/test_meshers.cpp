@@ -70,6 +70,24 @@ TEST(VoxelMesher, RefusesMoreTetsThanItsLimitBeforeBuildingThem) {
   }
 }
 
+TEST(VoxelMesher, RefusesTooManyCellsWhateverTheCellSize) {
+  // Every cell size from 1e-3 down gives more than 5e7 cells over a unit box; at 1e-9 the cells
+  // per axis (1e9) times two overflow an int, which once read as a small grid with no cell inside.
+  VoxelMesherSettings s;
+  s.boundsMin = {0, 0, 0};
+  s.boundsMax = {1, 1, 1};
+  const auto full = [](double, double, double) { return 1.0f; };
+  for (const double cell : {1e-3, 1e-6, 1e-9, 1e-12, 1e-300}) {
+    s.cellSize = cell;
+    try {
+      (void)voxelTetrahedralize(full, s);
+      FAIL() << "cell size " << cell << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_STREQ(e.what(), "voxel mesher: more than 5e7 cells; raise cellSize") << cell;
+    }
+  }
+}
+
 TEST(VoxelMesher, SampledGridMatchesCallbackOnSameGrid) {
   SampledGrid g;
   g.origin = {0, 0, 0};
