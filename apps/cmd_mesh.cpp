@@ -26,6 +26,7 @@
 
 #include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <optional>
 
@@ -73,7 +74,7 @@ void addMeshCommand(CLI::App& app) {
       "(0.4 of the layers with 2 ranks, 0.2 with 3, none from 6); BLOBVK_MPI_ROOT_SHARE=0..1 sets its share.");
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
   cmd->add_option("-o,--output", a->out, "Output mesh (.ply, .obj, .stl, .gltf, .glb; - for standard output)")->required();
-  cmd->add_option("--format", a->format, "Format for -o - (ply, obj, stl, gltf, glb; default ply)")
+  cmd->add_option("--format", a->format, "Format for -o - or an output without an extension such as /dev/null (ply, obj, stl, gltf, glb; default ply)")
       ->check(CLI::IsMember(std::vector<std::string>{"ply", "obj", "stl", "gltf", "glb"}));
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")
                  ->check(positiveFinite());
@@ -137,10 +138,15 @@ void addMeshCommand(CLI::App& app) {
   cmd->callback([a, cmd] {
     refuseOptionsNoBackendUses(*cmd, {a->settings.backend});
     // Everything about the output is checked before the (possibly long) polygonization.
-    const bool toStdout = checkOutputFile(a->out, {".ply", ".obj", ".stl", ".gltf", ".glb"}, true, "a mesh");
+    // A file's format is its extension; --format names it for standard output and for a name
+    // without one (a device or a pipe: /dev/null, /dev/fd/3).
+    const bool named = !a->format.empty() && a->out != "-";
+    if (named && !std::filesystem::path(a->out).extension().empty())
+      throw UsageError("--format is for -o - or a name without an extension (a file's format is its extension)");
+    const bool toStdout = named ? checkOutputFile(a->out, {""}, false, "a mesh")
+                                : checkOutputFile(a->out, {".ply", ".obj", ".stl", ".gltf", ".glb"}, true, "a mesh");
     if (toStdout && a->json) throw UsageError("--json and -o - both want standard output; write the mesh to a file");
-    if (!a->format.empty() && !toStdout) throw UsageError("--format is for -o - (a file's format is its extension)");
-    std::string format = toStdout ? (a->format.empty() ? "ply" : a->format) : a->out.substr(a->out.rfind('.') + 1);
+    std::string format = toStdout || named ? (a->format.empty() ? "ply" : a->format) : a->out.substr(a->out.rfind('.') + 1);
     for (char& c : format) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (a->ascii && format != "ply") throw UsageError("--ascii is for PLY output");
     if (a->noOptimize && format != "gltf" && format != "glb")

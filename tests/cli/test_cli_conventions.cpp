@@ -224,7 +224,21 @@ TEST(CliConventions, SymlinksAndFifosAsOutputsAreWrittenThrough) {
     ASSERT_EQ(std::system(command.c_str()), 0) << mode;
     EXPECT_EQ(fs::status(cwd / "fifo.ply").type(), fs::file_type::fifo) << mode;
     EXPECT_EQ(fileBytes(cwd / "copy.ply"), plain) << mode;
+    // A place without an extension takes --format: a pipe, and /dev/null.
+    fs::remove(cwd / "pipe");
+    fs::remove(cwd / "copy.ply");
+    ASSERT_EQ(::mkfifo((cwd / "pipe").c_str(), 0600), 0);
+    const std::string named = "cd '" + cwd.string() + "' && { cat pipe > copy.ply & " + BLOBVK_CLI + " -q mesh " + tower +
+                              " -o pipe --format ply --resolution 16" + mode + "; status=$?; wait; exit $status; }";
+    ASSERT_EQ(std::system(named.c_str()), 0) << mode;
+    EXPECT_EQ(fileBytes(cwd / "copy.ply"), plain) << mode;
+    r = runCliSplit("mesh " + tower + " -o /dev/null --format obj --resolution 16" + mode, cwd);
+    EXPECT_EQ(r.status, 0) << mode << r.err;
   }
+  // A name with an extension keeps it as its format.
+  const CliSplitRun both = runCliSplit("mesh " + tower + " -o x.ply --format obj", cwd);
+  EXPECT_EQ(both.status, 2) << both.err;
+  EXPECT_NE(both.err.find("--format is for -o - or a name without an extension"), std::string::npos) << both.err;
 }
 
 TEST(CliConventions, ErrorsGiveTheSystemReasonAndOnlyPrintableBytes) {
