@@ -63,7 +63,7 @@ void addBenchCommand(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("bench", "Time whole-scene polygonization (median of repeats)");
-  cmd->add_option("scenes", a->scenes, "Scene files")->required();
+  cmd->add_option("scenes", a->scenes, "Scene files (.json, .blob, .scene)")->required();
   cmd->add_option("--resolution", a->resolutions, "Cells along the longest side (several allowed)")
       ->check(resolutionRange());
   cmd->add_option("--backend", a->backends, "Backends to run: cpu, reference, vk (several allowed)")
@@ -88,8 +88,9 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--traversal", a->traversals,
                   "vk: auto (default: the cost model picks per job), specialised, stackless, stack (several allowed; stackless vs stack is the thesis' Table 4.2)")
       ->check(CLI::IsMember(traversalNames()));
-  cmd->add_option("--brick-cells", a->brickCells, "vk: cells per brick edge of the sparse extraction (2-16, a power of two)")
-      ->check(CLI::IsMember({2, 4, 8, 16}));
+  cmd->add_option("--brick-cells", a->brickCells,
+                  "vk: cells per brick edge of the sparse extraction, 2 to 16, a power of two (0 = default, as mesh)")
+      ->check(CLI::IsMember({0, 2, 4, 8, 16}));
   cmd->add_flag("--dense", a->dense, "vk: the dense z-slab extraction (every grid point) instead of the sparse one");
   cmd->add_option("--field-tiles", a->fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8, "

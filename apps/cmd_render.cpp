@@ -88,7 +88,7 @@ void addRenderCommand(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("render", "Render a scene to PNG (raster of its mesh, or ray-cast field)");
-  cmd->add_option("scene", a->scene, "Scene file (.json, .blob)")->required();
+  cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
   cmd->add_option("-o,--output", a->out, "Output .png (- for standard output; turntable: out_000.png, out_001.png, ...)")->required();
   cmd->add_option("--size", a->size, "Image size WxH (default 512x512)");
   auto* cam = cmd->add_option("--camera", a->camera, "Orbit: azimuth,elevation[,distance] in degrees / world units");

@@ -3,9 +3,11 @@
 #include "backends.h"
 #include "cli_conventions.h"
 #include "commands.h"
+#include "number_checks.h"
 #include "render_command.h"
 
 #include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -21,6 +23,9 @@ int main(int argc, char** argv) {
   // where the user has not chosen: llvmpipe picks 512-bit vectors on AVX-512 CPUs, and 256-bit
   // ones measured faster for every kernel (docs/vulkan.md). Other drivers ignore it.
   setenv("LP_NATIVE_VECTOR_WIDTH", "256", 0);
+  // --threads N is N threads, up to the 1024 the option allows: TBB would otherwise cap its
+  // workers at the core count and print a two-line warning past it, even under -q.
+  const tbb::global_control threadLimit(tbb::global_control::max_allowed_parallelism, 1024);
   using namespace blobvk::app;
   CLI::App app{"blobvk: BlobTree implicit models to meshes, images and soft bodies"};
   app.require_subcommand(1);
@@ -42,6 +47,7 @@ int main(int argc, char** argv) {
          "Vulkan pipeline cache directory, or 'off' (default: $BLOBVK_PIPELINE_CACHE, else "
          "$XDG_CACHE_HOME/blobvk or ~/.cache/blobvk)")
       ->type_name("DIR|off")
+      ->check(nonEmptyText())
       ->trigger_on_parse();
   // Usage errors are one line and exit 2 whatever CLI11's own code for them.
   app.failure_message([](const CLI::App* failed, const CLI::Error& e) {

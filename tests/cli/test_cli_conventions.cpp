@@ -86,7 +86,7 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
                                  "mesh " + tower + " -o x.glb --stream", "mesh " + tower + " -o x.ply --stream --backend reference",
                                  // An empty value is not the option left out; --max-triangles 0 read as no limit.
                                  "mesh " + tower + " -o x.ply --simplify ''", "mesh " + tower + " -o x.ply --backend vk --device ''",
-                                 "mesh " + tower + " -o x.ply --max-triangles 0",
+                                 "mesh " + tower + " -o x.ply --max-triangles 0", "--pipeline-cache '' info " + tower,
                                  // An MPU of one cell: the help's range, not the polygonizer's own error.
                                  "mesh " + tower + " -o x.ply --mpu 1", "bench " + tower + " --mpu 1",
                                  // The scene format's camera ranges; the voxel mesher's cell on a TetGen body.
