@@ -14,9 +14,54 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <regex>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+namespace {
+// The subcommands given, "generate tower " ("" for none), and the innermost one's App.
+std::string givenCommand(const CLI::App* app, const CLI::App** innermost = nullptr) {
+  std::string command;
+  for (const CLI::App* a = app; a;) {
+    const std::vector<const CLI::App*> given = a->get_subcommands([](const CLI::App* s) { return s->parsed(); });
+    a = given.empty() ? nullptr : given.front();
+    if (a) {
+      command += a->get_name() + " ";
+      if (innermost) *innermost = a;
+    }
+  }
+  return command;
+}
+
+// CLI11's wording where it misleads: a range check that also fails on a word, a count of
+// values, and extra arguments listed last first.
+std::string clearerParseMessage(std::string what) {
+  static const std::regex range(R"(^(--[\w-]+): Value (.*) not in range (\S+) to (\S+)$)");
+  static const std::regex count(R"(^(--[\w-]+): At Most 1 required but received (\d+)$)");
+  static const std::regex extra(R"(^The following arguments? (?:was|were) not expected: (.*)$)");
+  std::smatch m;
+  if (std::regex_match(what, m, range)) {
+    const std::string value = m[2];
+    char* end = nullptr;
+    (void)std::strtod(value.c_str(), &end);
+    const bool number = !value.empty() && end && *end == '\0';
+    return m[1].str() + ": " + (number ? value + " is not within [" + m[3].str() + ", " + m[4].str() + "]"
+                                       : "'" + value + "' is not a number");
+  }
+  if (std::regex_match(what, m, count)) return m[1].str() + " takes one value, got " + m[2].str();
+  if (std::regex_match(what, m, extra)) {
+    std::vector<std::string> words;
+    std::istringstream in(m[1].str());
+    for (std::string w; in >> w;) words.push_back(w);
+    std::string listed;
+    for (auto it = words.rbegin(); it != words.rend(); ++it) listed += (listed.empty() ? "" : " ") + *it;
+    return std::string(words.size() == 1 ? "an unexpected argument: " : "unexpected arguments: ") + listed;
+  }
+  return what;
+}
+}  // namespace
 
 int main(int argc, char** argv) {
   // lavapipe tuning, set by the process (the library never touches the environment) and only
@@ -53,14 +98,9 @@ int main(int argc, char** argv) {
   app.failure_message([](const CLI::App* failed, const CLI::Error& e) {
     // CLI11 reports through the tool itself; the help to point at is the innermost subcommand
     // that was given ("generate tower "), "" where none was.
-    std::string command;
     const CLI::App* innermost = failed;
-    for (const CLI::App* a = failed; a;) {
-      const std::vector<const CLI::App*> given = a->get_subcommands([](const CLI::App* s) { return s->parsed(); });
-      a = given.empty() ? nullptr : given.front();
-      if (a) command += a->get_name() + " ", innermost = a;
-    }
-    std::string what = e.what();
+    const std::string command = givenCommand(failed, &innermost);
+    std::string what = clearerParseMessage(e.what());
     // CLI11 says "stream was given a disallowed flag override" (its name without dashes).
     const std::string override = " was given a disallowed flag override";
     if (const auto at = what.find(override); at != std::string::npos && at + override.size() == what.size())
@@ -104,7 +144,8 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : kExitUsage;
   } catch (const UsageError& e) {
-    std::fprintf(stderr, "blobvk: usage error: %s\n", printable(e.what()).c_str());
+    std::fprintf(stderr, "blobvk: usage error: %s (see blobvk %s--help)\n", printable(e.what()).c_str(),
+                 givenCommand(&app).c_str());
     return kExitUsage;
   } catch (const ComparisonFailed& e) {
     std::fprintf(stderr, "blobvk: comparison failed: %s\n", printable(e.message).c_str());

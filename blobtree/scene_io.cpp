@@ -17,10 +17,10 @@ Scene loadScene(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw SceneError(path, "file", "is a directory, not a scene file");
+  if (std::filesystem::is_directory(path, ec)) throw SceneError(path, "", "is a directory, not a scene file");
   if (ext == ".json") return readSceneJson(path);
   if (ext == ".blob" || ext == ".scene") return readSceneBlob(path);
-  throw SceneError(path, "file", "unknown scene extension '" + ext + "' (expected .json, .blob or .scene)");
+  throw SceneError(path, "", "unknown scene extension '" + ext + "' (expected .json, .blob or .scene)");
 }
 
 void saveSceneJson(const Scene& scene, const std::string& path) {

@@ -51,12 +51,12 @@ inline std::string readWholeFile(const std::string& path) {
   constexpr std::size_t kChunk = std::size_t(1) << 20;
   while (in) {
     const std::size_t have = bytes.size();
-    if (have >= limits::kMaxSceneBytes) throw SceneError(path, "file", "more than 256 MiB: too large for a scene file");
+    if (have >= limits::kMaxSceneBytes) throw SceneError(path, "", "more than 256 MiB: too large for a scene file");
     bytes.resize(have + kChunk);
     in.read(bytes.data() + have, std::streamsize(kChunk));
     bytes.resize(have + std::size_t(in.gcount()));
   }
-  if (in.bad()) throw SceneError(path, "file", "read error");
+  if (in.bad()) throw SceneError(path, "", "read error");
   return bytes;
 }
 

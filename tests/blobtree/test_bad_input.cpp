@@ -222,7 +222,7 @@ TEST(BadInputGenerated, EndlessFilesAreRefusedBySize) {
       loadScene(link.string());
       FAIL() << name << " accepted";
     } catch (const SceneError& e) {
-      EXPECT_EQ(std::string(e.what()), link.string() + ": file: more than 256 MiB: too large for a scene file");
+      EXPECT_EQ(std::string(e.what()), link.string() + ": more than 256 MiB: too large for a scene file");
     }
   }
   std::filesystem::remove_all(dir);

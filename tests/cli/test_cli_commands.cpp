@@ -316,7 +316,11 @@ TEST_F(CliCommands, RenderRefusesCamerasThatSeeNothing) {
     const CliSplitRun r = runCliSplit("render " + tower + " -o x.png --size 32x32 " + c, cwd);
     EXPECT_EQ(r.status, 2) << c << r.err;
   }
+  // An orbit at distance 0 is a usage error, as the scene format's camera.distance > 0 is.
   CliSplitRun r = runCliSplit("render " + tower + " -o x.png --size 32x32 --camera 0,20,0", cwd);
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("--camera: distance must be > 0"), std::string::npos) << r.err;
+  r = runCliSplit("render " + tower + " -o x.png --size 32x32 --eye 1,2,3 --target 1,2,3", cwd);
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_NE(r.err.find("eye and target coincide"), std::string::npos) << r.err;
   r = runCliSplit("render " + tower + " -o x.png --size 32x32 --fov nan", cwd);

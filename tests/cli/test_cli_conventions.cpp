@@ -105,6 +105,14 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
   EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --resolution abc", cwd).err.find("(see blobvk mesh --help)"), std::string::npos);
   EXPECT_NE(runCliSplit("generate tower --radius nan -o t.json", cwd).err.find("(see blobvk generate tower --help)"), std::string::npos);
   EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --stream=false", cwd).err.find("--stream is a flag: it takes no value"), std::string::npos);
+  // CLI11's wording made plain: a word for a number, a value out of range, extra words in the
+  // order given; the commands' own usage errors point at the help too.
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --threads x", cwd).err.find("--threads: 'x' is not a number (see blobvk mesh --help)"),
+            std::string::npos);
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --threads 5000", cwd).err.find("--threads: 5000 is not within [0, 1024]"),
+            std::string::npos);
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply 8 --res", cwd).err.find("unexpected arguments: 8 --res"), std::string::npos);
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.glb --stream", cwd).err.find("in memory (see blobvk mesh --help)"), std::string::npos);
   EXPECT_NE(runCliSplit("--pipeline-cache off mesj " + tower, cwd).err.find("'mesj' is not a command of blobvk (generate, mesh,"), std::string::npos);
   EXPECT_NE(runCliSplit("generate towr", cwd).err.find("'towr' is not a command of blobvk generate (tower, eggshell, random)"), std::string::npos);
   EXPECT_TRUE(fs::is_empty(cwd)) << "a refused command wrote a file";
