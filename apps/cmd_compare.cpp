@@ -108,7 +108,7 @@ void addCompareCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("compare", "Compare the CPU and Vulkan backends on a scene");
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
   auto* res = cmd->add_option("--resolution", a->resolution, "Cells along the longest side (default 64)")->check(resolutionRange(2));
-  cmd->add_option("--cell-size", a->cellSize, "Grid cell size")->check(positiveFinite())->excludes(res);
+  cmd->add_option("--cell-size", a->cellSize, "Grid cell size")->check(cellSize())->excludes(res);
   cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference")
       ->check(CLI::IsMember({"cpu", "reference"}));
   cmd->add_option("--device", a->device, "Vulkan device (name substring or index)")->check(nonEmptyText());

@@ -88,7 +88,7 @@ void addEditCommand(CLI::App& app) {
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
   cmd->add_option("edits", a->edits, "Edit script (.json, see docs/editing.md)")->required();
   cmd->add_option("-o,--output", a->out, "Frames: a pattern with %d or %0Nd (.ply, .obj, .stl or .png), e.g. out_%03d.ply")->required();
-  auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")->check(positiveFinite());
+  auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")->check(cellSize());
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model as loaded")
       ->check(resolutionRange())
       ->excludes(cs);

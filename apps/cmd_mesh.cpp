@@ -77,7 +77,7 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_option("--format", a->format, "Format for -o - or an output without an extension such as /dev/null (ply, obj, stl, gltf, glb; default ply)")
       ->check(CLI::IsMember(std::vector<std::string>{"ply", "obj", "stl", "gltf", "glb"}));
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")
-                 ->check(positiveFinite());
+                 ->check(cellSize());
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model")
       ->check(meshResolutionRange())
       ->excludes(cs);

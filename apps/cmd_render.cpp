@@ -99,7 +99,7 @@ void addRenderCommand(CLI::App& app) {
       ->check(CLI::IsMember({"mesh", "raycast"}));
   cmd->add_option("--backend", a->settings.backend, "Polygonizer for mesh mode: cpu (default), reference, vk")
       ->check(CLI::IsMember(allBackendNames()));
-  auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (mesh mode)")->check(positiveFinite());
+  auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (mesh mode)")->check(cellSize());
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side (mesh mode)")
       ->check(resolutionRange())
       ->excludes(cs);

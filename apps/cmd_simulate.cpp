@@ -39,7 +39,7 @@ void addSimulateCommand(CLI::App& app) {
   cmd->add_option("--frame-every", a->frameEvery, "Write a frame every K steps")->check(CLI::Range(1, 1000000));
   auto* resolution = cmd->add_option("--resolution", a->resolution, "Polygonization cells along the longest side (default: the scene's grid, else 48)")
                          ->check(resolutionRange(4));
-  cmd->add_option("--cell-size", a->cellSize, "Polygonization cell size")->check(positiveFinite())->excludes(resolution);
+  cmd->add_option("--cell-size", a->cellSize, "Polygonization cell size")->check(cellSize())->excludes(resolution);
   cmd->add_option("--threads", a->threads, "CPU threads for polygonization (0 = all)")->check(CLI::Range(0, 1024));
   auto* imageSize = cmd->add_option("--image-size", a->imageSize, "PNG frame side in pixels")->check(CLI::Range(16, kMaxImageSide));
   cmd->add_flag("--no-png", a->noPng, "Write PLY frames only (PNG frames need a Vulkan device)")->excludes(imageSize);

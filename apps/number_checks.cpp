@@ -38,6 +38,10 @@ CLI::Validator positiveFinite() {
   return finiteCheck([](double v) { return v > 0; }, "a finite number > 0");
 }
 
+CLI::Validator cellSize() {
+  return finiteCheck([](double v) { return v > 0 && v <= 1e6; }, "a cell size in (0, 1e6]");
+}
+
 CLI::Validator nonNegativeFinite() {
   return finiteCheck([](double v) { return v >= 0; }, "a finite number >= 0");
 }

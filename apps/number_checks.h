@@ -12,6 +12,8 @@ namespace blobvk::app {
 CLI::Validator finiteRange(double lo, double hi);
 // A finite number > 0.
 CLI::Validator positiveFinite();
+// A grid cell size: > 0 and at most the scene format's largest value, 1e6.
+CLI::Validator cellSize();
 // A finite number >= 0.
 CLI::Validator nonNegativeFinite();
 // Cells per MPU side: 0 (the default) or 2 to 64 (an MPU of one cell holds no interior corner).

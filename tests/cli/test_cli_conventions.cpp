@@ -80,7 +80,8 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
                                  "mesh " + tower + " -o x.ply --no-optimize", "compare " + tower + " --image-size 64",
                                  "compare " + tower + " --write-images out", "compare " + tower + " --cpu-backend vk",
                                  // NaN passes CLI11's own range checks; not these.
-                                 "mesh " + tower + " -o x.ply --cell-size nan", "render " + tower + " -o x.png --fov nan",
+                                 "mesh " + tower + " -o x.ply --cell-size nan", "mesh " + tower + " -o x.ply --cell-size 1e30",
+                                 "render " + tower + " -o x.png --fov nan",
                                  "generate tower --radius nan -o t.json", "compare " + tower + " --max-hausdorff inf",
                                  // What cannot stream, asked to.
                                  "mesh " + tower + " -o x.glb --stream", "mesh " + tower + " -o x.ply --stream --backend reference",
