@@ -130,9 +130,6 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("--write-images", a->imageSettings.writeDir, "Folder for the rendered images (with --images)")->needs(images);
   cmd->add_flag("--json", a->json, "Print the report as JSON (with the blobvk version, device and driver)");
   cmd->callback([a] {
-#ifndef BLOBVK_HAVE_VULKAN
-    throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
-#else
     // The image folder before any work, as every output is checked first.
     if (!a->imageSettings.writeDir.empty()) {
       const std::string& dir = a->imageSettings.writeDir;
@@ -142,6 +139,9 @@ void addCompareCommand(CLI::App& app) {
       if (!std::filesystem::is_directory(dir, ec)) throw std::runtime_error(dir + ": is not a folder (--write-images)");
       if (::access(dir.c_str(), W_OK) != 0) throw std::runtime_error(dir + ": cannot write into the image folder: " + std::strerror(errno));
     }
+#ifndef BLOBVK_HAVE_VULKAN
+    throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
+#else
     const Model model = loadModel(a->scene);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->cellSize ? a->resolution : a->resolution.value_or(64));
     nlohmann::json report = versionJson();

@@ -38,7 +38,7 @@
 namespace blobvk::app {
 namespace {
 
-[[maybe_unused]] std::vector<float> parseNumbers(const std::string& text, const char* what, std::size_t minCount,
+std::vector<float> parseNumbers(const std::string& text, const char* what, std::size_t minCount,
                                                  std::size_t maxCount) {
   std::vector<float> out;
   std::stringstream ss(text);
@@ -135,28 +135,25 @@ void addRenderCommand(CLI::App& app) {
     if (a->turntable > 1) {
       for (int frame : {0, a->turntable - 1}) checkOutputFile(framePath(a->out, frame, a->turntable), {".png"}, false, "an image");
     }
+    // The camera's numbers are usage errors, found before anything else is (Vulkan or not).
+    const std::vector<float> orbit = a->camera.empty() ? std::vector<float>{} : parseNumbers(a->camera, "--camera", 2, 3);
+    if (!orbit.empty() && std::abs(orbit[1]) > 90.0f) throw CLI::ValidationError("--camera", "elevation must be within [-90, 90] degrees");
+    if (orbit.size() == 3 && !(orbit[2] > 0.0f)) throw CLI::ValidationError("--camera", "distance must be > 0");
+    const std::vector<float> eye = a->eye.empty() ? std::vector<float>{} : parseNumbers(a->eye, "--eye", 3, 3);
+    const std::vector<float> target = a->target.empty() ? std::vector<float>{} : parseNumbers(a->target, "--target", 3, 3);
 #ifndef BLOBVK_HAVE_VULKAN
     (void)toStdout;
     throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF): no renderer");
 #else
     const Model model = loadModel(a->scene);
     vk::CameraRequest request;
-    if (!a->camera.empty()) {
-      const auto v = parseNumbers(a->camera, "--camera", 2, 3);
-      request.azimuthDeg = v[0];
-      request.elevationDeg = v[1];
-      if (std::abs(v[1]) > 90.0f) throw CLI::ValidationError("--camera", "elevation must be within [-90, 90] degrees");
-      if (v.size() == 3 && !(v[2] > 0.0f)) throw CLI::ValidationError("--camera", "distance must be > 0");
-      if (v.size() == 3) request.distance = v[2];
+    if (!orbit.empty()) {
+      request.azimuthDeg = orbit[0];
+      request.elevationDeg = orbit[1];
+      if (orbit.size() == 3) request.distance = orbit[2];
     }
-    if (!a->eye.empty()) {
-      const auto v = parseNumbers(a->eye, "--eye", 3, 3);
-      request.eye = glm::vec3(v[0], v[1], v[2]);
-    }
-    if (!a->target.empty()) {
-      const auto v = parseNumbers(a->target, "--target", 3, 3);
-      request.target = glm::vec3(v[0], v[1], v[2]);
-    }
+    if (!eye.empty()) request.eye = glm::vec3(eye[0], eye[1], eye[2]);
+    if (!target.empty()) request.target = glm::vec3(target[0], target[1], target[2]);
     request.fovYDeg = a->fov;
     const vk::Camera camera =
         vk::resolveCamera(viewBounds(model), model.scene.camera, request, float(width) / float(height));
