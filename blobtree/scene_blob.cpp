@@ -372,8 +372,8 @@ class BlobReader {
       p.scale = positive(required(s, "scale", "scale"), "scale");
       const Entry& radius = required(s, "radius", "radius");
       p.support = positive(radius, "radius");
-      if (p.support < limits::kMinSupport)
-        fail(radius.line, "radius " + detail::number(p.support) + " is below " + detail::number(limits::kMinSupport));
+      if (const std::string problem = detail::belowMinimum("radius", p.support, limits::kMinSupport); !problem.empty())
+        fail(radius.line, problem);
     } else if (type == "NULL") {
       fail(typeEntry.line, "a NULL primitive may only pad an operator's children");
     } else {
@@ -430,9 +430,9 @@ class BlobReader {
     } else if (type == "RICCIBLEND" || type == "RICCI") {
       const Entry* power = find(s, "power");
       const double ricciPower = power ? positive(*power, "power") : 2.0;
-      if (ricciPower < limits::kMinRicciPower)
-        fail(power->line, "power " + detail::number(ricciPower) + " is below " + detail::number(limits::kMinRicciPower) +
-                              ": the Ricci blend would overflow a float");
+      if (const std::string problem = detail::belowMinimum("power", ricciPower, limits::kMinRicciPower, detail::kRicciOverflow);
+          !problem.empty())
+        fail(power->line, problem);
       n.kind = Operator{OperatorType::Ricci, ricciPower};
     } else if (type == "INTERSECTION" || type == "INTERSECT") {
       n.kind = Operator{OperatorType::Intersection, 2.0};

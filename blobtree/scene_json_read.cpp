@@ -415,8 +415,8 @@ class Reader {
     p.type = type;
     if (j.contains("colour")) p.colour = colour(j["colour"], child(ptr, "colour"));
     p.support = optionalPositive(j, ptr, "support", 1.0);
-    if (p.support < limits::kMinSupport)
-      fail(child(ptr, "support"), "support " + detail::number(p.support) + " is below " + detail::number(limits::kMinSupport));
+    if (const std::string problem = detail::belowMinimum("support", p.support, limits::kMinSupport); !problem.empty())
+      fail(child(ptr, "support"), problem);
     switch (type) {
       case PrimitiveType::Point: p.a = optionalVec3(j, ptr, "centre", Vec3(0.0)); break;
       case PrimitiveType::Line:
@@ -472,9 +472,9 @@ class Reader {
     o.type = type;
     if (type == OperatorType::Ricci) {
       o.power = optionalPositive(j, ptr, "power", 2.0);
-      if (o.power < limits::kMinRicciPower)
-        fail(child(ptr, "power"), "power " + detail::number(o.power) + " is below " + detail::number(limits::kMinRicciPower) +
-                                      ": the Ricci blend would overflow a float");
+      if (const std::string problem = detail::belowMinimum("power", o.power, limits::kMinRicciPower, detail::kRicciOverflow);
+          !problem.empty())
+        fail(child(ptr, "power"), problem);
     }
     return o;
   }

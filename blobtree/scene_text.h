@@ -42,6 +42,13 @@ inline std::string number(double v) {
   return buf;
 }
 
+// The readers' one wording for a value below a limits:: minimum ("" when it is not below).
+inline std::string belowMinimum(std::string_view what, double value, double minimum, std::string_view why = {}) {
+  if (value >= minimum) return {};
+  return std::string(what) + " " + number(value) + " is below " + number(minimum) + (why.empty() ? "" : ": ") + std::string(why);
+}
+inline constexpr std::string_view kRicciOverflow = "the Ricci blend would overflow a float";
+
 // Whole file as bytes; SceneError when it cannot be opened or read, or holds more than
 // limits::kMaxSceneBytes (a device such as /dev/zero would otherwise be read until memory ends).
 inline std::string readWholeFile(const std::string& path) {

@@ -224,22 +224,21 @@ TEST(CliConventions, SymlinksAndFifosAsOutputsAreWrittenThrough) {
     ASSERT_EQ(r.status, 0) << mode << r.err;
     EXPECT_TRUE(fs::is_symlink(cwd / "chain.ply") && fs::is_symlink(cwd / "dangling.ply")) << mode;
     EXPECT_EQ(fileBytes(cwd / "made.ply"), plain) << mode;
-    fs::remove(cwd / "fifo.ply");
-    fs::remove(cwd / "copy.ply");
-    ASSERT_EQ(::mkfifo((cwd / "fifo.ply").c_str(), 0600), 0);
-    // The reader in the background; the shell waits for it before answering.
-    const std::string command = "cd '" + cwd.string() + "' && { cat fifo.ply > copy.ply & " + BLOBVK_CLI + " -q mesh " + tower +
-                                " -o fifo.ply --resolution 16" + mode + "; status=$?; wait; exit $status; }";
-    ASSERT_EQ(std::system(command.c_str()), 0) << mode;
+    // Meshes into a new named pipe `fifo` with `options`, a reader copying it to copy.ply in the
+    // background (the shell waits for it before answering); the mesh's exit status.
+    const auto meshThroughFifo = [&](const std::string& fifo, const std::string& options) {
+      fs::remove(cwd / fifo);
+      fs::remove(cwd / "copy.ply");
+      EXPECT_EQ(::mkfifo((cwd / fifo).c_str(), 0600), 0);
+      const std::string command = "cd '" + cwd.string() + "' && { cat " + fifo + " > copy.ply & " + BLOBVK_CLI + " -q mesh " +
+                                  tower + " -o " + fifo + options + " --resolution 16" + mode + "; status=$?; wait; exit $status; }";
+      return std::system(command.c_str());
+    };
+    ASSERT_EQ(meshThroughFifo("fifo.ply", ""), 0) << mode;
     EXPECT_EQ(fs::status(cwd / "fifo.ply").type(), fs::file_type::fifo) << mode;
     EXPECT_EQ(fileBytes(cwd / "copy.ply"), plain) << mode;
     // A place without an extension takes --format: a pipe, and /dev/null.
-    fs::remove(cwd / "pipe");
-    fs::remove(cwd / "copy.ply");
-    ASSERT_EQ(::mkfifo((cwd / "pipe").c_str(), 0600), 0);
-    const std::string named = "cd '" + cwd.string() + "' && { cat pipe > copy.ply & " + BLOBVK_CLI + " -q mesh " + tower +
-                              " -o pipe --format ply --resolution 16" + mode + "; status=$?; wait; exit $status; }";
-    ASSERT_EQ(std::system(named.c_str()), 0) << mode;
+    ASSERT_EQ(meshThroughFifo("pipe", " --format ply"), 0) << mode;
     EXPECT_EQ(fileBytes(cwd / "copy.ply"), plain) << mode;
     r = runCliSplit("mesh " + tower + " -o /dev/null --format obj --resolution 16" + mode, cwd);
     EXPECT_EQ(r.status, 0) << mode << r.err;
