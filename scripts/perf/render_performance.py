@@ -221,7 +221,7 @@ def phase_section(rows, command):
             "every add of its 128-way blend (three divisions per add, for the reference's colour bits),\n"
             "but an MPU's tape adds about 93 null twins into the accumulator in about 4 chains, and the\n"
             "gradient pass stops a chain at the first add that changes no bit (one or two adds per\n"
-            "chain), so *normals + colours* is no longer its largest phase. On `eggshell`\n"
+            "chain), so *normals + colours* is not its largest phase. On `eggshell`\n"
             "(two primitives) the field is cheap and the extraction phases and welding are most of the\n"
             "time, spread over many small loops: by source line (one thread) the welding's copy is about\n"
             "a fifth, the triangle loop about a seventh, the vertex loop and the SIMD field and gradient\n"
