@@ -42,9 +42,9 @@ nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
           {"generated_classification", gpu.generatedClassification}, {"classify_tiles", gpu.classifyTiles}};
 }
 
-// An empty mesh is written all the same (a valid answer), but not without a word.
+// An empty mesh is written all the same (a valid answer), but not without a word: a warning,
+// which --quiet does not silence (it silences progress and summaries).
 void warnEmptyMesh(const std::string& gridText) {
-  if (quiet()) return;
   std::fprintf(stderr,
                "blobvk: warning: the mesh is empty: no surface crosses the %s grid (a finer --resolution, or grid "
                "bounds that hold the model?)\n",

@@ -170,6 +170,7 @@ void addRenderCommand(CLI::App& app) {
     vk::GpuMesh gpuMesh;
     vk::MeshView view;
     std::string what;
+    std::uint64_t triangles = 0;
     double prepareSeconds = 0.0;
     const auto t0 = std::chrono::steady_clock::now();
     if (a->mode == "mesh") {
@@ -194,16 +195,24 @@ void addRenderCommand(CLI::App& app) {
         Progress::note("render", "polygonizing on the vk backend");
         gpuMesh = vk::polygonizeForDrawing(device, model.program, grid);
         view = gpuMesh.view();
+        triangles = gpuMesh.triangleCount(device);
         what = "mesh, vk backend (drawn from the GPU, " +
-               std::string(gpuMesh.fromReadback ? "multi-slab grid: read back)" : "no read-back)");
+               std::string(gpuMesh.fromReadback ? "multi-slab grid: read back)" : "no read-back)") + ", " +
+               std::to_string(triangles) + " triangles";
       } else {
         PolygonizeStats stats;
         Progress::note("render", "polygonizing on the " + a->settings.backend + " backend");
         const mesh::TriMesh mesh = polygonize(model.program, grid, a->settings, &stats);
         uploaded = vk::uploadMesh(device, mesh, style);
         view = uploaded.view();
-        what = "mesh, " + a->settings.backend + " backend, " + std::to_string(mesh.triangleCount()) + " triangles";
+        triangles = mesh.triangleCount();
+        what = "mesh, " + a->settings.backend + " backend, " + std::to_string(triangles) + " triangles";
       }
+      // Drawn all the same (the background is a valid image), but not without a word.
+      if (triangles == 0)
+        std::fprintf(stderr, "blobvk render: warning: the mesh is empty: no surface crosses the %u x %u x %u grid (a finer "
+                             "--resolution, or grid bounds that hold the model?)\n",
+                     unsigned(grid.cells.x), unsigned(grid.cells.y), unsigned(grid.cells.z));
       what += ", " + std::to_string(renderer->samples()) + "x MSAA";
     } else {
       vk::RaycastOptions rayOptions;

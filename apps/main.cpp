@@ -90,7 +90,7 @@ int main(int argc, char** argv) {
   // Subcommands copy these defaults when created below.
   app.option_defaults()->disable_flag_override();
   bool quietFlag = false;
-  app.add_flag("-q,--quiet", quietFlag, "No progress or informational lines on stderr (mesh, render: no summary)");
+  app.add_flag("-q,--quiet", quietFlag, "No progress or informational lines on stderr (mesh, render: no summary); warnings still print");
   app.parse_complete_callback([&quietFlag] { setQuiet(quietFlag); });
   // Where the Vulkan pipeline cache lives (vk/device/standalone.h): passed to the library through the
   // variable it reads, so every command that creates a device honours it.
@@ -116,12 +116,14 @@ int main(int argc, char** argv) {
     if (what == "A subcommand is required") {
       const std::vector<std::string> left = failed->remaining(true);
       const auto word = std::find_if(left.begin(), left.end(), [](const std::string& w) { return !w.empty() && w[0] != '-'; });
-      if (word != left.end()) {
-        what = "'" + *word + "' is not a command of blobvk " + command + "(";
-        for (const CLI::App* s : innermost->get_subcommands([](const CLI::App*) { return true; }))
-          what += (what.back() == '(' ? "" : ", ") + s->get_name();
-        what += ")";
-      }
+      std::string commands;
+      for (const CLI::App* s : innermost->get_subcommands([](const CLI::App*) { return true; }))
+        commands += (commands.empty() ? "" : ", ") + s->get_name();
+      // "generate -o x.json": an option before the command makes its value look like a command.
+      if (!left.empty() && left.front().size() > 1 && left.front()[0] == '-')
+        what = "'" + left.front() + "' comes before the command: blobvk " + command + "takes one of " + commands + " first";
+      else if (word != left.end())
+        what = "'" + *word + "' is not a command of blobvk " + command + "(" + commands + ")";
     }
     return "blobvk: usage error: " + printable(what) + " (see blobvk " + command + "--help)\n";
   });

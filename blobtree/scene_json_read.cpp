@@ -710,7 +710,8 @@ void checkNesting(std::string_view text, const std::string& source) {
     else if (c == '[' || c == '{') {
       if (++depth > kMaxJsonNesting)
         throw SceneError(source, "line " + std::to_string(line),
-                         "JSON nested deeper than " + std::to_string(kMaxJsonNesting) + " levels");
+                         "JSON nested deeper than " + std::to_string(kMaxJsonNesting) + " levels (nodes nest at most " +
+                             std::to_string(limits::kMaxDepth) + " deep, two JSON levels each)");
     } else if ((c == ']' || c == '}') && depth > 0) {
       --depth;
     }

@@ -328,6 +328,24 @@ TEST_F(CliCommands, RenderRefusesCamerasThatSeeNothing) {
   EXPECT_FALSE(fs::exists(cwd / "x.png"));
 }
 
+// An empty mesh is drawn (the background is an image) with a warning on both backends, even
+// under -q; the summary names the triangles drawn, the vk backend's counted on the device.
+TEST_F(CliCommands, RenderOfAnEmptyMeshWarns) {
+  const fs::path cwd = dir("render_empty");
+  for (const std::string backend : {"cpu", "vk"}) {
+    CliSplitRun r = runCliSplit("render " + tower + " -o e.png --size 32x32 --resolution 2 -q --backend " + backend, cwd);
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.err.find("warning: the mesh is empty: no surface crosses the 4 x 4 x 4 grid"), std::string::npos) << r.err;
+    r = runCliSplit("render " + tower + " -o f.png --size 32x32 --resolution 24 --backend " + backend, cwd);
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+    const CliSplitRun m = runCliSplit("mesh " + tower + " -o f.ply --resolution 24 --json", cwd);
+    ASSERT_EQ(m.status, 0) << m.err;
+    const std::string triangles = std::to_string(nlohmann::json::parse(m.out)["triangles"].get<std::uint64_t>());
+    EXPECT_NE(r.out.find(", " + triangles + " triangles"), std::string::npos) << backend << ": " << r.out;
+  }
+}
+
 // --wireframe is honoured on every backend: the vk mesh is read back for its edges and the
 // picture equals the cpu backend's (same mesh), and differs from the plain one.
 TEST_F(CliCommands, RenderWireframeOnTheVulkanBackend) {

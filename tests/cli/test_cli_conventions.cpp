@@ -10,6 +10,7 @@
 #include <sys/stat.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -44,7 +45,7 @@ TEST(CliConventions, VersionIsTheProjectVersion) {
 }
 
 // An empty mesh is written (a valid answer) with exit 0, but with a warning that says why it
-// may be empty; -q keeps it quiet.
+// may be empty, which -q does not silence.
 TEST(CliConventions, AnEmptyMeshIsWrittenWithAWarning) {
   const fs::path cwd = dir("empty");
   CliSplitRun r = runCliSplit("mesh " + tower + " -o e.ply --resolution 2", cwd);
@@ -55,9 +56,10 @@ TEST(CliConventions, AnEmptyMeshIsWrittenWithAWarning) {
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("warning: the mesh is empty"), std::string::npos) << r.err;
   EXPECT_EQ(fileBytes(cwd / "s.ply"), fileBytes(cwd / "e.ply"));  // the same bytes, header included
-  r = runCliSplit("mesh " + tower + " -o e.ply --resolution 2 -q", cwd);
+  r = runCliSplit("mesh " + tower + " -o e.ply --resolution 2 -q", cwd);  // a warning is not progress
   EXPECT_EQ(r.status, 0);
-  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("warning: the mesh is empty"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   r = runCliSplit("mesh " + tower + " -o f.ply --resolution 16", cwd);
   EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
 }
@@ -116,6 +118,8 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
   EXPECT_NE(runCliSplit("mesh " + tower + " -o x.glb --stream", cwd).err.find("in memory (see blobvk mesh --help)"), std::string::npos);
   EXPECT_NE(runCliSplit("--pipeline-cache off mesj " + tower, cwd).err.find("'mesj' is not a command of blobvk (generate, mesh,"), std::string::npos);
   EXPECT_NE(runCliSplit("generate towr", cwd).err.find("'towr' is not a command of blobvk generate (tower, eggshell, random)"), std::string::npos);
+  EXPECT_NE(runCliSplit("generate -o x.json", cwd).err.find("'-o' comes before the command: blobvk generate takes one of tower, eggshell, random first"),
+            std::string::npos);
   EXPECT_TRUE(fs::is_empty(cwd)) << "a refused command wrote a file";
   EXPECT_EQ(runCliSplit("--help", cwd).status, 0);
   EXPECT_EQ(runCliSplit("mesh --help", cwd).status, 0);

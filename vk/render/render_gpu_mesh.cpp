@@ -23,6 +23,14 @@ MeshView GpuMesh::view() const {
   return v;
 }
 
+std::uint64_t GpuMesh::triangleCount(Device& device) const {
+  if (fromReadback) return fallback.indexCount / 3;
+  if (!polygonizer) return 0;  // an empty grid
+  std::uint32_t indexCount = 0;  // word 0 of the VkDrawIndexedIndirectCommand
+  device.download(polygonizer->drawArgs(), &indexCount, sizeof(indexCount));
+  return indexCount / 3;
+}
+
 GpuMesh polygonizeForDrawing(Device& device, const blobtree::Program& program,
                              const blobtree::GridSpec& grid, const GpuPolygonizeOptions& rawOptions,
                              std::uint64_t maxBytes) {

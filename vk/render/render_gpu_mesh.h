@@ -25,6 +25,8 @@ struct GpuMesh {
   bool fromReadback = false;
   bool countsReadBack = false;  // true when the counts were read back to size the buffers
   MeshView view() const;
+  // The triangles drawn: the draw arguments' index count, read back (a few bytes) after the run.
+  std::uint64_t triangleCount(Device& device) const;
   GpuMesh();
   GpuMesh(GpuMesh&&) noexcept;
   GpuMesh& operator=(GpuMesh&&) noexcept;
