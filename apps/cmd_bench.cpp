@@ -1,6 +1,7 @@
 // `blobvk bench SCENE... [--resolution N...] [--backend B...] [--repeats R] [--json]`:
 // whole-scene polygonization timings, a table for people and JSON for machines.
 #include "backends.h"
+#include "cli_conventions.h"
 #include "commands.h"
 #include "json_report.h"
 #include "progress.h"
@@ -97,7 +98,8 @@ void addBenchCommand(CLI::App& app) {
                   "up to 16 for repeated jobs where the cost model says they pay)")
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--tiled-vertices", a->tiledVertices,
-                "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
+                "vk --dense, specialised: the dense pipeline's vertex pass per field tile (the sparse extraction's is "
+                "--vertex-tiles)");
   cmd->add_flag("--vertex-tiles", a->vertexTiles,
                 "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (slower to start; "
                 "the same mesh)");
@@ -106,6 +108,10 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a, cmd] {
     refuseOptionsNoBackendUses(*cmd, a->backends);
+    // Without --dense it would switch the pipeline to the dense one behind the user's back.
+    if (a->tiledVertices && !a->dense)
+      throw UsageError("--tiled-vertices is for the dense pipeline (--dense); the sparse extraction's vertex pass per "
+                       "tile is --vertex-tiles");
     // Every scene is loaded before any is timed: a bad one is found at once, not after minutes.
     std::vector<Model> models;
     models.reserve(a->scenes.size());

@@ -107,8 +107,9 @@ void addMeshCommand(CLI::App& app) {
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8, "
                   "up to 16 for repeated jobs where the cost model says they pay)")
       ->check(CLI::Range(1, 256));
-  cmd->add_flag("--tiled-vertices", a->settings.tiledVertices,
-                "vk specialised: run the vertex pass per field tile too (faster when repeated, slower to start)");
+  // The dense pipeline's flag (bench --dense --tiled-vertices), which once switched mesh to that
+  // pipeline unasked: kept out of the help, refused with the sparse extraction's name for it.
+  cmd->add_flag("--tiled-vertices", a->settings.tiledVertices)->group("");
   cmd->add_flag("--vertex-tiles", a->settings.vertexTiles,
                 "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (slower to start; "
                 "the same mesh)");
@@ -151,8 +152,9 @@ void addMeshCommand(CLI::App& app) {
     if (a->ascii && format != "ply") throw UsageError("--ascii is for PLY output");
     if (a->noOptimize && format != "gltf" && format != "glb")
       throw UsageError("--no-optimize is for .gltf/.glb (other formats keep the polygonizer's order unless --optimize)");
-    if (a->settings.cpuWorker && a->settings.tiledVertices)
-      throw UsageError("--cpu-worker shares the sparse extraction's batches; --tiled-vertices has none");
+    if (a->settings.tiledVertices)
+      throw UsageError("--tiled-vertices is the dense pipeline's (blobvk bench --dense); the sparse extraction's vertex "
+                       "pass per tile is --vertex-tiles");
     checkDeviceList(a->settings);
     if (!a->maxMemory.empty()) {
       try {

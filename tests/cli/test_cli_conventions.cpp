@@ -118,6 +118,11 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
   EXPECT_NE(runCliSplit("mesh " + tower + " -o x.glb --stream", cwd).err.find("in memory (see blobvk mesh --help)"), std::string::npos);
   EXPECT_NE(runCliSplit("--pipeline-cache off mesj " + tower, cwd).err.find("'mesj' is not a command of blobvk (generate, mesh,"), std::string::npos);
   EXPECT_NE(runCliSplit("generate towr", cwd).err.find("'towr' is not a command of blobvk generate (tower, eggshell, random)"), std::string::npos);
+  // --tiled-vertices is the dense pipeline's: it must not switch mesh or bench to it unasked.
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --backend vk --tiled-vertices", cwd).err.find("the sparse extraction's vertex pass per tile is --vertex-tiles"),
+            std::string::npos);
+  EXPECT_NE(runCliSplit("bench " + tower + " --backend vk --tiled-vertices", cwd).err.find("--tiled-vertices is for the dense pipeline (--dense)"),
+            std::string::npos);
   EXPECT_NE(runCliSplit("generate -o x.json", cwd).err.find("'-o' comes before the command: blobvk generate takes one of tower, eggshell, random first"),
             std::string::npos);
   EXPECT_TRUE(fs::is_empty(cwd)) << "a refused command wrote a file";
