@@ -349,6 +349,21 @@ void refuseOptionsNoBackendUses(const CLI::App& command, const std::vector<std::
   if (!uses("cpu") && !(uses("vk") && command.get_option_no_throw("--cpu-worker") &&
                         command.get_option_no_throw("--cpu-worker")->count() > 0))
     refuse({"--mpu", "--sub-block"}, "the cpu backend");
+  // Within the vk backend: the pruned kernels are the specialised traversal's, the bricks the
+  // sparse extraction's.
+  const auto given = [&command](const char* option) {
+    const CLI::Option* o = command.get_option_no_throw(option);
+    return o && o->count() > 0 ? o->results() : std::vector<std::string>{};
+  };
+  const std::vector<std::string> traversals = given("--traversal");
+  if (!traversals.empty() && std::none_of(traversals.begin(), traversals.end(),
+                                          [](const std::string& t) { return t == "auto" || t == "specialised"; }))
+    refuse({"--field-tiles", "--vertex-tiles"}, "the specialised traversal (--traversal auto or specialised)");
+  const CLI::Option* dense = command.get_option_no_throw("--dense");
+  if (dense && dense->count() > 0) refuse({"--brick-cells", "--vertex-tiles", "--brick-tapes", "--cpu-worker"}, "the sparse extraction, not --dense");
+  const std::vector<std::string> fieldTiles = given("--field-tiles");
+  if (!fieldTiles.empty() && fieldTiles.back() == "1")
+    refuse({"--vertex-tiles"}, "more than one field tile (--field-tiles 1 makes one)");
 }
 
 }  // namespace blobvk::app

@@ -123,6 +123,16 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
             std::string::npos);
   EXPECT_NE(runCliSplit("bench " + tower + " --backend vk --tiled-vertices", cwd).err.find("--tiled-vertices is for the dense pipeline (--dense)"),
             std::string::npos);
+  // Within the vk backend: pruned kernels are generated code's, bricks the sparse extraction's.
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --backend vk --traversal stackless --field-tiles 4", cwd).err.find(
+                "--field-tiles is for the specialised traversal"),
+            std::string::npos);
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --backend vk --field-tiles 1 --vertex-tiles", cwd).err.find(
+                "--vertex-tiles is for more than one field tile"),
+            std::string::npos);
+  EXPECT_NE(runCliSplit("bench " + tower + " --backend vk --dense --brick-cells 8", cwd).err.find(
+                "--brick-cells is for the sparse extraction, not --dense"),
+            std::string::npos);
   EXPECT_NE(runCliSplit("generate -o x.json", cwd).err.find("'-o' comes before the command: blobvk generate takes one of tower, eggshell, random first"),
             std::string::npos);
   EXPECT_TRUE(fs::is_empty(cwd)) << "a refused command wrote a file";
