@@ -1,6 +1,9 @@
 #include "blobvk/blobtree/scene_instance.h"
 
+#include "blobvk/blobtree/scene_limits.h"
+
 #include <algorithm>
+#include <cmath>
 
 namespace blobvk::blobtree::detail {
 
@@ -27,9 +30,15 @@ bool composeTransforms(const Transform& outer, const Transform& inner, Transform
   // rotation times a diagonal scale when S_o is uniform (it commutes with R_i) or when R_i is
   // the identity (the two diagonals multiply).
   if (!isUniform(outer.scale) && !isUnrotated(inner.rotate)) return false;
-  out.translate = outer.translate + outer.rotate * (outer.scale * inner.translate);
-  out.rotate = outer.rotate * inner.rotate;
-  out.scale = outer.scale * inner.scale;
+  Transform composed;
+  composed.translate = outer.translate + outer.rotate * (outer.scale * inner.translate);
+  composed.rotate = outer.rotate * inner.rotate;
+  composed.scale = outer.scale * inner.scale;
+  // Each transform is within the readers' range; their product need not be, and a scene written
+  // with it (blobvk convert) would not read back: keep the two apart then.
+  for (int i = 0; i < 3; ++i)
+    if (!(std::abs(composed.translate[i]) <= limits::kMaxAbsValue && composed.scale[i] <= limits::kMaxAbsValue)) return false;
+  out = composed;
   return true;
 }
 

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <initializer_list>
+#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -152,15 +153,16 @@ std::vector<std::string_view> extraKeys(const TypeInfo& t) {
   return {};
 }
 
-// Common misspellings get a hint in the "unknown key" message.
-std::string hintFor(std::string_view key) {
+// Common misspellings get a hint in the "unknown key" message, where the key meant is one the
+// object takes (`center` on a line, which has no centre, gets none).
+std::string hintFor(std::string_view key, const std::function<bool(std::string_view)>& allowed) {
   static const std::map<std::string_view, std::string_view> hints = {
       {"color", "colour"},     {"center", "centre"},     {"child", "children"},
       {"radii", "radius"},     {"pos", "centre"},        {"position", "centre"},
       {"halfSize", "halfExtents"}, {"size", "halfExtents"}, {"translation", "translate"},
       {"rotation", "rotate"},  {"exponent", "power"},    {"version", "blobvk"}};
   const auto it = hints.find(key);
-  return it == hints.end() ? "" : " (did you mean '" + std::string(it->second) + "'?)";
+  return it == hints.end() || !allowed(it->second) ? "" : " (did you mean '" + std::string(it->second) + "'?)";
 }
 
 class Reader {
@@ -210,13 +212,15 @@ class Reader {
                  const std::vector<std::string_view>& more = {}) const {
     for (const auto& item : obj.items()) {
       const std::string& key = item.key();
-      const bool known = std::find(allowed.begin(), allowed.end(), key) != allowed.end() ||
-                         std::find(more.begin(), more.end(), key) != more.end();
-      if (!known) {
+      const auto takes = [&](std::string_view k) {
+        return std::find(allowed.begin(), allowed.end(), k) != allowed.end() ||
+               std::find(more.begin(), more.end(), k) != more.end();
+      };
+      if (!takes(key)) {
         std::string list;
         for (auto k : allowed) list += (list.empty() ? "" : ", ") + std::string(k);
         for (auto k : more) list += ", " + std::string(k);
-        fail(child(ptr, key), "unknown key " + quotedText(key) + hintFor(key) + " (allowed: " + list + ")");
+        fail(child(ptr, key), "unknown key " + quotedText(key) + hintFor(key, takes) + " (allowed: " + list + ")");
       }
     }
   }
@@ -656,7 +660,10 @@ class Reader {
     if (j.contains("resolution")) {
       const Json& r = j["resolution"];
       const Ptr rp = child(ptr, "resolution");
-      if (!r.is_number_integer()) fail(rp, "expected an integer, got " + (r.is_number() ? std::string("a fraction") : typeOf(r)));
+      // 24.0 and 1e3 are JSON floats: name the rule, not a "fraction" they do not have.
+      if (r.is_number_float())
+        fail(rp, "expected an integer written without a decimal point or exponent, got " + detail::number(r.get<double>()));
+      if (!r.is_number_integer()) fail(rp, "expected an integer, got " + typeOf(r));
       // Unsigned integers above 2^63 read as negative int64s: name them as written.
       const std::string written = r.is_number_unsigned() ? std::to_string(r.get<std::uint64_t>()) : std::to_string(r.get<std::int64_t>());
       const auto v = r.is_number_unsigned() && r.get<std::uint64_t>() > 16384u ? std::int64_t(16385) : r.get<std::int64_t>();

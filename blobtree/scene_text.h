@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cerrno>
+#include <charconv>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -35,11 +36,14 @@ inline std::string quotedText(std::string_view s) {
   return out + "'";
 }
 
-// Formats a double for messages (shortest readable form).
+// Formats a double for messages: the shortest form that reads back as the same value, so a
+// message never contradicts itself ("9.9999999e-07 is below 1e-06", not "1e-06 is below 1e-06").
 inline std::string number(double v) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
+  std::snprintf(buf, sizeof buf, "%.6g", v);  // the familiar form where it is exact (0.0001, 2e+06)
+  double back = 0.0;
+  if (std::from_chars(buf, buf + std::strlen(buf), back).ec == std::errc() && back == v) return buf;
+  return std::string(buf, std::to_chars(buf, buf + sizeof buf, v).ptr);
 }
 
 // The readers' one wording for a value below a limits:: minimum ("" when it is not below).

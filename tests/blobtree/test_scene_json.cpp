@@ -358,6 +358,43 @@ TEST(SceneJson, DepthLimitIsEnforcedWithoutRecursingPastIt) {
   EXPECT_NE(wayOver.problem().find("nested deeper"), std::string::npos);
 }
 
+// Placements whose product leaves the readers' range (a scale of 2,000 over one of 1,000) stay
+// two transforms, so the scene written back is one the reader takes; the copy lands as composed.
+TEST(SceneJson, ComposedPlacementsOutOfRangeStayApartAndRoundTrip) {
+  const Scene s = parse(R"({"blobvk": 1, "definitions": [{"type": "point", "id": "p", "centre": [1, 0, 0],
+      "transform": {"scale": 1000}}], "root": {"type": "instance", "of": "p", "transform": {"scale": 2000, "translate": [5, 0, 0]}}})");
+  const Scene back = parse(writeSceneJson(s));
+  const Node* n = &back.root;
+  Vec3 p(1.0, 0.0, 0.0);
+  std::vector<const Node*> path{n};
+  while (!n->isPrimitive()) path.push_back(n = &n->children.front());
+  for (auto it = path.rbegin(); it != path.rend(); ++it) {
+    const Transform& t = (*it)->transform;
+    EXPECT_LE(std::max({t.scale.x, t.scale.y, t.scale.z}), 1e6);
+    p = t.translate + t.rotate * (t.scale * p);
+  }
+  EXPECT_NEAR(glm::length(p - Vec3(2e6 + 5.0, 0.0, 0.0)), 0.0, 1e-6);
+}
+
+// Messages quote numbers so that they read back as the value given: a limit is never said to be
+// below itself, a float-valued resolution is named as such, and a hint names only a key the
+// object takes.
+TEST(SceneJson, MessagesQuoteNumbersExactlyAndHintOnlyAllowedKeys) {
+  std::string what = parseError(sceneWithRoot(R"({"type": "point", "support": 9.9999999e-7})")).what();
+  EXPECT_NE(what.find("support 9.9999999e-07 is below 1e-06"), std::string::npos) << what;
+  what = parseError(sceneWithRoot(R"({"type": "point", "centre": [1000000.5, 0, 0]})")).what();
+  EXPECT_NE(what.find("value 1000000.5 is out of range"), std::string::npos) << what;
+  what = parseError(R"({"blobvk": 1, "root": {"type": "point"}, "grid": {"resolution": 24.0}})").what();
+  EXPECT_NE(what.find("/grid/resolution: expected an integer written without a decimal point or exponent, got 24"),
+            std::string::npos) << what;
+  what = parseError(sceneWithRoot(R"({"type": "point", "center": [0, 0, 0]})")).what();
+  EXPECT_NE(what.find("(did you mean 'centre'?)"), std::string::npos) << what;
+  what = parseError(sceneWithRoot(R"({"type": "line", "center": [0, 0, 0]})")).what();
+  EXPECT_EQ(what.find("did you mean"), std::string::npos) << what;
+  what = parseError(sceneWithRoot(R"({"type": "blend", "color": [1, 0, 0], "children": [{"type": "point"}]})")).what();
+  EXPECT_EQ(what.find("did you mean"), std::string::npos) << what;
+}
+
 TEST(SceneJson, ErrorsAreOneLineNamingFileAndPointer) {
   const SceneError e = parseError(sceneWithRoot("{\"type\": \"point\", \"na\\nme\": 1}"));
   const std::string what = e.what();
