@@ -48,6 +48,7 @@ struct Row {
 void addBenchCommand(CLI::App& app) {
   struct Args {
     std::vector<std::string> scenes;
+    std::string bounds;
     std::vector<int> resolutions{128};
     std::vector<std::string> backends{"cpu"};
     std::vector<int> threads{0};
@@ -65,6 +66,7 @@ void addBenchCommand(CLI::App& app) {
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("bench", "Time whole-scene polygonization (median of repeats)");
   cmd->add_option("scenes", a->scenes, "Scene files (.json, .blob, .scene)")->required();
+  cmd->add_option("--bounds", a->bounds, kGridBoundsHelp)->check(gridBounds());
   cmd->add_option("--resolution", a->resolutions, "Cells along the longest side (several allowed)")
       ->check(resolutionRange());
   cmd->add_option("--backend", a->backends, "Backends to run: cpu, reference, vk (several allowed)")
@@ -115,7 +117,10 @@ void addBenchCommand(CLI::App& app) {
     // Every scene is loaded before any is timed: a bad one is found at once, not after minutes.
     std::vector<Model> models;
     models.reserve(a->scenes.size());
-    for (const std::string& path : a->scenes) models.push_back(loadModel(path));
+    for (const std::string& path : a->scenes) {
+      models.push_back(loadModel(path));
+      applyGridBounds(models.back(), a->bounds);
+    }
     std::vector<Row> rows;
     // One progress step per timed configuration (scenes x resolutions x backends x threads, the
     // traversals counting on vk only).

@@ -95,7 +95,7 @@ struct CellDiff {
 
 void addCompareCommand(CLI::App& app) {
   struct Args {
-    std::string scene;
+    std::string scene, bounds;
     std::optional<int> resolution;
     std::optional<float> cellSize;
     std::string cpuBackend = "cpu";
@@ -107,6 +107,7 @@ void addCompareCommand(CLI::App& app) {
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("compare", "Compare the CPU and Vulkan backends on a scene");
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
+  cmd->add_option("--bounds", a->bounds, kGridBoundsHelp)->check(gridBounds());
   auto* res = cmd->add_option("--resolution", a->resolution, "Cells along the longest side (default 64)")->check(resolutionRange(2));
   cmd->add_option("--cell-size", a->cellSize, "Grid cell size")->check(cellSize())->excludes(res);
   cmd->add_option("--cpu-backend", a->cpuBackend, "CPU side: cpu (MPU + AVX) or reference")
@@ -142,7 +143,8 @@ void addCompareCommand(CLI::App& app) {
 #ifndef BLOBVK_HAVE_VULKAN
     throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF)");
 #else
-    const Model model = loadModel(a->scene);
+    Model model = loadModel(a->scene);
+    applyGridBounds(model, a->bounds);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->cellSize ? a->resolution : a->resolution.value_or(64));
     nlohmann::json report = versionJson();
     report["scene"] = a->scene;

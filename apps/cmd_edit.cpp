@@ -76,7 +76,7 @@ std::string framePath(const std::string& pattern, int frame) {
 
 void addEditCommand(CLI::App& app) {
   struct Args {
-    std::string scene, edits, out, size = "512x512";
+    std::string scene, edits, out, size = "512x512", bounds;
     std::optional<float> cellSize;
     std::optional<int> resolution;
     int threads = 0, mpu = 0, brickCells = 0;
@@ -88,6 +88,7 @@ void addEditCommand(CLI::App& app) {
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
   cmd->add_option("edits", a->edits, "Edit script (.json, see docs/editing.md)")->required();
   cmd->add_option("-o,--output", a->out, "Frames: a pattern with %d or %0Nd (.ply, .obj, .stl or .png), e.g. out_%03d.ply")->required();
+  cmd->add_option("--bounds", a->bounds, kGridBoundsHelp)->check(gridBounds());
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")->check(cellSize());
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model as loaded")
       ->check(resolutionRange())
@@ -133,7 +134,8 @@ void addEditCommand(CLI::App& app) {
       throw UsageError("--device, --traversal, --brick-cells and --validation are for --backend vk");
     if (vkBackend && (a->threads || a->mpu)) throw UsageError("--threads and --mpu are for --backend cpu");
 
-    const Model model = loadModel(a->scene);
+    Model model = loadModel(a->scene);
+    applyGridBounds(model, a->bounds);
     const blobtree::EditScript script = blobtree::readEditScript(a->edits);
     checkOutputFile(framePath(a->out, int(script.edits.size())), {".ply", ".obj", ".stl", ".png"}, false, "a mesh or an image");
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);

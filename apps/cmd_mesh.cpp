@@ -54,7 +54,7 @@ void warnEmptyMesh(const std::string& gridText) {
 
 void addMeshCommand(CLI::App& app) {
   struct Args {
-    std::string scene, out, format;
+    std::string scene, out, format, bounds;
     std::optional<float> cellSize;
     std::optional<int> resolution;
     PolygonizeSettings settings;
@@ -76,6 +76,7 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_option("-o,--output", a->out, "Output mesh (.ply, .obj, .stl, .gltf, .glb; - for standard output)")->required();
   cmd->add_option("--format", a->format, "Format for -o - or an output without an extension such as /dev/null (ply, obj, stl, gltf, glb; default ply)")
       ->check(CLI::IsMember(std::vector<std::string>{"ply", "obj", "stl", "gltf", "glb"}));
+  cmd->add_option("--bounds", a->bounds, kGridBoundsHelp)->check(gridBounds());
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (world units)")
                  ->check(cellSize());
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side of the model")
@@ -179,7 +180,8 @@ void addMeshCommand(CLI::App& app) {
     if (a->stream && a->settings.backend == "reference")
       throw UsageError("--stream runs on the cpu and vk backends, not reference");
 
-    const Model model = loadModel(a->scene);
+    Model model = loadModel(a->scene);
+    applyGridBounds(model, a->bounds);
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->resolution);
     const std::string gridText =
         std::to_string(grid.cells.x) + " x " + std::to_string(grid.cells.y) + " x " + std::to_string(grid.cells.z);

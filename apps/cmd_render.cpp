@@ -78,7 +78,7 @@ std::string framePath(const std::string& out, int frame, int frames) {
 
 void addRenderCommand(CLI::App& app) {
   struct Args {
-    std::string scene, out, size = "512x512", camera, eye, target, mode = "mesh";
+    std::string scene, out, size = "512x512", camera, eye, target, mode = "mesh", bounds;
     std::optional<float> cellSize, fov;
     std::optional<int> resolution;
     PolygonizeSettings settings;
@@ -99,6 +99,7 @@ void addRenderCommand(CLI::App& app) {
       ->check(CLI::IsMember({"mesh", "raycast"}));
   cmd->add_option("--backend", a->settings.backend, "Polygonizer for mesh mode: cpu (default), reference, vk")
       ->check(CLI::IsMember(allBackendNames()));
+  cmd->add_option("--bounds", a->bounds, kGridBoundsHelp)->check(gridBounds());
   auto* cs = cmd->add_option("--cell-size", a->cellSize, "Grid cell size (mesh mode)")->check(cellSize());
   cmd->add_option("--resolution", a->resolution, "Cells along the longest side (mesh mode)")
       ->check(resolutionRange())
@@ -145,7 +146,8 @@ void addRenderCommand(CLI::App& app) {
     (void)toStdout;
     throw std::runtime_error("this blobvk was built without Vulkan (BLOBVK_WITH_VULKAN=OFF): no renderer");
 #else
-    const Model model = loadModel(a->scene);
+    Model model = loadModel(a->scene);
+    applyGridBounds(model, a->bounds);
     vk::CameraRequest request;
     if (!orbit.empty()) {
       request.azimuthDeg = orbit[0];

@@ -1,7 +1,10 @@
 #include "model.h"
 
+#include "number_checks.h"
+
 #include "blobvk/blobtree/scene_io.h"
 
+#include <array>
 #include <stdexcept>
 
 namespace blobvk::app {
@@ -26,12 +29,22 @@ blobtree::Aabb viewBounds(const Model& model) {
   return box;
 }
 
+void applyGridBounds(Model& model, const std::string& bounds) {
+  if (bounds.empty()) return;
+  const std::array<double, 6> v = parseGridBounds(bounds);
+  model.scene.grid.boundsLo = blobtree::Vec3(v[0], v[1], v[2]);
+  model.scene.grid.boundsHi = blobtree::Vec3(v[3], v[4], v[5]);
+}
+
 blobtree::GridSpec gridFor(const Model& model, std::optional<float> cellSize,
                            std::optional<int> resolution) {
   try {
     return blobtree::chooseGrid(model.program, model.scene.grid, {cellSize, resolution});
   } catch (const std::exception& e) {
-    throw std::runtime_error(model.path + ": " + e.what());
+    // A legacy file has no grid section to put the bounds in: name the option that gives them.
+    const bool unbounded = !model.program.bounds.finite() && !model.program.bounds.empty() &&
+                           !(model.scene.grid.boundsLo && model.scene.grid.boundsHi);
+    throw std::runtime_error(model.path + ": " + e.what() + (unbounded ? " or --bounds x0,y0,z0,x1,y1,z1" : ""));
   }
 }
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <functional>
+#include <stdexcept>
 #include <string>
 
 namespace blobvk::app {
@@ -40,6 +41,37 @@ CLI::Validator positiveFinite() {
 
 CLI::Validator cellSize() {
   return finiteCheck([](double v) { return v > 0 && v <= 1e6; }, "a cell size in (0, 1e6]");
+}
+
+std::array<double, 6> parseGridBounds(const std::string& text) {
+  std::array<double, 6> v{};
+  const char* at = text.c_str();
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    char* end = nullptr;
+    v[i] = std::strtod(at, &end);
+    if (end == at || !std::isfinite(v[i]) || std::abs(v[i]) > 1e6) throw std::invalid_argument("bad number");
+    at = end;
+    if (i + 1 < v.size() && *at++ != ',') throw std::invalid_argument("too few numbers");
+  }
+  if (*at != '\0') throw std::invalid_argument("too many numbers");
+  return v;
+}
+
+CLI::Validator gridBounds() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::array<double, 6> v{};
+        try {
+          v = parseGridBounds(text);
+        } catch (const std::invalid_argument&) {
+          return "'" + text + "' is not six numbers x0,y0,z0,x1,y1,z1 within [-1e6, 1e6]";
+        }
+        for (int a = 0; a < 3; ++a)
+          if (!(v[std::size_t(a)] < v[std::size_t(a) + 3]))
+            return std::string("the low corner must lie below the high one on every axis (") + "xyz"[a] + ")";
+        return {};
+      },
+      "X0,Y0,Z0,X1,Y1,Z1");
 }
 
 CLI::Validator nonNegativeFinite() {

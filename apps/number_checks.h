@@ -6,6 +6,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include <array>
+#include <string>
+
 namespace blobvk::app {
 
 // A finite number in [lo, hi].
@@ -18,6 +21,11 @@ CLI::Validator cellSize();
 CLI::Validator nonNegativeFinite();
 // Cells per MPU side: 0 (the default) or 2 to 64 (an MPU of one cell holds no interior corner).
 CLI::Validator mpuCells();
+// Grid bounds "x0,y0,z0,x1,y1,z1": six finite numbers within the scene format's range (1e6),
+// x0 < x1, y0 < y1, z0 < z1 (the scene format's grid.bounds).
+CLI::Validator gridBounds();
+// The six numbers of a text gridBounds() accepted.
+std::array<double, 6> parseGridBounds(const std::string& text);
 // Any text but the empty one: `--device ''` or `--simplify ''` would otherwise read as the
 // option not given.
 CLI::Validator nonEmptyText();

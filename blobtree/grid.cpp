@@ -30,7 +30,7 @@ GridSpec chooseGrid(const Program& program, const GridSettings& scene, const Gri
   if (!box.finite()) {
     throw std::invalid_argument(
         "the model is unbounded (a bend, or a strong taper, that no intersection or difference bounds); give "
-        "grid.bounds in the scene (a legacy file has none: convert it to JSON first)");
+        "grid.bounds in the scene");
   }
   const glm::vec3 extent = box.hi - box.lo;
   // A model of no extent (a degenerate box) still gets a grid; a small one gets its own size,

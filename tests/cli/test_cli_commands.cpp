@@ -10,10 +10,12 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -156,6 +158,46 @@ TEST_F(CliCommands, BenchJsonReportsTheMeshItTimed) {
   r = runCliSplit("bench " + tower + " --resolution 16 --repeats 1", cwd);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("median s"), std::string::npos) << r.out;
+}
+
+// A legacy file has no grid section, so one with a bend (an unbounded model) is meshed with
+// --bounds: the same bytes as its JSON conversion with those bounds as grid.bounds. --bounds also
+// meshes a region of a bounded model: no vertex outside it. Bad bounds are usage errors.
+TEST_F(CliCommands, BoundsOnTheCommandLineMeshAnUnboundedLegacyFileAndARegion) {
+  const fs::path cwd = dir("bounds");
+  std::ofstream(cwd / "bend.blob") << "[BLOBNODE 0]\nIsOperator=1\nOperatorType=BEND\nrate=0.3\ncenter=0\n"
+                                      "left bound=-1\nright bound=3\nChildrenIDs=(1)\n\n[BLOBNODE 1]\nIsOperator=0\n"
+                                      "PrimitiveType=LINE\nstart=(0, -1, 0)\nend=(0, 3, 0)\n\n[Global]\nFileVersion=6\nRootIDs=(0)\n";
+  CliSplitRun r = runCliSplit("mesh bend.blob -o none.ply", cwd);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("the model is unbounded"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("or --bounds x0,y0,z0,x1,y1,z1"), std::string::npos) << r.err;
+  r = runCliSplit("mesh bend.blob -o bounded.ply --resolution 40 --bounds -3,-3,-4,3,5,4", cwd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  ASSERT_EQ(runCliSplit("convert bend.blob bend.json", cwd).status, 0);
+  nlohmann::json scene = nlohmann::json::parse(fileBytes(cwd / "bend.json"));
+  scene["grid"] = {{"bounds", {{"lo", {-3, -3, -4}}, {"hi", {3, 5, 4}}}}};
+  std::ofstream(cwd / "bend_bounded.json") << scene.dump();
+  ASSERT_EQ(runCliSplit("mesh bend_bounded.json -o json.ply --resolution 40", cwd).status, 0);
+  EXPECT_GT(fileBytes(cwd / "json.ply").size(), 1000u);
+  EXPECT_EQ(fileBytes(cwd / "bounded.ply"), fileBytes(cwd / "json.ply"));
+
+  ASSERT_EQ(runCliSplit("mesh " + tower + " -o half.ply --resolution 48 --bounds -10,-10,-10,0,30,10", cwd).status, 0);
+  const blobvk::mesh::TriMesh half = blobvk::mesh::readPly((cwd / "half.ply").string());
+  ASSERT_GT(half.triangleCount(), 100u);
+  // The grid spans the bounds with a cell of margin each side, rounded up to whole cells.
+  const float cell = 40.0f / 48.0f;
+  float maxX = -1e9f;
+  for (const auto& p : half.positions) maxX = std::max(maxX, p.x);
+  EXPECT_LE(maxX, 2.0f * cell + 1e-3f);
+  EXPECT_GT(maxX, -cell);
+
+  for (const std::string bad : {"1,2,3", "0,0,0,1,1,nan", "0,0,0,1,1,1,1", "0,0,5,1,1,1", "0,0,0,2e6,1,1"}) {
+    r = runCliSplit("mesh " + tower + " -o x.ply --bounds " + bad, cwd);
+    EXPECT_EQ(r.status, 2) << bad << ": " << r.err;
+    EXPECT_NE(r.err.find("--bounds"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(cwd / "x.ply"));
 }
 
 #ifdef BLOBVK_HAVE_VULKAN
