@@ -109,7 +109,7 @@ struct Scene {
   GridSettings grid;
   std::string name;
   // The "simulation" section (FEM, tools, cutting), kept as JSON text: blobtree knows nothing
-  // of simulation; apps/simulation_config.cpp validates it. Empty when absent.
+  // of simulation; surgery/scene_config.cpp validates it. Empty when absent.
   std::string simulationJson;
 };
 

@@ -74,8 +74,17 @@ class Reader {
     else fail(ptr + "/shape", "unknown tool shape \"" + shape + "\" (sphere, capsule, box)");
     if (j.contains("radius")) t.radius = number(j["radius"], ptr + "/radius", 1e-9, 1e6);
     if (j.contains("halfLength")) t.halfLength = number(j["halfLength"], ptr + "/halfLength", 0, 1e6);
-    if (j.contains("halfExtents")) t.halfExtents = vec3(j["halfExtents"], ptr + "/halfExtents");
-    if (j.contains("stiffness")) t.stiffness = number(j["stiffness"], ptr + "/stiffness", 0, 1e15);
+    // The library's own rules (fem::validateTool), found here with the file and place.
+    if (j.contains("halfExtents")) {
+      t.halfExtents = vec3(j["halfExtents"], ptr + "/halfExtents");
+      const double e[3] = {t.halfExtents.x, t.halfExtents.y, t.halfExtents.z};
+      for (int c = 0; c < 3; ++c)
+        if (!(e[c] >= 0)) fail(ptr + "/halfExtents/" + std::to_string(c), "halfExtents must be >= 0, got " + Json(e[c]).dump());
+    }
+    if (j.contains("stiffness")) {
+      t.stiffness = number(j["stiffness"], ptr + "/stiffness", 0, 1e15);
+      if (!(t.stiffness > 0)) fail(ptr + "/stiffness", "stiffness must be > 0");
+    }
     if (!j.contains("path")) fail(ptr, "a tool needs a \"path\" of keyframes");
     const Json& path = j["path"];
     if (!path.is_array() || path.empty()) fail(ptr + "/path", "expected a non-empty array of keyframes");
@@ -219,7 +228,10 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
     if (t.contains("optimizeMaxDihedral"))
       c.tetgen.optimizeMaxDihedralDegrees = r.number(t["optimizeMaxDihedral"], p + "/tetgen/optimizeMaxDihedral", 0, 180);
     if (t.contains("maxVolume")) c.tetgen.maxVolume = r.number(t["maxVolume"], p + "/tetgen/maxVolume", 0, 1e12);
-    if (t.contains("keepSurface")) c.tetgen.keepSurface = t["keepSurface"].is_boolean() && t["keepSurface"].get<bool>();
+    if (t.contains("keepSurface")) {
+      if (!t["keepSurface"].is_boolean()) r.fail(p + "/tetgen/keepSurface", "expected true or false");
+      c.tetgen.keepSurface = t["keepSurface"].get<bool>();
+    }
     if (t.contains("smoothSlivers")) {
       if (!t["smoothSlivers"].is_boolean()) r.fail(p + "/tetgen/smoothSlivers", "expected true or false");
       c.tetgen.smoothSlivers = t["smoothSlivers"].get<bool>();

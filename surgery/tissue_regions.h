@@ -11,7 +11,7 @@ namespace blobvk::surgery {
 
 // Index of the primitive whose own field (blobtree::primitiveField) is largest at p; ties go to
 // the lowest index. Primitives under warps are looked up at the unwarped point (an
-// approximation stated in docs/fem.md). Throws std::invalid_argument for a Program without
+// approximation stated in docs/fem.md, materialFromPrimitive). Throws std::invalid_argument for a Program without
 // primitives.
 std::uint32_t dominantPrimitive(const blobtree::Program& program, const mesh::Double3& p);
 
