@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Measures every hot path and regenerates docs/performance.md (+ docs/performance/*.png) from the
 # results: `blobvk bench --json` for whole scenes on the CPU and on Vulkan, and the Google Benchmark
-# binaries under bench/ with --benchmark_format=json. Nothing in the page is typed by hand.
+# binaries under bench/ with --benchmark_format=json. Every table above the page's hand-measured
+# marker comes from these runs; scripts/perf/render_performance.py keeps the page's prose (filling
+# in the figures it quotes) and everything from the marker on.
 #
 #   scripts/performance.sh                 # release build in build/release (built if missing)
 #   QUICK=1 scripts/performance.sh         # fewer repeats and sizes (a smoke run, ~3 minutes)
@@ -41,7 +43,7 @@ run() {  # key, then the command line (as shown in the page); stdout to $results
 
 run bench_cpu "$blobvk" bench $scenes --resolution $res_cpu --backend cpu --threads 1 2 \
   --repeats $rep_cpu --warmup 1 --json
-# Where the time goes: the issue-17 targets' scenes at 384, per phase (phases_s).
+# Where the time goes: the CPU targets' scenes at 384, per phase (phases_s).
 run bench_phases "$blobvk" bench scenes/tower.json scenes/random128.json scenes/eggshell.json --resolution 384 \
   --backend cpu --threads 1 2 --repeats $rep_cpu --warmup 1 --json
 # The sparse field cache against MPU and leaf size (leaf 0: every grid point of the kept MPUs).
@@ -62,10 +64,12 @@ gb bench_vk '^(scan/.*|specialise_compile/.*|(field/specialised|cpu_avx_field)/.
 # A build's cost without Mesa's shader cache: with it, every repetition after the first would
 # reuse the first one's machine code.
 if [ -x "$build/bench/bench_compile_cost" ]; then
-  run gb_bench_compile_cost env MESA_SHADER_CACHE_DISABLE=true "$build/bench/bench_compile_cost" \
+  run gb_bench_compile_cost env LP_NUM_THREADS="$LP_NUM_THREADS" MESA_SHADER_CACHE_DISABLE=true "$build/bench/bench_compile_cost" \
     --benchmark_repetitions=$gb_reps --benchmark_format=json
 fi
-gb bench_fem '.'
+# The step, the system product and the topology change (the page's three tables), not the
+# convergence study BM_FemStepConverged.
+gb bench_fem 'BM_FemStep/|BM_FemTopologyChange|BM_FemSystemProduct|BM_FemRebuild'
 gb bench_cutting '.'
 gb bench_cut_event '.'
 gb bench_edit '.'
