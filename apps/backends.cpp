@@ -346,9 +346,13 @@ void refuseOptionsNoBackendUses(const CLI::App& command, const std::vector<std::
     refuse({"--device", "--devices", "--cpu-worker", "--validation", "--traversal", "--brick-cells", "--field-tiles",
             "--tiled-vertices", "--vertex-tiles", "--brick-tapes", "--dense", "--batches-per-device"},
            "the vk backend");
-  if (!uses("cpu") && !(uses("vk") && command.get_option_no_throw("--cpu-worker") &&
-                        command.get_option_no_throw("--cpu-worker")->count() > 0))
-    refuse({"--mpu", "--sub-block"}, "the cpu backend");
+  // The vk backend's CPU worker meshes on --threads threads, in MPUs of the brick size (not --mpu).
+  const CLI::Option* cpuWorker = command.get_option_no_throw("--cpu-worker");
+  if (!uses("cpu")) refuse({"--mpu", "--sub-block"}, "the cpu backend");
+  if (!uses("cpu") && !(uses("vk") && cpuWorker && cpuWorker->count() > 0))
+    refuse({"--threads"}, "the cpu backend and the vk backend's --cpu-worker");
+  const CLI::Option* devices = command.get_option_no_throw("--devices");
+  if (!devices || devices->count() == 0) refuse({"--batches-per-device"}, "several devices (--devices)");
   // Within the vk backend: the pruned kernels are the specialised traversal's, the bricks the
   // sparse extraction's.
   const auto given = [&command](const char* option) {

@@ -187,6 +187,9 @@ void addEditCommand(CLI::App& app) {
     report["scene"] = a->scene;
     report["edits_file"] = a->edits;
     report["backend"] = a->backend;
+#ifdef BLOBVK_HAVE_VULKAN
+    if (ctx) report["device"] = deviceJson(ctx->host().physicalDevice);  // what ran the vk backend and drew the frames
+#endif
     report["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cell_size", grid.cellSize},
                       {"origin", {grid.origin.x, grid.origin.y, grid.origin.z}}};
     auto t0 = Clock::now();

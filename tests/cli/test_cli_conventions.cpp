@@ -133,6 +133,15 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
   EXPECT_NE(runCliSplit("bench " + tower + " --backend vk --dense --brick-cells 8", cwd).err.find(
                 "--brick-cells is for the sparse extraction, not --dense"),
             std::string::npos);
+  // CPU options that no backend of the job uses: the vk backend's CPU worker takes --threads only.
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --backend reference --threads 2", cwd).err.find(
+                "--threads is for the cpu backend and the vk backend's --cpu-worker"),
+            std::string::npos);
+  EXPECT_NE(runCliSplit("mesh " + tower + " -o x.ply --backend vk --cpu-worker --mpu 8", cwd).err.find("--mpu is for the cpu backend"),
+            std::string::npos);
+  EXPECT_NE(runCliSplit("bench " + tower + " --backend vk --batches-per-device 2", cwd).err.find(
+                "--batches-per-device is for several devices (--devices)"),
+            std::string::npos);
   EXPECT_NE(runCliSplit("generate -o x.json", cwd).err.find("'-o' comes before the command: blobvk generate takes one of tower, eggshell, random first"),
             std::string::npos);
   EXPECT_TRUE(fs::is_empty(cwd)) << "a refused command wrote a file";

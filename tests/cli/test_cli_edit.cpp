@@ -114,6 +114,7 @@ TEST_F(CliEdit, VulkanBackendFramesEqualFullMeshesOfTheEditedScene) {
   ASSERT_EQ(r.status, 0) << r.err;
   const Json report = Json::parse(r.out);
   EXPECT_EQ(report["backend"], "vk");
+  EXPECT_EQ(report["device"]["driver_name"], "llvmpipe") << r.out;  // the device that ran it, as in mesh --json
   ASSERT_EQ(report["edits"].size(), 3u);
   const Json& first = report["edits"][0];
   EXPECT_FALSE(first["full_remesh"].get<bool>());
