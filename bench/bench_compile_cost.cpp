@@ -73,6 +73,7 @@ struct Result {
   double seconds = 0.0;
   double peakMB = 0.0;
   int ok = 0;
+  char why[240] = "the child process ended without a result";  // when !ok: the reason, as the run gave it
 };
 
 // In a child process: a device, then one mesh at 8 cells (every kernel built and dispatched).
@@ -99,8 +100,10 @@ Result measureInChild(const blobtree::Program& program, Evaluator e) {
       getrusage(RUSAGE_SELF, &u);
       r.peakMB = double(u.ru_maxrss) / 1024.0;
       r.ok = mesh.triangles.empty() ? 0 : 1;
-    } catch (...) {
-      r.ok = 0;
+      if (!r.ok) std::snprintf(r.why, sizeof r.why, "the mesh at 8 cells is empty");
+    } catch (const std::exception& e) {
+      r.ok = 0;  // e.g. lavapipe's loop limit, which an interpreted program this long exceeds
+      std::snprintf(r.why, sizeof r.why, "%s", e.what());
     }
     if (write(fds[1], &r, sizeof r) != ssize_t(sizeof r)) _exit(1);
     _exit(0);
@@ -147,7 +150,7 @@ void buildCost(benchmark::State& state, Size size, Evaluator e) {
     r = measureInChild(program, e);
     state.SetIterationTime(r.seconds);
   }
-  if (!r.ok) state.SkipWithError("the child process failed");
+  if (!r.ok) state.SkipWithError(r.why);
   state.counters["instructions"] = double(program.code.size());
   state.counters["emitted"] = double(emitted);
   state.counters["build_s"] = r.seconds;

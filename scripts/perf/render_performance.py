@@ -214,6 +214,8 @@ def skip_reason(message):
         return f"not run: predicted {predicted.group(1)}"
     if message.startswith("the generator refuses it"):
         return "over the generator's limit"
+    if "over this driver's limit" in message:
+        return "over lavapipe's loop limit"
     return message
 
 
