@@ -239,6 +239,8 @@ def compile_cost_table(path):
         cell = towers.setdefault(tower, {"instructions": None}).setdefault(evaluator, {})
         if b.get("error_occurred"):
             cell["error"] = b.get("error_message", "not run")
+            if b.get("instructions"):
+                towers[tower]["instructions"] = int(b["instructions"])
             continue
         towers[tower]["instructions"] = int(b.get("instructions", 0))
         cell["build"] = min(cell.get("build", float("inf")), b["build_s"])
@@ -258,7 +260,22 @@ def compile_cost_table(path):
                 text += f" ({c['emitted']})"
             row.append(f"**{text}**" if c["default"] else text)
         rows.append(row)
-    return table(["tower", "instructions"] + [label for _, label in columns], rows)
+    out = table(["tower", "instructions"] + [label for _, label in columns], rows)
+    over = OrderedDict()  # tower -> the polygonizer's loop-limit message
+    for tower, cells in towers.items():
+        for key, c in cells.items():
+            if key != "instructions" and "over this driver's limit" in c.get("error", ""):
+                over.setdefault(tower, c["error"])
+    if over:
+        first, message = next(iter(over.items()))
+        need = re.search(r"take up to (\d+) loop iterations.*?bricks of (\d+) cells, over this driver's limit of (\d+)", message)
+        detail = (f" ({int(need.group(1)):,} for {first} with bricks of {need.group(2)} cells, against its limit of "
+                  f"{int(need.group(3)):,}, which it would\nend early and silently)") if need else ""
+        out += ("\n\n" + ("The two largest towers" if len(over) == 2 else ", ".join(over)) +
+                " need more loop iterations per invocation of the field pass than llvmpipe\nruns" + detail +
+                ": the Vulkan polygonizer refuses them on lavapipe with one line naming the\n"
+                "limit and the cpu backend, whichever evaluator is asked for.")
+    return out
 
 
 def compile_cost_stats(path):
