@@ -137,18 +137,20 @@ TetgenOutput runIsolated(const std::function<TetgenOutput()>& run) {
   if (WIFSIGNALED(status))
     throw std::runtime_error(std::string("TetGen crashed on this surface (") + strsignal(WTERMSIG(status)) + ")");
   std::uint64_t sizes[3] = {};
+  // A sanitizer's or a handler's exit after a crash reads as an exit without a whole result.
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || bytes.size() < 1 + sizeof sizes)
-    throw std::runtime_error("TetGen's process ended without a result");
+    throw std::runtime_error("TetGen crashed on this surface (its process exited with status " +
+                             std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + " without a result)");
   std::memcpy(sizes, bytes.data() + 1, sizeof sizes);
   const std::size_t expected = 1 + sizeof sizes + sizes[0] * sizeof(double) + sizes[1] * sizeof(int) + sizes[2];
   if (bytes.size() != expected) throw std::runtime_error("TetGen's process sent a truncated result");
   const char* at = bytes.data() + 1 + sizeof sizes;
   TetgenOutput out;
   out.points.resize(sizes[0]);
-  std::memcpy(out.points.data(), at, sizes[0] * sizeof(double));
+  if (sizes[0] > 0) std::memcpy(out.points.data(), at, sizes[0] * sizeof(double));
   at += sizes[0] * sizeof(double);
   out.tets.resize(sizes[1]);
-  std::memcpy(out.tets.data(), at, sizes[1] * sizeof(int));
+  if (sizes[1] > 0) std::memcpy(out.tets.data(), at, sizes[1] * sizeof(int));
   at += sizes[1] * sizeof(int);
   const std::string message(at, sizes[2]);
   if (bytes[0] == 1) throw std::invalid_argument(message);
