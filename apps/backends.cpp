@@ -335,37 +335,35 @@ void refuseOptionsNoBackendUses(const CLI::App& command, const std::vector<std::
   const auto uses = [&backends](const char* backend) {
     return std::find(backends.begin(), backends.end(), backend) != backends.end();
   };
-  const auto refuse = [&command](std::initializer_list<const char*> options, const char* forWhom) {
-    for (const char* option : options) {
-      // bench's options are lists: count() is how often one was given.
-      const CLI::Option* o = command.get_option_no_throw(option);
-      if (o && o->count() > 0) throw UsageError(std::string(option) + " is for " + forWhom);
-    }
+  // bench's options are lists: count() is how often one was given, results() every value.
+  const auto given = [&command](const char* option) {
+    const CLI::Option* o = command.get_option_no_throw(option);
+    return o && o->count() > 0;
+  };
+  const auto values = [&command, &given](const char* option) {
+    return given(option) ? command.get_option_no_throw(option)->results() : std::vector<std::string>{};
+  };
+  const auto refuse = [&given](std::initializer_list<const char*> options, const char* forWhom) {
+    for (const char* option : options)
+      if (given(option)) throw UsageError(std::string(option) + " is for " + forWhom);
   };
   if (!uses("vk"))
     refuse({"--device", "--devices", "--cpu-worker", "--validation", "--traversal", "--brick-cells", "--field-tiles",
             "--tiled-vertices", "--vertex-tiles", "--brick-tapes", "--dense", "--batches-per-device"},
            "the vk backend");
   // The vk backend's CPU worker meshes on --threads threads, in MPUs of the brick size (not --mpu).
-  const CLI::Option* cpuWorker = command.get_option_no_throw("--cpu-worker");
   if (!uses("cpu")) refuse({"--mpu", "--sub-block"}, "the cpu backend");
-  if (!uses("cpu") && !(uses("vk") && cpuWorker && cpuWorker->count() > 0))
+  if (!uses("cpu") && !(uses("vk") && given("--cpu-worker")))
     refuse({"--threads"}, "the cpu backend and the vk backend's --cpu-worker");
-  const CLI::Option* devices = command.get_option_no_throw("--devices");
-  if (!devices || devices->count() == 0) refuse({"--batches-per-device"}, "several devices (--devices)");
+  if (!given("--devices")) refuse({"--batches-per-device"}, "several devices (--devices)");
   // Within the vk backend: the pruned kernels are the specialised traversal's, the bricks the
   // sparse extraction's.
-  const auto given = [&command](const char* option) {
-    const CLI::Option* o = command.get_option_no_throw(option);
-    return o && o->count() > 0 ? o->results() : std::vector<std::string>{};
-  };
-  const std::vector<std::string> traversals = given("--traversal");
+  const std::vector<std::string> traversals = values("--traversal");
   if (!traversals.empty() && std::none_of(traversals.begin(), traversals.end(),
                                           [](const std::string& t) { return t == "auto" || t == "specialised"; }))
     refuse({"--field-tiles", "--vertex-tiles"}, "the specialised traversal (--traversal auto or specialised)");
-  const CLI::Option* dense = command.get_option_no_throw("--dense");
-  if (dense && dense->count() > 0) refuse({"--brick-cells", "--vertex-tiles", "--brick-tapes", "--cpu-worker"}, "the sparse extraction, not --dense");
-  const std::vector<std::string> fieldTiles = given("--field-tiles");
+  if (given("--dense")) refuse({"--brick-cells", "--vertex-tiles", "--brick-tapes", "--cpu-worker"}, "the sparse extraction, not --dense");
+  const std::vector<std::string> fieldTiles = values("--field-tiles");
   if (!fieldTiles.empty() && fieldTiles.back() == "1")
     refuse({"--vertex-tiles"}, "more than one field tile (--field-tiles 1 makes one)");
 }

@@ -210,12 +210,12 @@ class Reader {
   [[gnu::noinline]] void checkKeys(const Json& obj, const Ptr& ptr,
                  std::initializer_list<std::string_view> allowed,
                  const std::vector<std::string_view>& more = {}) const {
+    const auto takes = [&](std::string_view k) {
+      return std::find(allowed.begin(), allowed.end(), k) != allowed.end() ||
+             std::find(more.begin(), more.end(), k) != more.end();
+    };
     for (const auto& item : obj.items()) {
       const std::string& key = item.key();
-      const auto takes = [&](std::string_view k) {
-        return std::find(allowed.begin(), allowed.end(), k) != allowed.end() ||
-               std::find(more.begin(), more.end(), k) != more.end();
-      };
       if (!takes(key)) {
         std::string list;
         for (auto k : allowed) list += (list.empty() ? "" : ", ") + std::string(k);
