@@ -16,8 +16,8 @@ RESULTS_DIR holds what scripts/performance.sh measured:
 Every measured table above the page's hand-measured marker comes from those files, and so does
 every figure its prose quotes that one of them holds; the prose keeps the page's wording. What
 the script does not run (several invocations of a command, a second binary built without a part,
-callgrind) stays as the page has it, the FEM solver comparison's table included. The sections below the marker (jobs too long or too machine-specific for
-the script: out-of-core, MPI ranks, a discrete GPU, start-up) are kept from the existing page
+callgrind) stays as the page has it. The sections below the marker (jobs too long or too machine-specific for
+the script, or needing a second build: out-of-core, MPI ranks, a discrete GPU, start-up, the FEM solver against an older one) are kept from the existing page
 byte for byte. tests/docs/check_performance_render.py renders a small fixture and checks that the
 page's headings and table columns come out in the page's order.
 """
@@ -540,8 +540,7 @@ def fem_cell(key, value, name=None):
 
 def fem_section(runs, command, chart):
     """bench_fem: the step at three sizes, the system product, the topology change. The
-    block-Jacobi comparison is a second binary's (built without the solver's newer parts) and
-    stays as the page has it."""
+    comparison with block-Jacobi alone needs a second build and is a hand-measured section."""
     steps = gb_select(runs, "BM_FemStep/")
     products = gb_select(runs, "BM_FemSystemProduct/")
     topology = [(n, r) for n, r in gb_select(runs) if n in ("BM_FemTopologyChange", "BM_FemRebuild")]
@@ -566,18 +565,8 @@ def fem_section(runs, command, chart):
                             cell=fem_cell))
     out.append(
         "\nThe step's solver: block-Jacobi CG with the two-level correction (aggregate translations,\n"
-        "`docs/fem.md`), two parallel passes per iteration, the assembled product in AVX2 + FMA. Against\n"
-        "block-Jacobi alone with three passes per iteration and the scalar product (the same benchmark\n"
-        "source built without those three parts), both binaries run alternately, minimum of 8 runs each\n"
-        "(960 tets: 5):\n\n"
-        "```sh\n"
-        "build/release/bench/bench_fem --benchmark_filter='BM_FemStep/' --benchmark_format=json\n"
-        "```\n\n"
-        "| benchmark | block-Jacobi alone | with the correction | ratio | cg_iterations (alone → with) | rotations / assembly / solve ms (with) |\n"
-        "|---|---|---|---|---|---|\n"
-        "| `BM_FemStep/8/5/4` (960 tets) | 0.694 ms | 0.484 ms | 1.4x | 36.2 → 23.5 | 0.19 / 0.07 / 0.22 |\n"
-        "| `BM_FemStep/12/12/12` (10,368 tets) | 6.03 ms | 2.95 ms | 2.0x | 67.1 → 24.9 | 1.0 / 0.51 / 1.44 |\n"
-        "| `BM_FemStep/19/20/45` (102,600 tets) | 83.5 ms | 32.9 ms | 2.5x | 71.7 → 22.8 | 9.4 / 6.2 / 17.3 |\n")
+        "`docs/fem.md`), two parallel passes per iteration, the assembled product in AVX2 + FMA; against\n"
+        "block-Jacobi alone: [FEM solver against block-Jacobi alone](#fem-solver-against-block-jacobi-alone-bench_fem-two-builds).\n")
     if steps:
         by_size = sorted(steps, key=lambda s: s[1]["counters"].get("tets", 0))
         c = lambda r, k: r["counters"].get(k, 0.0)
@@ -615,10 +604,7 @@ def fem_section(runs, command, chart):
             faster, costs = "~5x (10k) and ~3.4x (100k)", "17-22"
         cg = span([c(r, "cg_iterations") for _, r in steps]) if steps else "23-25"
         out.append(
-            f"\nMinimum of {reps} runs, alternating with a binary of the scalar product (which took 0.0409 ms "
-            "and 0.506 ms in the same runs: the AVX2 kernel is 1.8x\n"
-            "and 1.6x faster; the matrix-free product and the assembly are the same code in both, so their\n"
-            f"rows take the minimum over both binaries). The assembled product is {faster}\n"
+            f"\nMinimum of {reps} runs. The assembled product is {faster}\n"
             f"faster than the matrix-free one; assembling costs {costs} products, repaid within a step (~{cg}\n"
             "CG iterations).\n")
     if topology:
