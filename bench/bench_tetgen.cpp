@@ -14,6 +14,7 @@
 //   bench_tetgen                                   # all (the raw MC scene rows take ~1 min)
 //   bench_tetgen --benchmark_filter='icosphere'
 //   bench_tetgen --benchmark_filter='-sceneTetgen/[a-z_]+/[0-9]+/0/'   # all but the raw MC rows
+//   bench_tetgen --benchmark_filter='tetgenChildProcess'           # the child process's cost
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/scene_io.h"
@@ -37,6 +38,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace {
 
@@ -275,6 +277,37 @@ BENCHMARK_CAPTURE(tetrahedralize, icosphere_q1.414_10_o140, sphere, 1.414, 10.0,
 BENCHMARK_CAPTURE(tetrahedralize, icosphere_q2_10_o150, sphere, 2.0, 10.0, 150.0)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(tetrahedralize, blob_q1.414_10, blob, 1.414, 10.0, 0.0)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(tetrahedralize, blob_q1.414_10_o150, blob, 1.414, 10.0, 150.0)->Arg(100000)->Unit(benchmark::kMillisecond);
+
+// TetGen runs in a child process (fem/tetgen_mesher.cpp: a crash must not take the host down).
+// Its cost grows with the host's memory, not the surface: fork copies the page tables, and every
+// page the host writes while the child lives, and once more after, takes a fault. Args: MiB the
+// host holds, written before each call (a simulation's or an engine's state); 1 isolated (the
+// default), 0 in the calling thread (TetgenOptions::isolateInChildProcess). A small closed
+// surface (an icosphere of 320 triangles, a few ms of TetGen), so what grows is the isolation.
+// Counters: call_ms (tetrahedralize, wall), rewrite_ms (the host writing a byte per page of its
+// memory after the call: the copy-on-write faults the child leaves behind).
+void tetgenChildProcess(benchmark::State& state) {
+  const mesh::TriMesh surface = icosphere(2);
+  fem::TetgenOptions o;
+  o.smoothSlivers = false;
+  o.isolateInChildProcess = state.range(1) != 0;
+  std::vector<char> host(std::size_t(state.range(0)) << 20, 1);
+  const std::size_t page = 4096;
+  double callSeconds = 0.0, rewriteSeconds = 0.0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    benchmark::DoNotOptimize(fem::tetrahedralize(surface, o));
+    const auto t1 = std::chrono::steady_clock::now();
+    for (std::size_t i = 0; i < host.size(); i += page) host[i] = char(host[i] + 1);
+    benchmark::ClobberMemory();
+    const auto t2 = std::chrono::steady_clock::now();
+    callSeconds += std::chrono::duration<double>(t1 - t0).count();
+    rewriteSeconds += std::chrono::duration<double>(t2 - t1).count();
+  }
+  state.counters["call_ms"] = 1e3 * callSeconds / double(state.iterations());
+  state.counters["rewrite_ms"] = 1e3 * rewriteSeconds / double(state.iterations());
+}
+BENCHMARK(tetgenChildProcess)->ArgsProduct({{0, 256, 2048}, {0, 1}})->Unit(benchmark::kMillisecond);
 
 // Shipped simulated scenes. Args: {target tets (0: no -a, as `blobvk simulate`), clean-up edge
 // in % of a cell (0: raw marching-cubes surface), projection (0 scalar, 1 SIMD batch)}. The

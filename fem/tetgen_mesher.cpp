@@ -203,7 +203,9 @@ mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& 
     }
   }
 
-  const TetgenOutput out = runIsolated([&] { return runTetgen(in, tetgenSwitches(options)); });
+  const std::string switches = tetgenSwitches(options);
+  const TetgenOutput out = options.isolateInChildProcess ? runIsolated([&] { return runTetgen(in, switches); })
+                                                         : runTetgen(in, switches);
   mesh::TetMesh mesh;
   mesh.positions.resize(out.points.size() / 3);
   for (std::size_t i = 0; i < mesh.positions.size(); ++i)

@@ -30,6 +30,14 @@ struct TetgenOptions {
   // surface encloses, so a shell's hollow (the eggshell's inside, the gap between skull and
   // brain) needs one point in it to come out empty. Not part of the switch string.
   std::vector<mesh::Double3> holes;
+  // TetGen runs in a forked child process, so that its crashes (it still segfaults on some valid
+  // closed surfaces) become std::runtime_error instead of taking the host down. The isolation
+  // costs with the host's memory, not the surface: fork copies the page tables, and the host's
+  // pages take a copy-on-write fault each when next written (docs/fem.md: +2.5 ms a call for a
+  // small host; a host holding 2 GiB +82 ms, then 0.46 s of faults as it writes its memory).
+  // false: TetGen runs in the calling thread (the same mesh, bit for bit), for a host that
+  // meshes trusted surfaces often and holds much memory.
+  bool isolateInChildProcess = true;
 };
 
 bool tetgenAvailable();

@@ -5,6 +5,7 @@
 #include "blobvk/mesh/checks.h"
 #include "test_helpers.h"
 
+#include <cstring>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -149,6 +150,25 @@ TEST(TetgenMesher, CubeGivesQualityTetsWithExactVolume) {
   for (const auto& p : m.positions) surface.positions.push_back({float(p.x), float(p.y), float(p.z)});
   surface.triangles.assign(m.boundaryFaces.begin(), m.boundaryFaces.end());
   EXPECT_NEAR(mesh::checkMesh(surface).volume, 1.0, 1e-5);
+}
+
+// The child process changes nothing but where TetGen runs: the same nodes and tets, bit for bit,
+// and the same errors (a TetGen failure's message crosses the pipe).
+TEST(TetgenMesher, InTheCallingThreadGivesTheIsolatedMeshBitForBit) {
+  if (!tetgenAvailable()) GTEST_SKIP() << "built without TetGen";
+  TetgenOptions isolated;
+  isolated.maxVolume = 0.01;
+  TetgenOptions inThread = isolated;
+  inThread.isolateInChildProcess = false;
+  const mesh::TetMesh a = tetrahedralize(cubeSurface(0.5), isolated), b = tetrahedralize(cubeSurface(0.5), inThread);
+  ASSERT_EQ(a.positions.size(), b.positions.size());
+  ASSERT_EQ(a.tets.size(), b.tets.size());
+  EXPECT_EQ(0, std::memcmp(a.positions.data(), b.positions.data(), a.positions.size() * sizeof(a.positions[0])));
+  EXPECT_EQ(0, std::memcmp(a.tets.data(), b.tets.data(), a.tets.size() * sizeof(a.tets[0])));
+  EXPECT_EQ(a.boundaryFaces, b.boundaryFaces);
+  auto open = cubeSurface(0.5);
+  open.triangles.pop_back();
+  EXPECT_THROW(tetrahedralize(open, inThread), std::invalid_argument);
 }
 
 TEST(TetgenMesher, RejectsOpenSurface) {
