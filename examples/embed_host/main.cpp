@@ -201,6 +201,7 @@ int run(bool validation, const std::string& output, std::uint32_t size) {
     host.queueFamilyIndex = family;
     host.queue = queue;  // blobvk's one-shot helpers only; none runs here (uploads are recorded)
     host.getInstanceProcAddr = vkGetInstanceProcAddr;
+    host.instanceApiVersion = VK_API_VERSION_1_1;  // as the instance was created (app.apiVersion)
     blobvk::vk::Device bdev(host);
     const auto program = blobvk::blobtree::compile(model());
     blobvk::blobtree::GridRequest request;
@@ -392,11 +393,13 @@ int run(bool validation, const std::string& output, std::uint32_t size) {
       region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
       region.imageExtent = {size, size, 1};
       vkCmdCopyImageToBuffer(cmd, colour.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback, 1, &region);
+      // The host reads the image copy and the polygonizer's overflow word (poly.readOverflow(),
+      // written by its compute pass): both writes made visible to the host.
       VkMemoryBarrier hb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
-      hb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+      hb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT;
       hb.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &hb, 0, nullptr,
-                           0, nullptr);
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                           VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &hb, 0, nullptr, 0, nullptr);
       ok(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
       VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
       VkFence fence;

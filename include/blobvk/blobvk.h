@@ -12,7 +12,8 @@
 // <blobvk/vulkan.h>).
 //
 // Thread safety: Program, Tree and GridSpec are plain values; evaluating one Program from many
-// threads at once is safe (const access only). There is no global state anywhere in the library.
+// threads at once is safe (const access only). No global state needs setting up or tearing down:
+// what is process-wide is thread-safe caches of host-side plans and per-thread scratch buffers.
 #pragma once
 
 #include "blobvk/blobtree/evaluate.h"

@@ -1,7 +1,7 @@
 // blobvk's Vulkan embedding API: polygonize and render implicit models inside a host engine.
 // Style of VulkanMemoryAllocator and Dear ImGui's Vulkan backend: the host owns every Vulkan
 // object it passes in, the library records into the host's command buffers, and the host
-// submits. examples/embed_host/main.cpp is a complete, tested host in ~400 lines.
+// submits. examples/embed_host/main.cpp is a complete, tested host in ~500 lines.
 //
 // ---- 1. Hand over the device --------------------------------------------------------------
 //   blobvk::vk::HostContext host;            // all handles stay the host's; they must outlive
@@ -9,10 +9,13 @@
 //   host.queueFamilyIndex = family;          // compute (and graphics, for the mesh renderer)
 //   host.queue = queue;                      // only for blobvk's upload/one-shot helpers
 //   host.getInstanceProcAddr = vkGetInstanceProcAddr;   // any loader: volk, static, dynamic
+//   host.instanceApiVersion = VK_API_VERSION_1_1;  // your VkApplicationInfo::apiVersion (>= 1.1)
 //   host.pipelineCache = engineCache;        // optional: pipelines go into it; never destroyed
 //   blobvk::vk::Device device(host);         // private dispatch table, allocator, pipelines
-// Requirements: Vulkan 1.1, no extension and no optional feature. The library loads its own
-// function pointers through getInstanceProcAddr; it never calls global vk* prototypes.
+// Requirements: Vulkan 1.1 (instance and device), subgroup vote in compute shaders, no extension
+// and no optional feature; the Device constructor refuses what lacks them, naming it. The
+// library loads its own function pointers through getInstanceProcAddr; it never calls global
+// vk* prototypes.
 //
 // ---- 2. Record the polygonizer into your command buffer -------------------------------------
 //   blobvk::vk::SlabPolygonizer poly(device, program, grid, {});   // single slab: plan(0)

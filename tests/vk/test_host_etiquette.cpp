@@ -6,6 +6,7 @@
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "models.h"
 #include "blobvk/vk/eval/field.h"
+#include "blobvk/vk/device/error.h"
 #include "blobvk/vk/device/memory.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/extract/scan.h"
@@ -20,6 +21,7 @@
 #include <cstring>
 #include <future>
 #include <numeric>
+#include <string>
 #include <vector>
 
 namespace blobvk::testing {
@@ -178,6 +180,56 @@ TEST_F(VulkanTest, TwoDevicesShareNoTilePlans) {
   EXPECT_NE(a.tilePlanCache(), nullptr);
   EXPECT_EQ(b.tilePlanCache(), nullptr) << "a plan made on one Device leaked to another";
   EXPECT_EQ(vk::evaluateFieldOnGrid(b, program, grid), field);
+}
+
+// What the Device constructor refuses, each with one VulkanError naming the requirement: an
+// instance version not given or below 1.1 (a 1.0 instance may not call the 1.1 commands blobvk
+// uses, whatever the device supports), and a device without subgroup vote in compute shaders
+// (faked here through the loader: lavapipe has it).
+std::string deviceError(const vk::HostContext& host) {
+  try {
+    vk::Device dev(host);
+  } catch (const vk::VulkanError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+PFN_vkGetInstanceProcAddr realGipa = nullptr;
+PFN_vkGetPhysicalDeviceProperties2 realProperties2 = nullptr;
+
+VKAPI_ATTR void VKAPI_CALL propertiesWithoutVote(VkPhysicalDevice pd, VkPhysicalDeviceProperties2* props) {
+  realProperties2(pd, props);
+  for (auto* s = static_cast<VkBaseOutStructure*>(props->pNext); s; s = s->pNext)
+    if (s->sType == VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES)
+      reinterpret_cast<VkPhysicalDeviceSubgroupProperties*>(s)->supportedOperations &= ~VK_SUBGROUP_FEATURE_VOTE_BIT;
+}
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL gipaWithoutVote(VkInstance instance, const char* name) {
+  if (!std::strcmp(name, "vkGetPhysicalDeviceProperties2"))
+    return reinterpret_cast<PFN_vkVoidFunction>(propertiesWithoutVote);
+  return realGipa(instance, name);
+}
+
+TEST_F(VulkanTest, TheDeviceRefusesAnInstanceOrADeviceItCannotRunOn) {
+  vk::HostContext host = context().host();
+  ASSERT_EQ(deviceError(host), "");
+
+  vk::HostContext unset = host;
+  unset.instanceApiVersion = 0;
+  EXPECT_NE(deviceError(unset).find("HostContext.instanceApiVersion is not set"), std::string::npos) << deviceError(unset);
+
+  vk::HostContext old = host;
+  old.instanceApiVersion = VK_API_VERSION_1_0;
+  EXPECT_NE(deviceError(old).find("created for Vulkan 1.0"), std::string::npos) << deviceError(old);
+
+  vk::HostContext noVote = host;
+  realGipa = host.getInstanceProcAddr;
+  realProperties2 = reinterpret_cast<PFN_vkGetPhysicalDeviceProperties2>(
+      realGipa(host.instance, "vkGetPhysicalDeviceProperties2"));
+  noVote.getInstanceProcAddr = gipaWithoutVote;
+  EXPECT_NE(deviceError(noVote).find("no subgroup vote operations in compute shaders"), std::string::npos)
+      << deviceError(noVote);
 }
 
 TEST(StandaloneContext, LeavesTheProcessEnvironmentAlone) {

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <string>
 #include <thread>
 
 namespace blobvk::vk {
@@ -35,6 +36,17 @@ Device::Device(const HostContext& host, const DeviceOptions& options)
   if (!host.device || !host.physicalDevice || !host.instance || !host.queue) {
     throw VulkanError("HostContext needs instance, physicalDevice, device and queue");
   }
+  const auto below11 = [](std::uint32_t v) { return VK_API_VERSION_MAJOR(v) < 1 || (VK_API_VERSION_MAJOR(v) == 1 && VK_API_VERSION_MINOR(v) < 1); };
+  if (host.instanceApiVersion == 0) {
+    throw VulkanError("HostContext.instanceApiVersion is not set: give the VkApplicationInfo::apiVersion the instance "
+                      "was created with (blobvk needs VK_API_VERSION_1_1 or later)");
+  }
+  if (below11(host.instanceApiVersion)) {
+    throw VulkanError("the VkInstance was created for Vulkan " + std::to_string(VK_API_VERSION_MAJOR(host.instanceApiVersion)) +
+                      "." + std::to_string(VK_API_VERSION_MINOR(host.instanceApiVersion)) +
+                      " (HostContext.instanceApiVersion); blobvk needs 1.1: create it with VkApplicationInfo::apiVersion "
+                      ">= VK_API_VERSION_1_1");
+  }
   d_ = loadDispatch(host.getInstanceProcAddr, host.instance, host.device);
 
   VkPhysicalDeviceSubgroupProperties subgroup{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
@@ -46,8 +58,15 @@ Device::Device(const HostContext& host, const DeviceOptions& options)
   info_.apiVersion = props.properties.apiVersion;
   info_.subgroupSize = subgroup.subgroupSize;
   info_.limits = props.properties.limits;
-  if (VK_API_VERSION_MINOR(info_.apiVersion) < 1 && VK_API_VERSION_MAJOR(info_.apiVersion) == 1) {
+  if (below11(info_.apiVersion)) {
     throw VulkanError("device '" + info_.name + "' supports only Vulkan 1.0; blobvk needs 1.1");
+  }
+  // The kernels vote across a subgroup (GL_KHR_shader_subgroup_vote: box skips, the classification's
+  // tiles); Vulkan 1.1 guarantees only the basic subgroup operations, in compute.
+  if (!(subgroup.supportedOperations & VK_SUBGROUP_FEATURE_VOTE_BIT) ||
+      !(subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT)) {
+    throw VulkanError("device '" + info_.name + "' has no subgroup vote operations in compute shaders "
+                      "(VkPhysicalDeviceSubgroupProperties); blobvk's kernels need them");
   }
   std::uint32_t familyCount = 0;
   d_.vkGetPhysicalDeviceQueueFamilyProperties(host.physicalDevice, &familyCount, nullptr);

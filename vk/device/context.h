@@ -29,6 +29,11 @@ struct HostContext {
   std::uint32_t queueFamilyIndex = 0;  // must support VK_QUEUE_COMPUTE_BIT
   VkQueue queue = VK_NULL_HANDLE;      // used by Device::submitAndWait; externally synchronised
   PFN_vkGetInstanceProcAddr getInstanceProcAddr = nullptr;
+  // The VkApplicationInfo::apiVersion the instance was created with (an instance created
+  // without one is Vulkan 1.0). Required, at least VK_API_VERSION_1_1: the library calls 1.1
+  // commands, which a 1.0 instance does not allow whatever the device supports, and a handle
+  // cannot tell which version its instance asked for. 0 (not set) is refused with a message.
+  std::uint32_t instanceApiVersion = 0;
   // Optional: the engine's VkPipelineCache. When set, blobvk creates every pipeline (compute
   // kernels, the mesh renderer's) with it and never destroys it; persisting it is the engine's
   // business. When null, the Device creates a private one (DeviceOptions::pipelineCacheData).

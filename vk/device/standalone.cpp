@@ -241,6 +241,7 @@ StandaloneContext::StandaloneContext(const StandaloneOptions& options)
   counters_->print = options.printValidationMessages;
   host_.instance = createInstance(options.validation);
   host_.getInstanceProcAddr = vkGetInstanceProcAddr;
+  host_.instanceApiVersion = VK_API_VERSION_1_1;  // the VkApplicationInfo above
   try {
     if (options.validation) {
       auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
