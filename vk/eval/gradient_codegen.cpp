@@ -3,6 +3,7 @@
 #include "blobvk/vk/eval/codegen_text.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -12,6 +13,9 @@ namespace blobvk::vk {
 namespace {
 
 using codegen::vec3Lit;
+
+// Runs of pruned primitives added into one register shorter than this stay pair by pair.
+constexpr std::uint32_t kMinNullAddRun = 3;
 
 // Each instruction becomes the statements shaders/eval_gradient.glsl's loop runs for it, in the
 // same order, on named registers: field rN, gradient gN, colour cN, point qN with its Jacobian's
@@ -145,6 +149,77 @@ class GradientGenerator {
     line(depth + 1, "if (wantColour) " + named('c', dst) + " = unpackColour(" + std::to_string(prim.meta.z) + "u); }");
   }
 
+  // A primitive the region prunes: +0 field and gradient M^T (+0) everywhere in it.
+  bool pruned(const layout::uvec4& in) const {
+    return in.z == 0 && in.y < p_.primitives.size() && in.y < p_.primitiveBoxes.size() &&
+           regionMissesBox(options_.region, p_.primitiveBoxes[in.y]);
+  }
+
+  // The signs of a pruned primitive's gradient, M^T (+0, +0, +0) as transposeTimesRows sums it:
+  // component j is -0 only where r0[j], r1[j] and r2[j] are all negative (or -0); true: -0.
+  std::array<bool, 3> prunedGradientSigns(const layout::uvec4& in) const {
+    const std::uint32_t matrix = p_.primitives[in.y].meta.y;
+    if (!matrix) return {false, false, false};
+    const auto& m = p_.matrices[matrix];
+    const float rows[3][3] = {{m.r0.x, m.r0.y, m.r0.z}, {m.r1.x, m.r1.y, m.r1.z}, {m.r2.x, m.r2.y, m.r2.z}};
+    std::array<bool, 3> negative{};
+    for (int j = 0; j < 3; ++j)
+      negative[std::size_t(j)] = std::signbit(rows[0][j]) && std::signbit(rows[1][j]) && std::signbit(rows[2][j]);
+    return negative;
+  }
+
+  // Pairs (pruned primitive into register b, OP_ADD of b into a) from `pc` on, with the same a
+  // and b: a blend's children outside the region (random128: most of its 128 points in a tile).
+  std::uint32_t nullAddRun(std::uint32_t pc, std::uint32_t end) const {
+    const auto& first = p_.code[pc].code;
+    const std::uint32_t b = first.x >> 8;
+    std::uint32_t a = 0, run = 0;
+    for (std::uint32_t at = pc; at + 1 < end; at += 2) {
+      const auto& prim = p_.code[at].code;
+      const auto& add = p_.code[at + 1].code;
+      if ((prim.x & 0xffu) != layout::OP_PRIM || (prim.x >> 8) != b || !pruned(prim)) break;
+      if ((add.x & 0xffu) != layout::OP_ADD || add.y != b || (add.x >> 8) == b) break;
+      if (run == 0) a = add.x >> 8;
+      if ((add.x >> 8) != a) break;
+      ++run;
+    }
+    return run;
+  }
+
+  // `run` pairs of nullAddRun as a few statements with the same bits as the pairs one by one.
+  //  - Field: a + (+0) run times is a + (+0) once (it only turns -0 into +0).
+  //  - Gradient: adding -0 changes nothing and adding +0 twice is adding it once, so each
+  //    component adds +0 once where any pair's zero is +0, else -0.
+  //  - Colour: each pair's blend is the same map of a's colour, c -> (c * wa + cb * 0) / w (wa, w
+  //    the same at every pair: a + 0 is a unless a is a zero, and then w is 0 and nothing blends;
+  //    cb * 0 is +0 for every primitive's colour, unpackColour's being finite and >= 0). Once the
+  //    map leaves the colour's bits unchanged it always will, so a loop stops there: usually after
+  //    one or two steps (as the CPU's colour tapes stop their chains of null twins). On llvmpipe a
+  //    loop is the one branch that skips work; unrolled, every pair paid three divisions.
+  //  - Register b ends as the last pair left it.
+  void nullAdds(std::uint32_t pc, std::uint32_t run, int depth) {
+    const auto& last = p_.code[pc + 2 * (run - 1)].code;
+    const std::uint32_t b = last.x >> 8, a = p_.code[pc + 1].code.x >> 8;
+    std::array<bool, 3> allNegative{true, true, true};
+    for (std::uint32_t k = 0; k < run; ++k) {
+      const std::array<bool, 3> s = prunedGradientSigns(p_.code[pc + 2 * k].code);
+      for (std::size_t j = 0; j < 3; ++j) allNegative[j] = allNegative[j] && s[j];
+    }
+    const std::string ra = named('r', a), rb = named('r', b), ga = named('g', a), ca = named('c', a), cb = named('c', b);
+    line(depth, "// " + std::to_string(run) + " pruned primitives added into " + ra + " (the bits of adding each)");
+    primitive(last, depth);
+    line(depth, "if (wantColour) { float wa = max(" + ra + ", 0.0), wb = max(" + rb + ", 0.0); float w = wa + wb; if (w > 0.0) {");
+    line(depth + 1, "for (uint k = 0u; k < " + std::to_string(run) + "u; ++k) {");
+    line(depth + 2, "EVAL_LOOP_TICK();");
+    line(depth + 2, "precise vec3 next = (" + ca + " * wa + " + cb + " * wb) / w;");
+    line(depth + 2, "if (all(equal(floatBitsToUint(next), floatBitsToUint(" + ca + ")))) break;");
+    line(depth + 2, ca + " = next;");
+    line(depth + 1, "} } }");
+    auto zero = [](bool negative) { return std::string(negative ? "-Z" : "Z"); };
+    line(depth, ra + " = " + ra + " + " + rb + "; " + ga + " = " + ga + " + vec3(" + zero(allNegative[0]) + ", " +
+                    zero(allNegative[1]) + ", " + zero(allNegative[2]) + ");");
+  }
+
   void combine(std::uint32_t op, std::uint32_t dst, std::uint32_t src, int depth) {
     const std::string a = named('r', dst), b = named('r', src), ga = named('g', dst), gb = named('g', src),
                       ca = named('c', dst), cb = named('c', src);
@@ -209,10 +284,17 @@ class GradientGenerator {
       const std::uint32_t op = in.x & 0xffu, dst = in.x >> 8;
       check(in.z < p_.pointRegisters, "point register out of range");
       switch (op) {
-        case layout::OP_PRIM:
+        case layout::OP_PRIM: {
           check(dst < regs, "field register out of range");
-          primitive(in, depth);
+          const std::uint32_t run = nullAddRun(pc, end);
+          if (run >= kMinNullAddRun) {
+            nullAdds(pc, run, depth);
+            pc += 2 * run - 1;
+          } else {
+            primitive(in, depth);
+          }
           break;
+        }
         case layout::OP_ADD:
         case layout::OP_MAX:
         case layout::OP_MIN:

@@ -75,8 +75,12 @@ std::uint64_t vertexPassLoopIterations(const blobtree::Program& program, const G
   const bool generatedGradient = !options.codegen || options.codegen->gradient;
   if (options.traversal == Traversal::Specialised && (!generatedGradient || options.interpretVertexPassUntilBuilt))
     vertexEvaluator.traversal = Traversal::Stackless;
-  return vertexLoopIterations(options.refineSteps, options.traversal == Traversal::StackBased,
-                              evaluationLoopBound(program, vertexEvaluator));
+  const std::uint64_t evaluations = vertexLoopIterations(options.refineSteps, options.traversal == Traversal::StackBased,
+                                                         evaluationLoopBound(program, vertexEvaluator));
+  // The generated gradient's loops over runs of pruned primitives' colour blends
+  // (vk/eval/gradient_codegen.cpp, nullAdds): at most one iteration per instruction.
+  const bool generated = vertexEvaluator.traversal == Traversal::Specialised && generatedGradient;
+  return evaluations + (generated ? program.code.size() : 0);
 }
 
 // Whether a job with `options` fits `limit`: its vertex pass, and its field pass with bricks of
