@@ -160,6 +160,7 @@ class GradientGenerator {
   std::array<bool, 3> prunedGradientSigns(const layout::uvec4& in) const {
     const std::uint32_t matrix = p_.primitives[in.y].meta.y;
     if (!matrix) return {false, false, false};
+    check(matrix < p_.matrices.size(), "matrix index out of range");
     const auto& m = p_.matrices[matrix];
     const float rows[3][3] = {{m.r0.x, m.r0.y, m.r0.z}, {m.r1.x, m.r1.y, m.r1.z}, {m.r2.x, m.r2.y, m.r2.z}};
     std::array<bool, 3> negative{};
