@@ -31,6 +31,13 @@ void setQuiet(bool q) { quietFlag = q; }
 
 const char* versionString() { return "blobvk " BLOBVK_VERSION; }
 
+void warnEmptyMesh(const char* command, int cellsX, int cellsY, int cellsZ) {
+  std::fprintf(stderr,
+               "%s: warning: the mesh is empty: no surface crosses the %d x %d x %d grid (a finer --resolution, or grid "
+               "bounds that hold the model?)\n",
+               command, cellsX, cellsY, cellsZ);
+}
+
 std::string printable(std::string_view text) {
   std::string out;
   out.reserve(text.size());

@@ -27,6 +27,11 @@ struct UsageError : std::runtime_error {
 bool quiet();
 void setQuiet(bool quiet);
 
+// An empty mesh is a valid answer (written, drawn, compared), but not without a word: one warning
+// line, which -q does not silence (it silences progress and summaries). `command` as the line's
+// prefix names it ("blobvk render"); `cells` the grid's cells per axis.
+void warnEmptyMesh(const char* command, int cellsX, int cellsY, int cellsZ);
+
 // "blobvk 0.1.0" (the CMake project version).
 const char* versionString();
 

@@ -2,6 +2,7 @@
 // cell by cell and mesh by mesh. A non-zero exit (3) when a threshold is exceeded, so users can
 // put it in their CI.
 #include "backends.h"
+#include "cli_conventions.h"
 #include "number_checks.h"
 #include "commands.h"
 #include "json_report.h"
@@ -148,7 +149,10 @@ void addCompareCommand(CLI::App& app) {
     const blobtree::GridSpec grid = gridFor(model, a->cellSize, a->cellSize ? a->resolution : a->resolution.value_or(64));
     nlohmann::json report = versionJson();
     report["scene"] = a->scene;
-    report["traversal"] = a->traversal;
+    report["traversal"] = a->traversal;  // as asked (auto: the cost model's choice per job)
+    report["cpu_backend"] = a->cpuBackend;
+    report["features"] = a->features;
+    report["thresholds"] = {{"max_field_diff", a->maxFieldDiff}, {"max_hausdorff_cells", a->maxHausdorffCells}};
     report["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cellSize", grid.cellSize}};
     Progress progress("compare", a->images ? 4 : 3);
 
@@ -192,6 +196,9 @@ void addCompareCommand(CLI::App& app) {
       cpu::placeSharpFeatures(cpuMesh, grid);
       cpu::placeSharpFeatures(gpuMesh, grid);
     }
+    // Two empty meshes agree, and check nothing: said, as mesh and render say it.
+    if (cpuMesh.triangleCount() == 0 && gpuMesh.triangleCount() == 0)
+      warnEmptyMesh("blobvk compare", grid.cells.x, grid.cells.y, grid.cells.z);
     const bool sameTopology = cpuMesh.edgeKeys == gpuMesh.edgeKeys && cpuMesh.triangles == gpuMesh.triangles;
     const double hausdorff = vertexHausdorff(cpuMesh, gpuMesh, grid.cellSize);
     report["mesh"] = {{"cpu", {{"vertices", cpuMesh.vertexCount()}, {"triangles", cpuMesh.triangleCount()}}},
@@ -212,7 +219,16 @@ void addCompareCommand(CLI::App& app) {
       a->imageSettings.device = a->device;
       a->imageSettings.validation = a->validation;
       nlohmann::json images;
-      if (!compareImages(model, grid, a->imageSettings, images)) failures.push_back("images differ beyond tolerance");
+      if (!compareImages(model, grid, a->imageSettings, images)) {
+        std::string pairs;
+        for (const auto& pair : images["pairs"])
+          if (!pair["pass"].get<bool>())
+            pairs += std::string(pairs.empty() ? "" : ", ") + pair["a"].get<std::string>() + " vs " + pair["b"].get<std::string>() +
+                     " (" + shortest(100.0 * pair["fraction_over_tolerance"].get<double>()) + " % of pixels over, search radius " +
+                     std::to_string(pair["search_radius_px"].get<int>()) + " px)";
+        if (images.value("validation_messages", 0) > 0) pairs += std::string(pairs.empty() ? "" : ", ") + "validation layer messages";
+        failures.push_back("images differ beyond tolerance: " + pairs);
+      }
       progress.update(4, "images");
       report["images"] = images;
     }
@@ -224,7 +240,7 @@ void addCompareCommand(CLI::App& app) {
     } else {
       std::printf("%s on a %d x %d x %d grid\n", a->scene.c_str(), grid.cells.x, grid.cells.y, grid.cells.z);
       std::printf("field   max |cpu - vk| %.3g, mean %.3g over %zu points\n", maxDiff, sumDiff / double(cpu.size()), cpu.size());
-      std::printf("cells   %llu differ, %llu explained by samples within eps of the iso value\n",
+      std::printf("cells   %llu differ, %llu explained by CPU samples within --max-field-diff of the iso value\n",
                   (unsigned long long)cells.cellsDiffering, (unsigned long long)cells.explained);
       std::printf("mesh    cpu %zu v / %zu t, vk %zu v / %zu t, topology %s, Hausdorff %.3g (%.3g cells)\n",
                   cpuMesh.vertexCount(), cpuMesh.triangleCount(), gpuMesh.vertexCount(), gpuMesh.triangleCount(),

@@ -42,14 +42,6 @@ nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
           {"generated_classification", gpu.generatedClassification}, {"classify_tiles", gpu.classifyTiles}};
 }
 
-// An empty mesh is written all the same (a valid answer), but not without a word: a warning,
-// which --quiet does not silence (it silences progress and summaries).
-void warnEmptyMesh(const std::string& gridText) {
-  std::fprintf(stderr,
-               "blobvk: warning: the mesh is empty: no surface crosses the %s grid (a finer --resolution, or grid "
-               "bounds that hold the model?)\n",
-               gridText.c_str());
-}
 }  // namespace
 
 void addMeshCommand(CLI::App& app) {
@@ -203,7 +195,7 @@ void addMeshCommand(CLI::App& app) {
       checkMemory(streamedNeed, a->limits, "streaming a " + gridText + " grid");
       const bool check = !toStdout && !(quiet() && !a->json);
       const StreamedMeshResult r = meshStreamed(model.program, grid, a->settings, a->out, format, a->ascii, check, a->limits);
-      if (!r.worker && r.triangles == 0) warnEmptyMesh(gridText);
+      if (!r.worker && r.triangles == 0) warnEmptyMesh("blobvk", grid.cells.x, grid.cells.y, grid.cells.z);
       if (r.worker || !check) return;
       if (a->json) {
         nlohmann::json out = versionJson();
@@ -251,7 +243,7 @@ void addMeshCommand(CLI::App& app) {
     progress.reset();
     checkTriangles(mesh.triangleCount(), a->limits);
     checkFiniteVertices(mesh.positions);
-    if (mesh.triangleCount() == 0) warnEmptyMesh(gridText);
+    if (mesh.triangleCount() == 0) warnEmptyMesh("blobvk", grid.cells.x, grid.cells.y, grid.cells.z);
     std::optional<cpu::FeatureReport> featured;
     if (a->features) {
       cpu::FeatureOptions options;

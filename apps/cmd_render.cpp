@@ -211,10 +211,7 @@ void addRenderCommand(CLI::App& app) {
         what = "mesh, " + a->settings.backend + " backend, " + std::to_string(triangles) + " triangles";
       }
       // Drawn all the same (the background is a valid image), but not without a word.
-      if (triangles == 0)
-        std::fprintf(stderr, "blobvk render: warning: the mesh is empty: no surface crosses the %u x %u x %u grid (a finer "
-                             "--resolution, or grid bounds that hold the model?)\n",
-                     unsigned(grid.cells.x), unsigned(grid.cells.y), unsigned(grid.cells.z));
+      if (triangles == 0) warnEmptyMesh("blobvk render", grid.cells.x, grid.cells.y, grid.cells.z);
       what += ", " + std::to_string(renderer->samples()) + "x MSAA";
     } else {
       vk::RaycastOptions rayOptions;

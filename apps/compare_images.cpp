@@ -94,7 +94,7 @@ bool compareImages(const Model& model, const blobtree::GridSpec& grid, const Ima
     entry["fraction_over_tolerance"] = d.fractionOver;
     entry["search_radius_px"] = radius;
     entry["mean_difference"] = d.meanDifference;
-    entry["psnr_db"] = std::isinf(d.psnr) ? nlohmann::json("inf") : nlohmann::json(d.psnr);
+    entry["psnr_db"] = std::isinf(d.psnr) ? nlohmann::json(nullptr) : nlohmann::json(d.psnr);  // null: identical
     entry["pass"] = ok;
     list.push_back(entry);
     if (!settings.writeDir.empty()) {

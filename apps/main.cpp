@@ -157,7 +157,16 @@ int main(int argc, char** argv) {
                  givenCommand(&app).c_str());
     return kExitUsage;
   } catch (const ComparisonFailed& e) {
+    // The report on stdout first (a CI log that merges the two streams reads it before the
+    // verdict), and a report that could not be written is an error like any failed write.
+    errno = 0;
+    const bool reportLost = std::fflush(stdout) != 0 || std::ferror(stdout);
+    const int reportErrno = errno ? errno : EIO;
     std::fprintf(stderr, "blobvk: comparison failed: %s\n", printable(e.message).c_str());
+    if (reportLost) {
+      std::fprintf(stderr, "blobvk: error: standard output: write error: %s\n", systemReason(reportErrno).c_str());
+      return kExitError;
+    }
     return kExitComparisonFailed;
   } catch (const std::exception& e) {
     // One clear line; the library's messages already name the file and the place.

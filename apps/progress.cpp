@@ -5,12 +5,25 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
+#include <string_view>
 
 namespace blobvk::app {
 
+namespace {
+// A bar redrawn in place (carriage return, erase to the end of the line) where stderr is a
+// terminal that has those; TERM=dumb (Emacs shells, CI runners that allocate a pseudo-terminal
+// but keep a log) gets the plain lines a pipe gets.
+bool redrawableTerminal() {
+  if (isatty(STDERR_FILENO) == 0) return false;
+  const char* term = std::getenv("TERM");
+  return !(term && std::string_view(term) == "dumb");
+}
+}  // namespace
+
 Progress::Progress(std::string what, long total)
-    : what_(std::move(what)), total_(total), tty_(isatty(STDERR_FILENO) != 0), quiet_(quiet()) {}
+    : what_(std::move(what)), total_(total), tty_(redrawableTerminal()), quiet_(quiet()) {}
 
 Progress::~Progress() {
   if (barOpen_) std::fprintf(stderr, "\n");

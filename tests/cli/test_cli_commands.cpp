@@ -424,6 +424,49 @@ TEST_F(CliCommands, RenderWireframeOnTheVulkanBackend) {
   EXPECT_FALSE(fs::exists(cwd / "x.png"));
 }
 
+// What a CI reads of a failed compare: the report before the verdict in a merged log, a verdict
+// naming every failure, the thresholds in force in the JSON, and a report lost to a full disk
+// as an error (exit 1), not as a plain mismatch. The creature's Ricci blends and warps give
+// fields a few ulps apart on lavapipe, so a zero field threshold fails.
+TEST_F(CliCommands, AFailedCompareReportsFirstThenNamesItsFailures) {
+  const std::string creature = sourcePath("scenes/creature.json");
+  const CliRun merged = runCli("compare " + creature + " --resolution 24 --max-field-diff 0");
+  ASSERT_EQ(merged.status, 3) << merged.output;
+  const std::size_t report = merged.output.find("\nFAIL\n"), verdict = merged.output.find("blobvk: comparison failed:");
+  ASSERT_NE(report, std::string::npos) << merged.output;
+  ASSERT_NE(verdict, std::string::npos) << merged.output;
+  EXPECT_LT(report, verdict) << merged.output;
+  EXPECT_NE(merged.output.find("max field difference"), std::string::npos) << merged.output;
+
+  const fs::path cwd = dir("compare_failed");
+  const CliSplitRun r = runCliSplit("compare " + creature + " --resolution 24 --max-field-diff 0 --json", cwd);
+  ASSERT_EQ(r.status, 3) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["pass"], false);
+  EXPECT_EQ(j["thresholds"]["max_field_diff"], 0.0);
+  EXPECT_EQ(j["thresholds"]["max_hausdorff_cells"], 0.05);
+  EXPECT_EQ(j["cpu_backend"], "cpu");
+  EXPECT_EQ(j["features"], false);
+  ASSERT_EQ(j["failures"].size(), 1u);
+
+  const std::string errFile = (cwd / "err.txt").string();
+  const int raw = std::system((std::string(BLOBVK_CLI) + " compare " + creature +
+                               " --resolution 24 --max-field-diff 0 >/dev/full 2>'" + errFile + "'").c_str());
+  EXPECT_EQ(WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, 1);
+  const std::string err = fileBytes(errFile);
+  EXPECT_NE(err.find("comparison failed"), std::string::npos) << err;
+  EXPECT_NE(err.find("standard output: write error"), std::string::npos) << err;
+}
+
+// Two empty meshes agree and check nothing: compare says so, as mesh and render do.
+TEST_F(CliCommands, CompareOfEmptyMeshesWarns) {
+  const CliSplitRun r = runCliSplit("compare " + tower + " --resolution 2 -q", dir("compare_empty"));
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("blobvk compare: warning: the mesh is empty: no surface crosses the 4 x 4 x 4 grid"),
+            std::string::npos)
+      << r.err;
+}
+
 TEST_F(CliCommands, CompareJsonNamesVersionDeviceAndDriver) {
   const fs::path cwd = dir("compare");
   CliSplitRun r = runCliSplit("compare " + tower + " --resolution 24 --json", cwd);

@@ -11,6 +11,7 @@
 #include <cctype>
 #include <cstdlib>
 #include <cstdio>
+#include <string>
 #include <cstring>
 #include <mutex>
 #include <set>
@@ -334,7 +335,13 @@ void StandaloneContext::savePipelineCache() noexcept {
     if (data == cacheLoaded_) return;  // nothing new: leave the file (and its readers) alone
     writePipelineCacheFile(cacheFile_, *cacheKey_, data);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "blobvk: warning: pipeline cache not saved: %s\n", e.what());
+    // One line per file and process: a command may hold several contexts on one cache file
+    // (compare's fields and meshes, a kernel warm-up's second device), each failing alike.
+    static std::mutex mutex;
+    static std::set<std::string> warned;
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (warned.insert(cacheFile_).second)
+      std::fprintf(stderr, "blobvk: warning: pipeline cache not saved: %s\n", e.what());
   }
 }
 
