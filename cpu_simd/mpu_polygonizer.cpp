@@ -21,6 +21,7 @@
 #include "blobvk/blobtree/gradient.h"
 
 #include "blobvk/cpu_simd/block_bounds.h"
+#include "blobvk/cpu_simd/edge_crossing.h"
 #include "blobvk/cpu_simd/row_bits.h"
 #include "blobvk/cpu_simd/tape_pruning.h"
 
@@ -149,7 +150,7 @@ void refineEdges(Context& ctx, const blobtree::Program& program, Scratch& s, std
         if (keptSide == 2) s.flo[e] = iso + (s.flo[e] - iso) * 0.5f;
         keptSide = 2;
       }
-      s.t[e] = s.lo[e] + (iso - s.flo[e]) / (s.fhi[e] - s.flo[e]) * (s.hi[e] - s.lo[e]);
+      s.t[e] = crossingWithinEdge(s.lo[e] + (iso - s.flo[e]) / (s.fhi[e] - s.flo[e]) * (s.hi[e] - s.lo[e]));
     }
   }
 }
@@ -485,7 +486,7 @@ BLOBVK_POPCNT_CLONES std::unique_ptr<MpuResult> processMpu(Context& ctx, int m, 
             // Positions: the reference's expression, a[axis] + t * (b[axis] - a[axis]).
             const float len = axis == 0 ? cx[i + 1] - cx[i] : axis == 1 ? ly : lz;
             const float fb = field[p + strides[axis]];
-            const float t = (iso - fa) / (fb - fa);
+            const float t = crossingWithinEdge((iso - fa) / (fb - fa));
             float q[3] = {cx[i], cy[j], cz[k]};
             if (refine) {
               ax[e] = q[0], ay[e] = q[1], az[e] = q[2], length[e] = len, tt[e] = t;

@@ -4,12 +4,14 @@
 //    A point is inside when f >= ISO_VALUE.
 // 2. Vertices: one per crossing grid edge (its two end points differ in inside-ness). The edge
 //    starts at its lower-index point a = point(i, j, k) and ends at b = a + cellSize along axis.
-//    t = (ISO - fa) / (fb - fa); position = a with component `axis` replaced by
+//    t = (ISO - fa) / (fb - fa), kept within [CROSSING_MIN, CROSSING_MAX] (2^-12 from either end:
+//    no two vertices on one grid point); position = a with component `axis` replaced by
 //    a[axis] + t * (b[axis] - a[axis]), all in float (the other components of b - a are zero).
 //    Optional refinement (refineSteps > 0): Illinois regula falsi on the bracket [0, 1] with the
 //    end values (fa, fb): each step evaluates at the current t, keeps the sub-bracket that still
 //    changes sign, halves the stale end's value when the same end is kept twice, and recomputes t
-//    by the secant of the bracket. A step whose value is exactly ISO stops early.
+//    by the secant of the bracket (kept within the same bounds). A step whose value is exactly
+//    ISO stops early.
 // 3. Order: vertices are numbered in increasing global edge key (pointIndex * 3 + axis), which is
 //    the order of a scan over points in index order with axes 0, 1, 2.
 // 4. Triangles: for each cell in cell index order (= pointIndex of its lowest corner), the case
@@ -20,6 +22,8 @@
 // Memory stays at a few z-slabs: field values of three point layers and vertex ids of two, so the
 // reference can run grids far larger than a whole-grid index array would allow.
 #include "blobvk/cpu_simd/reference_polygonizer.h"
+
+#include "blobvk/cpu_simd/edge_crossing.h"
 
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/blobtree/gradient.h"
@@ -39,7 +43,7 @@ constexpr std::uint32_t kNoVertex = std::numeric_limits<std::uint32_t>::max();
 float crossingParameter(const blobtree::Program& program, glm::vec3 a, int axis, float length,
                         float fa, float fb, int refineSteps) {
   const float iso = layout::ISO_VALUE;
-  float t = (iso - fa) / (fb - fa);
+  float t = crossingWithinEdge((iso - fa) / (fb - fa));
   float lo = 0.0f, hi = 1.0f, flo = fa, fhi = fb;
   int keptSide = 0;  // -1: lo kept last step, +1: hi kept last step
   for (int step = 0; step < refineSteps; ++step) {
@@ -57,7 +61,7 @@ float crossingParameter(const blobtree::Program& program, glm::vec3 a, int axis,
       if (keptSide == -1) flo = iso + (flo - iso) * 0.5f;
       keptSide = -1;
     }
-    t = lo + (iso - flo) / (fhi - flo) * (hi - lo);
+    t = crossingWithinEdge(lo + (iso - flo) / (fhi - flo) * (hi - lo));
   }
   return t;
 }

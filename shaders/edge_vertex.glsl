@@ -1,5 +1,6 @@
 // The vertex on one crossing grid edge, by the rules of cpu_simd/reference_polygonizer.cpp:
-// t = (iso - fa) / (fb - fa) from the edge's lower point, optional Illinois regula-falsi steps,
+// t = (iso - fa) / (fb - fa) from the edge's lower point, kept within [CROSSING_MIN, CROSSING_MAX]
+// (shaders/program_layout.h), optional Illinois regula-falsi steps (each t kept so too),
 // then normal (-gradient, normalised) and colour from one analytic-gradient pass (eval_gradient.glsl,
 // as blobtree::evaluateGradientColour). The stack-based traversal, whose code buffer holds a tree
 // encoding, keeps central differences (blobtree::normal) and the colour evaluator.
@@ -36,7 +37,7 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
   vec3 pb = gridPoint(g.x + step_.x, g.y + step_.y, g.z + step_.z);
   // cpu/reference_polygonizer.cpp rule 2: only the edge's own coordinate moves.
   float len = pb[axis] - pa[axis];
-  precise float t = (ISO_VALUE - fa) / (fb - fa);
+  precise float t = clamp((ISO_VALUE - fa) / (fb - fa), CROSSING_MIN, CROSSING_MAX);
   precise float lo = 0.0, hi = 1.0, flo = fa, fhi = fb;
   int keptSide = 0;  // Illinois regula falsi: -1 lo kept last step, +1 hi kept last step
   float h = pc.normalStep;
@@ -86,7 +87,7 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
       if (keptSide == -1) flo = ISO_VALUE + (flo - ISO_VALUE) * 0.5;
       keptSide = -1;
     }
-    t = lo + (ISO_VALUE - flo) / (fhi - flo) * (hi - lo);
+    t = clamp(lo + (ISO_VALUE - flo) / (fhi - flo) * (hi - lo), CROSSING_MIN, CROSSING_MAX);
     p[axis] = pa[axis] + t * len;
     if (steps >= pc.refineSteps) refining = false;
   }

@@ -90,6 +90,13 @@ BLOBVK_CONST uint WARP_BEND = 2u;
 BLOBVK_CONST uint WARP_SHEAR = 3u;
 
 BLOBVK_CONST float ISO_VALUE = 0.5;
+// A vertex's parameter t on its edge is kept within [CROSSING_MIN, CROSSING_MAX] (2^-12 of the
+// edge from either end): a sample exactly at ISO_VALUE would otherwise put the vertices of all
+// its crossing edges on that one grid point, and their triangles would have no area (STL readers,
+// which weld by position, then see non-manifold edges). min/max are exact, so every backend
+// keeps the same bits.
+BLOBVK_CONST float CROSSING_MIN = 0.000244140625;
+BLOBVK_CONST float CROSSING_MAX = 0.999755859375;
 
 struct Instruction {
   uvec4 code;  // see OP_*
