@@ -26,17 +26,26 @@ std::vector<std::string> shippedScenes() {
   return names;
 }
 
-class ShippedMesh : public ::testing::TestWithParam<std::string> {};
+// The parameter's shipped scene, compiled, and its grid at `resolution` cells.
+class ShippedMesh : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override {
+    scene_ = blobvk::blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + GetParam() + ".json");
+    program_ = blobvk::blobtree::compile(scene_.root);
+  }
+  blobvk::blobtree::GridSpec gridAt(int resolution) const {
+    blobvk::blobtree::GridRequest request;
+    request.resolution = resolution;
+    return blobvk::blobtree::chooseGrid(program_, scene_.grid, request);
+  }
+  blobvk::blobtree::Scene scene_;
+  blobvk::blobtree::Program program_;
+};
 
 TEST_P(ShippedMesh, WatertightAtTwoResolutions) {
   using namespace blobvk;
-  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + GetParam() + ".json");
-  const auto program = blobtree::compile(scene.root);
   for (int resolution : {24, 41}) {
-    blobtree::GridRequest request;
-    request.resolution = resolution;
-    const auto grid = blobtree::chooseGrid(program, scene.grid, request);
-    const mesh::MeshReport report = mesh::checkMesh(cpu::polygonizeReference(program, grid));
+    const mesh::MeshReport report = mesh::checkMesh(cpu::polygonizeReference(program_, gridAt(resolution)));
     EXPECT_GT(report.triangles, 0u) << GetParam() << " at " << resolution;
     EXPECT_TRUE(report.watertight()) << GetParam() << " at " << resolution << ": " << report.summary();
     EXPECT_GT(report.volume, 0.0) << GetParam() << " at " << resolution;
@@ -51,13 +60,8 @@ TEST_P(ShippedMesh, WatertightAtTwoResolutions) {
 // once put its vertex on the point (16 zero-area triangles, non-manifold once welded).
 TEST_P(ShippedMesh, NoTwoVerticesShareAPosition) {
   using namespace blobvk;
-  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + GetParam() + ".json");
-  const auto program = blobtree::compile(scene.root);
   for (int resolution : {80, 100}) {
-    blobtree::GridRequest request;
-    request.resolution = resolution;
-    const auto grid = blobtree::chooseGrid(program, scene.grid, request);
-    const mesh::TriMesh m = cpu::polygonizeMpu(program, grid, cpu::MpuOptions{});
+    const mesh::TriMesh m = cpu::polygonizeMpu(program_, gridAt(resolution), cpu::MpuOptions{});
     std::map<std::array<std::uint32_t, 3>, std::size_t> seen;
     std::size_t shared = 0;
     for (std::size_t v = 0; v < m.positions.size(); ++v) {

@@ -2,6 +2,7 @@
 // blade alone, read by the same rules, each mistake named by the file and its own pointer.
 #include "blobvk/blobtree/scene_error.h"
 #include "blobvk/surgery/scene_config.h"
+#include "scene_error_of.h"
 
 #include <gtest/gtest.h>
 
@@ -11,13 +12,7 @@ namespace blobvk::surgery {
 namespace {
 
 blobtree::SceneError bladeError(const std::string& text) {
-  try {
-    (void)parseBladePath(text, "path.json");
-  } catch (const blobtree::SceneError& e) {
-    return e;
-  }
-  ADD_FAILURE() << "no error for " << text;
-  return blobtree::SceneError("", "", "");
+  return sceneErrorOf([&] { (void)parseBladePath(text, "path.json"); }, text);
 }
 
 TEST(BladePathFile, ReadsTheKeyframesOfTheSimulationSection) {

@@ -4,6 +4,7 @@
 #include "blobvk/blobtree/scene_error.h"
 #include "blobvk/fem/tool.h"
 #include "blobvk/surgery/scene_config.h"
+#include "scene_error_of.h"
 
 #include <gtest/gtest.h>
 
@@ -13,13 +14,7 @@ namespace blobvk::surgery {
 namespace {
 
 blobtree::SceneError configError(const std::string& simulation) {
-  try {
-    (void)parseSimulationConfig(simulation, "scene.json");
-  } catch (const blobtree::SceneError& e) {
-    return e;
-  }
-  ADD_FAILURE() << "no error for " << simulation;
-  return blobtree::SceneError("", "", "");
+  return sceneErrorOf([&] { (void)parseSimulationConfig(simulation, "scene.json"); }, simulation);
 }
 
 std::string toolWith(const std::string& keys) {
