@@ -4,6 +4,7 @@
 
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/mesh/io.h"
+#include "blobvk/mesh/unreferenced.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -85,10 +86,13 @@ void FrameWriter::write(const mesh::TriMesh& surface) {
   char name[64];
   std::snprintf(name, sizeof name, "frame_%05d", frame_++);
   const std::filesystem::path base = std::filesystem::path(folder_) / name;
-  mesh::writePly(surface, base.string() + ".ply");
+  // A tet-boundary surface carries every node of its tet mesh; the file holds the surface's own.
+  mesh::TriMesh own = surface;
+  mesh::dropUnreferencedVertices(own);
+  mesh::writePly(own, base.string() + ".ply");
 #ifdef BLOBVK_HAVE_VULKAN
   if (renderer_ && surface.triangleCount() > 0) {
-    writeOutput(base.string() + ".png", vk::encodePng(renderer_->renderer.render(surface, renderer_->camera)));
+    writeOutput(base.string() + ".png", vk::encodePng(renderer_->renderer.render(own, renderer_->camera)));
   }
 #endif
 }

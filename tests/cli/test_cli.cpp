@@ -257,6 +257,10 @@ TEST(Cli, SimulateAndCutTheSoftPeanut) {
     return y;
   };
   EXPECT_GT(lowest("frame_00002.ply"), lowest("frame_00000.ply") - 0.02f);
+  // A frame is the body's closed surface, without the tet mesh's interior nodes.
+  const blobvk::mesh::MeshReport frame = blobvk::mesh::checkMesh(blobvk::mesh::readPly((frames / "frame_00002.ply").string()));
+  EXPECT_TRUE(frame.watertight()) << frame.summary();
+  EXPECT_EQ(frame.unreferencedVertices, 0u) << frame.summary();
   // The solver's summary: every step met the tolerance.
   EXPECT_NE(r.output.find(", 0 steps at the cap"), std::string::npos) << r.output;
   const auto cut = scratch("cut");
