@@ -153,7 +153,7 @@ void addCompareCommand(CLI::App& app) {
     report["cpu_backend"] = a->cpuBackend;
     report["features"] = a->features;
     report["thresholds"] = {{"max_field_diff", a->maxFieldDiff}, {"max_hausdorff_cells", a->maxHausdorffCells}};
-    report["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cellSize", grid.cellSize}};
+    report["grid"] = {{"cells", {grid.cells.x, grid.cells.y, grid.cells.z}}, {"cell_size", grid.cellSize}};
     Progress progress("compare", a->images ? 4 : 3);
 
     // Fields.

@@ -2,7 +2,8 @@
 # cutting surgery). Each component is one library with its own exported targets file
 # (blobvk-<component>-targets.cmake); blobvkConfig.cmake loads the requested components, the
 # blobvk components they build on, and only their external dependencies (Vulkan, glslang and
-# SPIRV-Tools for vk alone; Eigen for fem; TBB for cpu and fem; nlohmann-json for surgery). Public headers install under
+# SPIRV-Tools for vk alone; Eigen, and libtet where built with TetGen, for fem; TBB for cpu and fem;
+# nlohmann-json for surgery). Public headers install under
 # include/blobvk/<room>/ next to the entry headers include/blobvk/blobvk.h and vulkan.h.
 # tests/install builds consumers against an installed tree.
 include(GNUInstallDirs)

@@ -478,6 +478,12 @@ TEST_F(CliCommands, CompareJsonNamesVersionDeviceAndDriver) {
   EXPECT_EQ(j["mesh"]["identical_topology"], true);
   ASSERT_EQ(runCliSplit("mesh " + tower + " -o t.ply --resolution 24 -q", cwd).status, 0);
   EXPECT_EQ(j["mesh"]["cpu"]["triangles"].get<std::size_t>(), blobvk::mesh::readPly((cwd / "t.ply").string()).triangleCount());
+  // The grid under the keys `mesh --json` gives it.
+  const CliSplitRun meshed = runCliSplit("mesh " + tower + " -o t.ply --resolution 24 -q --json", cwd);
+  ASSERT_EQ(meshed.status, 0) << meshed.err;
+  const nlohmann::json m = nlohmann::json::parse(meshed.out);
+  EXPECT_EQ(j["grid"]["cells"], m["grid"]["cells"]);
+  EXPECT_EQ(j["grid"]["cell_size"], m["grid"]["cell_size"]);
 
   // A zero threshold: either the fields agree exactly, or the message shows the difference
   // with enough digits that it is visibly above zero.

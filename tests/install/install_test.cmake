@@ -48,6 +48,17 @@ if(NOT top STREQUAL "blobvk")
   message(FATAL_ERROR "the installed include/ holds ${top}; expected only blobvk/")
 endif()
 
+# The exported targets name their external libraries by imported target, never by a path of the
+# build machine (a moved prefix or another machine would link a file that is not there), and
+# carry no empty link entries.
+file(GLOB exports ${prefix}/lib/cmake/blobvk/blobvk-*-targets.cmake)
+foreach(f ${exports})
+  file(STRINGS ${f} links REGEX "INTERFACE_LINK_LIBRARIES")
+  if(links MATCHES "\"/|;/|\\$<LINK_ONLY:>")
+    message(FATAL_ERROR "${f} links a path or an empty entry: ${links}")
+  endif()
+endforeach()
+
 # Every installed header's includes resolve inside the installed tree with include/ alone on the
 # path (the preprocessor only: a header of one room may need another room's compile definitions).
 file(GLOB rooms LIST_DIRECTORIES true RELATIVE ${prefix}/include/blobvk ${prefix}/include/blobvk/*)
