@@ -21,6 +21,10 @@ std::string tetgenSwitches(const TetgenOptions& o) {
     std::snprintf(buf, sizeof buf, "a%.9g", o.maxVolume);
     s += buf;
   }
+  if (o.maxAddedPoints > 0) {
+    std::snprintf(buf, sizeof buf, "S%u", unsigned(o.maxAddedPoints));
+    s += buf;
+  }
   if (o.keepSurface) s += "Y";
   if (o.optimizeMaxDihedralDegrees > 0) {
     if (o.optimizeMaxDihedralDegrees >= 180) throw std::invalid_argument("TetGen: the optimization dihedral bound must be < 180 degrees");
@@ -28,6 +32,19 @@ std::string tetgenSwitches(const TetgenOptions& o) {
     s += buf;
   }
   return s;
+}
+
+void checkTetBudget(const TetgenOptions& o, double volume) {
+  if (o.maxVolume <= 0 || o.maxAddedPoints == 0) return;
+  const double asked = volume / o.maxVolume, allowed = 6.0 * double(o.maxAddedPoints);
+  if (asked > allowed) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "tetrahedralize: a largest tet volume of %.6g asks for about %.3g tets in a body of volume %.6g, "
+                  "over the limit of about %.3g (6 per added point, at most %u points)",
+                  o.maxVolume, asked, volume, allowed, unsigned(o.maxAddedPoints));
+    throw std::invalid_argument(buf);
+  }
 }
 
 #if !BLOBVK_HAS_TETGEN

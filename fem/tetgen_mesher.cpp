@@ -5,10 +5,12 @@
 #include "blobvk/fem/tet_utils.h"
 #include "blobvk/mesh/checks.h"
 
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -94,6 +96,7 @@ TetgenOutput runIsolated(const std::function<TetgenOutput()>& run) {
   int fds[2];
   if (::pipe(fds) != 0) throw std::runtime_error(std::string("tetrahedralize: pipe: ") + std::strerror(errno));
   std::fflush(nullptr);  // nothing buffered is written twice
+  const pid_t parent = ::getpid();
   const pid_t child = ::fork();
   if (child < 0) {
     ::close(fds[0]);
@@ -101,6 +104,11 @@ TetgenOutput runIsolated(const std::function<TetgenOutput()>& run) {
     throw std::runtime_error(std::string("tetrahedralize: fork: ") + std::strerror(errno));
   }
   if (child == 0) {
+    // A host killed while TetGen runs takes its child along (a job runner's kill of the host
+    // left TetGen computing as an orphan). The forking thread waits in waitpid until the child
+    // ends, so the death signal, sent when that thread ends, means the host is gone. A host that
+    // died before the prctl is caught by getppid.
+    if (::prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || ::getppid() != parent) ::_exit(1);
     ::close(fds[0]);
     char kind = 0;  // 0: result, 1: std::invalid_argument, 2: another exception
     std::string message;
@@ -170,6 +178,7 @@ mesh::TetMesh tetrahedralize(const mesh::TriMesh& surface, const TetgenOptions& 
                                 report.summary() + ")");
   if (!(report.volume > 0))
     throw std::invalid_argument("tetrahedralize: the surface encloses no positive volume (inside out?)");
+  checkTetBudget(options, report.volume);
 
   tetgenio in;
   in.firstnumber = 0;

@@ -7,6 +7,7 @@
 #include "blobvk/mesh/tetmesh.h"
 #include "blobvk/mesh/trimesh.h"
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,12 @@ struct TetgenOptions {
   double maxRadiusEdgeRatio = 1.414;  // -q<ratio>; >= 1.0 (TetGen may not terminate below)
   double minDihedralDegrees = 10.0;   // -q<ratio>/<angle>; heuristic, 0 = TetGen default
   double maxVolume = 0.0;             // -a<volume>; 0 = unbounded
+  // -S<n>: TetGen adds at most this many points (Steiner points, inside and on the boundary),
+  // about six tets each, so refinement ends even where -q's bounds cannot be met: TetGen need
+  // not terminate for a radius-edge bound near 1 or a dihedral bound near 30 degrees (measured:
+  // 50 MB/s of growth without end). 0 = no limit. A maxVolume that asks for more tets than the
+  // limit allows is refused before TetGen runs.
+  std::uint32_t maxAddedPoints = 200000;
   bool quality = true;                // false: no -q (boundary-conforming CDT only)
   bool keepSurface = false;           // -Y: no Steiner points on the boundary
   // -o/<angle>: the largest dihedral angle TetGen's mesh optimization aims for; 0 = TetGen's
@@ -43,6 +50,9 @@ struct TetgenOptions {
 bool tetgenAvailable();
 // The TetGen switch string these options produce (always with p, z (0-based) and Q (quiet)).
 std::string tetgenSwitches(const TetgenOptions& options);
+// Throws std::invalid_argument when options.maxVolume asks for more tets in a body of `volume`
+// than options.maxAddedPoints allows (about 6 tets per added point; none when either is 0).
+void checkTetBudget(const TetgenOptions& options, double volume);
 
 // Surface vertex i becomes node i (TetGen keeps input points first), so a render mesh with the
 // same vertices follows the body through fem::identityEmbedding(); the other nodes and the tets

@@ -221,13 +221,16 @@ SimulationConfig parseSimulationConfig(const std::string& text, const std::strin
   }
   if (j.contains("tetgen")) {
     const Json& t = j["tetgen"];
-    r.keys(t, p + "/tetgen", {"radiusEdge", "minDihedral", "maxVolume", "keepSurface", "optimizeMaxDihedral", "remeshEdge", "smoothSlivers"});
+    r.keys(t, p + "/tetgen", {"radiusEdge", "minDihedral", "maxVolume", "maxAddedPoints", "keepSurface", "optimizeMaxDihedral",
+                                   "remeshEdge", "smoothSlivers"});
     if (t.contains("remeshEdge")) c.tetgenRemeshEdgeCells = r.number(t["remeshEdge"], p + "/tetgen/remeshEdge", 0, 100);
     if (t.contains("radiusEdge")) c.tetgen.maxRadiusEdgeRatio = r.number(t["radiusEdge"], p + "/tetgen/radiusEdge", 1.0, 100);
     if (t.contains("minDihedral")) c.tetgen.minDihedralDegrees = r.number(t["minDihedral"], p + "/tetgen/minDihedral", 0, 30);
     if (t.contains("optimizeMaxDihedral"))
       c.tetgen.optimizeMaxDihedralDegrees = r.number(t["optimizeMaxDihedral"], p + "/tetgen/optimizeMaxDihedral", 0, 180);
     if (t.contains("maxVolume")) c.tetgen.maxVolume = r.number(t["maxVolume"], p + "/tetgen/maxVolume", 0, 1e12);
+    if (t.contains("maxAddedPoints"))
+      c.tetgen.maxAddedPoints = std::uint32_t(r.integer(t["maxAddedPoints"], p + "/tetgen/maxAddedPoints", 0, 100000000));
     if (t.contains("keepSurface")) {
       if (!t["keepSurface"].is_boolean()) r.fail(p + "/tetgen/keepSurface", "expected true or false");
       c.tetgen.keepSurface = t["keepSurface"].get<bool>();

@@ -11,9 +11,12 @@
 #include "blobvk/fem/tet_utils.h"
 #include "blobvk/fem/tetgen_mesher.h"
 #include "blobvk/fem/voxel_mesher.h"
+#include "blobvk/mesh/checks.h"
 #include "blobvk/mesh/surface_remesh.h"
 
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <memory>
 #include <stdexcept>
@@ -71,6 +74,35 @@ SimulationConfig simulationConfigOf(const SceneModel& model) {
   return parseSimulationConfig(model.scene.simulationJson, model.name);
 }
 
+namespace {
+
+// Settings that would have TetGen or the surface clean-up grow without bound are refused before
+// either runs, naming the scene key: the clean-up's triangles follow the surface's area over the
+// target edge squared, TetGen's tets the body's volume over maxVolume.
+void checkTetgenBudget(const std::string& scene, const SimulationConfig& config, const mesh::MeshReport& surface,
+                       double cellSize) {
+  constexpr double kMaxCleanedTriangles = 4e6;
+  if (config.tetgenRemeshEdgeCells > 0) {
+    const double edge = config.tetgenRemeshEdgeCells * cellSize;
+    const double triangles = surface.area / (0.25 * std::sqrt(3.0) * edge * edge);
+    if (triangles > kMaxCleanedTriangles) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "a target edge of %.3g cells makes about %.3g triangles, over %.0g; raise it (or 0: no clean-up)",
+                    config.tetgenRemeshEdgeCells, triangles, kMaxCleanedTriangles);
+      throw std::runtime_error(scene + ": /simulation/tetgen/remeshEdge: " + buf);
+    }
+  }
+  try {
+    fem::checkTetBudget(config.tetgen, surface.volume);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(scene + ": /simulation/tetgen/maxVolume: " + e.what() +
+                             "; raise maxVolume or /simulation/tetgen/maxAddedPoints");
+  }
+}
+
+}  // namespace
+
 TetModel buildTetModel(const SceneModel& model, const blobtree::GridSpec& grid, const TetModelOptions& options) {
   TetModel body;
   body.config = simulationConfigOf(model);
@@ -91,6 +123,8 @@ TetModel buildTetModel(const SceneModel& model, const blobtree::GridSpec& grid, 
     if (!fem::tetgenAvailable()) {
       throw std::runtime_error(model.name + ": /simulation/mesher: this build has no TetGen (BLOBVK_WITH_TETGEN=OFF); use \"voxel\"");
     }
+    checkTetgenBudget(model.name, config, mesh::checkMesh(body.surface), grid.cellSize);
+    std::size_t inputPoints = 0;  // the surface TetGen meshed: its points are the first nodes
     if (config.tetgenRemeshEdgeCells > 0) {
       // Marching-cubes slivers would pass into the tets (docs/fem.md): TetGen meshes a cleaned-up
       // copy, and the render surface (with its colours) is embedded in the result.
@@ -103,6 +137,7 @@ TetModel buildTetModel(const SceneModel& model, const blobtree::GridSpec& grid, 
         // what gets rendered (renderTetBoundary), and embedding ~20k points, many of them just
         // outside the cleaned surface, took half of the craniotomy's meshing time.
         tets = fem::tetrahedralize(cleaned, withCavities(config.tetgen, cleaned, program, grid.cellSize));
+        inputPoints = cleaned.vertexCount();
       } catch (const std::exception& e) {
         // The clean-up refuses edits that make triangles cross, so TetGen should accept its
         // output; should it not (an intersection, or TetGen's "very close facets" error), the
@@ -115,7 +150,12 @@ TetModel buildTetModel(const SceneModel& model, const blobtree::GridSpec& grid, 
     if (tets.tets.empty()) {
       tets = fem::tetrahedralize(body.surface, withCavities(config.tetgen, body.surface, program, grid.cellSize));
       embedding = fem::identityEmbedding(body.surface.vertexCount());
+      inputPoints = body.surface.vertexCount();
     }
+    const std::uint32_t cap = config.tetgen.maxAddedPoints;
+    if (cap > 0 && tets.nodeCount() >= inputPoints + cap)
+      std::cerr << model.name << ": warning: TetGen stopped at its limit of " << cap
+                << " added points (/simulation/tetgen/maxAddedPoints): its tets may not meet radiusEdge and minDihedral\n";
   } else {
     fem::VoxelMesherSettings voxel;
     // The scene's grid box when it gives one (it is where the surface is), else the Program's.

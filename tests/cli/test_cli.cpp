@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -16,8 +17,11 @@
 #include <iterator>
 #include <regex>
 #include <string>
+#include <thread>
 #include <vector>
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 namespace {
 
@@ -243,6 +247,63 @@ TEST(Cli, ADivergingSimulationStopsWithAnError) {
     EXPECT_NE(r.output.find("diverging.json: /simulation: the simulation diverged at step"), std::string::npos)
         << command << r.output;
   }
+}
+
+// The first child of `parent` in /proc, or 0; and whether a process still runs (a zombie has ended).
+pid_t childOf(pid_t parent) {
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    std::ifstream stat(entry.path() / "stat");
+    std::string line;
+    if (!std::getline(stat, line)) continue;
+    const std::size_t close = line.rfind(')');  // the command name may hold spaces
+    char state = 0;
+    int ppid = 0;
+    if (close != std::string::npos && std::sscanf(line.c_str() + close + 1, " %c %d", &state, &ppid) == 2 && ppid == parent)
+      return pid_t(std::stoi(entry.path().filename().string()));
+  }
+  return 0;
+}
+bool running(pid_t pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (!std::getline(stat, line)) return false;
+  const std::size_t close = line.rfind(')');
+  return close != std::string::npos && close + 2 < line.size() && line[close + 2] != 'Z';
+}
+
+// TetGen runs in a child process (fem::TetgenOptions::isolateInChildProcess): a job runner that
+// kills blobvk while TetGen meshes must not leave TetGen computing on as an orphan.
+TEST(Cli, KillingTheCommandEndsItsTetgenProcess) {
+  nlohmann::json scene = nlohmann::json::parse(std::ifstream(source("scenes/soft_peanut.json")));
+  // TetGen cannot meet these bounds: it adds points up to its limit, for seconds.
+  scene["simulation"]["tetgen"]["radiusEdge"] = 1.0;
+  scene["simulation"]["tetgen"]["minDihedral"] = 25;
+  const auto path = scratch("slow_tetgen.json");
+  std::ofstream(path) << scene.dump();
+  const std::string out = scratch("slow_tetgen_frames").string();
+  const pid_t command = fork();
+  ASSERT_GE(command, 0);
+  if (command == 0) {
+    std::freopen("/dev/null", "w", stderr);
+    execl(BLOBVK_CLI, BLOBVK_CLI, "simulate", path.c_str(), "-o", out.c_str(), "--steps", "1", "--no-png", "-q",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  pid_t tetgen = 0;
+  for (int i = 0; i < 3000 && tetgen == 0 && running(command); ++i) {
+    tetgen = childOf(command);
+    if (tetgen == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  kill(command, SIGKILL);
+  waitpid(command, nullptr, 0);
+  ASSERT_NE(tetgen, 0) << "blobvk simulate started no TetGen process within 30 s";
+  bool ended = false;
+  for (int i = 0; i < 500 && !ended; ++i) {
+    ended = !running(tetgen);
+    if (!ended) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (!ended) kill(tetgen, SIGKILL);  // leave no orphan behind whatever the verdict
+  EXPECT_TRUE(ended) << "TetGen (pid " << tetgen << ") outlived the killed command by 5 s";
 }
 
 TEST(Cli, SimulateAndCutTheSoftPeanut) {

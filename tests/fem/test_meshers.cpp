@@ -117,10 +117,11 @@ TEST(TetgenMesher, SwitchesReflectOptions) {
   o.maxRadiusEdgeRatio = 1.5;
   o.minDihedralDegrees = 12;
   o.maxVolume = 0.001;
-  EXPECT_EQ(tetgenSwitches(o), "pzQq1.5/12a0.001");
+  EXPECT_EQ(tetgenSwitches(o), "pzQq1.5/12a0.001S200000");
   o.quality = false;
   o.maxVolume = 0;
   o.keepSurface = true;
+  o.maxAddedPoints = 0;
   EXPECT_EQ(tetgenSwitches(o), "pzQY");
   o.optimizeMaxDihedralDegrees = 150;
   EXPECT_EQ(tetgenSwitches(o), "pzQYo/150");
@@ -169,6 +170,30 @@ TEST(TetgenMesher, InTheCallingThreadGivesTheIsolatedMeshBitForBit) {
   auto open = cubeSurface(0.5);
   open.triangles.pop_back();
   EXPECT_THROW(tetrahedralize(open, inThread), std::invalid_argument);
+}
+
+// TetGen need not end for a radius-edge bound of 1 (it grew by 50 MB/s on a scene's body): the
+// added-point limit ends it with a valid mesh, and a largest tet volume asking for more tets than
+// the limit allows is refused before TetGen runs.
+TEST(TetgenMesher, TheAddedPointLimitBoundsItsWork) {
+  if (!tetgenAvailable()) GTEST_SKIP() << "built without TetGen";
+  TetgenOptions o;
+  o.maxRadiusEdgeRatio = 1.0;
+  o.minDihedralDegrees = 25;
+  o.maxAddedPoints = 2000;
+  const auto cube = cubeSurface(0.5);
+  const mesh::TetMesh m = tetrahedralize(cube, o);
+  EXPECT_LE(m.nodeCount(), cube.positions.size() + o.maxAddedPoints);
+  EXPECT_NEAR(totalVolume(m, true), 1.0, 1e-9);
+  EXPECT_NO_THROW(validateTetMesh(m));
+  o.maxVolume = 1.0 / (6.0 * 2000) * 0.99;  // the unit cube asks for just over 6 x 2000 tets
+  EXPECT_THROW(checkTetBudget(o, 1.0), std::invalid_argument);
+  EXPECT_THROW(tetrahedralize(cube, o), std::invalid_argument);
+  o.maxVolume = 1.0 / (6.0 * 2000) * 1.01;
+  EXPECT_NO_THROW(checkTetBudget(o, 1.0));
+  o.maxAddedPoints = 0;  // no limit: nothing is refused
+  o.maxVolume = 1e-12;
+  EXPECT_NO_THROW(checkTetBudget(o, 1.0));
 }
 
 TEST(TetgenMesher, RejectsOpenSurface) {

@@ -13,8 +13,10 @@
 
 #include <glm/vec3.hpp>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 namespace {
@@ -141,6 +143,35 @@ TEST(TetModel, EggshellMeshesAsAShell) {
       ++hollow;
   }
   EXPECT_EQ(hollow, 0u) << "of " << body.tets.tetCount() << " tets";
+}
+
+// Settings whose work has no bound (a clean-up edge of a thousandth of a cell: hundreds of
+// millions of triangles; a largest tet volume of 1e-12: 10^12 tets) are refused before any
+// meshing, with the scene key to change; the shipped setting of the same scene meshes.
+TEST(TetModel, RefusesSettingsThatWouldGrowWithoutBound) {
+  if (!fem::tetgenAvailable())
+    GTEST_SKIP() << "built without TetGen";
+  const std::pair<const char *, double> cases[] = {{"remeshEdge", 0.001},
+                                                   {"maxVolume", 1e-12}};
+  for (const auto &[key, value] : cases) {
+    surgery::SceneModel model =
+        surgery::loadSceneModel(source("scenes/soft_peanut.json"));
+    nlohmann::json simulation =
+        nlohmann::json::parse(model.scene.simulationJson);
+    simulation["tetgen"][key] = value;
+    model.scene.simulationJson = simulation.dump();
+    const blobtree::GridSpec grid =
+        blobtree::chooseGrid(model.program, model.scene.grid, {});
+    try {
+      (void)surgery::buildTetModel(model, grid);
+      ADD_FAILURE() << key << " " << value << " was accepted";
+    } catch (const std::runtime_error &e) {
+      EXPECT_NE(std::string(e.what()).find(
+                    std::string("/simulation/tetgen/") + key + ": "),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 } // namespace
