@@ -19,11 +19,21 @@
 namespace blobvk::app {
 namespace {
 
-void save(blobtree::Node root, const std::string& name, const std::string& out) {
+// Writes the scene once the readers accept it: options in range can still place a node where no
+// scene may (a tower of 101 levels of height 10^4 reaches past the coordinate limit of 10^6), and
+// a generated file that no command opens is a failure, not an output. `options` names the
+// settings to change.
+void save(blobtree::Node root, const std::string& name, const std::string& out, const std::string& options) {
   blobtree::Scene scene;
   scene.root = std::move(root);
   scene.name = name;
-  writeOutput(out, blobtree::writeSceneJson(scene));
+  const std::string text = blobtree::writeSceneJson(scene);
+  try {
+    (void)blobtree::parseSceneJson(text, name);
+  } catch (const std::exception& e) {
+    throw CLI::ValidationError(options, std::string("the scene would not load (") + e.what() + "): change " + options);
+  }
+  writeOutput(out, text);
   const blobtree::TreeStats s = blobtree::treeStats(scene.root);
   char summary[256];
   std::snprintf(summary, sizeof summary, "wrote %s: %zu primitives, %zu operators, depth %zu", out == "-" ? "standard output" : out.c_str(), s.primitives,
@@ -76,7 +86,7 @@ void addGenerateCommand(CLI::App& app) {
     checkTowerSize(tower->levels, tower->pillars, tower->radius, tower->height, tower->grid);
     save(blobtree::generateTower(tower->levels, tower->pillars, tower->radius, tower->height,
                                  tower->grid),
-         "tower", tower->out);
+         "tower", tower->out, "--levels/--pillars/--radius/--height/--grid");
   });
 
   auto eggOut = std::make_shared<std::string>();
@@ -84,7 +94,7 @@ void addGenerateCommand(CLI::App& app) {
   e->add_option("-o,--output", *eggOut, "Output .json (- for standard output)")->required();
   e->callback([eggOut] {
     checkOutput(*eggOut);
-    save(blobtree::generateEggshell(), "eggshell", *eggOut);
+    save(blobtree::generateEggshell(), "eggshell", *eggOut, "the eggshell");
   });
 
   struct Random {
@@ -109,7 +119,7 @@ void addGenerateCommand(CLI::App& app) {
   r->add_option("-o,--output", random->out, "Output .json (- for standard output)")->required();
   r->callback([random] {
     checkOutput(random->out);
-    save(blobtree::generateRandomBlobs(random->count, random->seed), "random", random->out);
+    save(blobtree::generateRandomBlobs(random->count, random->seed), "random", random->out, "--count/--seed");
   });
 }
 

@@ -576,12 +576,23 @@ class Reader {
     const Ptr dp = child(top, "definitions");
     const Json& defs = doc["definitions"];
     if (!defs.is_array()) fail(dp, "expected an array of nodes, got " + typeOf(defs));
-    // Definitions are not part of the model: validate them, but do not count their nodes.
+    // Definitions are not part of the model: each is checked against the model's limits as a
+    // model of its own, and only the root's expansion counts towards the model's. What the
+    // reader keeps of them (each expanded once) is bounded too: twice the model's limits, which a
+    // chain of definitions each doubling the last (together under twice the largest) meets.
     const std::size_t counted = nodeCount_, countedIdBytes = idBytes_;
+    std::size_t definitionNodes = 0, definitionIdBytes = 0;
     for (std::size_t i = 0; i < defs.size(); ++i) {
       const Json& d = defs[i];
       if (d.is_object() && !d.contains("id")) fail(child(dp, i), "a definition needs an \"id\" to be instanced");
+      nodeCount_ = 0, idBytes_ = 0;
       const Node n = node(d, child(dp, i), 1);
+      definitionNodes += nodeCount_, definitionIdBytes += idBytes_;
+      if (definitionNodes > 2 * limits::kMaxNodes)
+        fail(child(dp, i), "the definitions hold more than " + std::to_string(2 * limits::kMaxNodes) +
+                               " nodes after instancing");
+      if (definitionIdBytes > 2 * limits::kMaxIdBytes)
+        fail(child(dp, i), "the ids of the definitions' nodes after instancing take more than 128 MiB");
       if (!resolved_.count(n.id) && ids_[n.id].json == &d) remember(n);
     }
     nodeCount_ = counted, idBytes_ = countedIdBytes;

@@ -68,6 +68,13 @@ TEST_F(CliCommands, GenerateWritesScenesThatLoad) {
   EXPECT_EQ(big.status, 2) << big.err;
   EXPECT_NE(big.err.find("the tower would have 5002001 nodes"), std::string::npos) << big.err;
   EXPECT_FALSE(fs::exists(cwd / "big.json"));
+  // Options in range that place a node past the readers' coordinate limit (10^6): refused, with
+  // the reader's reason, and no file a later command could not open.
+  const CliSplitRun far = runCliSplit("generate tower --levels 101 --pillars 3 --height 10000 -o far.json", cwd);
+  EXPECT_EQ(far.status, 2) << far.err;
+  EXPECT_NE(far.err.find("the scene would not load"), std::string::npos) << far.err;
+  EXPECT_NE(far.err.find("is out of range"), std::string::npos) << far.err;
+  EXPECT_FALSE(fs::exists(cwd / "far.json"));
 }
 
 // convert keeps the model: the legacy file and its JSON mesh to the same bytes.
