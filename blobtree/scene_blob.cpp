@@ -136,6 +136,11 @@ class BlobReader {
         fail(lineNo, "duplicate node id " + quotedText(s.id) + " (first at line " +
                          std::to_string(sections_[known->second].line) + ")");
       nodeIndex_[s.id] = sections_.size();
+    } else if (s.name == "global") {
+      // A second [Global] (two files joined) would silently replace the first one's roots.
+      for (const Section& other : sections_)
+        if (other.name == "global")
+          fail(lineNo, "[Global] given twice (first at line " + std::to_string(other.line) + ")");
     }
     sections_.push_back(std::move(s));
     return sections_.back();
@@ -316,6 +321,10 @@ class BlobReader {
     }
     const Entry& typeEntry = find(s, "primitivetype") ? *find(s, "primitivetype") : required(s, "skeletontype", "PrimitiveType");
     const std::string type = normalisedName(typeEntry.value);
+    // The older key and the newer one name the same thing: two different answers are a mistake.
+    if (const Entry* older = find(s, "skeletontype"); older && older != &typeEntry && normalisedName(older->value) != type)
+      fail(older->line, "SkeletonType=" + older->value + " contradicts PrimitiveType=" + typeEntry.value + " (line " +
+                            std::to_string(typeEntry.line) + "): give one");
     if (type == "INSTANCE") {
       const Entry& original = required(s, "originalnodeindex", "OriginalNodeIndex");
       --nodeCount_;  // the instance itself is replaced by its copy (counted by node())

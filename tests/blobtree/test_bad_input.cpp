@@ -116,6 +116,8 @@ const BadCase kCases[] = {
     {"b26_null_root.blob", "line 3", "NULL primitive may only pad"},
     {"b27_ricci_power.blob", "line 4", "power must be > 0"},
     {"b28_ricci_power_small.blob", "line 4", "power 0.0001 is below 0.1"},
+    {"b29_two_globals.blob", "line 12", "[Global] given twice (first at line 5)"},
+    {"b30_contradicting_types.blob", "line 4", "SkeletonType=LINE contradicts PrimitiveType=POINT (line 3)"},
 };
 
 class BadInput : public ::testing::TestWithParam<BadCase> {};
