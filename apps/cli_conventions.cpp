@@ -90,7 +90,8 @@ void checkOutputFolder(const std::string& path) {
   std::filesystem::path p = std::filesystem::absolute(std::filesystem::path(path), ec);
   if (ec) throw std::runtime_error(printable(path) + ": cannot create the folder: " + ec.message());
   if (std::filesystem::exists(p, ec)) {
-    if (!std::filesystem::is_directory(p, ec)) throw std::runtime_error(printable(path) + ": cannot create the folder: " + systemReason(EEXIST));
+    if (!std::filesystem::is_directory(p, ec))
+      throw std::runtime_error(printable(path) + ": exists and is not a folder (the output is a folder of frames)");
     if (access(p.c_str(), W_OK | X_OK) != 0) throw std::runtime_error(printable(path) + ": cannot write: " + systemReason(errno));
     return;
   }

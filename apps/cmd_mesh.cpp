@@ -192,7 +192,7 @@ void addMeshCommand(CLI::App& app) {
                        " (--stream, an MPI launch, or a mesh over the --max-memory budget)");
     }
     if (stream) {
-      checkMemory(streamedNeed, a->limits, "streaming a " + gridText + " grid");
+      checkMemory(streamedNeed, a->limits, gridPlace(model, a->cellSize, a->resolution) + "streaming a " + gridText + " grid");
       const bool check = !toStdout && !(quiet() && !a->json);
       const StreamedMeshResult r = meshStreamed(model.program, grid, a->settings, a->out, format, a->ascii, check, a->limits);
       if (!r.worker && r.triangles == 0) warnEmptyMesh("blobvk", grid.cells.x, grid.cells.y, grid.cells.z);
@@ -225,7 +225,7 @@ void addMeshCommand(CLI::App& app) {
       std::printf("%s\n", r.report->summary().c_str());
       return;
     }
-    checkMemory(inMemory, a->limits, "a " + gridText + " grid");
+    checkMemory(inMemory, a->limits, gridPlace(model, a->cellSize, a->resolution) + "a " + gridText + " grid");
 
     // The cpu backend reports per group of MPUs; the others have no count: one line per phase.
     std::optional<Progress> progress;

@@ -25,8 +25,10 @@
 #endif
 
 #include <chrono>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -44,16 +46,24 @@ std::vector<float> parseNumbers(const std::string& text, const char* what, std::
   std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, ',')) {
-    try {
-      std::size_t used = 0;
-      out.push_back(std::stof(item, &used));
-      if (used != item.size() || !std::isfinite(out.back())) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
+    // Read as a double, so that a finite number beyond float's range (1e300) is reported as out of
+    // range, not as not finite.
+    double value = 0.0;
+    const char* first = item.data() + item.find_first_not_of(" \t");
+    const char* last = item.data() + item.size();
+    if (first < last && *first == '+') ++first;
+    const auto [ptr, ec] = std::from_chars(first, last, value);
+    // Beyond double's range: too small reads as its nearest double (strtod; the tool runs in the
+    // C locale), too large is out of range below.
+    const bool beyondDouble = ec == std::errc::result_out_of_range && ptr == last;
+    if (beyondDouble) value = std::strtod(std::string(first, last).c_str(), nullptr);
+    if ((ec != std::errc() && !beyondDouble) || ptr != last || first >= last || std::isnan(value) ||
+        (!beyondDouble && std::isinf(value)))
       throw CLI::ValidationError(what, "'" + text + "' is not a comma-separated list of finite numbers");
-    }
     // The scene format's range for any number (blobtree/scene_limits.h): a camera 1e30 away sees nothing.
-    if (std::abs(out.back()) > blobtree::limits::kMaxAbsValue)
+    if (!(std::abs(value) <= blobtree::limits::kMaxAbsValue))
       throw CLI::ValidationError(what, "'" + item + "' is out of range (|x| must be <= 1e6)");
+    out.push_back(float(value));
   }
   if (out.size() < minCount || out.size() > maxCount) {
     throw CLI::ValidationError(what, "'" + text + "' needs " + std::to_string(minCount) +
@@ -91,9 +101,9 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("scene", a->scene, "Scene file (.json, .blob, .scene)")->required();
   cmd->add_option("-o,--output", a->out, "Output .png (- for standard output; turntable: out_000.png, out_001.png, ...)")->required();
   cmd->add_option("--size", a->size, "Image size WxH (default 512x512)");
-  auto* cam = cmd->add_option("--camera", a->camera, "Orbit: azimuth,elevation[,distance] in degrees / world units");
-  auto* eye = cmd->add_option("--eye", a->eye, "Camera position x,y,z")->excludes(cam);
-  cmd->add_option("--target", a->target, "Point looked at x,y,z (default: the scene's, else the centre)");
+  auto* cam = cmd->add_option("--camera", a->camera, "Orbit: azimuth,elevation[,distance] in degrees / world units")->check(nonEmptyText());
+  auto* eye = cmd->add_option("--eye", a->eye, "Camera position x,y,z")->check(nonEmptyText())->excludes(cam);
+  cmd->add_option("--target", a->target, "Point looked at x,y,z (default: the scene's, else the centre)")->check(nonEmptyText());
   cmd->add_option("--fov", a->fov, "Vertical field of view in degrees")->check(finiteRange(1.0, 170.0));
   cmd->add_option("--mode", a->mode, "mesh (rasterize the polygonized mesh, default) or raycast")
       ->check(CLI::IsMember({"mesh", "raycast"}));

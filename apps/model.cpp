@@ -36,6 +36,14 @@ void applyGridBounds(Model& model, const std::string& bounds) {
   model.scene.grid.boundsHi = blobtree::Vec3(v[3], v[4], v[5]);
 }
 
+std::string gridPlace(const Model& model, std::optional<float> cellSize, std::optional<int> resolution) {
+  if (cellSize || resolution) return "";
+  const auto& g = model.scene.grid;
+  if (g.cellSize) return model.path + ": /grid/cellSize: ";
+  if (g.resolution) return model.path + ": /grid/resolution: ";
+  return "";
+}
+
 blobtree::GridSpec gridFor(const Model& model, std::optional<float> cellSize,
                            std::optional<int> resolution) {
   try {
@@ -44,7 +52,9 @@ blobtree::GridSpec gridFor(const Model& model, std::optional<float> cellSize,
     // A legacy file has no grid section to put the bounds in: name the option that gives them.
     const bool unbounded = !model.program.bounds.finite() && !model.program.bounds.empty() &&
                            !(model.scene.grid.boundsLo && model.scene.grid.boundsHi);
-    throw std::runtime_error(model.path + ": " + e.what() + (unbounded ? " or --bounds x0,y0,z0,x1,y1,z1" : ""));
+    const std::string place = gridPlace(model, cellSize, resolution);
+    throw std::runtime_error((place.empty() ? model.path + ": " : place) + e.what() +
+                             (unbounded ? " or --bounds x0,y0,z0,x1,y1,z1" : ""));
   }
 }
 

@@ -34,5 +34,8 @@ inline constexpr const char* kGridBoundsHelp =
 // The grid for a model from the scene's grid section and the command line.
 blobtree::GridSpec gridFor(const Model& model, std::optional<float> cellSize,
                            std::optional<int> resolution);
+// Where a problem with that grid's size lies, as a message prefix: "scene.json: /grid/resolution: "
+// (or /grid/cellSize) when the scene's grid section sets it, else "" (an option names itself).
+std::string gridPlace(const Model& model, std::optional<float> cellSize, std::optional<int> resolution);
 
 }  // namespace blobvk::app

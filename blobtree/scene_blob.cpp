@@ -9,8 +9,13 @@
 
 #include <glm/geometric.hpp>
 
+#include <locale.h>
+#include <stdlib.h>
+
 #include <algorithm>
 #include <charconv>
+#include <clocale>
+#include <cstdlib>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -96,6 +101,7 @@ class BlobReader {
 
   void split(std::string_view text) {
     std::size_t lineNo = 0, pos = 0;
+    if (text.substr(0, 3) == "\xEF\xBB\xBF") pos = 3;  // a UTF-8 byte order mark, as editors on Windows save
     Section* current = nullptr;
     while (pos < text.size()) {  // a final newline does not start another line
       std::size_t end = text.find('\n', pos);
@@ -185,8 +191,17 @@ class BlobReader {
     const char* last = first + text.size();
     if (first != last && *first == '+') ++first;
     const auto [ptr, ec] = std::from_chars(first, last, v);
-    if (ec != std::errc() || ptr != last || first == last)
+    // A number past double's range is still a number: one too small reads as its nearest double
+    // (0 or a denormal, as the JSON reader takes it), one too large is out of range below.
+    const bool beyondDouble = ec == std::errc::result_out_of_range && ptr == last && first != last;
+    if (beyondDouble) {  // strtod in the C locale: the host's may take ',' for the decimal point
+      static const locale_t c = newlocale(LC_ALL_MASK, "C", locale_t(0));
+      v = strtod_l(std::string(first, last).c_str(), nullptr, c);
+    }
+    if ((ec != std::errc() && !beyondDouble) || ptr != last || first == last)
       fail(e.line, std::string(what) + ": " + quotedText(text) + " is not a number");
+    if (beyondDouble && !std::isfinite(v))
+      fail(e.line, std::string(what) + ": value " + text + " is out of range (|x| must be <= 1e6)");
     if (!std::isfinite(v)) fail(e.line, std::string(what) + ": value is not finite");
     if (std::abs(v) > limits::kMaxAbsValue)
       fail(e.line, std::string(what) + ": value " + detail::number(v) + " is out of range (|x| must be <= 1e6)");

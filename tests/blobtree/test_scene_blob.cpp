@@ -3,6 +3,7 @@
 #include "blobvk/blobtree/scene_blob.h"
 #include "blobvk/blobtree/scene_error.h"
 #include "blobvk/blobtree/scene_io.h"
+#include "blobvk/blobtree/scene_json.h"
 #include "test_scene_compare.h"
 
 #include <gtest/gtest.h>
@@ -141,6 +142,35 @@ RootIDs=(a, q)
   ASSERT_EQ(s.root.children[0].children.size(), 2u);
   expectSameTree(s.root.children[0].children[0], s.root.children[0].children[1]);
   EXPECT_EQ(s.root.children[1].id, "q");
+}
+
+// Numbers past double's range, as the JSON reader reads them: too small is the nearest double
+// (zero keeps its sign), too large is out of the scene's range; neither is "not a number".
+TEST(SceneBlob, NumbersBeyondDoubleReadLikeJson) {
+  const auto scene = [](const std::string& x) {
+    return "[BLOBNODE p]\nPrimitiveType=POINT\nposition=(" + x + ", 1e-310, 2)\n[Global]\nRootIDs=(p)\n";
+  };
+  const Scene s = parseSceneBlob(scene("-1e-400"), "tiny.blob");
+  const Scene j = parseSceneJson(R"({"blobvk":1,"root":{"type":"point","centre":[-1e-400,1e-310,2]}})", "tiny.json");
+  EXPECT_EQ(prim(s.root).a.x, 0.0);
+  EXPECT_TRUE(std::signbit(prim(s.root).a.x));
+  EXPECT_EQ(prim(s.root).a.y, 1e-310);
+  EXPECT_EQ(prim(s.root).a.y, prim(j.root).a.y);
+  try {
+    parseSceneBlob(scene("1e400"), "huge.blob");
+    FAIL() << "accepted";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("huge.blob: line 3: position: value 1e400 is out of range"), std::string::npos)
+        << e.what();
+  }
+}
+
+// A UTF-8 byte order mark before the first section (an editor on Windows) is not part of it.
+TEST(SceneBlob, AByteOrderMarkIsSkipped) {
+  const std::string text = "[BLOBNODE p]\nPrimitiveType=POINT\nposition=(1, 2, 3)\n[Global]\nRootIDs=(p)\n";
+  const Scene plain = parseSceneBlob(text, "plain.blob"), marked = parseSceneBlob("\xEF\xBB\xBF" + text, "bom.blob");
+  expectSameTree(plain.root, marked.root);
+  EXPECT_THROW(parseSceneBlob("\xEF\xBB" + text, "half.blob"), SceneError);  // half a mark is not one
 }
 
 TEST(SceneBlob, DeepChainsAreRefusedWithALine) {

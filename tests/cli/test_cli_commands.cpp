@@ -77,6 +77,39 @@ TEST_F(CliCommands, GenerateWritesScenesThatLoad) {
   EXPECT_FALSE(fs::exists(cwd / "far.json"));
 }
 
+// A grid the scene sets too fine is refused with the scene's key as the place (the options name
+// themselves), before any work: too many cells, or more memory than the machine has.
+TEST_F(CliCommands, AGridTooFineNamesTheScenesKey) {
+  const fs::path cwd = dir("grid_key");
+  nlohmann::json scene = nlohmann::json::parse(fileBytes(sourcePath("scenes/eggshell.json")));
+  scene["grid"] = {{"cellSize", 1e-6}};
+  std::ofstream(cwd / "fine.json") << scene.dump();
+  CliSplitRun r = runCliSplit("info fine.json", cwd);
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("fine.json: /grid/cellSize: grid of "), std::string::npos) << r.err;
+  scene["grid"] = {{"resolution", 16384}};
+  std::ofstream(cwd / "big.json") << scene.dump();
+  r = runCliSplit("mesh big.json -o big.ply --max-memory 1G", cwd);
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("big.json: /grid/resolution: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--max-memory"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(cwd / "big.ply"));
+  // Given on the command line, the option is the place, not the scene's key.
+  r = runCliSplit("mesh big.json -o big.ply --resolution 2048 --max-memory 1M", cwd);
+  EXPECT_NE(r.status, 0) << r.err;
+  EXPECT_EQ(r.err.find("/grid/resolution"), std::string::npos) << r.err;
+}
+
+// simulate and cut write a folder of frames: an existing file there is named as such.
+TEST_F(CliCommands, AFileWhereTheFramesGoIsNamed) {
+  const fs::path cwd = dir("frames_file");
+  std::ofstream(cwd / "taken") << "x";
+  const CliSplitRun r = runCliSplit("simulate " + sourcePath("scenes/soft_peanut.json") + " -o taken --steps 1 --no-png", cwd);
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("taken: exists and is not a folder"), std::string::npos) << r.err;
+  EXPECT_EQ(fileBytes(cwd / "taken"), "x");
+}
+
 // convert keeps the model: the legacy file and its JSON mesh to the same bytes.
 TEST_F(CliCommands, ConvertKeepsTheModel) {
   const fs::path cwd = dir("convert");

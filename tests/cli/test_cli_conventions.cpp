@@ -91,10 +91,13 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
                                  // An empty value is not the option left out; --max-triangles 0 read as no limit.
                                  "mesh " + tower + " -o x.ply --simplify ''", "mesh " + tower + " -o x.ply --backend vk --device ''",
                                  "mesh " + tower + " -o x.ply --max-triangles 0", "--pipeline-cache '' info " + tower,
+                                 "render " + tower + " -o x.png --camera ''", "render " + tower + " -o x.png --eye ''",
+                                 "render " + tower + " -o x.png --target ''",
                                  // An MPU of one cell: the help's range, not the polygonizer's own error.
                                  "mesh " + tower + " -o x.ply --mpu 1", "bench " + tower + " --mpu 1",
                                  // The scene format's camera ranges; the voxel mesher's cell on a TetGen body.
                                  "render " + tower + " -o x.png --camera 30,20,-5", "render " + tower + " -o x.png --eye 1e30,0,0",
+                                 "render " + tower + " -o x.png --camera 30,20,1e300",
                                  "cut " + sourcePath("scenes/soft_peanut.json") + " -o cut_out --voxel-cell 0.05",
                                  // A flag given a value (it would count as given while off).
                                  "mesh " + tower + " -o x.ply --stream=false",
