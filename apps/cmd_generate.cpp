@@ -28,6 +28,9 @@ void save(blobtree::Node root, const std::string& name, const std::string& out, 
   scene.root = std::move(root);
   scene.name = name;
   const std::string text = blobtree::writeSceneJson(scene);
+  if (text.size() > blobtree::limits::kMaxSceneBytes)  // the readers' file limit (parseSceneJson takes text)
+    throw CLI::ValidationError(options, "the scene would take " + std::to_string(text.size() >> 20) +
+                                            " MiB, more than the 256 MiB a scene file may: change " + options);
   try {
     (void)blobtree::parseSceneJson(text, name);
   } catch (const std::exception& e) {

@@ -11,6 +11,7 @@
 #include "progress.h"
 #include "resolution_limit.h"
 
+#include "blobvk/blobtree/decimal.h"
 #include "blobvk/blobtree/scene_limits.h"
 
 #include <CLI/CLI.hpp>
@@ -25,10 +26,8 @@
 #endif
 
 #include <chrono>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -46,20 +45,15 @@ std::vector<float> parseNumbers(const std::string& text, const char* what, std::
   std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, ',')) {
-    // Read as a double, so that a finite number beyond float's range (1e300) is reported as out of
-    // range, not as not finite.
-    double value = 0.0;
-    const char* first = item.data() + item.find_first_not_of(" \t");
-    const char* last = item.data() + item.size();
-    if (first < last && *first == '+') ++first;
-    const auto [ptr, ec] = std::from_chars(first, last, value);
-    // Beyond double's range: too small reads as its nearest double (strtod; the tool runs in the
-    // C locale), too large is out of range below.
-    const bool beyondDouble = ec == std::errc::result_out_of_range && ptr == last;
-    if (beyondDouble) value = std::strtod(std::string(first, last).c_str(), nullptr);
-    if ((ec != std::errc() && !beyondDouble) || ptr != last || first >= last || std::isnan(value) ||
-        (!beyondDouble && std::isinf(value)))
+    // Read as a double (blobtree::readDecimal, as the legacy reader), so that a finite number
+    // beyond float's range (1e300) is reported as out of range, not as not finite; one below
+    // double's reads as zero. Spaces around an item are allowed.
+    const std::size_t from = item.find_first_not_of(" \t"), to = item.find_last_not_of(" \t");
+    const std::optional<blobtree::Decimal> d =
+        from == std::string::npos ? std::nullopt : blobtree::readDecimal(std::string_view(item).substr(from, to - from + 1));
+    if (!d || std::isnan(d->value) || (!d->beyondDouble && std::isinf(d->value)))
       throw CLI::ValidationError(what, "'" + text + "' is not a comma-separated list of finite numbers");
+    const double value = d->value;
     // The scene format's range for any number (blobtree/scene_limits.h): a camera 1e30 away sees nothing.
     if (!(std::abs(value) <= blobtree::limits::kMaxAbsValue))
       throw CLI::ValidationError(what, "'" + item + "' is out of range (|x| must be <= 1e6)");

@@ -2,6 +2,7 @@
 // §8). Unknown keys are ignored (the editor wrote many we do not need: materials, layer counts),
 // but every key we use is checked, and every failure names its line.
 #include "blobvk/blobtree/scene_blob.h"
+#include "blobvk/blobtree/decimal.h"
 #include "blobvk/blobtree/scene_error.h"
 #include "blobvk/blobtree/scene_instance.h"
 #include "blobvk/blobtree/scene_limits.h"
@@ -9,13 +10,8 @@
 
 #include <glm/geometric.hpp>
 
-#include <locale.h>
-#include <stdlib.h>
-
 #include <algorithm>
 #include <charconv>
-#include <clocale>
-#include <cstdlib>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -186,21 +182,12 @@ class BlobReader {
   }
 
   double number(const Entry& e, const std::string& text, std::string_view what) const {
-    double v = 0.0;
-    const char* first = text.data();
-    const char* last = first + text.size();
-    if (first != last && *first == '+') ++first;
-    const auto [ptr, ec] = std::from_chars(first, last, v);
     // A number past double's range is still a number: one too small reads as its nearest double
     // (0 or a denormal, as the JSON reader takes it), one too large is out of range below.
-    const bool beyondDouble = ec == std::errc::result_out_of_range && ptr == last && first != last;
-    if (beyondDouble) {  // strtod in the C locale: the host's may take ',' for the decimal point
-      static const locale_t c = newlocale(LC_ALL_MASK, "C", locale_t(0));
-      v = strtod_l(std::string(first, last).c_str(), nullptr, c);
-    }
-    if ((ec != std::errc() && !beyondDouble) || ptr != last || first == last)
-      fail(e.line, std::string(what) + ": " + quotedText(text) + " is not a number");
-    if (beyondDouble && !std::isfinite(v))
+    const std::optional<Decimal> d = readDecimal(text);
+    if (!d) fail(e.line, std::string(what) + ": " + quotedText(text) + " is not a number");
+    const double v = d->value;
+    if (d->beyondDouble && !std::isfinite(v))
       fail(e.line, std::string(what) + ": value " + text + " is out of range (|x| must be <= 1e6)");
     if (!std::isfinite(v)) fail(e.line, std::string(what) + ": value is not finite");
     if (std::abs(v) > limits::kMaxAbsValue)

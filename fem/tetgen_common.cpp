@@ -22,6 +22,8 @@ std::string tetgenSwitches(const TetgenOptions& o) {
     s += buf;
   }
   if (o.maxAddedPoints > 0) {
+    // TetGen reads the number into an int: a larger one would wrap negative and mean no limit.
+    if (o.maxAddedPoints > 2147483647u) throw std::invalid_argument("TetGen: at most 2147483647 added points");
     std::snprintf(buf, sizeof buf, "S%u", unsigned(o.maxAddedPoints));
     s += buf;
   }

@@ -21,7 +21,7 @@ struct TetgenOptions {
   // about six tets each, so refinement ends even where -q's bounds cannot be met: TetGen need
   // not terminate for a radius-edge bound near 1 or a dihedral bound near 30 degrees (measured:
   // 50 MB/s of growth without end). 0 = no limit. A maxVolume that asks for more tets than the
-  // limit allows is refused before TetGen runs.
+  // limit allows is refused before TetGen runs. At most 2^31 - 1 (TetGen's int).
   std::uint32_t maxAddedPoints = 200000;
   bool quality = true;                // false: no -q (boundary-conforming CDT only)
   bool keepSurface = false;           // -Y: no Steiner points on the boundary

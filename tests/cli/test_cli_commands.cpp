@@ -94,6 +94,12 @@ TEST_F(CliCommands, AGridTooFineNamesTheScenesKey) {
   EXPECT_NE(r.err.find("big.json: /grid/resolution: "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("--max-memory"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(cwd / "big.ply"));
+  // An empty model's grid is not at fault: no key named.
+  std::ofstream(cwd / "empty.json") << R"({"blobvk":1,"grid":{"resolution":64},"root":{"type":"intersection",)"
+                                       R"("children":[{"type":"point"},{"type":"point","centre":[10,0,0]}]}})";
+  r = runCliSplit("mesh empty.json -o e.ply", cwd);
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("empty.json: the model is empty"), std::string::npos) << r.err;
   // Given on the command line, the option is the place, not the scene's key.
   r = runCliSplit("mesh big.json -o big.ply --resolution 2048 --max-memory 1M", cwd);
   EXPECT_NE(r.status, 0) << r.err;

@@ -97,7 +97,8 @@ TEST(CliConventions, UsageErrorsExitTwoWithOneLine) {
                                  "mesh " + tower + " -o x.ply --mpu 1", "bench " + tower + " --mpu 1",
                                  // The scene format's camera ranges; the voxel mesher's cell on a TetGen body.
                                  "render " + tower + " -o x.png --camera 30,20,-5", "render " + tower + " -o x.png --eye 1e30,0,0",
-                                 "render " + tower + " -o x.png --camera 30,20,1e300",
+                                 "render " + tower + " -o x.png --camera 30,20,1e300", "render " + tower + " -o x.png --eye +-1,2,3",
+                                 "render " + tower + " -o x.png --eye '                    ,1,2'",
                                  "cut " + sourcePath("scenes/soft_peanut.json") + " -o cut_out --voxel-cell 0.05",
                                  // A flag given a value (it would count as given while off).
                                  "mesh " + tower + " -o x.ply --stream=false",

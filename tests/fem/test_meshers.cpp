@@ -127,6 +127,10 @@ TEST(TetgenMesher, SwitchesReflectOptions) {
   EXPECT_EQ(tetgenSwitches(o), "pzQYo/150");
   o.optimizeMaxDihedralDegrees = 180;
   EXPECT_THROW(tetgenSwitches(o), std::invalid_argument);
+  o.optimizeMaxDihedralDegrees = 150;
+  o.maxAddedPoints = 3000000000u;  // past TetGen's int: it would wrap to "no limit"
+  EXPECT_THROW(tetgenSwitches(o), std::invalid_argument);
+  o.maxAddedPoints = 0;
   o.optimizeMaxDihedralDegrees = 0;
   o.quality = true;
   o.maxRadiusEdgeRatio = 0.9;
@@ -181,11 +185,15 @@ TEST(TetgenMesher, TheAddedPointLimitBoundsItsWork) {
   o.maxRadiusEdgeRatio = 1.0;
   o.minDihedralDegrees = 25;
   o.maxAddedPoints = 2000;
-  const auto cube = cubeSurface(0.5);
-  const mesh::TetMesh m = tetrahedralize(cube, o);
-  EXPECT_LE(m.nodeCount(), cube.positions.size() + o.maxAddedPoints);
+  // A slab 8 x 1 x 0.125: its long thin faces need refining, which these bounds never finish
+  // (a unit cube meets them with no point added).
+  auto slab = cubeSurface(0.5);
+  for (auto& p : slab.positions) p = {8.0f * p.x, p.y, 0.125f * p.z};
+  const mesh::TetMesh m = tetrahedralize(slab, o);
+  EXPECT_EQ(m.nodeCount(), slab.positions.size() + o.maxAddedPoints);  // stopped at the limit
   EXPECT_NEAR(totalVolume(m, true), 1.0, 1e-9);
   EXPECT_NO_THROW(validateTetMesh(m));
+  const auto cube = cubeSurface(0.5);
   o.maxVolume = 1.0 / (6.0 * 2000) * 0.99;  // the unit cube asks for just over 6 x 2000 tets
   EXPECT_THROW(checkTetBudget(o, 1.0), std::invalid_argument);
   EXPECT_THROW(tetrahedralize(cube, o), std::invalid_argument);
