@@ -82,17 +82,16 @@ mesh::TriMesh colourByRegion(mesh::TriMesh surface, const mesh::TetMesh& tets, c
 
 bool FrameWriter::writesPng() const { return renderer_ != nullptr; }
 
-void FrameWriter::write(const mesh::TriMesh& surface) {
+void FrameWriter::write(mesh::TriMesh surface) {
   char name[64];
   std::snprintf(name, sizeof name, "frame_%05d", frame_++);
   const std::filesystem::path base = std::filesystem::path(folder_) / name;
   // A tet-boundary surface carries every node of its tet mesh; the file holds the surface's own.
-  mesh::TriMesh own = surface;
-  mesh::dropUnreferencedVertices(own);
-  mesh::writePly(own, base.string() + ".ply");
+  mesh::dropUnreferencedVertices(surface);
+  mesh::writePly(surface, base.string() + ".ply");
 #ifdef BLOBVK_HAVE_VULKAN
   if (renderer_ && surface.triangleCount() > 0) {
-    writeOutput(base.string() + ".png", vk::encodePng(renderer_->renderer.render(own, renderer_->camera)));
+    writeOutput(base.string() + ".png", vk::encodePng(renderer_->renderer.render(surface, renderer_->camera)));
   }
 #endif
 }

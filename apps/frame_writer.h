@@ -27,7 +27,7 @@ class FrameWriter {
   FrameWriter(std::string folder, bool png, bool pngRequired, int size, const blobtree::Aabb& bounds,
               const std::optional<blobtree::Camera>& camera);
   ~FrameWriter();
-  void write(const mesh::TriMesh& surface);
+  void write(mesh::TriMesh surface);  // by value: the callers' surfaces are temporaries
   int frames() const { return frame_; }
   bool writesPng() const;
 

@@ -49,12 +49,12 @@ blobtree::GridSpec gridFor(const Model& model, std::optional<float> cellSize,
   try {
     return blobtree::chooseGrid(model.program, model.scene.grid, {cellSize, resolution});
   } catch (const std::exception& e) {
+    const blobtree::Aabb& b = model.program.bounds;
+    const bool gridBounds = model.scene.grid.boundsLo && model.scene.grid.boundsHi;
     // A legacy file has no grid section to put the bounds in: name the option that gives them.
-    const bool unbounded = !model.program.bounds.finite() && !model.program.bounds.empty() &&
-                           !(model.scene.grid.boundsLo && model.scene.grid.boundsHi);
+    const bool unbounded = !gridBounds && !b.finite() && !b.empty();
     // The box comes first (an empty or unbounded model is no fault of the grid's size keys).
-    const auto& g = model.scene.grid;
-    const bool boxFine = g.boundsLo && g.boundsHi ? true : !model.program.bounds.empty() && model.program.bounds.finite();
+    const bool boxFine = gridBounds || (!b.empty() && b.finite());
     const std::string place = boxFine ? gridPlace(model, cellSize, resolution) : "";
     throw std::runtime_error((place.empty() ? model.path + ": " : place) + e.what() +
                              (unbounded ? " or --bounds x0,y0,z0,x1,y1,z1" : ""));
