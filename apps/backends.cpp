@@ -172,6 +172,29 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {
   return options;
 }
 
+// The evaluator the job's vertex pass ran: the one the batches report, else the one asked for.
+vk::Traversal ranTraversal(const vk::GpuPolygonizeOptions& options, const vk::GpuStats& gpu) {
+  return gpu.traversal != vk::Traversal::Auto ? gpu.traversal : options.traversal;
+}
+
+// Hands everything on to `next`, counting the vertices (for the evaluations per vertex).
+class VertexCountingSink final : public mesh::MeshSink {
+ public:
+  explicit VertexCountingSink(mesh::MeshSink& next) : next_(next) {}
+  void vertices(std::span<const mesh::Float3> positions, std::span<const mesh::Float3> normals,
+                std::span<const mesh::Float3> colours) override {
+    count += positions.size();
+    next_.vertices(positions, normals, colours);
+  }
+  void triangles(std::span<const std::array<std::uint32_t, 3>> triangles, const mesh::VertexWindow& window) override {
+    next_.triangles(triangles, window);
+  }
+  std::uint64_t count = 0;
+
+ private:
+  mesh::MeshSink& next_;
+};
+
 PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
   return {gpu.classifySeconds, gpu.fieldSeconds, gpu.extractSeconds, gpu.readbackSeconds,
           gpu.hostSeconds, gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes,
@@ -237,12 +260,14 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
   vk::GpuStats gpu;
   const auto progress = settings.progress ? std::function<void(std::size_t, std::size_t)>(settings.progress)
                                           : std::function<void(std::size_t, std::size_t)>();
+  const vk::GpuPolygonizeOptions options = gpuOptions(settings);
+  VertexCountingSink counted(sink);
   if (contexts.size() == 1 && !settings.cpuWorker) {
     startWarmUp(*contexts[0], settings);
-    vk::polygonizeStreamed(contexts[0]->device(), program, grid, gpuOptions(settings), sink, &gpu, progress);
+    vk::polygonizeStreamed(contexts[0]->device(), program, grid, options, counted, &gpu, progress);
   } else {
     std::optional<CpuBatchWorker> cpu = settings.cpuWorker ? std::make_optional<CpuBatchWorker>(program, grid, settings) : std::nullopt;
-    vk::polygonizeOnDevicesStreamed(devicesOf(contexts), program, grid, gpuOptions(settings), sink, &gpu, nullptr,
+    vk::polygonizeOnDevicesStreamed(devicesOf(contexts), program, grid, options, counted, &gpu, nullptr,
                                     cpu ? cpu->get() : nullptr, progress);
   }
   firstJobDone();
@@ -250,7 +275,8 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
   if (stats) {
     stats->gpu = gpuPhases(gpu);
     stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    stats->pointEvaluations = double(gpu.fieldEvaluations);
+    stats->pointEvaluations = double(gpu.fieldEvaluations) +
+                              double(counted.count) * vk::evaluationsPerVertex(options, ranTraversal(options, gpu));
   }
 #else
   (void)program, (void)grid, (void)sink, (void)stats;
@@ -296,7 +322,8 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
     cpu::ReferenceOptions options;
     options.refineSteps = settings.refineSteps;
     mesh = cpu::polygonizeReference(program, grid, options);
-    evaluations = double(grid.pointCount());
+    // Every grid point, then per vertex its refinement steps (at most) and one gradient pass.
+    evaluations = double(grid.pointCount()) + double(mesh.positions.size()) * double(std::max(options.refineSteps, 0) + 1);
 #ifdef BLOBVK_HAVE_VULKAN
   } else if (settings.backend == "vk") {
     const std::vector<vk::StandaloneContext*> contexts = contextsFor(settings);
@@ -312,7 +339,8 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
       mesh = vk::polygonizeOnDevices(devicesOf(contexts), program, grid, options, &gpu, nullptr, cpu ? cpu->get() : nullptr);
     }
     firstJobDone();
-    evaluations = double(gpu.fieldEvaluations);
+    evaluations = double(gpu.fieldEvaluations) +
+                  double(mesh.positions.size()) * vk::evaluationsPerVertex(options, ranTraversal(options, gpu));
     if (stats) stats->gpu = gpuPhases(gpu);
     checkValidation(contexts, messagesBefore);
 #else

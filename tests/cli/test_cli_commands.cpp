@@ -305,6 +305,27 @@ TEST_F(CliCommands, MeshOnTheVulkanBackendEqualsTheCpuMesh) {
   EXPECT_EQ(fileBytes(cwd / "vk.ply"), fileBytes(cwd / "cpu.ply"));
 }
 
+// point_evaluations counts what the CPU backend's counts: every grid sample of the active bricks,
+// then per vertex its refinement steps and its attribute pass (one analytic-gradient pass; six
+// central-difference samples and a colour pass with the stack-based traversal), in memory and
+// streamed alike. The oracle: the bricks' points and the vertices the same report gives.
+TEST_F(CliCommands, VulkanEvaluationsCountEveryVertexSample) {
+  const fs::path cwd = dir("mesh_vk_evaluations");
+  struct Case {
+    std::string options;
+    double perVertex;
+  };
+  for (const Case& c : {Case{"", 1}, Case{"--refine 2", 3}, Case{"--traversal stack", 7}, Case{"--stream", 1}}) {
+    const CliSplitRun r = runCliSplit("mesh " + tower + " -o e.ply --resolution 48 --backend vk --json " + c.options, cwd);
+    ASSERT_EQ(r.status, 0) << c.options << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    const double side = j["gpu"]["brick_cells"].get<double>() + 1.0;
+    const double gridSamples = j["gpu"]["active_bricks"].get<double>() * side * side * side;
+    ASSERT_GT(j["vertices"].get<double>(), 1000.0) << c.options;
+    EXPECT_EQ(j["point_evaluations"].get<double>(), gridSamples + c.perVertex * j["vertices"].get<double>()) << c.options;
+  }
+}
+
 // --devices: lavapipe opened two and three times shares the brick batches and writes the bytes
 // of one device (and of the CPU backend); a bad list is one error line naming the entry, before
 // any work and with no file written.

@@ -5,6 +5,7 @@
 #include "blobvk/vk/extract/slab_polygonizer.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 
@@ -93,6 +94,13 @@ void polygonizeInto(Device& device, const blobtree::Program& program, const blob
     return;
   }
   polygonizeSparseInto(device, program, grid, options, mesh, stats);
+}
+
+std::uint32_t evaluationsPerVertex(const GpuPolygonizeOptions& options, Traversal ran) {
+  // shaders/edge_vertex.glsl: the refinement steps, then the normal samples or the gradient pass.
+  const std::uint32_t refinement = std::uint32_t(std::max(options.refineSteps, 0));
+  if (ran == Traversal::StackBased) return refinement + (options.normals ? 6u : 0u) + (options.colours ? 1u : 0u);
+  return refinement + (options.normals || options.colours ? 1u : 0u);
 }
 
 }  // namespace blobvk::vk

@@ -152,7 +152,7 @@ struct GpuStats {
   std::uint64_t tapeInstructions = 0;  // sparse, brick tapes: sum of the bricks' tape lengths
   std::uint64_t tapeWords = 0;         // ... instructions stored (equal tapes once)
   double tapeSeconds = 0.0;            // ... host time building them
-  std::uint64_t fieldEvaluations = 0;  // grid samples (normals/colours/refinement excluded)
+  std::uint64_t fieldEvaluations = 0;  // grid samples (per vertex add evaluationsPerVertex)
   // Sparse: the evaluator the batches ran, and on CPU drivers what the cost model
   // (vk/eval/evaluator_choice.h) predicted for it (seconds; < 0 where it made no prediction).
   Traversal traversal = Traversal::Auto;
@@ -172,5 +172,13 @@ mesh::TriMesh polygonize(Device& device, const blobtree::Program& program,
 // more than the device's work. The same bytes as polygonize.
 void polygonizeInto(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
                     const GpuPolygonizeOptions& options, mesh::TriMesh& mesh, GpuStats* stats = nullptr);
+
+// Field evaluations each output vertex costs past the grid's samples (GpuStats::fieldEvaluations),
+// counted as the CPU backend counts its own (cpu::MpuStats): `options.refineSteps` refinement
+// samples, at most (a sample exactly on the iso-value ends its vertex's steps early; the device
+// does not count those), and the attribute pass: one analytic-gradient pass for normal and
+// colour, or, for the stack-based traversal (`ran`: GpuStats::traversal), six central-difference
+// samples for the normal and one colour pass.
+std::uint32_t evaluationsPerVertex(const GpuPolygonizeOptions& options, Traversal ran);
 
 }  // namespace blobvk::vk
