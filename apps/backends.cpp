@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "blobvk/cpu_simd/column_sides.h"
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/cpu_simd/streaming_polygonizer.h"
@@ -154,8 +155,14 @@ double waitForBackgroundBuilds([[maybe_unused]] const PolygonizeSettings& settin
 
 #ifdef BLOBVK_HAVE_VULKAN
 namespace {
-vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings) {
+vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings, const blobtree::Program& program) {
   vk::GpuPolygonizeOptions options;
+  // On llvmpipe the field pass skips the rows the CPU backend's bound proves one-sided, where the
+  // device's values are the CPU's bits (no pow, sin or cos), so that the bound holds for them.
+  if (settings.rowCulling && cpu::ColumnSides::boundsHoldOnIeeeDevices(program)) options.columnSides = [sides = std::make_shared<cpu::ColumnSides>(program)](
+                            const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* out) {
+    (*sides)(x, y, z, n, out);
+  };
   options.refineSteps = settings.refineSteps;
   options.traversal = traversalFromName(settings.traversal);
   if (settings.fieldTiles > 0)  // a given cap holds for repeated jobs too
@@ -205,7 +212,7 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.fieldTiles, gpu.vertexTiles, gpu.generatedClassification, gpu.classifyTiles, gpu.tapeInstructions, gpu.tapeWords,
           gpu.tapeSeconds, gpu.readbackDeviceSeconds,
           {gpu.hostSteps.classification, gpu.hostSteps.preparation, gpu.hostSteps.fieldSubmits, gpu.hostSteps.emitSubmits,
-           gpu.hostSteps.grow, gpu.hostSteps.copy, gpu.hostSteps.corners}};
+           gpu.hostSteps.grow, gpu.hostSteps.copy, gpu.hostSteps.corners, gpu.hostSteps.rowCulling}};
 }
 
 // `--cpu-worker`: the CPU polygonizer takes batches beside the devices. Its MPUs are the bricks,
@@ -260,7 +267,7 @@ void polygonizeStreamed(const blobtree::Program& program, const blobtree::GridSp
   vk::GpuStats gpu;
   const auto progress = settings.progress ? std::function<void(std::size_t, std::size_t)>(settings.progress)
                                           : std::function<void(std::size_t, std::size_t)>();
-  const vk::GpuPolygonizeOptions options = gpuOptions(settings);
+  const vk::GpuPolygonizeOptions options = gpuOptions(settings, program);
   VertexCountingSink counted(sink);
   if (contexts.size() == 1 && !settings.cpuWorker) {
     startWarmUp(*contexts[0], settings);
@@ -328,7 +335,7 @@ mesh::TriMesh polygonize(const blobtree::Program& program, const blobtree::GridS
   } else if (settings.backend == "vk") {
     const std::vector<vk::StandaloneContext*> contexts = contextsFor(settings);
     const std::uint64_t messagesBefore = validationMessages(contexts);
-    const vk::GpuPolygonizeOptions options = gpuOptions(settings);
+    const vk::GpuPolygonizeOptions options = gpuOptions(settings, program);
     vk::GpuStats gpu;
     if (contexts.size() == 1 && !settings.cpuWorker) {
       startWarmUp(*contexts[0], settings);
@@ -377,7 +384,7 @@ void refuseOptionsNoBackendUses(const CLI::App& command, const std::vector<std::
   };
   if (!uses("vk"))
     refuse({"--device", "--devices", "--cpu-worker", "--validation", "--traversal", "--brick-cells", "--field-tiles",
-            "--tiled-vertices", "--vertex-tiles", "--brick-tapes", "--dense", "--batches-per-device"},
+            "--tiled-vertices", "--vertex-tiles", "--brick-tapes", "--no-row-culling", "--dense", "--batches-per-device"},
            "the vk backend");
   // The vk backend's CPU worker meshes on --threads threads, in MPUs of the brick size (not --mpu).
   if (!uses("cpu")) refuse({"--mpu", "--sub-block"}, "the cpu backend");
@@ -390,7 +397,8 @@ void refuseOptionsNoBackendUses(const CLI::App& command, const std::vector<std::
   if (!traversals.empty() && std::none_of(traversals.begin(), traversals.end(),
                                           [](const std::string& t) { return t == "auto" || t == "specialised"; }))
     refuse({"--field-tiles", "--vertex-tiles"}, "the specialised traversal (--traversal auto or specialised)");
-  if (given("--dense")) refuse({"--brick-cells", "--vertex-tiles", "--brick-tapes", "--cpu-worker"}, "the sparse extraction, not --dense");
+  if (given("--dense"))
+    refuse({"--brick-cells", "--vertex-tiles", "--brick-tapes", "--no-row-culling", "--cpu-worker"}, "the sparse extraction, not --dense");
   const std::vector<std::string> fieldTiles = values("--field-tiles");
   if (!fieldTiles.empty() && fieldTiles.back() == "1")
     refuse({"--vertex-tiles"}, "more than one field tile (--field-tiles 1 makes one)");

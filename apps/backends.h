@@ -61,6 +61,9 @@ struct PolygonizeSettings {
   // vk sparse, specialised with field tiles: the vertex pass per tile of bricks too.
   bool vertexTiles = false;
   bool brickTapes = false;      // vk sparse: the field pass per brick, the program pruned to each brick
+  // vk sparse on llvmpipe: the field pass skips rows of points the CPU backend's bound proves on
+  // one side (vk::GpuPolygonizeOptions::columnSides); false: every row of an active brick.
+  bool rowCulling = true;
   int expectedRuns = 1;         // vk: runs of this job the caller makes (bench: warm-up + repeats)
   // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads; vk streamed:
   // after each batch of brick layers.
@@ -107,7 +110,7 @@ struct PolygonizeStats {
     // Where the host's wall time went (vk::HostSteps, vk/extract/polygonize.h; sparse, one device).
     struct HostSteps {
       double classification = 0.0, preparation = 0.0, fieldSubmits = 0.0, emitSubmits = 0.0, grow = 0.0, copy = 0.0,
-             corners = 0.0;
+             corners = 0.0, rowCulling = 0.0;
     } hostSteps;
   } gpu;
 };

@@ -58,6 +58,7 @@ void addBenchCommand(CLI::App& app) {
     bool tiledVertices = false;
     bool vertexTiles = false;
     bool brickTapes = false;
+    bool noRowCulling = false;
     std::string device;
     std::vector<std::string> deviceLists{""};
     std::vector<std::string> traversals{"auto"};
@@ -107,6 +108,9 @@ void addBenchCommand(CLI::App& app) {
                 "the same mesh)");
   cmd->add_flag("--brick-tapes", a->brickTapes,
                 "vk sparse: the field pass interprets, per brick, the program pruned to the brick (the same mesh)");
+  cmd->add_flag("--no-row-culling", a->noRowCulling,
+                "vk sparse on lavapipe: evaluate every row of points of an active brick, not only those the CPU "
+                "backend's bound leaves (the same mesh)");
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a, cmd] {
     refuseOptionsNoBackendUses(*cmd, a->backends);
@@ -155,6 +159,7 @@ void addBenchCommand(CLI::App& app) {
             settings.tiledVertices = a->tiledVertices;
             settings.vertexTiles = a->vertexTiles;
             settings.brickTapes = a->brickTapes;
+            settings.rowCulling = !a->noRowCulling;
             settings.expectedRuns = a->warmup + a->repeats;
             // Repeats mesh again into the last mesh's arrays (cpu: with one polygonizer; vk on one
             // device: vk::polygonizeInto), as a host re-meshing does; the first run (first_s)
@@ -226,7 +231,8 @@ void addBenchCommand(CLI::App& app) {
                                     {"preparation", r.gpu.hostSteps.preparation},
                                     {"field_submits", r.gpu.hostSteps.fieldSubmits},
                                     {"emit_submits", r.gpu.hostSteps.emitSubmits}, {"grow", r.gpu.hostSteps.grow},
-                                    {"copy", r.gpu.hostSteps.copy}, {"corners", r.gpu.hostSteps.corners}}}};
+                                    {"copy", r.gpu.hostSteps.copy}, {"corners", r.gpu.hostSteps.corners},
+                                    {"row_culling", r.gpu.hostSteps.rowCulling}}}};
           if (!r.gpu.evaluator.empty()) {
             auto seconds = [](double v) { return v >= 0 ? nlohmann::json(v) : nlohmann::json(nullptr); };
             phases["evaluator"] = {{"traversal", r.gpu.evaluator}, {"generated_gradient", r.gpu.vertexGradient},

@@ -28,7 +28,12 @@
 layout(std430, set = 0, binding = 5) readonly buffer Bricks { uint bricks[]; };  // packed coordinates
 layout(std430, set = 0, binding = 6) writeonly buffer FieldQuads { vec4 fieldQuads[]; };
 layout(std430, set = 0, binding = 7) writeonly buffer Masks { uint masks[]; };
+#ifdef FIELD_ROW_LIST
+// brick_field_rows.comp: the rows to evaluate, batch brick << 9 | row, by tile (vk/extract/row_culling.h).
+layout(std430, set = 0, binding = 8) readonly buffer Rows { uint rowList[]; };
+#else
 layout(std430, set = 0, binding = 8) readonly buffer Order { uint order[]; };  // batch brick numbers by tile
+#endif
 layout(std430, set = 0, binding = 9) writeonly buffer FieldTail { float fieldTail[]; };  // binding 6's buffer
 #ifdef EVAL_TAPES
 // Per batch brick, its tape's first instruction and end (vk/extract/brick_tapes.h).
@@ -40,19 +45,27 @@ layout(std430, set = 0, binding = 10) readonly buffer BrickTapes { uvec2 brickTa
 layout(push_constant) uniform Push {
   vec4 originCell;
   uint log2B;
-  uint activeBricks;  // bricks of this dispatch
+  uint activeBricks;  // bricks of this dispatch (with FIELD_ROW_LIST: rows)
   uint codeLength;
-  uint orderBase;     // this dispatch's first entry of `order`
+  uint orderBase;     // this dispatch's first entry of `order` (of `rowList`)
   uint tailBase;      // where the rows' last samples start (floats)
   uint bricksX, bricksY;  // bricks along x and y (packed brick coordinates)
 } pc;
 
 void main() {
   uint R = (1u << pc.log2B) + 1u;
+#ifdef FIELD_ROW_LIST
+  // One lane per listed row, in a 2-D dispatch of work groups (vk::groupsFor).
+  uint e = linearInvocation();
+  if (e >= pc.activeBricks) return;
+  uint entry = rowList[pc.orderBase + e];
+  uint a = entry >> 9, r = entry & 511u;
+#else
   uint r = gl_GlobalInvocationID.x;
   uint i = gl_GlobalInvocationID.y + gl_GlobalInvocationID.z * gl_NumWorkGroups.y;
   if (r >= R * R || i >= pc.activeBricks) return;
   uint a = order[pc.orderBase + i];
+#endif
   uint z = divideSmall(r, R), y = r - z * R;
   uvec3 g = (unpackBrick(bricks[a], uvec2(pc.bricksX, pc.bricksY)) << pc.log2B) + uvec3(0u, y, z);
   uint row = a * R * R + r;

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -305,25 +306,34 @@ TEST_F(CliCommands, MeshOnTheVulkanBackendEqualsTheCpuMesh) {
   EXPECT_EQ(fileBytes(cwd / "vk.ply"), fileBytes(cwd / "cpu.ply"));
 }
 
-// point_evaluations counts what the CPU backend's counts: every grid sample of the active bricks,
-// then per vertex its refinement steps and its attribute pass (one analytic-gradient pass; six
+// point_evaluations counts what the CPU backend's counts: the grid samples the field pass takes
+// (whole rows of the active bricks: fewer with row culling, all with bench --no-row-culling), then
+// per vertex its refinement steps and its attribute pass (one analytic-gradient pass; six
 // central-difference samples and a colour pass with the stack-based traversal), in memory and
 // streamed alike. The oracle: the bricks' points and the vertices the same report gives.
 TEST_F(CliCommands, VulkanEvaluationsCountEveryVertexSample) {
   const fs::path cwd = dir("mesh_vk_evaluations");
-  struct Case {
-    std::string options;
-    double perVertex;
+  auto report = [&](const std::string& options) {
+    const CliSplitRun r = runCliSplit("mesh " + tower + " -o e.ply --resolution 48 --backend vk --json " + options, cwd);
+    EXPECT_EQ(r.status, 0) << options << r.err;
+    return nlohmann::json::parse(r.out);
   };
-  for (const Case& c : {Case{"", 1}, Case{"--refine 2", 3}, Case{"--traversal stack", 7}, Case{"--stream", 1}}) {
-    const CliSplitRun r = runCliSplit("mesh " + tower + " -o e.ply --resolution 48 --backend vk --json " + c.options, cwd);
-    ASSERT_EQ(r.status, 0) << c.options << r.err;
-    const nlohmann::json j = nlohmann::json::parse(r.out);
-    const double side = j["gpu"]["brick_cells"].get<double>() + 1.0;
-    const double gridSamples = j["gpu"]["active_bricks"].get<double>() * side * side * side;
-    ASSERT_GT(j["vertices"].get<double>(), 1000.0) << c.options;
-    EXPECT_EQ(j["point_evaluations"].get<double>(), gridSamples + c.perVertex * j["vertices"].get<double>()) << c.options;
-  }
+  const nlohmann::json plain = report("");
+  const double vertices = plain["vertices"].get<double>();
+  ASSERT_GT(vertices, 1000.0);
+  const double side = plain["gpu"]["brick_cells"].get<double>() + 1.0;
+  const double gridSamples = plain["point_evaluations"].get<double>() - vertices;
+  EXPECT_LE(gridSamples, plain["gpu"]["active_bricks"].get<double>() * side * side * side);
+  EXPECT_EQ(std::fmod(gridSamples, side), 0.0);  // whole rows
+  EXPECT_EQ(report("--refine 2")["point_evaluations"].get<double>(), gridSamples + 3.0 * vertices);
+  EXPECT_EQ(report("--traversal stack")["point_evaluations"].get<double>(), gridSamples + 7.0 * vertices);
+  EXPECT_EQ(report("--stream")["point_evaluations"].get<double>(), gridSamples + vertices);
+  // Without row culling every point of an active brick is a sample.
+  const CliSplitRun all = runCliSplit("bench " + tower + " --resolution 48 --backend vk --repeats 1 --no-row-culling --json", cwd);
+  ASSERT_EQ(all.status, 0) << all.err;
+  const nlohmann::json b = nlohmann::json::parse(all.out)[0];
+  EXPECT_EQ(b["point_evaluations"].get<double>(),
+            b["vk_phases"]["active_bricks"].get<double>() * side * side * side + b["vertices"].get<double>());
 }
 
 // --devices: lavapipe opened two and three times shares the brick batches and writes the bytes

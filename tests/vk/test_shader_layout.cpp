@@ -6,6 +6,7 @@
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
+#include "blobvk/cpu_simd/column_sides.h"
 #include "models.h"
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/field.h"
@@ -21,6 +22,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <memory>
 #include <map>
 #include <set>
 #include <string>
@@ -133,6 +135,16 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
       tapes.brickTapeUniforms = uniforms;
       EXPECT_GT(vk::polygonize(dev, program, grid, tapes).triangleCount(), 0u);
     }
+  }
+  if (dev.info().isLlvmpipe()) {  // Row culling: the listed rows' field and the others' inside bits
+    // (brick_field_rows, brick_row_fill), with the CPU backend's bound.
+    vk::GpuPolygonizeOptions rows = stackless;
+    rows.brickCells = 8;
+    const auto sides = std::make_shared<cpu::ColumnSides>(program);
+    rows.columnSides = [sides](const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* out) {
+      (*sides)(x, y, z, n, out);
+    };
+    EXPECT_GT(vk::polygonize(dev, program, grid, rows).triangleCount(), 0u);
   }
   {  // An edit's re-run gives its triangles' corners as edge keys (brick_triangle_keys).
     vk::GpuPolygonizeOptions small = stackless;

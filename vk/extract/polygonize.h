@@ -87,6 +87,15 @@ struct GpuPolygonizeOptions {
   bool interpretVertexPassUntilBuilt = false;
   // Sparse: the classification's kernel; every choice gives the same flags.
   ClassifyCode classifyCode = ClassifyCode::Auto;
+  // Sparse path on llvmpipe (which reads the active-brick list back anyway): a host bound that
+  // classifies columns of a brick, as cpu::ColumnSides does (its arguments; sides 0 below the
+  // iso-value over a column's closed box, 1 at or above it, 2 either), so that the field pass
+  // evaluates only the rows of points in columns that may cross; the others get their inside
+  // bits and no sample, since no vertex reads one (vk/extract/row_culling.h). The same mesh byte
+  // for byte, provided the bound holds for the device's values (cpu::ColumnSides::
+  // boundsHoldOnIeeeDevices). Called from several threads at once. Empty (the library's default):
+  // every row of an active brick is evaluated. blobvk's CLI passes the CPU backend's bound.
+  std::function<void(const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* sides)> columnSides;
   // Sparse: the field pass interprets, per brick, the program pruned to the brick on the host
   // (vk/extract/brick_tapes.h) instead of the traversal's field kernel or field tiles; the vertex
   // pass keeps the traversal's kernel. The same mesh byte for byte.
@@ -117,6 +126,7 @@ struct HostSteps {
   double copy = 0.0;            // each batch's outputs copied into the mesh arrays (with a read-back
                                 // copy, all but the last output's during emitSubmits)
   double corners = 0.0;         // keyed-corner batches: triangle corners found by edge key
+  double rowCulling = 0.0;      // per batch (GpuPolygonizeOptions::columnSides): rows bounded and listed, uploaded
 };
 
 struct GpuStats {

@@ -1,5 +1,7 @@
 #include "blobvk/vk/extract/sparse_batches.h"
 
+#include "blobvk/vk/extract/row_culling.h"
+
 #include "blobvk/vk/device/concurrent_builds.h"
 #include "blobvk/vk/device/device_timer.h"
 #include "blobvk/vk/device/error.h"
@@ -10,6 +12,7 @@
 #include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/host_copy.h"
 #include "blobvk/vk/extract/loop_limit.h"
+#include "blobvk/vk/extract/row_culling.h"
 #include "blobvk/vk/extract/scan.h"
 
 #include <tbb/parallel_for.h>
@@ -173,7 +176,10 @@ struct SparseBatchRunner::State {
     if (vertexTileBuild.valid()) vertexTileKernels = vertexTileBuild.get();
     return vertexTileKernels;
   }
-  std::vector<std::uint32_t> batchPacked;  // host copy of a batch's brick list (tiles, tapes)
+  std::vector<std::uint32_t> batchPacked;  // host copy of a batch's brick list (tiles, tapes, row culling)
+  // Row culling (row_culling.h): the field kernels take a list of rows, brick_row_fill the rest.
+  bool cullRows = false;
+  Buffer rowList, fillList;
   // Per-brick tapes (GpuPolygonizeOptions::brickTapes): the program the tapes are pruned from, the
   // batch's tapes on the host and on the device (grown as batches need), each brick's range.
   const blobtree::Program* tapeProgram = nullptr;
@@ -289,6 +295,15 @@ struct SparseBatchRunner::State {
     fieldGroupSize = std::min<std::uint32_t>({std::uint32_t(R * R + 7) / 8 * 8, limits.maxComputeWorkGroupSize[0],
                                               limits.maxComputeWorkGroupInvocations});
     fieldOrder = make(std::uint64_t(maxLoaded) * 4, "field tile order");
+    // Row culling packs a batch brick in 23 bits and a batch row in 31.
+    cullRows = cullsRows(o, device.info().isLlvmpipe(), std::uint32_t(B)) &&
+               maxRows < (1ull << 30) && maxLoaded < (1u << 22);
+    if (cullRows) {
+      rowList = make(maxRows * 4, "field rows");
+      fillList = make(maxRows * 4, "one-sided rows");
+    }
+    const char* fieldShader = cullRows ? "brick_field_rows" : "brick_field";
+    const std::uint32_t fieldKernelGroup = cullRows ? std::uint32_t(o.workgroupSize) : fieldGroupSize;
     // Without samples to take (no refinement; normals from the gradient), the kernel without the
     // sample loop, whose field evaluator llvmpipe would run once per vertex anyway.
     const bool samples = o.refineSteps > 0 || traversal == Traversal::StackBased;
@@ -395,14 +410,14 @@ struct SparseBatchRunner::State {
       builds.push_back([&] { return device.kernel(uniformTapes ? "brick_field_tapes_uniform" : "brick_field_tapes", tapeSpecs()); });
     } else if (tiles.size() <= 1) {
       tiles.assign(1, BrickTile{{0, 0, 0}, {bg.x - 1, bg.y - 1, bg.z - 1}, {}});
-      builds.push_back([&] { return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal); });
+      builds.push_back([&] { return evaluatorKernel(device, gpu, fieldShader, fieldKernelGroup, traversal); });
     } else {
       for (std::size_t t = 0; t < tiles.size(); ++t) {
         builds.push_back([&, region = tiles[t].region, own = ownTileKernel(t)]() -> KernelPtr {
-          if (!own) return evaluatorKernel(device, gpu, "brick_field", fieldGroupSize, traversal);
+          if (!own) return evaluatorKernel(device, gpu, fieldShader, fieldKernelGroup, traversal);
           CodegenOptions c = gpu.codegen;
           c.region = region;
-          return specialisedKernel(device, program, print, c, "brick_field", fieldGroupSize);
+          return specialisedKernel(device, program, print, c, fieldShader, fieldKernelGroup);
         });
       }
     }
@@ -489,10 +504,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const std::uint64_t rowCount = std::uint64_t(loaded) * R * R;
   const std::uint64_t triangleSegmentCount = std::uint64_t(loaded) * B * B;
   const Groups columnGroups = groupsFor(std::uint64_t(loaded) * R, wg);  // the row passes: a lane per column of rows
-  s.fieldEvaluations += std::uint64_t(loaded) * P;
   s.fieldTiles = std::uint32_t(st.tiles.size());
-  // The batch's brick list on the host, for the tiles' order and the tapes.
-  if (st.tiles.size() > 1 || st.tapeProgram) {
+  // The batch's brick list on the host, for the tiles' order, the tapes and row culling.
+  if (st.tiles.size() > 1 || st.tapeProgram || st.cullRows) {
     st.batchPacked.resize(loaded);
     device.download(window->list, st.batchPacked.data(), 4ull * loaded, 4ull * windowActive);
   }
@@ -506,6 +520,17 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     tileOrder.starts = {0, loaded};
   }
   device.upload(st.fieldOrder, tileOrder.order.data(), 4ull * loaded);
+  RowPlan rows;
+  if (st.cullRows) {
+    const auto planStart = Clock::now();
+    rows = planRows(options, st.grid, bg, st.batchPacked, tileOrder);
+    if (!rows.rows.empty()) device.upload(st.rowList, rows.rows.data(), 4ull * rows.rows.size());
+    if (!rows.fills.empty()) device.upload(st.fillList, rows.fills.data(), 4ull * rows.fills.size());
+    s.hostSteps.rowCulling += since(planStart);
+    s.fieldEvaluations += std::uint64_t(rows.rows.size()) * R;
+  } else {
+    s.fieldEvaluations += std::uint64_t(loaded) * P;
+  }
   const bool uniformTapes = st.tapeProgram && st.uploadTapes(st.batchPacked, gpu, s);
   // The vertex pass per tile: each batch brick's tile, for brick_vertex_tile_counts and _lists.
   const std::vector<KernelPtr>& vertexTiles = st.vertexTiles();
@@ -570,9 +595,24 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
         rec.dispatch(*st.storageTapeKernel(), bind, &push, sizeof(push), groups, tg.y, tg.z);
         continue;
       }
+      if (st.cullRows) {  // the tile's listed rows, a lane each
+        push.orderBase = rows.starts[t];
+        push.activeBricks = rows.starts[t + 1] - rows.starts[t];
+        if (push.activeBricks == 0) continue;
+        const BufferRange bind[10] = {pb[0], pb[1], pb[2], pb[3], pb[4], st.batchBricks, st.field, st.masks, st.rowList, st.field};
+        const Groups rg = groupsFor(push.activeBricks, wg);
+        rec.dispatch(*st.fieldKernels[t], bind, &push, sizeof(push), rg.x, rg.y);
+        continue;
+      }
       const BufferRange bind[10] = {pb[0],    pb[1],          pb[2], pb[3], pb[4], st.batchBricks, st.field, st.masks,
                                     st.fieldOrder, st.field};
       rec.dispatch(*st.fieldKernels[t], bind, &push, sizeof(push), groups, tg.y, tg.z);
+    }
+    if (!rows.fills.empty()) {
+      const std::uint32_t push[2] = {std::uint32_t(rows.fills.size()), R};
+      const BufferRange bind[2] = {st.fillList, st.masks};
+      const Groups g = groupsFor(rows.fills.size(), wg);
+      rec.dispatch(*device.kernel("brick_row_fill", wgSpec), bind, push, sizeof(push), g.x, g.y);
     }
     {
       const std::uint32_t push[7] = {bg.x, bg.y, bg.z, loaded, windowActive, bg.log2B, window->firstLayer};
