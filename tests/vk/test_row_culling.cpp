@@ -39,7 +39,8 @@ TEST(ColumnSides, EveryPointOfAColumnGivenASideHasIt) {
     const cpu::ColumnSides sides(s.program);
     std::size_t proven = 0, crossing = 0;
     for (int box = 0; box < 60; ++box) {
-      // Boxes of 16 cells at random places, columns of 4 cells (as the field pass cuts bricks).
+      // Boxes of 16 cells at random places, columns of 4 cells (the field pass cuts bricks in
+      // columns of 2; the bound is the same for any size).
       int first[3];
       for (int a = 0; a < 3; ++a)
         first[a] = std::uniform_int_distribution<int>(0, std::max(0, s.grid.cells[a] - 16))(rng);

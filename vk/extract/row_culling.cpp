@@ -32,7 +32,7 @@ BrickRows classifyBrick(const GpuPolygonizeOptions& options, const blobtree::Gri
     y[j] = grid.point(0, y0 + int(j * C), 0).y;
     z[j] = grid.point(0, 0, z0 + int(j * C)).z;
   }
-  std::array<std::uint8_t, 16> sides{};
+  std::array<std::uint8_t, 64> sides{};
   options.columnSides(x, y.data(), z.data(), n, sides.data());
   BrickRows out;
   std::bitset<kMaxR * kMaxR> below, above;  // rows in a column proven below / at or above
