@@ -219,6 +219,12 @@ def skip_reason(message):
     return message
 
 
+def error_instructions(message):
+    """The program size a refused build names ("the program's 33600 instructions"), or None."""
+    m = re.search(r"program's (\d+) instructions", message or "")
+    return int(m.group(1)) if m else None
+
+
 def compile_cost_table(path):
     """bench_compile_cost as one row per generated tower and one column per evaluator: the fastest
     build of the repetitions, the largest peak memory, bold where the cost model picks it, and why
@@ -239,6 +245,8 @@ def compile_cost_table(path):
         cell = towers.setdefault(tower, {"instructions": None}).setdefault(evaluator, {})
         if b.get("error_occurred"):
             cell["error"] = b.get("error_message", "not run")
+            if error_instructions(cell["error"]):  # a refused build reports no counters
+                towers[tower]["instructions"] = error_instructions(cell["error"])
             if b.get("instructions"):
                 towers[tower]["instructions"] = int(b["instructions"])
             continue
@@ -284,7 +292,11 @@ def compile_cost_stats(path):
     stats = {"instructions": [], "emitted": [], "reps": Counter()}
     for b in (load(path) or {}).get("benchmarks", []):
         parts = b.get("run_name", b["name"]).split("/")
-        if b.get("run_type") == "aggregate" or b.get("error_occurred") or len(parts) < 3 or parts[0] != "build":
+        if b.get("run_type") == "aggregate" or len(parts) < 3 or parts[0] != "build":
+            continue
+        if b.get("error_occurred"):
+            if error_instructions(b.get("error_message")):
+                stats["instructions"].append(error_instructions(b.get("error_message")))
             continue
         stats["instructions"].append(int(b.get("instructions", 0)))
         if parts[1] == "specialised_looped":

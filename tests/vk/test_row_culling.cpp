@@ -1,12 +1,9 @@
-// Row culling (vk/extract/row_culling.h, cpu/column_sides.h): the field pass on llvmpipe skips the
-// rows of points that the CPU backend's bound proves on one side of the iso-value.
-// - cpu::ColumnSides against the field itself: every grid point of a column given a side has that
-//   side (blobtree::evaluate at every point of the column's closed box).
-// - The device: with culling, the mesh of every shipped scene it applies to is the CPU
-//   reference's and the bytes of the run without it, in one batch and in batches of a few
-//   bricks, with bricks of 16 and 8, on the specialised tiles and the interpreter; fewer points
-//   are evaluated.
-#include "blobvk/blobtree/evaluate.h"
+// Row culling (vk/extract/row_culling.h): the field pass on llvmpipe skips the rows of points that
+// the CPU backend's bound (cpu::ColumnSides, tested against the field in
+// tests/cpu_simd/test_column_sides.cpp) proves on one side of the iso-value. With culling, the mesh
+// of every shipped scene it applies to is the CPU reference's and the bytes of the run without it,
+// in one batch and in batches of a few bricks, with bricks of 16 and 8, on the specialised tiles
+// and the interpreter; fewer points are evaluated.
 #include "blobvk/cpu_simd/column_sides.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/vk/extract/polygonize.h"
@@ -17,7 +14,6 @@
 #include <gtest/gtest.h>
 
 #include <memory>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -30,53 +26,6 @@ vk::GpuPolygonizeOptions culling(const std::shared_ptr<cpu::ColumnSides>& sides)
     (*sides)(x, y, z, n, out);
   };
   return o;
-}
-
-TEST(ColumnSides, EveryPointOfAColumnGivenASideHasIt) {
-  std::mt19937 rng(11);
-  for (const char* name : {"tower", "random128", "eggshell", "dice", "craniotomy"}) {
-    const ShippedScene s = shipped(name, 96);
-    const cpu::ColumnSides sides(s.program);
-    std::size_t proven = 0, crossing = 0;
-    for (int box = 0; box < 60; ++box) {
-      // Boxes of 16 cells at random places, columns of 4 cells (the field pass cuts bricks in
-      // columns of 2; the bound is the same for any size).
-      int first[3];
-      for (int a = 0; a < 3; ++a)
-        first[a] = std::uniform_int_distribution<int>(0, std::max(0, s.grid.cells[a] - 16))(rng);
-      const float x[2] = {s.grid.point(first[0], 0, 0).x, s.grid.point(first[0] + 16, 0, 0).x};
-      float y[5], z[5];
-      for (int j = 0; j <= 4; ++j) {
-        y[j] = s.grid.point(0, first[1] + 4 * j, 0).y;
-        z[j] = s.grid.point(0, 0, first[2] + 4 * j).z;
-      }
-      std::uint8_t side[16];
-      sides(x, y, z, 4, side);
-      for (int k = 0; k < 4; ++k)
-        for (int j = 0; j < 4; ++j) {
-          const std::uint8_t c = side[j + 4 * k];
-          ASSERT_LE(c, 2) << name;
-          if (c == 2) {
-            ++crossing;
-            continue;
-          }
-          ++proven;
-          for (int pz = 4 * k; pz <= 4 * k + 4; ++pz)
-            for (int py = 4 * j; py <= 4 * j + 4; ++py)
-              for (int px = 0; px <= 16; ++px) {
-                const float f = blobtree::evaluate(s.program, s.grid.point(first[0] + px, first[1] + py, first[2] + pz));
-                ASSERT_EQ(f >= layout::ISO_VALUE, c == 1) << name << " box " << box << " column " << j << "," << k;
-              }
-        }
-    }
-    EXPECT_GT(proven, 0u) << name;  // the bound decides columns, not only "may cross"
-  }
-}
-
-TEST(ColumnSides, HoldOnIeeeDevicesOnlyWithoutPowSinAndCos) {
-  EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(shipped("tower", 16).program));
-  EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(shipped("random128", 16).program));
-  EXPECT_FALSE(cpu::ColumnSides::boundsHoldOnIeeeDevices(shipped("twisted_column", 16).program));  // twist
 }
 
 TEST_F(VulkanTest, RowCullingGivesTheMeshOfEveryRow) {
