@@ -63,7 +63,7 @@ void ColumnSides::operator()(const float x[2], const float* y, const float* z, s
   const glm::dvec3 lo(x[0], y[0], z[0]), hi(x[1], y[n], z[n]);
   const glm::dvec3 size = hi - lo;
   // The coarse cell holding the box's low corner, grown by a box size and a hundredth so that it
-  // holds the box whatever rounding gave its coordinates.
+  // holds the box whatever rounding gave its coordinates (a degenerate box may still miss it).
   std::array<std::int64_t, 6> key{};
   glm::dvec3 cellLo{0.0}, cellHi{0.0};
   bool inCell = true;
@@ -76,11 +76,10 @@ void ColumnSides::operator()(const float x[2], const float* y, const float* z, s
     cellHi[a] = (index + 1.0) * span + 1.01 * size[a];
     inCell = inCell && cellLo[a] <= lo[a] && hi[a] <= cellHi[a];
   }
-  if (!inCell) {  // never with grid coordinates; then the box is its own cell
-    cellLo = lo, cellHi = hi;
-    key[3] = ~key[3];
-  }
-  if (!t.haveCurrent || key != t.current) {
+  if (!inCell) {  // never with grid coordinates; then the box is pruned on its own, uncached
+    specialiseTape(program_, lo, hi, TapeUse::Field, t.cell);
+    t.haveCurrent = false;
+  } else if (!t.haveCurrent || key != t.current) {
     auto it = t.cells.find(key);
     if (it != t.cells.end()) {
       t.cell.code = it->second;

@@ -56,7 +56,8 @@ std::string ids(const std::vector<std::uint32_t>& v) {
 
 TEST(NoContraction, EmbeddedFieldAndVertexKernels) {
   for (const char* name :
-       {"field_grid", "vertices", "vertices_tiled", "brick_field", "brick_vertices", "brick_vertices_direct",
+       {"field_grid", "vertices", "vertices_tiled", "brick_field", "brick_field_rows", "brick_vertices",
+        "brick_vertices_direct",
         "brick_vertices_tiled", "brick_vertices_direct_tiled"}) {
     const Audit a = audit(vk::shaderCode(name));
     EXPECT_GT(a.arithmetic, 20u) << name;  // the evaluator is in there
@@ -70,7 +71,8 @@ TEST(NoContraction, SpecialisedEvaluatorOfEveryPrimitiveOperatorAndWarp) {
     const auto program = blobtree::compile(model.root);
     const std::string glsl = vk::generateSpecialisedEvaluator(program);
     for (const char* shader :
-         {"field_grid.comp", "vertices.comp", "brick_field.comp", "brick_vertices.comp", "brick_vertices_direct.comp",
+         {"field_grid.comp", "vertices.comp", "brick_field.comp", "brick_field_rows.comp", "brick_vertices.comp",
+          "brick_vertices_direct.comp",
           "brick_vertices_tiled.comp", "brick_vertices_direct_tiled.comp"}) {
       const auto code = vk::compileComputeShader(shader, {{"eval_program.glsl", glsl}});
       const Audit a = audit(code);

@@ -6,6 +6,7 @@
 // and the interpreter; fewer points are evaluated.
 #include "blobvk/cpu_simd/column_sides.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/extract/incremental_extract.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "reference_checks.h"
 #include "shipped_scenes.h"
@@ -67,6 +68,22 @@ TEST_F(VulkanTest, RowCullingGivesTheMeshOfEveryRow) {
           }
         }
   }
+}
+
+// A bound belongs to one program, and an edit session's programs change: the extractor ignores
+// the option. Given a bound that proves every column below the iso-value (wrong for this
+// program), it still meshes every row.
+TEST_F(VulkanTest, IncrementalExtractionIgnoresARowCullingBound) {
+  const ShippedScene s = shipped("tower", 48);
+  vk::GpuPolygonizeOptions o;
+  o.traversal = vk::Traversal::Stackless;
+  const mesh::TriMesh whole = vk::polygonize(device(), s.program, s.grid, o);
+  ASSERT_GT(whole.triangleCount(), 0u);
+  o.columnSides = [](const float*, const float*, const float*, std::uint32_t n, std::uint8_t* sides) {
+    for (std::uint32_t c = 0; c < n * n; ++c) sides[c] = 0;
+  };
+  vk::IncrementalExtractor inc(device(), s.grid, o);
+  expectSameBytes(inc.reset(s.program), whole, "incremental extractor with a wrong bound");
 }
 
 }  // namespace

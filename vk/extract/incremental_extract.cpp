@@ -82,6 +82,8 @@ struct IncrementalExtractor::State {
   mesh::TriMesh mesh;
 
   State(Device& d, const blobtree::GridSpec& g, const GpuPolygonizeOptions& o) : device(d), grid(g), options(o) {
+    // A row-culling bound belongs to one Program; each edit brings another.
+    options.columnSides = nullptr;
     if (!o.sparse || o.tiledVertexPass) {
       throw VulkanError("incremental extraction: needs the sparse extraction (not the dense one, nor tiled vertices)");
     }

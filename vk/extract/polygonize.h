@@ -92,9 +92,10 @@ struct GpuPolygonizeOptions {
   // iso-value over a column's closed box, 1 at or above it, 2 either), so that the field pass
   // evaluates only the rows of points in columns that may cross; the others get their inside
   // bits and no sample, since no vertex reads one (vk/extract/row_culling.h). The same mesh byte
-  // for byte, provided the bound holds for the device's values (cpu::ColumnSides::
-  // boundsHoldOnIeeeDevices). Called from several threads at once. Empty (the library's default):
-  // every row of an active brick is evaluated. blobvk's CLI passes the CPU backend's bound.
+  // for byte, provided the bound is the job's program's and holds for the device's values
+  // (cpu::ColumnSides::boundsHoldOnIeeeDevices). Called from several threads at once. Empty (the
+  // library's default): every row of an active brick is evaluated. blobvk's CLI passes the CPU
+  // backend's bound. IncrementalExtractor, whose edits change the program, ignores it.
   std::function<void(const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* sides)> columnSides;
   // Sparse: the field pass interprets, per brick, the program pruned to the brick on the host
   // (vk/extract/brick_tapes.h) instead of the traversal's field kernel or field tiles; the vertex

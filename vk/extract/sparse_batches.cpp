@@ -1,7 +1,5 @@
 #include "blobvk/vk/extract/sparse_batches.h"
 
-#include "blobvk/vk/extract/row_culling.h"
-
 #include "blobvk/vk/device/concurrent_builds.h"
 #include "blobvk/vk/device/device_timer.h"
 #include "blobvk/vk/device/error.h"
