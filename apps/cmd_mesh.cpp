@@ -108,6 +108,9 @@ void addMeshCommand(CLI::App& app) {
                 "the same mesh)");
   cmd->add_flag("--brick-tapes", a->settings.brickTapes,
                 "vk sparse: the field pass interprets, per brick, the program pruned to the brick (the same mesh)");
+  cmd->add_flag("--no-row-culling{false}", a->settings.rowCulling,
+                "vk sparse on lavapipe: evaluate every row of points of an active brick, not only those the CPU "
+                "backend's bound leaves (the same mesh)");
   cmd->add_option("--max-memory", a->maxMemory,
                   "Memory budget (e.g. 2G; default: available): a cpu or vk job whose mesh may not fit is streamed to the file layer by layer")
       ->check(nonEmptyText());

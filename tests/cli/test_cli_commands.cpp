@@ -313,12 +313,12 @@ TEST_F(CliCommands, MeshOnTheVulkanBackendEqualsTheCpuMesh) {
 // streamed alike. The oracle: the bricks' points and the vertices the same report gives.
 TEST_F(CliCommands, VulkanEvaluationsCountEveryVertexSample) {
   const fs::path cwd = dir("mesh_vk_evaluations");
-  auto report = [&](const std::string& options) {
-    const CliSplitRun r = runCliSplit("mesh " + tower + " -o e.ply --resolution 48 --backend vk --json " + options, cwd);
+  auto report = [&](const std::string& options, const std::string& file = "e.ply") {
+    const CliSplitRun r = runCliSplit("mesh " + tower + " -o " + file + " --resolution 48 --backend vk --json " + options, cwd);
     EXPECT_EQ(r.status, 0) << options << r.err;
     return nlohmann::json::parse(r.out);
   };
-  const nlohmann::json plain = report("");
+  const nlohmann::json plain = report("", "plain.ply");
   const double vertices = plain["vertices"].get<double>();
   ASSERT_GT(vertices, 1000.0);
   const double side = plain["gpu"]["brick_cells"].get<double>() + 1.0;
@@ -328,7 +328,11 @@ TEST_F(CliCommands, VulkanEvaluationsCountEveryVertexSample) {
   EXPECT_EQ(report("--refine 2")["point_evaluations"].get<double>(), gridSamples + 3.0 * vertices);
   EXPECT_EQ(report("--traversal stack")["point_evaluations"].get<double>(), gridSamples + 7.0 * vertices);
   EXPECT_EQ(report("--stream")["point_evaluations"].get<double>(), gridSamples + vertices);
-  // Without row culling every point of an active brick is a sample.
+  // Without row culling every point of an active brick is a sample, and the mesh is the same bytes.
+  const nlohmann::json every = report("--no-row-culling", "every.ply");
+  EXPECT_EQ(every["point_evaluations"].get<double>(),
+            every["gpu"]["active_bricks"].get<double>() * side * side * side + vertices);
+  EXPECT_EQ(fileBytes(cwd / "plain.ply"), fileBytes(cwd / "every.ply"));
   const CliSplitRun all = runCliSplit("bench " + tower + " --resolution 48 --backend vk --repeats 1 --no-row-culling --json", cwd);
   ASSERT_EQ(all.status, 0) << all.err;
   const nlohmann::json b = nlohmann::json::parse(all.out)[0];
