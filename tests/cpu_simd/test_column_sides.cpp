@@ -6,6 +6,7 @@
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/column_sides.h"
+#include "tests/vk/shipped_scenes.h"
 
 #include <gtest/gtest.h>
 #include <tbb/parallel_for.h>
@@ -19,19 +20,8 @@
 namespace blobvk {
 namespace {
 
-struct Scene {
-  blobtree::Program program;
-  blobtree::GridSpec grid;
-};
-
-Scene shipped(const std::string& name, int resolution) {
-  const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + name + ".json");
-  Scene s{blobtree::compile(scene.root), {}};
-  blobtree::GridRequest request;
-  request.resolution = resolution;
-  s.grid = blobtree::chooseGrid(s.program, scene.grid, request);
-  return s;
-}
+using testing::shipped;
+using Scene = testing::ShippedScene;
 
 // A box of 16 cells from grid point `first`, in n x n columns along y and z; returns how many
 // columns it proved and checks each proven column at every point of its closed box.
