@@ -159,10 +159,12 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings, const bl
   vk::GpuPolygonizeOptions options;
   // On llvmpipe the field pass skips the rows the CPU backend's bound proves one-sided, where the
   // device's values are the CPU's bits (no pow, sin or cos), so that the bound holds for them.
-  if (settings.rowCulling && cpu::ColumnSides::boundsHoldOnIeeeDevices(program)) options.columnSides = [sides = std::make_shared<cpu::ColumnSides>(program)](
-                            const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* out) {
-    (*sides)(x, y, z, n, out);
-  };
+  if (settings.rowCulling && cpu::ColumnSides::boundsHoldOnIeeeDevices(program)) {
+    options.columnSides = [sides = std::make_shared<cpu::ColumnSides>(program)](
+                              const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* out) {
+      (*sides)(x, y, z, n, out);
+    };
+  }
   options.refineSteps = settings.refineSteps;
   options.traversal = traversalFromName(settings.traversal);
   if (settings.fieldTiles > 0)  // a given cap holds for repeated jobs too
