@@ -161,9 +161,8 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings, const bl
   // device's values are the CPU's bits (no pow, sin or cos), so that the bound holds for them.
   if (settings.rowCulling && cpu::ColumnSides::boundsHoldOnIeeeDevices(program)) {
     options.columnSides = [sides = std::make_shared<cpu::ColumnSides>(program)](
-                              const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* out) {
-      (*sides)(x, y, z, n, out);
-    };
+                              const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
+                              std::uint8_t* out) { (*sides)(x, nx, y, z, n, out); };
   }
   options.refineSteps = settings.refineSteps;
   options.traversal = traversalFromName(settings.traversal);

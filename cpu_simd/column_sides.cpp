@@ -35,6 +35,8 @@ struct ColumnSides::State {
     bool haveCurrent = false;
     BlockBounds bounds;
     std::vector<double> cx, cy, cz, lo, hi;
+    std::vector<std::size_t> crossing;  // columns that may cross, whose segments are bounded
+    std::vector<double> crossingY, crossingZ;
   };
   explicit State(const blobtree::Program& program) : tapeTemplate(makeTapeProgram(program)) {}
   blobtree::Program tapeTemplate;
@@ -52,7 +54,7 @@ bool ColumnSides::boundsHoldOnIeeeDevices(const blobtree::Program& program) {
 ColumnSides::ColumnSides(const blobtree::Program& program) : program_(program), state_(std::make_unique<State>(program)) {}
 ColumnSides::~ColumnSides() = default;
 
-void ColumnSides::operator()(const float x[2], const float* y, const float* z, std::uint32_t n,
+void ColumnSides::operator()(const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
                              std::uint8_t* sides) const {
   State::PerThread& t = state_->threads.local();
   if (!t.ready) {  // the records, once per thread; pruning rewrites code only
@@ -60,7 +62,7 @@ void ColumnSides::operator()(const float x[2], const float* y, const float* z, s
     t.box = makeTapeProgram(t.cell);
     t.ready = true;
   }
-  const glm::dvec3 lo(x[0], y[0], z[0]), hi(x[1], y[n], z[n]);
+  const glm::dvec3 lo(x[0], y[0], z[0]), hi(x[nx], y[n], z[n]);
   const glm::dvec3 size = hi - lo;
   // The coarse cell holding the box's low corner, grown by a box size and a hundredth so that it
   // holds the box whatever rounding gave its coordinates (a degenerate box may still miss it).
@@ -93,10 +95,13 @@ void ColumnSides::operator()(const float x[2], const float* y, const float* z, s
   }
   specialiseTape(t.cell, lo, hi, TapeUse::Field, t.box);
   t.bounds.reset(t.box, lo, hi);
-  const std::size_t count = std::size_t(n) * n;
-  for (auto* v : {&t.cx, &t.cy, &t.cz, &t.lo, &t.hi}) v->resize(count);
-  // One batch of equal boxes: the centres, and the largest half extent (columns of a grid differ
-  // in float rounding only; a larger box is still a conservative one).
+  const double iso = layout::ISO_VALUE;
+  auto sideOf = [iso](double l, double h) -> std::uint8_t { return h < iso ? 0 : l >= iso ? 1 : 2; };
+  // Whole columns first, one batch of equal boxes: the centres, and the largest half extent
+  // (columns of a grid differ in float rounding only; a larger box is still a conservative one).
+  // Then the segments of the columns that may cross: a proven column's segments share its side.
+  const std::size_t columns = std::size_t(n) * n;
+  for (auto* v : {&t.cx, &t.cy, &t.cz, &t.lo, &t.hi}) v->resize(columns * std::max(nx, 1u));
   glm::dvec3 half(0.5 * size.x, 0.0, 0.0);
   for (std::uint32_t j = 0; j < n; ++j) {
     half.y = std::max(half.y, 0.5 * (double(y[j + 1]) - double(y[j])));
@@ -109,9 +114,30 @@ void ColumnSides::operator()(const float x[2], const float* y, const float* z, s
       t.cy[c] = 0.5 * (double(y[j]) + double(y[j + 1]));
       t.cz[c] = 0.5 * (double(z[k]) + double(z[k + 1]));
     }
-  t.bounds(count, t.cx.data(), t.cy.data(), t.cz.data(), half, t.lo.data(), t.hi.data());
-  const double iso = layout::ISO_VALUE;
-  for (std::size_t c = 0; c < count; ++c) sides[c] = t.hi[c] < iso ? 0 : t.lo[c] >= iso ? 1 : 2;
+  t.bounds(columns, t.cx.data(), t.cy.data(), t.cz.data(), half, t.lo.data(), t.hi.data());
+  t.crossing.clear();
+  for (std::size_t c = 0; c < columns; ++c) {
+    const std::uint8_t side = sideOf(t.lo[c], t.hi[c]);
+    for (std::uint32_t i = 0; i < nx; ++i) sides[i + nx * c] = side;
+    if (side == 2 && nx > 1) t.crossing.push_back(c);
+  }
+  if (t.crossing.empty()) return;
+  half.x = 0.0;
+  for (std::uint32_t i = 0; i < nx; ++i) half.x = std::max(half.x, 0.5 * (double(x[i + 1]) - double(x[i])));
+  t.crossingY.clear();
+  t.crossingZ.clear();
+  for (const std::size_t c : t.crossing) t.crossingY.push_back(t.cy[c]), t.crossingZ.push_back(t.cz[c]);
+  std::size_t b = 0;
+  for (std::size_t q = 0; q < t.crossing.size(); ++q)
+    for (std::uint32_t i = 0; i < nx; ++i, ++b) {
+      t.cx[b] = 0.5 * (double(x[i]) + double(x[i + 1]));
+      t.cy[b] = t.crossingY[q];
+      t.cz[b] = t.crossingZ[q];
+    }
+  t.bounds(b, t.cx.data(), t.cy.data(), t.cz.data(), half, t.lo.data(), t.hi.data());
+  b = 0;
+  for (const std::size_t c : t.crossing)
+    for (std::uint32_t i = 0; i < nx; ++i, ++b) sides[i + nx * c] = sideOf(t.lo[b], t.hi[b]);
 }
 
 }  // namespace blobvk::cpu

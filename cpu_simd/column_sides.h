@@ -1,10 +1,10 @@
 // Which columns of a box lie on one side of the iso-value: the host bound behind the Vulkan
 // path's row culling on CPU drivers (vk::GpuPolygonizeOptions::columnSides). A box of grid points
-// cut into n x n columns along y and z (whole along x) gets, per column, 0 where the field is
-// below the iso-value at every point of the column's closed box, 1 where it is at or above it,
-// 2 where it may cross. The program is pruned to the box (tape_pruning.h), then bounded per
-// column (block_bounds.h): as conservative as the MPU polygonizer's leaves, whose bits the GPU
-// path's evaluation repeats.
+// cut into n x n columns along y and z, each cut into nx segments along x, gets per segment 0
+// where the field is below the iso-value at every point of its closed box, 1 where it is at or
+// above it, 2 where it may cross. The program is pruned to the box (tape_pruning.h), then bounded
+// per whole column, then per segment of the columns that may cross (block_bounds.h): as
+// conservative as the MPU polygonizer's leaves, whose bits the GPU path's evaluation repeats.
 #pragma once
 
 #include "blobvk/blobtree/program.h"
@@ -27,10 +27,12 @@ class ColumnSides {
   ColumnSides(const ColumnSides&) = delete;
   ColumnSides& operator=(const ColumnSides&) = delete;
 
-  // x: the box's first and last point coordinate along x; y, z: n + 1 column boundaries each, the
-  // float coordinates of grid points (GridSpec::point), ascending. Writes sides[y + n * z].
-  // Safe to call from several threads at once (each thread keeps its own tape and bounds).
-  void operator()(const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* sides) const;
+  // x: nx + 1 segment boundaries along x; y, z: n + 1 column boundaries each; all the float
+  // coordinates of grid points (GridSpec::point), ascending. Writes sides[x + nx * (y + n * z)],
+  // one per box of a segment and a column. Safe to call from several threads at once (each
+  // thread keeps its own tape and bounds).
+  void operator()(const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
+                  std::uint8_t* sides) const;
 
  private:
   struct State;

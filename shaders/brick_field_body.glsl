@@ -29,8 +29,9 @@ layout(std430, set = 0, binding = 5) readonly buffer Bricks { uint bricks[]; }; 
 layout(std430, set = 0, binding = 6) writeonly buffer FieldQuads { vec4 fieldQuads[]; };
 layout(std430, set = 0, binding = 7) writeonly buffer Masks { uint masks[]; };
 #ifdef FIELD_ROW_LIST
-// brick_field_rows.comp: the rows to evaluate, batch brick << 9 | row, by tile (vk/extract/row_culling.h).
-layout(std430, set = 0, binding = 8) readonly buffer Rows { uint rowList[]; };
+// brick_field_rows.comp: the rows to evaluate, by tile (vk/extract/row_culling.h): batch brick << 9 |
+// row, then the span of segments to evaluate and the inside bits of the row's other points.
+layout(std430, set = 0, binding = 8) readonly buffer Rows { uvec2 rowList[]; };
 #else
 layout(std430, set = 0, binding = 8) readonly buffer Order { uint order[]; };  // batch brick numbers by tile
 #endif
@@ -58,8 +59,8 @@ void main() {
   // One lane per listed row, in a 2-D dispatch of work groups (vk::groupsFor).
   uint e = linearInvocation();
   if (e >= pc.activeBricks) return;
-  uint entry = rowList[pc.orderBase + e];
-  uint a = entry >> 9, r = entry & 511u;
+  uvec2 entry = rowList[pc.orderBase + e];
+  uint a = entry.x >> 9, r = entry.x & 511u;
 #else
   uint r = gl_GlobalInvocationID.x;
   uint i = gl_GlobalInvocationID.y + gl_GlobalInvocationID.z * gl_NumWorkGroups.y;
@@ -78,14 +79,24 @@ void main() {
 #else
   uint codeEnd = pc.codeLength;
 #endif
+#ifdef FIELD_ROW_LIST
+  // The listed span: points first .. last, from segment entry.y >> 17 & 7 on, (entry.y >> 20) & 7
+  // segments of four cells; the other points' inside bits come with the entry.
+  uint m = entry.y & 0x1ffffu;
+  uint first = ((entry.y >> 17) & 7u) << 2;
+  uint last = first + (((entry.y >> 20) & 7u) << 2);
+#else
   uint m = 0u;
+  uint first = 0u, last = B;
+#endif
   // Runs of four points, each evaluated in an inner loop (one call site of the evaluator: drivers
   // inline every call) and stored as one vec4 while it lies in the row's run of S floats (for
   // B = 2 the run holds all three points and a float of padding); with B >= 4 the last run is
-  // the row's last point alone, stored in the tail after the loop.
+  // the span's last point alone, stored after the loop: in the tail where it is the row's last,
+  // else as the first float of its run.
   vec4 quad = vec4(0.0);
-  for (uint x0 = 0u; x0 < R; x0 += 4u) {
-    uint n = min(4u, R - x0);
+  for (uint x0 = first; x0 <= last; x0 += 4u) {
+    uint n = min(4u, last + 1u - x0);
     for (uint j = 0u; j < n; ++j) {
       uint x = x0 + j;
       precise vec3 p = pc.originCell.xyz + pc.originCell.w * vec3(float(g.x + x), float(g.y), float(g.z));  // no fma
@@ -93,9 +104,9 @@ void main() {
       quad = vec4(j == 0u ? f : quad.x, j == 1u ? f : quad.y, j == 2u ? f : quad.z, j == 3u ? f : quad.w);
       if (f >= ISO_VALUE) m |= 1u << x;
     }
-    if (x0 < S) fieldQuads[(row * S + x0) >> 2] = quad;
+    if (x0 < last) fieldQuads[(row * S + x0) >> 2] = quad;
   }
-  if (S < R) fieldTail[pc.tailBase + row] = quad.x;
+  if ((last & 3u) == 0u) fieldTail[last < S ? row * S + last : pc.tailBase + row] = quad.x;
   masks[row] = m;
 }
 

@@ -23,36 +23,38 @@ namespace {
 using testing::shipped;
 using Scene = testing::ShippedScene;
 
-// A box of 16 cells from grid point `first`, in n x n columns along y and z; returns how many
-// columns it proved and checks each proven column at every point of its closed box.
-std::size_t checkBox(const Scene& s, const cpu::ColumnSides& sides, const int first[3], std::uint32_t n,
-                     const std::string& what) {
-  const int cells = 16 / int(n);
-  const float x[2] = {s.grid.point(first[0], 0, 0).x, s.grid.point(first[0] + 16, 0, 0).x};
-  std::vector<float> y(n + 1), z(n + 1);
+// A box of 16 cells from grid point `first`, in n x n columns along y and z, each cut into nx
+// segments along x; returns how many boxes it proved and checks each proven box at every point
+// of its closed box.
+std::size_t checkBox(const Scene& s, const cpu::ColumnSides& sides, const int first[3], std::uint32_t nx,
+                     std::uint32_t n, const std::string& what) {
+  const int cells = 16 / int(n), length = 16 / int(nx);
+  std::vector<float> x(nx + 1), y(n + 1), z(n + 1);
+  for (std::uint32_t i = 0; i <= nx; ++i) x[i] = s.grid.point(first[0] + length * int(i), 0, 0).x;
   for (std::uint32_t j = 0; j <= n; ++j) {
     y[j] = s.grid.point(0, first[1] + cells * int(j), 0).y;
     z[j] = s.grid.point(0, 0, first[2] + cells * int(j)).z;
   }
-  std::vector<std::uint8_t> side(std::size_t(n) * n, 9);
-  sides(x, y.data(), z.data(), n, side.data());
+  std::vector<std::uint8_t> side(std::size_t(nx) * n * n, 9);
+  sides(x.data(), nx, y.data(), z.data(), n, side.data());
   std::size_t proven = 0;
   for (std::uint32_t k = 0; k < n; ++k)
-    for (std::uint32_t j = 0; j < n; ++j) {
-      const std::uint8_t c = side[j + n * k];
-      EXPECT_LE(c, 2) << what;
-      if (c == 2) continue;
-      ++proven;
-      for (int pz = cells * int(k); pz <= cells * int(k + 1); ++pz)
-        for (int py = cells * int(j); py <= cells * int(j + 1); ++py)
-          for (int px = 0; px <= 16; ++px) {
-            const float f = blobtree::evaluate(s.program, s.grid.point(first[0] + px, first[1] + py, first[2] + pz));
-            if ((f >= layout::ISO_VALUE) != (c == 1)) {
-              ADD_FAILURE() << what << ": column " << j << "," << k << " proven " << int(c) << " but f = " << f;
-              return proven;
+    for (std::uint32_t j = 0; j < n; ++j)
+      for (std::uint32_t i = 0; i < nx; ++i) {
+        const std::uint8_t c = side[i + nx * (j + n * k)];
+        EXPECT_LE(c, 2) << what;
+        if (c == 2) continue;
+        ++proven;
+        for (int pz = cells * int(k); pz <= cells * int(k + 1); ++pz)
+          for (int py = cells * int(j); py <= cells * int(j + 1); ++py)
+            for (int px = length * int(i); px <= length * int(i + 1); ++px) {
+              const float f = blobtree::evaluate(s.program, s.grid.point(first[0] + px, first[1] + py, first[2] + pz));
+              if ((f >= layout::ISO_VALUE) != (c == 1)) {
+                ADD_FAILURE() << what << ": box " << i << "," << j << "," << k << " proven " << int(c) << " but f = " << f;
+                return proven;
+              }
             }
-          }
-    }
+      }
   return proven;
 }
 
@@ -67,7 +69,10 @@ TEST(ColumnSides, EveryPointOfAColumnGivenASideHasIt) {
       for (int a = 0; a < 3; ++a)
         first[a] = std::uniform_int_distribution<int>(0, std::max(0, s.grid.cells[a] - 16))(rng);
       for (std::uint32_t n : {2u, 4u, 8u})
-        proven += checkBox(s, sides, first, n, std::string(name) + " box " + std::to_string(box) + " n " + std::to_string(n));
+        for (std::uint32_t nx : {1u, 4u})
+          proven += checkBox(s, sides, first, nx, n,
+                             std::string(name) + " box " + std::to_string(box) + ", " + std::to_string(nx) + " x " +
+                                 std::to_string(n) + " x " + std::to_string(n));
     }
     EXPECT_GT(proven, 0u) << name;  // the bound decides columns, not only "may cross"
   }
@@ -82,14 +87,14 @@ TEST(ColumnSides, ManyThreadsAtOnceGiveOneThreadsSides) {
     for (int y = 0; y + 16 <= s.grid.cells.y; y += 16)
       for (int x = 0; x + 16 <= s.grid.cells.x; x += 16) boxes.push_back({x, y, z});
   auto sidesOf = [&](const cpu::ColumnSides& sides, const std::array<int, 3>& b) {
-    const float x[2] = {s.grid.point(b[0], 0, 0).x, s.grid.point(b[0] + 16, 0, 0).x};
-    float y[9], z[9];
+    float x[5], y[9], z[9];
+    for (int i = 0; i <= 4; ++i) x[i] = s.grid.point(b[0] + 4 * i, 0, 0).x;
     for (int j = 0; j <= 8; ++j) y[j] = s.grid.point(0, b[1] + 2 * j, 0).y, z[j] = s.grid.point(0, 0, b[2] + 2 * j).z;
-    std::array<std::uint8_t, 64> out{};
-    sides(x, y, z, 8, out.data());
+    std::array<std::uint8_t, 256> out{};
+    sides(x, 4, y, z, 8, out.data());
     return out;
   };
-  std::vector<std::array<std::uint8_t, 64>> serial(boxes.size()), parallel(boxes.size());
+  std::vector<std::array<std::uint8_t, 256>> serial(boxes.size()), parallel(boxes.size());
   {
     const cpu::ColumnSides own(s.program);
     for (std::size_t i = 0; i < boxes.size(); ++i) serial[i] = sidesOf(own, boxes[i]);

@@ -23,14 +23,29 @@ namespace {
 
 vk::GpuPolygonizeOptions culling(const std::shared_ptr<cpu::ColumnSides>& sides) {
   vk::GpuPolygonizeOptions o;
-  o.columnSides = [sides](const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* out) {
-    (*sides)(x, y, z, n, out);
+  o.columnSides = [sides](const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
+                         std::uint8_t* out) { (*sides)(x, nx, y, z, n, out); };
+  return o;
+}
+
+// The same bound over whole columns only: each segment takes its column's side, so a row is
+// evaluated whole or not at all.
+vk::GpuPolygonizeOptions cullingWholeColumns(const std::shared_ptr<cpu::ColumnSides>& sides) {
+  vk::GpuPolygonizeOptions o;
+  o.columnSides = [sides](const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
+                         std::uint8_t* out) {
+    const float ends[2] = {x[0], x[nx]};
+    std::vector<std::uint8_t> columns(std::size_t(n) * n);
+    (*sides)(ends, 1, y, z, n, columns.data());
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      for (std::uint32_t i = 0; i < nx; ++i) out[i + nx * c] = columns[c];
   };
   return o;
 }
 
 TEST_F(VulkanTest, RowCullingGivesTheMeshOfEveryRow) {
   if (!device().info().isLlvmpipe()) GTEST_SKIP() << "row culling runs on llvmpipe only";
+  std::uint64_t segmentSamples = 0, columnSamples = 0;
   for (const std::string& name : shippedSceneNames()) {
     ShippedScene s = shipped(name, 64);
     if (!cpu::ColumnSides::boundsHoldOnIeeeDevices(s.program)) continue;
@@ -50,24 +65,33 @@ TEST_F(VulkanTest, RowCullingGivesTheMeshOfEveryRow) {
           o.brickCells = brickCells;
           o.traversal = traversal;
           o.maxBatchBricks = batchBricks;
-          vk::GpuStats culled, every;
+          vk::GpuStats culled, whole, every;
           const mesh::TriMesh m = vk::polygonize(device(), s.program, s.grid, o, &culled);
+          o.columnSides = cullingWholeColumns(sides).columnSides;
+          const mesh::TriMesh byColumns = vk::polygonize(device(), s.program, s.grid, o, &whole);
           o.columnSides = nullptr;
           const mesh::TriMesh all = vk::polygonize(device(), s.program, s.grid, o, &every);
           expectSameBytes(m, all, what);
+          expectSameBytes(byColumns, all, what + ", whole columns");
           expectSameMeshAsReference(m, reference, 1e-4f * s.grid.cellSize, what);
-          // Every row of an active brick without culling; with it, whole rows and fewer of them.
+          // Every row of an active brick without culling; with whole columns, whole rows and fewer
+          // of them; with segments, at most as many points again.
           const std::uint64_t R = every.brickCells + 1;  // tower_L6P8I4 takes 8 on llvmpipe (its loop limit)
           EXPECT_EQ(culled.brickCells, every.brickCells) << what;
           if (every.batches == 1) {
             EXPECT_EQ(every.fieldEvaluations, std::uint64_t(every.activeBricks) * R * R * R) << what;
           }
-          EXPECT_EQ(culled.fieldEvaluations % R, 0u) << what;
+          EXPECT_EQ(whole.fieldEvaluations % R, 0u) << what;
+          EXPECT_LE(culled.fieldEvaluations, whole.fieldEvaluations) << what;
           if (!reference.triangles.empty()) {
-            EXPECT_LT(culled.fieldEvaluations, every.fieldEvaluations) << what;
+            EXPECT_LT(whole.fieldEvaluations, every.fieldEvaluations) << what;
           }
+          segmentSamples += culled.fieldEvaluations;
+          columnSamples += whole.fieldEvaluations;
         }
   }
+  // Segments of four cells along x cull points of rows that whole columns evaluate.
+  EXPECT_LT(double(segmentSamples), 0.9 * double(columnSamples));
 }
 
 // A bound belongs to one program, and an edit session's programs change: the extractor ignores
@@ -79,8 +103,8 @@ TEST_F(VulkanTest, IncrementalExtractionIgnoresARowCullingBound) {
   o.traversal = vk::Traversal::Stackless;
   const mesh::TriMesh whole = vk::polygonize(device(), s.program, s.grid, o);
   ASSERT_GT(whole.triangleCount(), 0u);
-  o.columnSides = [](const float*, const float*, const float*, std::uint32_t n, std::uint8_t* sides) {
-    for (std::uint32_t c = 0; c < n * n; ++c) sides[c] = 0;
+  o.columnSides = [](const float*, std::uint32_t nx, const float*, const float*, std::uint32_t n, std::uint8_t* sides) {
+    for (std::uint32_t c = 0; c < nx * n * n; ++c) sides[c] = 0;
   };
   vk::IncrementalExtractor inc(device(), s.grid, o);
   expectSameBytes(inc.reset(s.program), whole, "incremental extractor with a wrong bound");

@@ -141,9 +141,8 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
     vk::GpuPolygonizeOptions rows = stackless;
     rows.brickCells = 8;
     const auto sides = std::make_shared<cpu::ColumnSides>(program);
-    rows.columnSides = [sides](const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* out) {
-      (*sides)(x, y, z, n, out);
-    };
+    rows.columnSides = [sides](const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
+                            std::uint8_t* out) { (*sides)(x, nx, y, z, n, out); };
     EXPECT_GT(vk::polygonize(dev, program, grid, rows).triangleCount(), 0u);
   }
   {  // An edit's re-run gives its triangles' corners as edge keys (brick_triangle_keys).

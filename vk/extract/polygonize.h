@@ -96,7 +96,9 @@ struct GpuPolygonizeOptions {
   // (cpu::ColumnSides::boundsHoldOnIeeeDevices). Called from several threads at once. Empty (the
   // library's default): every row of an active brick is evaluated. blobvk's CLI passes the CPU
   // backend's bound. IncrementalExtractor, whose edits change the program, ignores it.
-  std::function<void(const float x[2], const float* y, const float* z, std::uint32_t n, std::uint8_t* sides)> columnSides;
+  std::function<void(const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
+                     std::uint8_t* sides)>
+      columnSides;
   // Sparse: the field pass interprets, per brick, the program pruned to the brick on the host
   // (vk/extract/brick_tapes.h) instead of the traversal's field kernel or field tiles; the vertex
   // pass keeps the traversal's kernel. The same mesh byte for byte.

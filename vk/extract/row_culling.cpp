@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <array>
+#include <bit>
 #include <bitset>
 #include <utility>
 
@@ -14,42 +15,69 @@ bool cullsRows(const GpuPolygonizeOptions& options, bool llvmpipe, std::uint32_t
 
 namespace {
 
-constexpr std::uint32_t kMaxR = 17;
-// Per brick: the rows to evaluate, and the inside bit of the others.
+constexpr std::uint32_t kMaxR = 17, kMaxSegments = 4;
+constexpr std::uint32_t kNoSpan = 0xffffffffu;
+
+// Per brick and row: an entry of the field pass (its span of segments and the inside bits of the
+// points outside it), or kNoSpan and the inside bit of the whole row.
 struct BrickRows {
-  std::bitset<kMaxR * kMaxR> evaluate, inside;
+  std::array<std::uint32_t, kMaxR * kMaxR> span;  // RowPlan::rows' second word, or kNoSpan
+  std::bitset<kMaxR * kMaxR> inside;              // rows without a span
+  std::array<std::uint32_t, kMaxSegments + 1> spans{};  // rows with a span of 1, 2 ... segments
 };
 
 BrickRows classifyBrick(const GpuPolygonizeOptions& options, const blobtree::GridSpec& grid, std::uint32_t log2B,
                         const std::array<std::uint32_t, 3>& brick) {
   const std::uint32_t B = 1u << log2B, R = B + 1, C = kRowCullingColumnCells, n = B / C;
+  const std::uint32_t L = kRowCullingSegmentCells, nx = B / L;
   const int x0 = int(brick[0] << log2B), y0 = int(brick[1] << log2B), z0 = int(brick[2] << log2B);
   // The float coordinates of the grid points the field kernel evaluates (GridSpec::point), past
   // the grid's end too: a brick there evaluates points that no pass reads.
-  const float x[2] = {grid.point(x0, 0, 0).x, grid.point(x0 + int(B), 0, 0).x};
+  std::array<float, kMaxSegments + 1> x{};
   std::array<float, kMaxR> y{}, z{};
+  for (std::uint32_t i = 0; i <= nx; ++i) x[i] = grid.point(x0 + int(i * L), 0, 0).x;
   for (std::uint32_t j = 0; j <= n; ++j) {
     y[j] = grid.point(0, y0 + int(j * C), 0).y;
     z[j] = grid.point(0, 0, z0 + int(j * C)).z;
   }
-  std::array<std::uint8_t, 64> sides{};
-  options.columnSides(x, y.data(), z.data(), n, sides.data());
-  BrickRows out;
-  std::bitset<kMaxR * kMaxR> below, above;  // rows in a column proven below / at or above
+  std::array<std::uint8_t, kMaxSegments * 64> sides{};
+  options.columnSides(x.data(), nx, y.data(), z.data(), n, sides.data());
+  // Per row, a bit per segment: some box of a column holding the row may cross there; every such
+  // box is proven below; at or above.
+  std::array<std::uint8_t, kMaxR * kMaxR> crossing{}, below{}, above{};
   for (std::uint32_t k = 0; k < n; ++k)
-    for (std::uint32_t j = 0; j < n; ++j) {
-      const std::uint8_t side = sides[j + n * k];
-      for (std::uint32_t lz = k * C; lz <= k * C + C; ++lz)
-        for (std::uint32_t ly = j * C; ly <= j * C + C; ++ly) {
-          const std::uint32_t r = ly + lz * R;
-          if (side == 0) below.set(r);
-          else if (side == 1) above.set(r);
-          else out.evaluate.set(r);
-        }
+    for (std::uint32_t j = 0; j < n; ++j)
+      for (std::uint32_t i = 0; i < nx; ++i) {
+        const std::uint8_t side = sides[i + nx * (j + n * k)], bit = std::uint8_t(1u << i);
+        auto& mark = side == 0 ? below : side == 1 ? above : crossing;
+        for (std::uint32_t lz = k * C; lz <= k * C + C; ++lz)
+          for (std::uint32_t ly = j * C; ly <= j * C + C; ++ly) mark[ly + lz * R] |= bit;
+      }
+  BrickRows out;
+  const std::uint32_t all = (1u << nx) - 1;
+  for (std::uint32_t r = 0; r < R * R; ++r) {
+    // Sides that disagree could only come from a broken bound: evaluate the segment; and where
+    // proven segments of a row disagree where they meet, the whole row.
+    std::uint32_t evaluate = crossing[r] | (below[r] & above[r]);
+    const std::uint32_t up = above[r] & ~evaluate;
+    for (std::uint32_t i = 0; i + 1 < nx; ++i) {
+      const std::uint32_t pair = 3u << i;
+      if ((evaluate & pair) == 0 && (up & pair) != 0 && (up & pair) != pair) evaluate = all;
     }
-  // Columns that disagree on a row could only come from a broken bound: evaluate it.
-  out.evaluate |= below & above;
-  out.inside = above & ~out.evaluate;
+    if (evaluate == 0) {
+      out.span[r] = kNoSpan;
+      out.inside[r] = up != 0;
+      continue;
+    }
+    // The span from the first segment to evaluate to the last: one run of points for the lane.
+    const std::uint32_t s0 = std::uint32_t(std::countr_zero(evaluate));
+    const std::uint32_t s1 = 32u - std::uint32_t(std::countl_zero(evaluate));
+    std::uint32_t outside = 0;  // the inside bits of the points before and after the span
+    if (s0 > 0 && (up >> (s0 - 1) & 1u)) outside |= (1u << (s0 * L)) - 1u;
+    if (s1 < nx && (up >> s1 & 1u)) outside |= ((1u << R) - 1u) & ~((2u << (s1 * L)) - 1u);
+    out.span[r] = outside | s0 << 17 | (s1 - s0) << 20;
+    ++out.spans[s1 - s0];
+  }
   return out;
 }
 
@@ -58,31 +86,50 @@ BrickRows classifyBrick(const GpuPolygonizeOptions& options, const blobtree::Gri
 RowPlan planRows(const GpuPolygonizeOptions& options, const blobtree::GridSpec& grid, const BrickGrid& bg,
                  std::span<const std::uint32_t> packed, const BrickTileOrder& order) {
   const std::uint32_t R = (1u << bg.log2B) + 1, rows = R * R;
-  const std::size_t n = order.order.size();
-  // Per brick in tile order: its rows, then where its entries go (a scan), then the entries.
+  const std::size_t n = order.order.size(), tiles = order.starts.size() - 1;
   std::vector<BrickRows> bricks(n);
-  std::vector<std::uint32_t> evaluated(n + 1, 0);
   tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
     bricks[i] = classifyBrick(options, grid, bg.log2B, bg.unpack(packed[order.order[i]]));
-    evaluated[i] = std::uint32_t(bricks[i].evaluate.count());
   });
-  std::uint32_t total = 0;
-  for (std::size_t i = 0; i < n; ++i) total += std::exchange(evaluated[i], total);
-  evaluated[n] = total;
+  // Where each brick's entries of each span length go: by tile, then by length (the lanes of a
+  // work group then loop alike), then by brick; and where its one-sided rows go.
+  std::vector<std::array<std::uint32_t, kMaxSegments + 1>> at(n);
+  std::vector<std::uint32_t> fillAt(n);
   RowPlan plan;
-  plan.rows.resize(total);
-  plan.fills.resize(n * rows - total);
+  std::uint32_t entries = 0, fills = 0;
+  for (std::size_t t = 0; t < tiles; ++t) {
+    plan.starts.push_back(entries);
+    for (std::uint32_t len = 1; len <= kMaxSegments; ++len)
+      for (std::uint32_t i = order.starts[t]; i < order.starts[t + 1]; ++i) {
+        at[i][len] = entries;
+        entries += bricks[i].spans[len];
+        plan.evaluations += std::uint64_t(bricks[i].spans[len]) * (len * kRowCullingSegmentCells + 1);
+      }
+  }
+  plan.starts.push_back(entries);
+  for (std::size_t i = 0; i < n; ++i) {
+    fillAt[i] = fills;
+    std::uint32_t spans = 0;
+    for (const std::uint32_t c : bricks[i].spans) spans += c;
+    fills += rows - spans;
+  }
+  plan.rows.resize(2ull * entries);
+  plan.fills.resize(fills);
   tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
     const std::uint32_t a = order.order[i];
     const BrickRows& b = bricks[i];
-    std::uint32_t* row = plan.rows.data() + evaluated[i];
-    std::uint32_t* fill = plan.fills.data() + (i * rows - evaluated[i]);
+    std::array<std::uint32_t, kMaxSegments + 1> next = at[i];
+    std::uint32_t* fill = plan.fills.data() + fillAt[i];
     for (std::uint32_t r = 0; r < rows; ++r) {
-      if (b.evaluate.test(r)) *row++ = a << 9 | r;
-      else *fill++ = (a * rows + r) << 1 | (b.inside.test(r) ? 1u : 0u);
+      if (b.span[r] == kNoSpan) {
+        *fill++ = (a * rows + r) << 1 | (b.inside.test(r) ? 1u : 0u);
+        continue;
+      }
+      const std::uint32_t e = next[b.span[r] >> 20]++;
+      plan.rows[2ull * e] = a << 9 | r;
+      plan.rows[2ull * e + 1] = b.span[r];
     }
   });
-  for (const std::uint32_t first : order.starts) plan.starts.push_back(evaluated[first]);
   return plan;
 }
 

@@ -1,13 +1,17 @@
-// Row culling (GpuPolygonizeOptions::columnSides): which rows of points of a batch's bricks the
-// field pass evaluates. Each brick of B >= 4 cells is cut into columns of 2 x 2 cells (whole along
-// x, the field kernel's rows); a host bound gives each column's side. Columns of 2 cells leave
-// about a tenth fewer rows than columns of 4 for about 1.5x the host's bounding time (random128
-// at 256 and 512 cells: 53 % of the rows against 59 %). A row is evaluated when it
-// lies in the closed box of a column that may cross; every other row lies only in columns proven
-// on one side, which agree, and takes their side as its inside bits (brick_row_fill.comp).
-// Why that keeps the mesh: every grid edge of a brick lies in some column's closed box, so a
+// Row culling (GpuPolygonizeOptions::columnSides): which points of a batch's bricks the field
+// pass evaluates. Each brick of B >= 4 cells is cut into columns of 2 x 2 cells along y and z,
+// and each column into segments of 4 cells along x (the field kernel's rows, a vec4 of samples a
+// segment); a host bound gives each such box's side. A row's segment is evaluated when it lies in
+// the closed box of one that may cross; the field pass's lane for the row evaluates the span from
+// its first such segment to its last, and takes the proven side of the points outside the span
+// (a row without one takes it whole, brick_row_fill.comp). Every such point lies only in boxes
+// proven on one side, which agree.
+// Why that keeps the mesh: every grid edge of a brick lies in some box's closed box, so a
 // crossing edge lies in one that may cross, and both its ends are evaluated; the vertex pass
 // reads samples on crossing edges only.
+// Measured (tower and random128 at 512 cells, `blobvk bench`): columns of 2 cells leave about a
+// tenth fewer rows than columns of 4; segments of 4 cells take about 0.4x the samples of whole
+// rows (FVEPT 10.1 -> 3.9, 6.8 -> 3.2), segments of 8 about 0.65x.
 #pragma once
 
 #include "blobvk/blobtree/grid.h"
@@ -22,6 +26,8 @@
 namespace blobvk::vk {
 
 inline constexpr std::uint32_t kRowCullingColumnCells = 2;
+// Columns are cut along x into segments of this many cells, a vec4 of samples each.
+inline constexpr std::uint32_t kRowCullingSegmentCells = 4;
 
 // Whether a job culls rows: a bound given, llvmpipe (the active-brick list is on the host, and it
 // evaluates with IEEE division and sqrt, which the bound's contract assumes), no brick tapes,
@@ -29,9 +35,12 @@ inline constexpr std::uint32_t kRowCullingColumnCells = 2;
 bool cullsRows(const GpuPolygonizeOptions& options, bool llvmpipe, std::uint32_t brickCells);
 
 struct RowPlan {
-  // Rows to evaluate, batch brick << 9 | row (y + z * R), grouped as the bricks are by field tile.
+  // Rows to evaluate, two words an entry: batch brick << 9 | row (y + z * R); then the span of
+  // segments the lane evaluates, first << 17 | count << 20, and the inside bits of the row's
+  // points outside it (bits 0-16). Grouped as the bricks are by field tile, within a tile by count.
   std::vector<std::uint32_t> rows;
   std::vector<std::uint32_t> starts;  // per field tile, its first entry of `rows` (tiles + 1)
+  std::uint64_t evaluations = 0;      // the points the entries evaluate
   // Rows proven on one side: (batch brick * R^2 + row) << 1 | inside.
   std::vector<std::uint32_t> fills;
 };

@@ -297,7 +297,7 @@ struct SparseBatchRunner::State {
     cullRows = cullsRows(o, device.info().isLlvmpipe(), std::uint32_t(B)) &&
                maxRows < (1ull << 30) && maxLoaded < (1u << 22);
     if (cullRows) {
-      rowList = make(maxRows * 4, "field rows");
+      rowList = make(maxRows * 8, "field rows");
       fillList = make(maxRows * 4, "one-sided rows");
     }
     const char* fieldShader = cullRows ? "brick_field_rows" : "brick_field";
@@ -525,7 +525,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     if (!rows.rows.empty()) device.upload(st.rowList, rows.rows.data(), 4ull * rows.rows.size());
     if (!rows.fills.empty()) device.upload(st.fillList, rows.fills.data(), 4ull * rows.fills.size());
     s.hostSteps.rowCulling += since(planStart);
-    s.fieldEvaluations += std::uint64_t(rows.rows.size()) * R;
+    s.fieldEvaluations += rows.evaluations;
   } else {
     s.fieldEvaluations += std::uint64_t(loaded) * P;
   }
