@@ -2,8 +2,9 @@
 // kernel to build in the background for the jobs after it (Device::buildInBackground,
 // GpuPolygonizeOptions::interpretVertexPassUntilBuilt): the builds run once per key and are
 // waited for, jobs interpret until the build has finished, the meshes are the generated kernel's
-// byte for byte, and the cost model asks for it only where one interpreted vertex pass is
-// predicted to cost less than the build.
+// byte for byte (so are those of the vertex pass per field tile, whose kernels a job expected to
+// run again builds once it has run the generated kernel), and the cost model asks for it only
+// where one interpreted vertex pass is predicted to cost less than the build.
 #include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
@@ -94,12 +95,22 @@ TEST_F(BackgroundBuildTest, FirstJobInterpretsTheVertexPassAndTheNextRunsTheGene
   EXPECT_FALSE(second.stats.vertexGradient);
   EXPECT_EQ(fresh.backgroundBuildsStarted(), 1u);
   expectSameBytes(second.mesh, generated.mesh, "second job, the build unfinished");
-  // Once it has finished, the next job runs the generated kernel.
+  // Once it has finished, the next job runs the generated kernel; once that job is done, the
+  // field tiles' vertex kernels build in the background (not before: they would slow it).
   fresh.waitForBackgroundBuilds();
   const Job third = polygonizeOn(fresh, program, grid, true, 3);
   EXPECT_TRUE(third.stats.vertexGradient);
-  EXPECT_EQ(fresh.backgroundBuildsStarted(), 1u);
+  EXPECT_EQ(third.stats.vertexTiles, 0u);
+  ASSERT_GT(third.stats.fieldTiles, 1u);
+  EXPECT_EQ(fresh.backgroundBuildsStarted(), 2u);
   expectSameBytes(third.mesh, generated.mesh, "third job, generated kernel");
+  // Then the jobs after it run the vertex pass per field tile.
+  fresh.waitForBackgroundBuilds();
+  const Job fourth = polygonizeOn(fresh, program, grid, true, 3);
+  EXPECT_TRUE(fourth.stats.vertexGradient);
+  EXPECT_EQ(fourth.stats.vertexTiles, fourth.stats.fieldTiles);
+  EXPECT_EQ(fresh.backgroundBuildsStarted(), 2u);
+  expectSameBytes(fourth.mesh, generated.mesh, "fourth job, the tiles' vertex kernels");
 }
 
 TEST_F(BackgroundBuildTest, OneExpectedRunBuildsNothingInTheBackground) {

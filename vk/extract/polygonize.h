@@ -75,10 +75,11 @@ struct GpuPolygonizeOptions {
   bool tiledVertexPass = false;
   // Sparse path, specialised code with the generated gradient and field tiles: the vertex pass
   // per field tile too, each tile's vertices run by a vertex kernel pruned to its box of bricks
-  // (docs/vulkan.md, "Sparse extraction"); the same mesh byte for byte. Off by default: the
-  // pass takes 0.7-0.8 of the time, a few percent of a run, for 0.4-1.4 s more warm start-up on
-  // lavapipe (its NIR work per kernel is not cached; tower and random128 at 256 and 512 cells,
-  // docs/performance.md): for a polygonizer run many times.
+  // (docs/vulkan.md, "Sparse extraction"); the same mesh byte for byte. The pass takes 0.6-0.7 of
+  // the time for 0.8-2 s of builds on lavapipe (its NIR work per kernel is not cached; tower and
+  // random128 at 256 and 512 cells, docs/performance.md). Off, a job with expectedRuns > 1 still
+  // takes them once they are built, and starts their build in the background when it is done
+  // (after a job that ran the generated kernel), so that no job waits for them.
   bool sparseVertexTiles = false;
   // Sparse path, specialised code (set by the cost model for Auto, EvaluatorEstimate::
   // interpretVertexPassUntilBuilt): while the generated-gradient vertex kernel is not built, the

@@ -2,6 +2,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <bitset>
@@ -42,24 +43,35 @@ BrickRows classifyBrick(const GpuPolygonizeOptions& options, const blobtree::Gri
   }
   std::array<std::uint8_t, kMaxSegments * 64> sides{};
   options.columnSides(x.data(), nx, y.data(), z.data(), n, sides.data());
-  // Per row, a bit per segment: some box of a column holding the row may cross there; every such
-  // box is proven below; at or above.
-  std::array<std::uint8_t, kMaxR * kMaxR> crossing{}, below{}, above{};
+  // Per column a word of three nx-bit fields, a bit per segment: it is proven below there (bits
+  // 0-3), at or above (4-7), it may cross (8-11). A row's word ORs the words of the up to four
+  // columns whose closed boxes hold it: along y first, then along z.
+  std::array<std::uint16_t, 64> word{};
+  for (std::uint32_t c = 0; c < n * n; ++c)
+    for (std::uint32_t i = 0; i < nx; ++i) word[c] |= std::uint16_t(1u << (i + 4 * std::min<std::uint32_t>(sides[i + nx * c], 2)));
+  std::array<std::uint16_t, (kMaxR / kRowCullingColumnCells) * kMaxR> alongY{};  // [k * R + ly]
   for (std::uint32_t k = 0; k < n; ++k)
-    for (std::uint32_t j = 0; j < n; ++j)
-      for (std::uint32_t i = 0; i < nx; ++i) {
-        const std::uint8_t side = sides[i + nx * (j + n * k)], bit = std::uint8_t(1u << i);
-        auto& mark = side == 0 ? below : side == 1 ? above : crossing;
-        for (std::uint32_t lz = k * C; lz <= k * C + C; ++lz)
-          for (std::uint32_t ly = j * C; ly <= j * C + C; ++ly) mark[ly + lz * R] |= bit;
-      }
+    for (std::uint32_t ly = 0; ly < R; ++ly) {
+      const std::uint32_t j = std::min(ly / C, n - 1);
+      std::uint16_t w = word[j + n * k];
+      if (ly % C == 0 && ly > 0 && ly < B) w |= word[j - 1 + n * k];
+      alongY[k * R + ly] = w;
+    }
+  std::array<std::uint16_t, kMaxR * kMaxR> rowWord{};
+  for (std::uint32_t lz = 0; lz < R; ++lz) {
+    const std::uint32_t k = std::min(lz / C, n - 1);
+    const bool two = lz % C == 0 && lz > 0 && lz < B;
+    for (std::uint32_t ly = 0; ly < R; ++ly)
+      rowWord[ly + lz * R] = std::uint16_t(alongY[k * R + ly] | (two ? alongY[(k - 1) * R + ly] : 0u));
+  }
   BrickRows out;
   const std::uint32_t all = (1u << nx) - 1;
   for (std::uint32_t r = 0; r < R * R; ++r) {
     // Sides that disagree could only come from a broken bound: evaluate the segment; and where
     // proven segments of a row disagree where they meet, the whole row.
-    std::uint32_t evaluate = crossing[r] | (below[r] & above[r]);
-    const std::uint32_t up = above[r] & ~evaluate;
+    const std::uint32_t below = rowWord[r] & 15u, above = rowWord[r] >> 4 & 15u, crossing = rowWord[r] >> 8;
+    std::uint32_t evaluate = crossing | (below & above);
+    const std::uint32_t up = above & ~evaluate;
     for (std::uint32_t i = 0; i + 1 < nx; ++i) {
       const std::uint32_t pair = 3u << i;
       if ((evaluate & pair) == 0 && (up & pair) != 0 && (up & pair) != pair) evaluate = all;
