@@ -8,6 +8,7 @@
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/vk/extract/incremental_extract.h"
 #include "blobvk/vk/extract/polygonize.h"
+#include "blobvk/vk/extract/sparse_polygonizer.h"
 #include "reference_checks.h"
 #include "shipped_scenes.h"
 #include "vk_fixture.h"
@@ -74,6 +75,10 @@ TEST_F(VulkanTest, RowCullingGivesTheMeshOfEveryRow) {
           expectSameBytes(m, all, what);
           expectSameBytes(byColumns, all, what + ", whole columns");
           expectSameMeshAsReference(m, reference, 1e-4f * s.grid.cellSize, what);
+          // The row lists are in the device memory that --max-memory estimates.
+          EXPECT_LE(culled.deviceBytes, vk::sparseDeviceBytes(vk::brickGridFor(s.grid, culled.brickCells), culled.activeBricks,
+                                                              m.positions.size(), m.triangles.size(), true, true))
+              << what;
           // Every row of an active brick without culling; with whole columns, whole rows and fewer
           // of them; with segments, at most as many points again.
           const std::uint64_t R = every.brickCells + 1;  // tower_L6P8I4 takes 8 on llvmpipe (its loop limit)

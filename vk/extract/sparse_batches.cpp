@@ -42,16 +42,21 @@ BrickGroups brickGroups(std::uint32_t bricks) {
   return g;
 }
 
-std::uint64_t perBrickBytes(const BrickGrid& bricks) {
+}  // namespace
+
+std::uint64_t sparseBrickBytes(const BrickGrid& bricks) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
   const std::uint64_t S = std::max<std::uint64_t>(B, 4);  // floats a row of samples takes (brick_field.comp)
   return R * R * (S + 1) * 4  // field samples
          + R * R * R * 4      // point words
          + R * R * 8       // inside masks, vertex segments
+         + R * R * 12      // row culling's lists (llvmpipe): field pass entries (8 bytes), one-sided rows
          + B * B * 4       // triangle segments
          + 32 + 16         // the brick's neighbours and its segment record
          + 4;              // its place in the field tiles' order
 }
+
+namespace {
 
 // Device memory a batch of bricks may take: a quarter of the largest device-local heap.
 std::uint64_t sparseBatchBudget(Device& device) {
@@ -87,7 +92,7 @@ std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks) {
 std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uint32_t maxBatchBricks) {
   return std::min<std::uint64_t>(sparseRangeBricks(device, bricks),
                                  maxBatchBricks ? maxBatchBricks
-                                                : std::max<std::uint64_t>(1, sparseBatchBudget(device) / perBrickBytes(bricks)));
+                                                : std::max<std::uint64_t>(1, sparseBatchBudget(device) / sparseBrickBytes(bricks)));
 }
 
 std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts, std::uint64_t limit,

@@ -45,6 +45,8 @@ enum class KeyedBatches {
 // Active bricks per batch that fit `device`: its storage-buffer range and a quarter of its
 // largest device-local heap (or `maxBatchBricks` when that is smaller and not 0).
 std::uint64_t sparseBatchLimit(Device& device, const BrickGrid& bricks, std::uint32_t maxBatchBricks);
+// Device bytes a batch brick takes (its samples, masks, point words, segments, lists).
+std::uint64_t sparseBrickBytes(const BrickGrid& bricks);
 
 // Cuts the active bricks into batches of whole layers of at most `limit` loaded bricks (a batch
 // of one layer may load more: it throws when that is over `rangeBricks`, what one storage buffer

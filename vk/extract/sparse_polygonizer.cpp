@@ -308,12 +308,7 @@ BrickBox wholeGrid(const BrickGrid& bricks) { return {{0, 0, 0}, {bricks.x, bric
 std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBricks, std::uint64_t vertices,
                                 std::uint64_t triangles, bool normals, bool colours) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
-  const std::uint64_t S = std::max<std::uint64_t>(B, 4);  // floats a row of samples takes
-  const std::uint64_t perBrick = R * R * (S + 1) * 4 + R * R * R * 4  // field, point words
-                                 + R * R * 8     // inside masks, vertex segments
-                                 + B * B * 4     // triangle segments
-                                 + 32 + 16       // neighbours, segment record
-                                 + 4;            // place in the field tiles' order
+  const std::uint64_t perBrick = sparseBrickBytes(bricks);
   const std::uint64_t scan = (scanScratchWords(bricks.count() + 1) + scanScratchWords(activeBricks * R * R) +
                               scanScratchWords(activeBricks * B * B)) * 4;
   // Outputs, and where each vertex and triangle comes from (8 bytes each).
