@@ -168,8 +168,7 @@ struct SparseBatchRunner::State {
   // after it (GpuPolygonizeOptions::expectedRuns).
   std::function<void()> tileBuildAfterJobDone;
   ~State() {
-    // After a job that ran the generated kernel: one that interpreted waits for that kernel first.
-    if (tileBuildAfterJobDone && !interpretedVertexPass) tileBuildAfterJobDone();
+    if (tileBuildAfterJobDone) tileBuildAfterJobDone();
   }
   // The vertex pass per field tile (GpuPolygonizeOptions::sparseVertexTiles): tile t's vertices
   // by vertexTileKernels[t], pruned to its box; empty: one kernel for every vertex. Built on a
