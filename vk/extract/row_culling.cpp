@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <bitset>
+#include <memory>
 #include <utility>
 
 namespace blobvk::vk {
@@ -17,15 +17,24 @@ bool cullsRows(const GpuPolygonizeOptions& options, bool llvmpipe, std::uint32_t
 namespace {
 
 constexpr std::uint32_t kMaxR = 17, kMaxSegments = 4;
-constexpr std::uint32_t kNoSpan = 0xffffffffu;
 
-// Per brick and row: an entry of the field pass (its span of segments and the inside bits of the
-// points outside it), or kNoSpan and the inside bit of the whole row.
+// Per brick, a byte per row: 0 without a span, its inside bit in bit 7; else the span's first
+// segment (bits 0-2) and count (3-5), and the inside bits of the proven segments before and
+// after it (6, 7). Then how many rows have a span of 1, 2 ... segments.
 struct BrickRows {
-  std::array<std::uint32_t, kMaxR * kMaxR> span;  // RowPlan::rows' second word, or kNoSpan
-  std::bitset<kMaxR * kMaxR> inside;              // rows without a span
-  std::array<std::uint32_t, kMaxSegments + 1> spans{};  // rows with a span of 1, 2 ... segments
+  std::array<std::uint8_t, kMaxR * kMaxR> row;
+  std::array<std::uint32_t, kMaxSegments + 1> spans;
 };
+
+// RowPlan::rows' second word for a row byte with a span: its segments, and the inside bits of the
+// points outside them.
+std::uint32_t spanWord(std::uint8_t row, std::uint32_t R) {
+  const std::uint32_t L = kRowCullingSegmentCells, s0 = row & 7u, count = row >> 3 & 7u, s1 = s0 + count;
+  std::uint32_t outside = 0;
+  if (row & 0x40u) outside |= (1u << (s0 * L)) - 1u;
+  if (row & 0x80u) outside |= ((1u << R) - 1u) & ~((2u << (s1 * L)) - 1u);
+  return outside | s0 << 17 | count << 20;
+}
 
 BrickRows classifyBrick(const GpuPolygonizeOptions& options, const blobtree::GridSpec& grid, std::uint32_t log2B,
                         const std::array<std::uint32_t, 3>& brick) {
@@ -65,6 +74,7 @@ BrickRows classifyBrick(const GpuPolygonizeOptions& options, const blobtree::Gri
       rowWord[ly + lz * R] = std::uint16_t(alongY[k * R + ly] | (two ? alongY[(k - 1) * R + ly] : 0u));
   }
   BrickRows out;
+  out.spans.fill(0);
   const std::uint32_t all = (1u << nx) - 1;
   for (std::uint32_t r = 0; r < R * R; ++r) {
     // Sides that disagree could only come from a broken bound: evaluate the segment; and where
@@ -77,17 +87,14 @@ BrickRows classifyBrick(const GpuPolygonizeOptions& options, const blobtree::Gri
       if ((evaluate & pair) == 0 && (up & pair) != 0 && (up & pair) != pair) evaluate = all;
     }
     if (evaluate == 0) {
-      out.span[r] = kNoSpan;
-      out.inside[r] = up != 0;
+      out.row[r] = up != 0 ? 0x80u : 0u;
       continue;
     }
     // The span from the first segment to evaluate to the last: one run of points for the lane.
     const std::uint32_t s0 = std::uint32_t(std::countr_zero(evaluate));
     const std::uint32_t s1 = 32u - std::uint32_t(std::countl_zero(evaluate));
-    std::uint32_t outside = 0;  // the inside bits of the points before and after the span
-    if (s0 > 0 && (up >> (s0 - 1) & 1u)) outside |= (1u << (s0 * L)) - 1u;
-    if (s1 < nx && (up >> s1 & 1u)) outside |= ((1u << R) - 1u) & ~((2u << (s1 * L)) - 1u);
-    out.span[r] = outside | s0 << 17 | (s1 - s0) << 20;
+    const bool upBefore = s0 > 0 && (up >> (s0 - 1) & 1u), upAfter = s1 < nx && (up >> s1 & 1u);
+    out.row[r] = std::uint8_t(s0 | (s1 - s0) << 3 | (upBefore ? 0x40u : 0u) | (upAfter ? 0x80u : 0u));
     ++out.spans[s1 - s0];
   }
   return out;
@@ -99,7 +106,7 @@ RowPlan planRows(const GpuPolygonizeOptions& options, const blobtree::GridSpec& 
                  std::span<const std::uint32_t> packed, const BrickTileOrder& order) {
   const std::uint32_t R = (1u << bg.log2B) + 1, rows = R * R;
   const std::size_t n = order.order.size(), tiles = order.starts.size() - 1;
-  std::vector<BrickRows> bricks(n);
+  const std::unique_ptr<BrickRows[]> bricks(new BrickRows[n]);  // each filled whole: no zeroing
   tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
     bricks[i] = classifyBrick(options, grid, bg.log2B, bg.unpack(packed[order.order[i]]));
   });
@@ -133,13 +140,14 @@ RowPlan planRows(const GpuPolygonizeOptions& options, const blobtree::GridSpec& 
     std::array<std::uint32_t, kMaxSegments + 1> next = at[i];
     std::uint32_t* fill = plan.fills.data() + fillAt[i];
     for (std::uint32_t r = 0; r < rows; ++r) {
-      if (b.span[r] == kNoSpan) {
-        *fill++ = (a * rows + r) << 1 | (b.inside.test(r) ? 1u : 0u);
+      const std::uint8_t row = b.row[r];
+      if ((row & 0x38u) == 0) {  // no span
+        *fill++ = (a * rows + r) << 1 | std::uint32_t(row >> 7);
         continue;
       }
-      const std::uint32_t e = next[b.span[r] >> 20]++;
+      const std::uint32_t e = next[row >> 3 & 7u]++;
       plan.rows[2ull * e] = a << 9 | r;
-      plan.rows[2ull * e + 1] = b.span[r];
+      plan.rows[2ull * e + 1] = spanWord(row, R);
     }
   });
   return plan;
