@@ -80,8 +80,8 @@ void main() {
   uint codeEnd = pc.codeLength;
 #endif
 #ifdef FIELD_ROW_LIST
-  // The listed span: points first .. last, from segment entry.y >> 17 & 7 on, (entry.y >> 20) & 7
-  // segments of four cells; the other points' inside bits come with the entry.
+  // The listed span: points first .. last, from segment (entry.y >> 17) & 7 on, over
+  // (entry.y >> 20) & 7 segments of four cells; the other points' inside bits come with the entry.
   uint m = entry.y & 0x1ffffu;
   uint first = ((entry.y >> 17) & 7u) << 2;
   uint last = first + (((entry.y >> 20) & 7u) << 2);

@@ -69,7 +69,7 @@ TEST(ColumnSides, EveryPointOfAColumnGivenASideHasIt) {
       for (int a = 0; a < 3; ++a)
         first[a] = std::uniform_int_distribution<int>(0, std::max(0, s.grid.cells[a] - 16))(rng);
       for (std::uint32_t n : {2u, 4u, 8u})
-        for (std::uint32_t nx : {1u, 4u})
+        for (std::uint32_t nx : {1u, 2u, 4u})
           proven += checkBox(s, sides, first, nx, n,
                              std::string(name) + " box " + std::to_string(box) + ", " + std::to_string(nx) + " x " +
                                  std::to_string(n) + " x " + std::to_string(n));
