@@ -36,7 +36,6 @@ struct ColumnSides::State {
     BlockBounds bounds;
     std::vector<double> cx, cy, cz, lo, hi;
     std::vector<std::size_t> crossing;  // columns that may cross, whose segments are bounded
-    std::vector<double> crossingY, crossingZ;
   };
   explicit State(const blobtree::Program& program) : tapeTemplate(makeTapeProgram(program)) {}
   blobtree::Program tapeTemplate;
@@ -124,16 +123,15 @@ void ColumnSides::operator()(const float* x, std::uint32_t nx, const float* y, c
   if (t.crossing.empty()) return;
   half.x = 0.0;
   for (std::uint32_t i = 0; i < nx; ++i) half.x = std::max(half.x, 0.5 * (double(x[i + 1]) - double(x[i])));
-  t.crossingY.clear();
-  t.crossingZ.clear();
-  for (const std::size_t c : t.crossing) t.crossingY.push_back(t.cy[c]), t.crossingZ.push_back(t.cz[c]);
   std::size_t b = 0;
-  for (std::size_t q = 0; q < t.crossing.size(); ++q)
+  for (const std::size_t c : t.crossing) {
+    const std::size_t j = c % n, k = c / n;
     for (std::uint32_t i = 0; i < nx; ++i, ++b) {
       t.cx[b] = 0.5 * (double(x[i]) + double(x[i + 1]));
-      t.cy[b] = t.crossingY[q];
-      t.cz[b] = t.crossingZ[q];
+      t.cy[b] = 0.5 * (double(y[j]) + double(y[j + 1]));
+      t.cz[b] = 0.5 * (double(z[k]) + double(z[k + 1]));
     }
+  }
   t.bounds(b, t.cx.data(), t.cy.data(), t.cz.data(), half, t.lo.data(), t.hi.data());
   b = 0;
   for (const std::size_t c : t.crossing)

@@ -78,8 +78,8 @@ struct GpuPolygonizeOptions {
   // (docs/vulkan.md, "Sparse extraction"); the same mesh byte for byte. The pass takes 0.6-0.7 of
   // the time for 0.8-2 s of builds on lavapipe (its NIR work per kernel is not cached; tower and
   // random128 at 256 and 512 cells, docs/performance.md). Off, a job with expectedRuns > 1 still
-  // takes them once they are built, and starts their build in the background when it is done
-  // (after a job that ran the generated kernel), so that no job waits for them.
+  // takes them once they are built, and starts their build in the background when it is done,
+  // so that no job waits for them.
   bool sparseVertexTiles = false;
   // Sparse path, specialised code (set by the cost model for Auto, EvaluatorEstimate::
   // interpretVertexPassUntilBuilt): while the generated-gradient vertex kernel is not built, the
@@ -89,10 +89,11 @@ struct GpuPolygonizeOptions {
   // Sparse: the classification's kernel; every choice gives the same flags.
   ClassifyCode classifyCode = ClassifyCode::Auto;
   // Sparse path on llvmpipe (which reads the active-brick list back anyway): a host bound that
-  // classifies columns of a brick, as cpu::ColumnSides does (its arguments; sides 0 below the
-  // iso-value over a column's closed box, 1 at or above it, 2 either), so that the field pass
-  // evaluates only the rows of points in columns that may cross; the others get their inside
-  // bits and no sample, since no vertex reads one (vk/extract/row_culling.h). The same mesh byte
+  // classifies the segments along x of a brick's columns, as cpu::ColumnSides does (its
+  // arguments; sides 0 below the iso-value over a segment's closed box, 1 at or above it, 2
+  // either), so that the field pass evaluates only the points of each row from its first segment
+  // that may cross to its last; the others get their inside bits and no sample, since no vertex
+  // reads one (vk/extract/row_culling.h). The same mesh byte
   // for byte, provided the bound is the job's program's and holds for the device's values
   // (cpu::ColumnSides::boundsHoldOnIeeeDevices). Called from several threads at once. Empty (the
   // library's default): every row of an active brick is evaluated. blobvk's CLI passes the CPU

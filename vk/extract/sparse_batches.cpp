@@ -371,24 +371,22 @@ struct SparseBatchRunner::State {
       tiledVertices = tileKernelsBuilt();
       tileBuildAfterJob = !tiledVertices;
     }
-    // Background builds of the generated vertex kernels are known by this key.
-    std::string backgroundKey = std::string(tiledVertices ? tiledVertexShader : vertexShader) + ":" +
-                                std::to_string(evaluatorFingerprint(gpu.fingerprint, gpu.codegen)) + ":" +
-                                std::to_string(o.workgroupSize);
-    auto appendTileKeys = [&](std::string& key) {
-      for (std::size_t t = 0; t < tiles.size(); ++t)
-        key.append(":").append(std::to_string(evaluatorFingerprint(print, tileCodegen(t))));
-    };
-    if (tiledVertices) appendTileKeys(backgroundKey);
-    if (tileBuildAfterJob) {
-      std::string key = std::string(tiledVertexShader) + ":" +
+    // Background builds of the generated vertex kernels are known by a key: the one kernel's, or
+    // with every tile's code, the tiles'.
+    auto vertexKey = [&](bool tiled) {
+      std::string key = std::string(tiled ? tiledVertexShader : vertexShader) + ":" +
                         std::to_string(evaluatorFingerprint(gpu.fingerprint, gpu.codegen)) + ":" +
                         std::to_string(o.workgroupSize);
-      appendTileKeys(key);
+      for (std::size_t t = 0; tiled && t < tiles.size(); ++t)
+        key.append(":").append(std::to_string(evaluatorFingerprint(print, tileCodegen(t))));
+      return key;
+    };
+    const std::string backgroundKey = vertexKey(tiledVertices);
+    if (tileBuildAfterJob) {
       std::vector<std::pair<std::uint64_t, CodegenOptions>> kernels;  // per tile: fingerprint, code
       for (std::size_t t = 0; t < tiles.size(); ++t)
         kernels.emplace_back(ownTileKernel(t) ? print : gpu.fingerprint, ownTileKernel(t) ? tileCodegen(t) : gpu.codegen);
-      tileBuildAfterJobDone = [&d = device, key, program = gpu.specialised, kernels,
+      tileBuildAfterJobDone = [&d = device, key = vertexKey(true), program = gpu.specialised, kernels,
                                shader = std::string(tiledVertexShader), wg] {
         d.buildInBackground(key, [&d, program, kernels, shader, wg] {
           for (const auto& [print, codegen] : kernels) specialisedKernel(d, *program, print, codegen, shader, wg);
