@@ -36,8 +36,33 @@ std::uint32_t spanWord(std::uint8_t row, std::uint32_t R) {
   return outside | s0 << 17 | count << 20;
 }
 
+// A row's byte (BrickRows::row) from its word: three nx-bit fields, a bit per segment, of the
+// columns holding the row ORed: proven below (bits 0-3), at or above (4-7), may cross (8-11).
+std::uint8_t rowByte(std::uint32_t word, std::uint32_t nx) {
+  const std::uint32_t all = (1u << nx) - 1;
+  // Sides that disagree could only come from a broken bound: evaluate the segment; and where
+  // proven segments of a row disagree where they meet, the whole row.
+  const std::uint32_t below = word & 15u, above = word >> 4 & 15u, crossing = word >> 8 & 15u;
+  std::uint32_t evaluate = crossing | (below & above);
+  const std::uint32_t up = above & ~evaluate;
+  for (std::uint32_t i = 0; i + 1 < nx; ++i) {
+    const std::uint32_t pair = 3u << i;
+    if ((evaluate & pair) == 0 && (up & pair) != 0 && (up & pair) != pair) evaluate = all;
+  }
+  if (evaluate == 0) return up != 0 ? 0x80u : 0u;
+  // The span from the first segment to evaluate to the last: one run of points for the lane.
+  const std::uint32_t s0 = std::uint32_t(std::countr_zero(evaluate));
+  const std::uint32_t s1 = 32u - std::uint32_t(std::countl_zero(evaluate));
+  const bool upBefore = s0 > 0 && (up >> (s0 - 1) & 1u), upAfter = s1 < nx && (up >> s1 & 1u);
+  return std::uint8_t(s0 | (s1 - s0) << 3 | (upBefore ? 0x40u : 0u) | (upAfter ? 0x80u : 0u));
+}
+
+// rowByte for every word of a brick's rows, made once per batch: a brick has R^2 rows and a
+// handful of distinct words.
+using RowBytes = std::array<std::uint8_t, 1u << 12>;
+
 BrickRows classifyBrick(const GpuPolygonizeOptions& options, const blobtree::GridSpec& grid, std::uint32_t log2B,
-                        const std::array<std::uint32_t, 3>& brick) {
+                        const RowBytes& rowBytes, const std::array<std::uint32_t, 3>& brick) {
   const std::uint32_t B = 1u << log2B, R = B + 1, C = kRowCullingColumnCells, n = B / C;
   const std::uint32_t L = kRowCullingSegmentCells, nx = B / L;
   const int x0 = int(brick[0] << log2B), y0 = int(brick[1] << log2B), z0 = int(brick[2] << log2B);
@@ -75,28 +100,12 @@ BrickRows classifyBrick(const GpuPolygonizeOptions& options, const blobtree::Gri
   }
   BrickRows out;
   out.spans.fill(0);
-  const std::uint32_t all = (1u << nx) - 1;
   for (std::uint32_t r = 0; r < R * R; ++r) {
-    // Sides that disagree could only come from a broken bound: evaluate the segment; and where
-    // proven segments of a row disagree where they meet, the whole row.
-    const std::uint32_t below = rowWord[r] & 15u, above = rowWord[r] >> 4 & 15u, crossing = rowWord[r] >> 8;
-    std::uint32_t evaluate = crossing | (below & above);
-    const std::uint32_t up = above & ~evaluate;
-    for (std::uint32_t i = 0; i + 1 < nx; ++i) {
-      const std::uint32_t pair = 3u << i;
-      if ((evaluate & pair) == 0 && (up & pair) != 0 && (up & pair) != pair) evaluate = all;
-    }
-    if (evaluate == 0) {
-      out.row[r] = up != 0 ? 0x80u : 0u;
-      continue;
-    }
-    // The span from the first segment to evaluate to the last: one run of points for the lane.
-    const std::uint32_t s0 = std::uint32_t(std::countr_zero(evaluate));
-    const std::uint32_t s1 = 32u - std::uint32_t(std::countl_zero(evaluate));
-    const bool upBefore = s0 > 0 && (up >> (s0 - 1) & 1u), upAfter = s1 < nx && (up >> s1 & 1u);
-    out.row[r] = std::uint8_t(s0 | (s1 - s0) << 3 | (upBefore ? 0x40u : 0u) | (upAfter ? 0x80u : 0u));
-    ++out.spans[s1 - s0];
+    const std::uint8_t row = rowBytes[rowWord[r]];
+    out.row[r] = row;
+    ++out.spans[row >> 3 & 7u];
   }
+  out.spans[0] = 0;  // rows without a span are counted by the caller
   return out;
 }
 
@@ -106,9 +115,11 @@ RowPlan planRows(const GpuPolygonizeOptions& options, const blobtree::GridSpec& 
                  std::span<const std::uint32_t> packed, const BrickTileOrder& order) {
   const std::uint32_t R = (1u << bg.log2B) + 1, rows = R * R;
   const std::size_t n = order.order.size(), tiles = order.starts.size() - 1;
+  RowBytes rowBytes;
+  for (std::uint32_t w = 0; w < rowBytes.size(); ++w) rowBytes[w] = rowByte(w, (1u << bg.log2B) / kRowCullingSegmentCells);
   const std::unique_ptr<BrickRows[]> bricks(new BrickRows[n]);  // each filled whole: no zeroing
   tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
-    bricks[i] = classifyBrick(options, grid, bg.log2B, bg.unpack(packed[order.order[i]]));
+    bricks[i] = classifyBrick(options, grid, bg.log2B, rowBytes, bg.unpack(packed[order.order[i]]));
   });
   // Where each brick's entries of each span length go: by tile, then by length (the lanes of a
   // work group then loop alike), then by brick; and where its one-sided rows go.
