@@ -213,7 +213,8 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.fieldTiles, gpu.vertexTiles, gpu.generatedClassification, gpu.classifyTiles, gpu.tapeInstructions, gpu.tapeWords,
           gpu.tapeSeconds, gpu.readbackDeviceSeconds,
           {gpu.hostSteps.classification, gpu.hostSteps.preparation, gpu.hostSteps.fieldSubmits, gpu.hostSteps.emitSubmits,
-           gpu.hostSteps.grow, gpu.hostSteps.copy, gpu.hostSteps.corners, gpu.hostSteps.rowCulling}};
+           gpu.hostSteps.grow, gpu.hostSteps.copy, gpu.hostSteps.corners, gpu.hostSteps.rowCulling,
+           gpu.hostSteps.scans, gpu.hostSteps.vertexTileLists}};
 }
 
 // `--cpu-worker`: the CPU polygonizer takes batches beside the devices. Its MPUs are the bricks,

@@ -232,7 +232,9 @@ void addBenchCommand(CLI::App& app) {
                                     {"field_submits", r.gpu.hostSteps.fieldSubmits},
                                     {"emit_submits", r.gpu.hostSteps.emitSubmits}, {"grow", r.gpu.hostSteps.grow},
                                     {"copy", r.gpu.hostSteps.copy}, {"corners", r.gpu.hostSteps.corners},
-                                    {"row_culling", r.gpu.hostSteps.rowCulling}}}};
+                                    {"row_culling", r.gpu.hostSteps.rowCulling},
+                                    {"scans", r.gpu.hostSteps.scans},
+                                    {"vertex_tile_lists", r.gpu.hostSteps.vertexTileLists}}}};
           if (!r.gpu.evaluator.empty()) {
             auto seconds = [](double v) { return v >= 0 ? nlohmann::json(v) : nlohmann::json(nullptr); };
             phases["evaluator"] = {{"traversal", r.gpu.evaluator}, {"generated_gradient", r.gpu.vertexGradient},

@@ -48,7 +48,8 @@ std::vector<Case> cases() {
 }
 
 // Tiled against untiled and the CPU reference, in one batch and in batches of a few bricks (each
-// batch lists its own vertices by tile), without and with refinement steps (the kernel with the
+// batch lists its own vertices by tile), with the tiles' lists made by the host (CPU devices) and
+// by the device, without and with refinement steps (the kernel with the
 // sample loop, whose field evaluations are pruned by primitive boxes too).
 TEST_F(VulkanTest, TiledVertexPassGivesTheBytesOfOneKernel) {
   std::size_t tiled = 0;
@@ -77,6 +78,17 @@ TEST_F(VulkanTest, TiledVertexPassGivesTheBytesOfOneKernel) {
         EXPECT_EQ(st.vertexTiles, st.fieldTiles > 1 ? st.fieldTiles : 0u) << what;
         tiled += st.vertexTiles > 1 ? 1 : 0;
         expectSameBytes(m, one, what);
+        // On a CPU device the host lists the tiles' vertices (vertex_tile_lists.h); the device's
+        // lists (GPUs) give the same bytes.
+        const bool hostLists = device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU && st.vertexTiles > 1;
+        EXPECT_EQ(st.hostSteps.vertexTileLists > 0.0, hostLists) << what;
+        if (batchBricks == 0 && st.vertexTiles > 1) {
+          o.hostPassesOnCpuDevices = false;
+          vk::GpuStats onDevice;
+          expectSameBytes(vk::polygonize(device(), c.program, c.grid, o, &onDevice), one, what + ", device lists");
+          EXPECT_EQ(onDevice.hostSteps.vertexTileLists, 0.0) << what;
+          o.hostPassesOnCpuDevices = true;
+        }
       }
     }
   }

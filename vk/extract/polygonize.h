@@ -101,6 +101,13 @@ struct GpuPolygonizeOptions {
   std::function<void(const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
                      std::uint8_t* sides)>
       columnSides;
+  // Sparse path on a CPU device (lavapipe) whose buffers the host maps cached: two of each batch's
+  // bookkeeping passes run on the host between its submits, a stream through memory each, where
+  // as compute passes every load and store is a loop over the lanes: the exclusive scans of the
+  // per-row counts (vk/extract/host_scan.h) and, with vertex tiles, the tiles' vertex lists
+  // (vk/extract/vertex_tile_lists.h; on the device an atomic add per vertex). The same bytes
+  // either way; false: the device's passes, as on GPUs.
+  bool hostPassesOnCpuDevices = true;
   // Sparse: the field pass interprets, per brick, the program pruned to the brick on the host
   // (vk/extract/brick_tapes.h) instead of the traversal's field kernel or field tiles; the vertex
   // pass keeps the traversal's kernel. The same mesh byte for byte.
@@ -132,6 +139,8 @@ struct HostSteps {
                                 // copy, all but the last output's during emitSubmits)
   double corners = 0.0;         // keyed-corner batches: triangle corners found by edge key
   double rowCulling = 0.0;      // per batch (GpuPolygonizeOptions::columnSides): rows bounded and listed, uploaded
+  double scans = 0.0;           // per batch, CPU devices: the segment scans on the host (host_scan.h)
+  double vertexTileLists = 0.0; // per batch, CPU devices, vertex tiles: the tiles' vertex lists on the host
 };
 
 struct GpuStats {

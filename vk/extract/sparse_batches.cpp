@@ -10,7 +10,9 @@
 #include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/host_copy.h"
 #include "blobvk/vk/extract/loop_limit.h"
+#include "blobvk/vk/extract/host_scan.h"
 #include "blobvk/vk/extract/row_culling.h"
+#include "blobvk/vk/extract/vertex_tile_lists.h"
 #include "blobvk/vk/extract/scan.h"
 
 #include <tbb/parallel_for.h>
@@ -189,6 +191,9 @@ struct SparseBatchRunner::State {
   // Row culling (row_culling.h): the field kernels take a list of rows, brick_row_fill the rest.
   bool cullRows = false;
   Buffer rowList, fillList;
+  // On a CPU device whose segment buffers the host reads and writes in place, the host scans them
+  // (host_scan.h) between the two submits; elsewhere the device does (scan.h).
+  bool hostScans = false;
   // Per-brick tapes (GpuPolygonizeOptions::brickTapes): the program the tapes are pruned from, the
   // batch's tapes on the host and on the device (grown as batches need), each brick's range.
   const blobtree::Program* tapeProgram = nullptr;
@@ -297,6 +302,8 @@ struct SparseBatchRunner::State {
     segments = make(std::uint64_t(maxLoaded) * 16, "brick segment records");
     vertexScratch = scanScratchWords(maxRows);
     segmentScratch = make((vertexScratch + scanScratchWords(maxCellRows) + 1) * 4, "segment scan scratch");
+    hostScans = device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU && vertexSegments.hostReadable() &&
+                triangleSegments.hostReadable() && o.hostPassesOnCpuDevices;
 
     // One lane per row of points: a work group holds a brick's R^2 rows rounded up to a vector of 8
     // (llvmpipe runs an idle vector through the whole evaluator), within the device's limits.
@@ -665,21 +672,38 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     }
     rec.computeBarrier();
     st.timer.mark(rec, mark + 2);
-    recordExclusiveScan(rec, st.vertexSegments.handle(), 0, std::uint32_t(rowCount), st.segmentScratch.handle(), 0,
-                        st.counts.handle(), 0);
-    rec.computeBarrier();  // the scans share the scratch and totals buffers (see slab_polygonizer.cpp)
-    recordExclusiveScan(rec, st.triangleSegments.handle(), 0, std::uint32_t(triangleSegmentCount),
-                        st.segmentScratch.handle(), std::uint32_t(st.vertexScratch), st.counts.handle(), 1);
-    rec.computeBarrier();
-    if (batch.ownActive < loaded) {  // where the next layer's segments start
-      rec.copy(st.vertexSegments, 4ull * batch.ownActive * R * R, st.counts, 8, 4);
-      rec.copy(st.triangleSegments, 4ull * batch.ownActive * B * B, st.counts, 12, 4);
+    if (!st.hostScans) {
+      recordExclusiveScan(rec, st.vertexSegments.handle(), 0, std::uint32_t(rowCount), st.segmentScratch.handle(), 0,
+                          st.counts.handle(), 0);
+      rec.computeBarrier();  // the scans share the scratch and totals buffers (see slab_polygonizer.cpp)
+      recordExclusiveScan(rec, st.triangleSegments.handle(), 0, std::uint32_t(triangleSegmentCount),
+                          st.segmentScratch.handle(), std::uint32_t(st.vertexScratch), st.counts.handle(), 1);
+      rec.computeBarrier();
+      if (batch.ownActive < loaded) {  // where the next layer's segments start
+        rec.copy(st.vertexSegments, 4ull * batch.ownActive * R * R, st.counts, 8, 4);
+        rec.copy(st.triangleSegments, 4ull * batch.ownActive * B * B, st.counts, 12, 4);
+      }
     }
     st.timer.mark(rec, mark + 3);
     rec.hostBarrier();
   });
+  // The totals and where the next layer's segments start: c[0], c[1] the batch's vertices and
+  // triangles, c[2], c[3] those of the bricks it emits.
   std::uint32_t c[4] = {0, 0, 0, 0};
-  device.download(st.counts, c, 16);
+  if (st.hostScans) {
+    const auto scanStart = Clock::now();
+    auto* vertexCounts = static_cast<std::uint32_t*>(st.vertexSegments.mapped());
+    auto* triangleCounts = static_cast<std::uint32_t*>(st.triangleSegments.mapped());
+    c[0] = exclusiveScanInPlace(vertexCounts, rowCount);
+    c[1] = exclusiveScanInPlace(triangleCounts, triangleSegmentCount);
+    if (batch.ownActive < loaded) {
+      c[2] = vertexCounts[std::uint64_t(batch.ownActive) * R * R];
+      c[3] = triangleCounts[std::uint64_t(batch.ownActive) * B * B];
+    }
+    s.hostSteps.scans += since(scanStart);
+  } else {
+    device.download(st.counts, c, 16);
+  }
   // A point word holds a vertex counted from the batch's first segment in 29 bits
   // (brick_sources.comp), the loaded bricks' vertices included.
   if (c[0] >= (1u << 29)) {
@@ -781,7 +805,11 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   if (st.interpretedVertexPass) s.vertexGradient = false;
   // With a read-back copy to wait for (a discrete GPU), the arrays grow while the device works;
   // where the host reads the device's buffers (lavapipe, whose device work is these cores) after.
-  submit([&](Recorder& rec) {
+  // On a CPU device the host lists each tile's vertices (vertex_tile_lists.h) between a submit
+  // of the sources pass and one of the rest; elsewhere the device does, in one submit.
+  const bool hostTileLists = vertices && !vertexTiles.empty() && st.hostScans && vertexSources.hostReadable() &&
+                             tileVertices.hostReadable() && st.tileArgs.hostReadable();
+  auto recordSources = [&](Recorder& rec) {
     rec.computeBarrier();
     st.timer.mark(rec, mark + 4);
     if (vertices || triangles) {
@@ -792,6 +820,8 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     }
     rec.computeBarrier();
     st.timer.mark(rec, mark + 5);
+  };
+  auto recordTheRest = [&](Recorder& rec) {
     if (vertices) {
       struct {
         float originCell[4];
@@ -817,18 +847,20 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
         // Each vertex listed under its brick's tile (counts, runs, lists), then each tile's
         // vertices by its pruned kernel, dispatched with the counts left on the device.
         const std::uint32_t tileCount = std::uint32_t(st.tiles.size());
-        rec.fill(st.tileCounters, 0);
-        rec.computeBarrier();
-        const std::uint32_t listPush[2] = {vertices, tileCount};
-        const BufferRange listBind[4] = {vertexSources, st.brickTiles, st.tileCounters, tileVertices};
-        rec.dispatch(*device.kernel("brick_vertex_tile_counts", wgSpec), std::span(listBind, 3), listPush, 4, g.x, g.y);
-        rec.computeBarrier();
-        const std::uint32_t argsPush[2] = {tileCount, wg};
-        const BufferRange argsBind[2] = {st.tileCounters, st.tileArgs};
-        rec.dispatch(*device.kernel("brick_vertex_tile_args", {}), argsBind, argsPush, sizeof(argsPush), 1);
-        rec.computeBarrier();
-        rec.dispatch(*device.kernel("brick_vertex_tile_lists", wgSpec), listBind, listPush, sizeof(listPush), g.x, g.y);
-        rec.computeBarrier();
+        if (!hostTileLists) {
+          const std::uint32_t listPush[2] = {vertices, tileCount};
+          const BufferRange listBind[4] = {vertexSources, st.brickTiles, st.tileCounters, tileVertices};
+          rec.fill(st.tileCounters, 0);
+          rec.computeBarrier();
+          rec.dispatch(*device.kernel("brick_vertex_tile_counts", wgSpec), std::span(listBind, 3), listPush, 4, g.x, g.y);
+          rec.computeBarrier();
+          const std::uint32_t argsPush[2] = {tileCount, wg};
+          const BufferRange argsBind[2] = {st.tileCounters, st.tileArgs};
+          rec.dispatch(*device.kernel("brick_vertex_tile_args", {}), argsBind, argsPush, sizeof(argsPush), 1);
+          rec.computeBarrier();
+          rec.dispatch(*device.kernel("brick_vertex_tile_lists", wgSpec), listBind, listPush, sizeof(listPush), g.x, g.y);
+          rec.computeBarrier();
+        }
         struct {
           decltype(push) vertex;
           std::uint32_t tile;
@@ -861,7 +893,27 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     }
     st.timer.mark(rec, mark + 8);
     rec.hostBarrier();
-  }, stagingBytes ? std::function<void()>(whileDeviceCopies) : std::function<void()>());
+  };
+  const std::function<void()> whileRunning = stagingBytes ? std::function<void()>(whileDeviceCopies) : nullptr;
+  if (hostTileLists) {
+    submit([&](Recorder& rec) {
+      recordSources(rec);
+      rec.hostBarrier();
+    });
+    const auto listStart = Clock::now();
+    listVerticesByTile(static_cast<const std::uint32_t*>(vertexSources.mapped()), vertices, st.batchTiles.data(),
+                       std::uint32_t(st.tiles.size()), wg, static_cast<std::uint32_t*>(tileVertices.mapped()),
+                       static_cast<std::uint32_t*>(st.tileArgs.mapped()));
+    s.hostSteps.vertexTileLists += since(listStart);
+    submit(recordTheRest, whileRunning);
+  } else {
+    submit(
+        [&](Recorder& rec) {
+          recordSources(rec);
+          recordTheRest(rec);
+        },
+        whileRunning);
+  }
   s.extractSeconds += since(t0);
   s.hostSteps.emitSubmits += since(t0);
 
