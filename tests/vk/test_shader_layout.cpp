@@ -106,13 +106,14 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
     EXPECT_GT(vk::polygonize(dev, program, grid, tiled, &stats).triangleCount(), 0u);
     EXPECT_GT(stats.fieldTiles, 1u);
     // The sparse vertex pass per tile, without and with the sample loop (its tile lists, counts
-    // and indirect dispatches).
+    // and indirect dispatches), the lists made by the device and, on CPU devices, by the host.
     vk::GpuPolygonizeOptions sparseTiles;
     sparseTiles.traversal = vk::Traversal::Specialised;
     sparseTiles.brickCells = 8;
     sparseTiles.sparseVertexTiles = true;
     for (int refine : {0, 1}) {
       sparseTiles.refineSteps = refine;
+      sparseTiles.hostPassesOnCpuDevices = refine == 1;
       EXPECT_GT(vk::polygonize(dev, program, grid, sparseTiles, &stats).triangleCount(), 0u);
       EXPECT_GT(stats.vertexTiles, 1u);
     }
