@@ -139,8 +139,8 @@ struct HostSteps {
                                 // copy, all but the last output's during emitSubmits)
   double corners = 0.0;         // keyed-corner batches: triangle corners found by edge key
   double rowCulling = 0.0;      // per batch (GpuPolygonizeOptions::columnSides): rows bounded and listed, uploaded
-  double scans = 0.0;           // per batch, CPU devices: the segment scans on the host (host_scan.h)
-  double vertexTileLists = 0.0; // per batch, CPU devices, vertex tiles: the tiles' vertex lists on the host
+  double scans = 0.0;           // per batch, CPU devices: the segment scans on the host (host_scan.h; inside fieldSubmits)
+  double vertexTileLists = 0.0; // per batch, CPU devices, vertex tiles: the tiles' lists on the host (inside emitSubmits)
 };
 
 struct GpuStats {
@@ -165,7 +165,8 @@ struct GpuStats {
   double hostSeconds = 0.0;
   HostSteps hostSteps;
   std::uint32_t submits = 0;     // sparse: queue submissions (each one a host round trip)
-  std::uint32_t batches = 0;     // sparse: batches of brick layers (1 + 2 x batches submits)
+  std::uint32_t batches = 0;     // sparse: batches of brick layers (1 + 2 x batches submits; 3 for
+                                 // a batch whose host lists its vertex tiles, hostPassesOnCpuDevices)
   std::uint32_t devices = 1;     // devices that shared the batches (multi_device.h)
   std::uint32_t bricks = 0;      // dense: z-slabs; sparse: bricks of the grid
   std::uint32_t activeBricks = 0;  // sparse: bricks that may hold surface

@@ -705,7 +705,7 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
   const auto wallStart = Clock::now();
   // Submits: one classifies and compacts the bricks (again with smaller bricks where a layer
   // pair would not fit one storage buffer); then, per batch of whole brick layers, two
-  // (sparse_batches.h). The evaluator is chosen once the active bricks are known.
+  // (three where the host lists the vertex tiles; sparse_batches.h). The evaluator is chosen once the active bricks are known.
   // llvmpipe ends an invocation's loops after 65,535 iterations (loop_limit.h): bricks whose rows
   // of points fit them for the most the model's evaluator can loop (the same mesh on any bricks);
   // SparseBatchRunner refuses a job none fits.
