@@ -9,11 +9,11 @@
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/host_copy.h"
-#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/host_scan.h"
+#include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/row_culling.h"
-#include "blobvk/vk/extract/vertex_tile_lists.h"
 #include "blobvk/vk/extract/scan.h"
+#include "blobvk/vk/extract/vertex_tile_lists.h"
 
 #include <tbb/parallel_for.h>
 
@@ -136,8 +136,9 @@ std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> starts
 }
 
 // Device timestamps per batch: field, masks and edges, scans | (second submit) sources,
-// vertices, triangles, read-back copies.
-constexpr std::uint32_t kMarks = 10;  // per batch; mark 9 opens the vertex submit of a split batch
+// vertices, triangles, read-back copies; mark 9 opens the vertex pass, which starts a submit of
+// its own where the host lists the vertex tiles (so the host's work between is not timed).
+constexpr std::uint32_t kMarks = 10;
 
 struct SparseBatchRunner::State {
   Device& device;
@@ -194,7 +195,6 @@ struct SparseBatchRunner::State {
   // On a CPU device whose segment buffers the host reads and writes in place, the host scans them
   // (host_scan.h) between the two submits; elsewhere the device does (scan.h).
   bool hostScans = false;
-  std::vector<char> splitRuns;  // per run: its vertex pass in a submit of its own (host tile lists)
   // Per-brick tapes (GpuPolygonizeOptions::brickTapes): the program the tapes are pruned from, the
   // batch's tapes on the host and on the device (grown as batches need), each brick's range.
   const blobtree::Program* tapeProgram = nullptr;
@@ -516,9 +516,7 @@ bool SparseBatchRunner::deviceTimes(GpuStats& s) {
     s.edgesSeconds += st.timer.seconds(m + 1, m + 2);
     s.scansSeconds += st.timer.seconds(m + 2, m + 3);
     s.sourcesSeconds += st.timer.seconds(m + 4, m + 5);
-    // A batch split for the host's tile lists: the vertices from the second submit's start, so
-    // that the host's work between the submits is not counted as the device's.
-    s.verticesSeconds += st.timer.seconds(b < st.splitRuns.size() && st.splitRuns[b] ? m + 9 : m + 5, m + 6);
+    s.verticesSeconds += st.timer.seconds(m + 9, m + 6);
     s.trianglesSeconds += st.timer.seconds(m + 6, m + 7);
     const double copy = st.timer.seconds(m + 7, m + 8);
     s.readbackSeconds += copy;
@@ -812,8 +810,6 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   // of the sources pass and one of the rest; elsewhere the device does, in one submit.
   const bool hostTileLists = vertices && !vertexTiles.empty() && st.hostScans && vertexSources.hostReadable() &&
                              tileVertices.hostReadable() && st.tileArgs.hostReadable();
-  st.splitRuns.resize(st.runs, 0);
-  st.splitRuns[run] = hostTileLists;
   auto recordSources = [&](Recorder& rec) {
     rec.computeBarrier();
     st.timer.mark(rec, mark + 4);
@@ -827,6 +823,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     st.timer.mark(rec, mark + 5);
   };
   auto recordTheRest = [&](Recorder& rec) {
+    st.timer.mark(rec, mark + 9);
     if (vertices) {
       struct {
         float originCell[4];
@@ -849,8 +846,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       if (vertexTiles.empty()) {
         rec.dispatch(*vertexKernel, std::span(bind, 12), &push, sizeof(push), g.x, g.y);
       } else {
-        // Each vertex listed under its brick's tile (counts, runs, lists), then each tile's
-        // vertices by its pruned kernel, dispatched with the counts left on the device.
+        // Each vertex listed under its brick's tile (counts, runs, lists; made by the host before
+        // this submit on a CPU device), then each tile's vertices by its pruned kernel,
+        // dispatched indirectly.
         const std::uint32_t tileCount = std::uint32_t(st.tiles.size());
         if (!hostTileLists) {
           const std::uint32_t listPush[2] = {vertices, tileCount};
@@ -913,7 +911,6 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     submit(
         [&](Recorder& rec) {
           rec.computeBarrier();  // the sources pass's writes, made in the last submit
-          st.timer.mark(rec, mark + 9);
           recordTheRest(rec);
         },
         whileRunning);
