@@ -222,7 +222,8 @@ void addBenchCommand(CLI::App& app) {
                     {"brick_cells", r.gpu.brickCells}, {"field_tiles", r.gpu.fieldTiles}, {"vertex_tiles", r.gpu.vertexTiles},
                     {"tape_instructions", r.gpu.tapeInstructions}, {"tape_words", r.gpu.tapeWords},
                     {"tape_s", r.gpu.tapeSeconds},
-                    {"generated_classification", r.gpu.generatedClassification}, {"classify_tiles", r.gpu.classifyTiles},
+                    {"generated_classification", r.gpu.generatedClassification}, {"host_classification", r.gpu.hostClassification},
+                    {"classify_tiles", r.gpu.classifyTiles},
                     {"device_bytes", r.gpu.deviceBytes},
                     {"extraction_passes_s", {{"edges", r.gpu.edges}, {"scans", r.gpu.scans},
                                              {"sources", r.gpu.sources}, {"vertices", r.gpu.vertices},
@@ -238,6 +239,7 @@ void addBenchCommand(CLI::App& app) {
           if (!r.gpu.evaluator.empty()) {
             auto seconds = [](double v) { return v >= 0 ? nlohmann::json(v) : nlohmann::json(nullptr); };
             phases["evaluator"] = {{"traversal", r.gpu.evaluator}, {"generated_gradient", r.gpu.vertexGradient},
+                                   {"uniform_vertex_program", r.gpu.vertexUniforms},
                                    {"model_build_s", seconds(r.gpu.modelBuild)}, {"model_run_s", seconds(r.gpu.modelRun)}};
           }
         }

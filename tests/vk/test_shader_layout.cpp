@@ -128,6 +128,11 @@ TEST_F(VulkanTest, EveryPipelinesBuffersAndPushConstantsMatchItsReflectedLayout)
   vk::GpuPolygonizeOptions stackless;  // the sparse vertex kernel without the sample loop
   stackless.traversal = vk::Traversal::Stackless;
   EXPECT_GT(vk::polygonize(dev, program, grid, stackless).triangleCount(), 0u);
+  {  // ... interpreting the gradient from uniform blocks (the default above) and from storage buffers
+    vk::GpuPolygonizeOptions storage = stackless;
+    storage.uniformVertexProgram = false;
+    EXPECT_GT(vk::polygonize(dev, program, grid, storage).triangleCount(), 0u);
+  }
   {  // The field pass over per-brick tapes, in uniform blocks and in a storage buffer
      // (brick_field_tapes_uniform, brick_field_tapes).
     vk::GpuPolygonizeOptions tapes = stackless;

@@ -2,6 +2,7 @@
 
 #include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/eval/program_codegen.h"
+#include "blobvk/vk/eval/uniform_program.h"
 
 #include <algorithm>
 #include <array>
@@ -156,6 +157,19 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
   };
 
   const bool wholeFits = canSpecialise(program, {}, codegen.loops);
+  // The gradient interpreted at every vertex, from storage buffers. Where the vertex kernel takes
+  // no samples and the program fits uniform blocks a first job reads them there
+  // (SparseBatchRunner), in a fraction of the time: that weighs one interpreted pass against
+  // waiting for the generated kernel (interpretFirst below). The choice of the generated gradient
+  // for the job's runs keeps the storage buffers' rate: it does not count that the generated
+  // kernel then builds while the first job interprets, and errs towards the kernel the runs after
+  // the first one want (tower at 256 cells: a 27 ms generated vertex pass per run, tiled,
+  // against about 0.17 s interpreted from uniform blocks).
+  const double interpretedGradientSeconds =
+      kInterpreterSecondsPerInstruction * meanBranchCost * kInterpretedGradientEvaluations * vertices;
+  const double firstPassGradientSeconds =
+      interpretedGradientSeconds *
+      (job.refineSteps <= 0 && fitsUniformBlocks(program) ? kUniformInterpretedGradientFraction : 1.0);
   const Kernel whole = wholeFits ? kernelFor({}) : Kernel{};
   // The vertex kernel: the whole program specialised, else the interpreter. Unrolled code
   // either generates the gradient (a larger kernel, a faster vertex pass) or interprets it; the
@@ -181,7 +195,7 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
     v.run = (wholeFits ? evaluationSeconds(whole, meanBranchCost, wholeCost)
                        : kInterpreterSecondsPerInstruction * meanBranchCost) *
             vertexEvaluations;
-    if (!generated) v.run += kInterpreterSecondsPerInstruction * meanBranchCost * kInterpretedGradientEvaluations * vertices;
+    if (!generated) v.run += interpretedGradientSeconds;
     return v;
   };
   // No vertex kernel, or none that could generate the gradient (looped code, the interpreter):
@@ -203,8 +217,7 @@ EvaluatorChoice chooseEvaluator(bool cpuDevice, const blobtree::Program& program
   const bool generatedToBuild =
       job.refineSteps <= 0 && vertex.gradient && wholeFits && !whole.looped && vertex.build > 0.0;
   const double interpretedVertexPass =
-      (isBuilt("vertices", nullptr) ? 0.0 : kInterpreterKernelSeconds) +
-      kInterpreterSecondsPerInstruction * meanBranchCost * kInterpretedGradientEvaluations * vertices;
+      (isBuilt("vertices", nullptr) ? 0.0 : kInterpreterKernelSeconds) + firstPassGradientSeconds;
   const bool interpretFirst = generatedToBuild && interpretedVertexPass < vertex.build + vertex.run;
   chosenCodegen.gradient = vertex.gradient;
   const bool wholeFieldBuilt = wholeFits && isBuilt("field_grid", &chosenCodegen);

@@ -31,6 +31,9 @@ struct ClassifyChoice {
   // Auto: the interpreter's predicted seconds tile by tile where the tiles pay (< 0: they do not,
   // or were not planned), which the generated code must beat to be built or taken.
   double tiledSeconds = -1.0;
+  // classifyToFit: the job's options, where its small grids may classify on the host
+  // (host_classify.h); null: always on the device.
+  const GpuPolygonizeOptions* hostOptions = nullptr;
 };
 
 struct ClassifyKernel {

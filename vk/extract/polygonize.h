@@ -116,6 +116,11 @@ struct GpuPolygonizeOptions {
   // where the device's uniform range allows (vk/extract/brick_tapes.h); false: in one storage
   // buffer beside the program's records (what a batch whose tape is over a block falls back to).
   bool brickTapeUniforms = true;
+  // Sparse: a vertex kernel that interprets the gradient without samples (no refinement; a first
+  // job before the generated gradient is built, or the interpreter's traversal) reads the program
+  // from uniform blocks where it fits them (vk/eval/uniform_program.h); false: from its storage
+  // buffers. The same mesh.
+  bool uniformVertexProgram = true;
   // Sparse: one line of text before each phase that can take minutes on a large grid (the
   // classification, its rerun with smaller bricks, the batches), on the calling thread; empty:
   // none. The CLI prints it as a progress note.
@@ -182,6 +187,8 @@ struct GpuStats {
   // (vk/eval/evaluator_choice.h) predicted for it (seconds; < 0 where it made no prediction).
   Traversal traversal = Traversal::Auto;
   bool vertexGradient = false;  // false too where the vertex pass interpreted while it built
+  bool vertexUniforms = false;  // sparse: the interpreted gradient read the program from uniform blocks
+  bool hostClassification = false;  // sparse: the bricks classified on the host (host_classify.h)
   bool generatedClassification = false;  // sparse: the bricks classified by generated code (classify_kernel.h)
   std::uint32_t classifyTiles = 0;  // sparse: tiles the interpreted classification ran, each with its tape (0: whole program)
   double modelBuildSeconds = -1.0, modelRunSeconds = -1.0;

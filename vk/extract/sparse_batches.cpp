@@ -5,6 +5,7 @@
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/gpu_program.h"
+#include "blobvk/vk/eval/uniform_program.h"
 #include "blobvk/vk/extract/brick_tapes.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/case_table.h"
@@ -167,6 +168,10 @@ struct SparseBatchRunner::State {
   KernelPtr vertexKernel;
   std::future<KernelPtr> vertexKernelBuild;
   bool interpretedVertexPass = false;  // the embedded interpreter while the generated kernel builds
+  // An interpreting vertex kernel without samples reads the program from uniform blocks where it
+  // fits them (uniform_program.h): these, else empty.
+  std::vector<Buffer> vertexUniforms;
+  bool vertexReadsUniforms = false;  // vertexKernel is brick_vertices_direct_uniform
   // Started when the job is done: the background build of the tiles' vertex kernels for the runs
   // after it (GpuPolygonizeOptions::expectedRuns).
   std::function<void()> tileBuildAfterJobDone;
@@ -402,10 +407,23 @@ struct SparseBatchRunner::State {
       };
     }
     // The kernels this job builds before its first submit, on every core at once
-    // (concurrent_builds.h): the vertex kernel, unless it builds on a thread of its own, and the
-    // field kernel of each tile.
+    // (concurrent_builds.h): the vertex kernel, unless it builds on a thread of its own, the
+    // field kernel of each tile, and the batches' fixed kernels.
     std::vector<std::function<KernelPtr()>> builds;
-    if (generated && o.interpretVertexPassUntilBuilt && !vertexKernelsBuilt() && !device.backgroundBuildDone(backgroundKey)) {
+    // The vertex kernel that interprets the gradient (as the generated code's, bit for bit): the
+    // embedded one, without samples from uniform blocks where the program fits them.
+    const bool interpretUntilBuilt = generated && o.interpretVertexPassUntilBuilt && !vertexKernelsBuilt() &&
+                                     !device.backgroundBuildDone(backgroundKey);
+    if (!samples && traversal != Traversal::StackBased && o.uniformVertexProgram && (!generated || interpretUntilBuilt))
+      vertexUniforms = uploadUniformProgram(device, program);
+    auto interpretingVertexKernel = [&, vertexShader, wg]() -> KernelPtr {
+      vertexReadsUniforms = !vertexUniforms.empty();
+      if (vertexReadsUniforms)
+        return device.kernel("brick_vertices_direct_uniform", gpu.specs(wg, Traversal::Stackless));
+      return evaluatorKernel(device, gpu, vertexShader, wg,
+                             traversal == Traversal::StackBased ? traversal : Traversal::Stackless);
+    };
+    if (interpretUntilBuilt) {
       // Not built: this job interprets its vertex pass (quick to create, the same bytes) and, if
       // more jobs are expected, the generated kernel builds in the background for them (once: a
       // build an earlier job started goes on). A job that comes while the build still runs
@@ -413,7 +431,7 @@ struct SparseBatchRunner::State {
       // job for most of the build (tower at 128 cells on lavapipe: 0.5-0.7 s against 0.02 s
       // steady), and left the cores the job would have used idle beside a one-thread build. A
       // build that failed counts as done: the job then builds in the foreground and reports it.
-      builds.push_back([&, vertexShader] { return evaluatorKernel(device, gpu, vertexShader, wg, Traversal::Stackless); });
+      builds.push_back(interpretingVertexKernel);
       interpretedVertexPass = true;
       if (o.expectedRuns > 1) {
         std::vector<CodegenOptions> codegens;  // one kernel, or one per tile with a kernel of its own
@@ -435,13 +453,13 @@ struct SparseBatchRunner::State {
         for (std::size_t t = 0; t < tiles.size(); ++t) tileBuilds.push_back([&buildVertexTile, t] { return buildVertexTile(t); });
         return buildConcurrently(tileBuilds);
       });
-    } else if (traversal == Traversal::Specialised) {
+    } else if (traversal == Traversal::Specialised && (generated || vertexUniforms.empty())) {
       vertexKernelBuild = std::async(std::launch::async, [this, vertexShader, wg, traversal, backgroundKey] {
         device.waitForBackgroundBuild(backgroundKey);  // an earlier job's: then a cache hit here
         return evaluatorKernel(device, gpu, vertexShader, wg, traversal);
       });
     } else {  // the embedded interpreter: its pipeline is quick to create
-      builds.push_back([&, vertexShader] { return evaluatorKernel(device, gpu, vertexShader, wg, traversal); });
+      builds.push_back(interpretingVertexKernel);
     }
     const std::size_t vertexBuilds = builds.size();
     if (o.brickTapes) {
@@ -465,9 +483,17 @@ struct SparseBatchRunner::State {
         });
       }
     }
+    // The program's kernels first (the field's is the slowest to create), then the fixed kernels
+    // of the batches' passes, which the threads done early create rather than the first submits
+    // one after the other (their pipelines are then found by name and specialization).
+    const std::size_t evaluatorBuilds = builds.size();
+    const std::array<std::uint32_t, 1> wgSpec{wg};
+    for (const char* fixed : {"brick_neighbours", "brick_rows", "brick_sources", "brick_triangles"})
+      builds.push_back([this, fixed, wgSpec] { return device.kernel(fixed, wgSpec); });
+    if (cullRows) builds.push_back([this, wgSpec] { return device.kernel("brick_row_fill", wgSpec); });
     std::vector<KernelPtr> built = buildConcurrently(builds);
     if (vertexBuilds) vertexKernel = built.front();
-    fieldKernels.assign(built.begin() + std::ptrdiff_t(vertexBuilds), built.end());
+    fieldKernels.assign(built.begin() + std::ptrdiff_t(vertexBuilds), built.begin() + std::ptrdiff_t(evaluatorBuilds));
     if (tiledVertices && !interpretedVertexPass) {
       brickTiles = make(std::uint64_t(maxLoaded) * 4, "brick tiles");
       tileCounters = make(tiles.size() * 8, "vertex tile counters");
@@ -804,6 +830,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   st.peakOutputBytes = std::max(st.peakOutputBytes, outBytes);
   const KernelPtr& vertexKernel = st.vertices();
   if (st.interpretedVertexPass) s.vertexGradient = false;
+  if (vertices && st.vertexReadsUniforms && vertexTiles.empty()) s.vertexUniforms = true;
   // With a read-back copy to wait for (a discrete GPU), the arrays grow while the device works;
   // where the host reads the device's buffers (lavapipe, whose device work is these cores) after.
   // On a CPU device the host lists each tile's vertices (vertex_tile_lists.h) between a submit
@@ -840,8 +867,11 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
              std::uint32_t(st.grid.cells.x + 1),
              std::uint32_t(st.grid.cells.y + 1),
              std::uint32_t(st.fieldTailBase)};
-      const BufferRange bind[14] = {pb[0],          pb[1],         pb[2],     pb[3],   pb[4],   st.field,     st.batchBricks,
-                                    vertexSources, positions, normals, colours, keys, tileVertices, st.tileArgs};
+      // The program's buffers, or its uniform blocks for the kernel that reads them there.
+      const bool uniforms = st.vertexReadsUniforms && vertexTiles.empty();
+      auto program = [&](std::size_t i) { return uniforms ? BufferRange(st.vertexUniforms[i]) : pb[i]; };
+      const BufferRange bind[14] = {program(0),    program(1), program(2), program(3), program(4), st.field,     st.batchBricks,
+                                    vertexSources, positions,  normals,    colours,    keys,       tileVertices, st.tileArgs};
       const Groups g = groupsFor(vertices, wg);
       if (vertexTiles.empty()) {
         rec.dispatch(*vertexKernel, std::span(bind, 12), &push, sizeof(push), g.x, g.y);

@@ -8,9 +8,11 @@
 #include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/region_tape.h"
+#include "blobvk/vk/eval/uniform_program.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/classify_kernel.h"
 #include "blobvk/vk/extract/classify_tiles.h"
+#include "blobvk/vk/extract/host_classify.h"
 #include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/sparse_batches.h"
 #include "blobvk/vk/extract/scan.h"
@@ -41,36 +43,14 @@ std::string groupedCount(std::uint64_t n) {
   return out;
 }
 
-// The Program's records in uniform buffers of kUniformBlock bytes each, records at the start, for
-// brick_classify_uniform.comp; empty when a record array is over its block (or the device's
-// uniform range is smaller), and brick_classify.comp reads them as storage buffers.
-constexpr std::uint64_t kUniformBlock = 65536;
+// The Program's records in uniform blocks for brick_classify_uniform.comp (uniform_program.h);
+// empty where they do not fit, and brick_classify.comp reads them as storage buffers.
 struct ClassifyUniforms {
   std::vector<Buffer> buffers;
 };
 
 ClassifyUniforms classifyUniforms(Device& device, const blobtree::Program& program) {
-  ClassifyUniforms u;
-  if (device.info().limits.maxUniformBufferRange < kUniformBlock) return u;
-  // The blocks' array lengths (brick_classify_uniform.comp): whole records of each size.
-  // The boxes end with the empty skip box uploadProgram appends (GpuProgram::emptyBox), which the
-  // classification tiles' tapes write their zeros with (classify_tiles.h).
-  std::vector<layout::BoxRecord> boxes = program.boxes;
-  boxes.push_back(emptySkipBox());
-  const std::pair<const void*, std::uint64_t> records[5] = {
-      {program.code.data(), program.code.size() * sizeof(program.code[0])},
-      {program.primitives.data(), program.primitives.size() * sizeof(program.primitives[0])},
-      {program.matrices.data(), program.matrices.size() * sizeof(program.matrices[0])},
-      {boxes.data(), boxes.size() * sizeof(boxes[0])},
-      {program.warps.data(), program.warps.size() * sizeof(program.warps[0])}};
-  for (const auto& r : records) {
-    if (r.second > kUniformBlock) return u;
-  }
-  for (const auto& r : records) {
-    u.buffers.push_back(device.createBuffer(kUniformBlock, MemoryUse::DeviceLocal, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT));
-    if (r.second) device.upload(u.buffers.back(), r.first, r.second);
-  }
-  return u;
+  return {uploadUniformProgram(device, program)};
 }
 
 // Where a classification pass writes: flags[i] is brick firstBrick + i (linear index), and
@@ -270,7 +250,7 @@ std::vector<std::uint32_t> classifyBricks(Device& device, const blobtree::Progra
   const std::vector<ClassifyTile> tiles =
       forcedTiles > 1 && !kernel.generated
           ? uploadClassifyTiles(device, planClassifyTiles(program, grid, bg, classifyTopGrid(bg), gpu.emptyBox, forcedTiles),
-                                uniforms.buffers.empty() ? 0 : kUniformBlock)
+                                uniforms.buffers.empty() ? 0 : kUniformProgramBlock)
           : std::vector<ClassifyTile>{};
   if (tilesRun) *tilesRun = std::uint32_t(tiles.size());
   device.run([&](Recorder& rec) {
@@ -507,7 +487,7 @@ ClassifiedBricks classifyAndCompact(Device& device, const blobtree::Program& pro
   const ClassifyParents parents = only ? ClassifyParents{{}, {}, makeSparseBuffer(device, 16, "parent brick flags", c.scratchBytes)}
                                        : classifyParents(device, bg, classified, c.scratchBytes);
   const std::vector<ClassifyTile> tiles = tiled && !kernel.generated
-                                              ? uploadClassifyTiles(device, plan, uniforms.buffers.empty() ? 0 : kUniformBlock)
+                                              ? uploadClassifyTiles(device, plan, uniforms.buffers.empty() ? 0 : kUniformProgramBlock)
                                               : std::vector<ClassifyTile>{};
   s.classifyTiles = std::uint32_t(tiles.size());
   for (const ClassifyTile& t : tiles) c.scratchBytes += t.code.size();  // freed with the classification
@@ -627,13 +607,14 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
   bool again = false;
   for (;;) {
     const BrickGrid bricks = brickGridFor(grid, brickCells);
+    const bool onHost = choice.hostOptions && classifiesOnHost(device, *choice.hostOptions, bricks);
     if (phaseNote) {
       const std::string size = std::to_string(brickCells);
       phaseNote(std::string(!again                ? ""
                             : layersPerLoad == 1 ? "a brick layer holds more active bricks than one storage buffer; "
                                                  : "two adjacent brick layers hold more active bricks than one storage buffer; ") +
                 "classifying " + groupedCount(bricks.count()) + " bricks of " + size + "x" + size + "x" + size +
-                " cells on the device");
+                (onHost ? " cells on the host" : " cells on the device"));
     }
     again = true;
     // Eight times the bricks (their tables in windows of layers where they outgrow one buffer)
@@ -648,7 +629,8 @@ ClassifiedBricks classifyToFit(Device& device, const blobtree::Program& program,
       }
     }
     ClassifyWatch watch{progress, canHalve ? rangeBricks(bricks) : ~0ull, std::max<std::uint32_t>(1, layersPerLoad)};
-    ClassifiedBricks c = classifyAndCompact(device, program, grid, bricks, stats, nullptr, windowLayers, choice, watch);
+    ClassifiedBricks c = onHost ? classifyOnHost(device, *choice.hostOptions, grid, bricks, stats, watch)
+                             : classifyAndCompact(device, program, grid, bricks, stats, nullptr, windowLayers, choice, watch);
     classifySeconds += stats.classifySeconds;
     stats.classifySeconds = classifySeconds;
     if (!c.abandoned) return c;
@@ -714,9 +696,11 @@ void runSparseExtraction(Device& device, const blobtree::Program& program, const
     options.phaseNote("a row of " + std::to_string(options.brickCells + 1) +
                       " points would outrun the driver's loop limit (" + std::to_string(loopIterationLimit(device.info())) +
                       " iterations) with a program of " + std::to_string(program.code.size()) + " instructions");
+  ClassifyChoice classifyChoice{options.classifyCode, options.expectedRuns};
+  classifyChoice.hostOptions = &options;
   const ClassifiedBricks classified = classifyToFit(
       device, program, grid, brickCells, [&device](const BrickGrid& b) { return sparseRangeBricks(device, b); }, s,
-      options.windowLayers, {options.classifyCode, options.expectedRuns}, options.phaseNote, options.classifyProgress,
+      options.windowLayers, classifyChoice, options.phaseNote, options.classifyProgress,
       1);  // one device matches a lone layer's corners by key (planSparseBatches, KeyedBatches::Allow)
   s.hostSteps.classification = since(wallStart);
   const auto preparationStart = Clock::now();
