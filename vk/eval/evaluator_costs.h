@@ -62,11 +62,14 @@ inline constexpr double kGradientVertexKernelMemoryCopies = 6.5;
 // (`blobvk bench S --resolution 256 --backend vk`, `vk_phases`).
 inline constexpr double kInterpretedGradientEvaluations = 2.0;
 // Without refinement, a program that fits uniform blocks (vk/eval/uniform_program.h) has its
-// gradient interpreted from them (brick_vertices_direct_uniform), in about this fraction of the
-// time: tower's vertex pass on its own grid, 0.12-0.135 s from storage buffers, 0.043-0.045 s
-// from uniform blocks (`blobvk bench scenes/tower.json --backend vk --repeats 1 --json`, warm
-// caches, `vk_phases.extraction_passes_s.vertices`, with and without the option).
-inline constexpr double kUniformInterpretedGradientFraction = 0.35;
+// gradient interpreted from them (brick_vertices_direct_uniform) in this fraction of the
+// estimate above (which also over-counts the vertices before they are known): first jobs'
+// interpreted vertex passes against the model's storage-buffer estimate, tower on its own grid
+// 0.043 s against 0.29 s, random128 at 256 cells 1.23 s against 8.7 s, dice 0.32 s against
+// 4.2 s, creature 0.13 s against 1.8 s (0.07-0.15; the largest taken). From storage buffers
+// tower's pass took 0.12-0.135 s. (`blobvk bench S --backend vk --repeats 1 --json`, warm
+// caches, `vk_phases.extraction_passes_s.vertices`, the interpreted pass forced.)
+inline constexpr double kUniformInterpretedGradientFraction = 0.15;
 // The sparse path's brick classification (vk/extract/classify_kernel.h), per step of
 // classifyWork (an instruction run by a vector of 8 lanes): the interpreter's seconds (random128
 // at 512 cells: 1.2 M steps, 0.17-0.18 s), the generated code's cost relative to it (measured
