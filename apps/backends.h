@@ -95,8 +95,8 @@ struct PolygonizeStats {
     // drivers, the cost model's estimate for it (< 0: none).
     std::string evaluator;
     bool vertexGradient = false;
-    bool vertexUniforms = false;
-    bool hostClassification = false;  // the bricks classified on the host  // the interpreted gradient read the program from uniform blocks
+    bool vertexUniforms = false;      // the interpreted gradient read the program from uniform blocks
+    bool hostClassification = false;  // the bricks classified on the host
     double modelBuild = -1.0, modelRun = -1.0;
     // extract by pass (device time): masks and edges, scans, sources, vertices, triangles
     double edges = 0.0, scans = 0.0, sources = 0.0, vertices = 0.0, triangles = 0.0;

@@ -6,10 +6,10 @@
 // bricks.
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/cpu_simd/column_sides.h"
-#include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/vk/extract/host_classify.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
+#include "both_paths.h"
 #include "reference_checks.h"
 #include "shipped_scenes.h"
 #include "vk_fixture.h"
@@ -102,25 +102,21 @@ TEST_F(VulkanTest, HostClassificationListsEveryBrickTheSurfaceCrosses) {
 
 TEST_F(VulkanTest, HostAndDeviceClassificationsGiveTheSameMeshes) {
   const bool llvmpipe = device().info().isLlvmpipe();
-  for (const std::string& name : shippedSceneNames()) {
-    const ShippedScene s = shipped(name, 40);
-    if (!cpu::ColumnSides::boundsHoldOnIeeeDevices(s.program)) continue;
-    const mesh::TriMesh reference = cpu::polygonizeReference(s.program, s.grid, {});
-    for (const std::uint32_t batchBricks : {0u, 5u}) {
-      const std::string what = name + ", batches of " + std::to_string(batchBricks);
-      vk::GpuPolygonizeOptions o = withBound(s.program);
-      o.traversal = vk::Traversal::Stackless;  // quick to build; the classification does not see it
-      o.maxBatchBricks = batchBricks;
-      vk::GpuStats host, onDevice;
-      const mesh::TriMesh a = vk::polygonize(device(), s.program, s.grid, o, &host);
-      o.hostPassesOnCpuDevices = false;
-      const mesh::TriMesh b = vk::polygonize(device(), s.program, s.grid, o, &onDevice);
-      expectSameBytes(a, b, what);
-      expectSameMeshAsReference(a, reference, 1e-4f * s.grid.cellSize, what);
-      EXPECT_EQ(host.hostClassification, llvmpipe) << what;
-      EXPECT_FALSE(onDevice.hostClassification) << what;
-    }
-  }
+  BothPaths paths;
+  paths.resolution = 40;
+  paths.keep = [](const ShippedScene& s) { return cpu::ColumnSides::boundsHoldOnIeeeDevices(s.program); };
+  paths.base = [](const ShippedScene& s) {
+    vk::GpuPolygonizeOptions o = withBound(s.program);
+    o.traversal = vk::Traversal::Stackless;  // quick to build; the classification does not see it
+    return o;
+  };
+  paths.change = [](vk::GpuPolygonizeOptions& o) { o.hostPassesOnCpuDevices = false; };
+  paths.check = [llvmpipe](const std::string& what, const ShippedScene&, const mesh::TriMesh&, const vk::GpuStats& host,
+                           const vk::GpuStats& onDevice) {
+    EXPECT_EQ(host.hostClassification, llvmpipe) << what;
+    EXPECT_FALSE(onDevice.hostClassification) << what;
+  };
+  expectBothPathsGiveTheSameMeshes(device(), paths);
 }
 
 }  // namespace

@@ -5,10 +5,10 @@
 // shipped scene's mesh, with host scans and with the device's, the CPU reference's and byte for
 // byte the same, in one batch and in batches of a few bricks (whose next-layer offsets come from
 // the scanned counts).
-#include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/vk/extract/host_scan.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/extract/vertex_tile_lists.h"
+#include "both_paths.h"
 #include "reference_checks.h"
 #include "shipped_scenes.h"
 #include "vk_fixture.h"
@@ -83,30 +83,25 @@ TEST(VertexTileLists, ListEachTilesVerticesInOrderWithTheirDispatchSizes) {
 
 TEST_F(VulkanTest, HostAndDeviceScansGiveTheSameMeshes) {
   const bool cpuDevice = device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-  for (const std::string& name : shippedSceneNames()) {
-    const ShippedScene s = shipped(name, 48);
-    const mesh::TriMesh reference = cpu::polygonizeReference(s.program, s.grid, {});
-    for (const std::uint32_t batchBricks : {0u, 5u}) {
-      const std::string what = name + ", batches of " + std::to_string(batchBricks);
-      vk::GpuPolygonizeOptions o;
-      o.traversal = vk::Traversal::Stackless;  // quick to build; the scans do not see the evaluator
-      o.maxBatchBricks = batchBricks;
-      vk::GpuStats host, onDevice;
-      const mesh::TriMesh a = vk::polygonize(device(), s.program, s.grid, o, &host);
-      o.hostPassesOnCpuDevices = false;
-      const mesh::TriMesh b = vk::polygonize(device(), s.program, s.grid, o, &onDevice);
-      expectSameBytes(a, b, what);
-      expectSameMeshAsReference(a, reference, 1e-4f * s.grid.cellSize, what);
-      // The host scanned where the device is the CPU (lavapipe maps its buffers cached), and only there.
-      EXPECT_EQ(onDevice.hostSteps.scans, 0.0) << what;
-      if (cpuDevice && !reference.triangles.empty()) {
-        EXPECT_GT(host.hostSteps.scans, 0.0) << what;
-      }
-      if (!cpuDevice) {
-        EXPECT_EQ(host.hostSteps.scans, 0.0) << what;
-      }
+  BothPaths paths;
+  paths.base = [](const ShippedScene&) {
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Stackless;  // quick to build; the scans do not see the evaluator
+    return o;
+  };
+  paths.change = [](vk::GpuPolygonizeOptions& o) { o.hostPassesOnCpuDevices = false; };
+  paths.check = [cpuDevice](const std::string& what, const ShippedScene&, const mesh::TriMesh& reference,
+                            const vk::GpuStats& host, const vk::GpuStats& onDevice) {
+    // The host scanned where the device is the CPU (lavapipe maps its buffers cached), and only there.
+    EXPECT_EQ(onDevice.hostSteps.scans, 0.0) << what;
+    if (cpuDevice && !reference.triangles.empty()) {
+      EXPECT_GT(host.hostSteps.scans, 0.0) << what;
     }
-  }
+    if (!cpuDevice) {
+      EXPECT_EQ(host.hostSteps.scans, 0.0) << what;
+    }
+  };
+  expectBothPathsGiveTheSameMeshes(device(), paths);
 }
 
 }  // namespace

@@ -3,10 +3,10 @@
 // block gets none, and the vertex kernel that interprets the gradient from them
 // (brick_vertices_direct_uniform.comp) gives every shipped scene's mesh byte for byte as the one
 // reading storage buffers, the CPU reference's, in one batch and in batches of a few bricks.
-#include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/vk/eval/region_tape.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/eval/uniform_program.h"
+#include "both_paths.h"
 #include "reference_checks.h"
 #include "shipped_scenes.h"
 #include "vk_fixture.h"
@@ -50,27 +50,23 @@ TEST_F(VulkanTest, UniformProgramHoldsTheRecordsAndRefusesAProgramOverABlock) {
 }
 
 TEST_F(VulkanTest, UniformAndStorageVertexProgramsGiveTheSameMeshes) {
-  for (const std::string& name : shippedSceneNames()) {
-    const ShippedScene s = shipped(name, 40);
-    const mesh::TriMesh reference = cpu::polygonizeReference(s.program, s.grid, {});
+  BothPaths paths;
+  paths.resolution = 40;
+  paths.base = [](const ShippedScene&) {
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Stackless;  // the interpreted gradient, no refinement: no samples
+    return o;
+  };
+  paths.change = [](vk::GpuPolygonizeOptions& o) { o.uniformVertexProgram = false; };
+  paths.check = [this](const std::string& what, const ShippedScene& s, const mesh::TriMesh& reference,
+                       const vk::GpuStats& uniform, const vk::GpuStats& storage) {
     const bool fits = !vk::uploadUniformProgram(device(), s.program).empty();
-    for (const std::uint32_t batchBricks : {0u, 5u}) {
-      const std::string what = name + ", batches of " + std::to_string(batchBricks);
-      vk::GpuPolygonizeOptions o;
-      o.traversal = vk::Traversal::Stackless;  // the interpreted gradient, no refinement: no samples
-      o.maxBatchBricks = batchBricks;
-      vk::GpuStats uniform, storage;
-      const mesh::TriMesh a = vk::polygonize(device(), s.program, s.grid, o, &uniform);
-      o.uniformVertexProgram = false;
-      const mesh::TriMesh b = vk::polygonize(device(), s.program, s.grid, o, &storage);
-      expectSameBytes(a, b, what);
-      expectSameMeshAsReference(a, reference, 1e-4f * s.grid.cellSize, what);
-      EXPECT_FALSE(storage.vertexUniforms) << what;
-      if (!reference.triangles.empty()) {
-        EXPECT_EQ(uniform.vertexUniforms, fits) << what;
-      }
+    EXPECT_FALSE(storage.vertexUniforms) << what;
+    if (!reference.triangles.empty()) {
+      EXPECT_EQ(uniform.vertexUniforms, fits) << what;
     }
-  }
+  };
+  expectBothPathsGiveTheSameMeshes(device(), paths);
   // With refinement steps the vertex kernel samples the field: it reads the storage buffers.
   const ShippedScene s = shipped("creature", 24);
   vk::GpuPolygonizeOptions refined;

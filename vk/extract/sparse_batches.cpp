@@ -830,7 +830,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   st.peakOutputBytes = std::max(st.peakOutputBytes, outBytes);
   const KernelPtr& vertexKernel = st.vertices();
   if (st.interpretedVertexPass) s.vertexGradient = false;
-  if (vertices && st.vertexReadsUniforms && vertexTiles.empty()) s.vertexUniforms = true;
+  if (vertices && st.vertexReadsUniforms) s.vertexUniforms = true;
   // With a read-back copy to wait for (a discrete GPU), the arrays grow while the device works;
   // where the host reads the device's buffers (lavapipe, whose device work is these cores) after.
   // On a CPU device the host lists each tile's vertices (vertex_tile_lists.h) between a submit
@@ -867,9 +867,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
              std::uint32_t(st.grid.cells.x + 1),
              std::uint32_t(st.grid.cells.y + 1),
              std::uint32_t(st.fieldTailBase)};
-      // The program's buffers, or its uniform blocks for the kernel that reads them there.
-      const bool uniforms = st.vertexReadsUniforms && vertexTiles.empty();
-      auto program = [&](std::size_t i) { return uniforms ? BufferRange(st.vertexUniforms[i]) : pb[i]; };
+      // The program's buffers, or its uniform blocks for the kernel that reads them there (an
+      // interpreting kernel: never the tiles' generated ones).
+      auto program = [&](std::size_t i) { return st.vertexReadsUniforms ? BufferRange(st.vertexUniforms[i]) : pb[i]; };
       const BufferRange bind[14] = {program(0),    program(1), program(2), program(3), program(4), st.field,     st.batchBricks,
                                     vertexSources, positions,  normals,    colours,    keys,       tileVertices, st.tileArgs};
       const Groups g = groupsFor(vertices, wg);
