@@ -112,7 +112,7 @@ struct PolygonizeStats {
     // Where the host's wall time went (vk::HostSteps, vk/extract/polygonize.h; sparse, one device).
     struct HostSteps {
       double classification = 0.0, preparation = 0.0, fieldSubmits = 0.0, emitSubmits = 0.0, grow = 0.0, copy = 0.0,
-             corners = 0.0, rowCulling = 0.0, scans = 0.0, vertexTileLists = 0.0;
+             corners = 0.0, rowCulling = 0.0, scans = 0.0, vertexTileLists = 0.0, rows = 0.0, sources = 0.0, triangles = 0.0;
     } hostSteps;
   } gpu;
 };

@@ -235,7 +235,10 @@ void addBenchCommand(CLI::App& app) {
                                     {"copy", r.gpu.hostSteps.copy}, {"corners", r.gpu.hostSteps.corners},
                                     {"row_culling", r.gpu.hostSteps.rowCulling},
                                     {"scans", r.gpu.hostSteps.scans},
-                                    {"vertex_tile_lists", r.gpu.hostSteps.vertexTileLists}}}};
+                                    {"vertex_tile_lists", r.gpu.hostSteps.vertexTileLists},
+                                    {"rows", r.gpu.hostSteps.rows},
+                                    {"sources", r.gpu.hostSteps.sources},
+                                    {"triangles", r.gpu.hostSteps.triangles}}}};
           if (!r.gpu.evaluator.empty()) {
             auto seconds = [](double v) { return v >= 0 ? nlohmann::json(v) : nlohmann::json(nullptr); };
             phases["evaluator"] = {{"traversal", r.gpu.evaluator}, {"generated_gradient", r.gpu.vertexGradient},

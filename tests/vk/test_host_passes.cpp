@@ -2,7 +2,8 @@
 // (GpuPolygonizeOptions::hostPassesOnCpuDevices): exclusiveScanInPlace (vk/extract/host_scan.h)
 // against std::exclusive_scan, listVerticesByTile (vk/extract/vertex_tile_lists.h) against a
 // stable bucket sort and the group counts brick_vertex_tile_args.comp writes, and every
-// shipped scene's mesh, with host scans and with the device's, the CPU reference's and byte for
+// shipped scene's mesh, with the host's scans and triangles (vk/extract/host_triangles.h) and with
+// the device's, the CPU reference's and byte for
 // byte the same, in one batch and in batches of a few bricks (whose next-layer offsets come from
 // the scanned counts).
 #include "blobvk/vk/extract/host_scan.h"
@@ -81,7 +82,7 @@ TEST(VertexTileLists, ListEachTilesVerticesInOrderWithTheirDispatchSizes) {
   }
 }
 
-TEST_F(VulkanTest, HostAndDeviceScansGiveTheSameMeshes) {
+TEST_F(VulkanTest, HostAndDevicePassesGiveTheSameMeshes) {
   const bool cpuDevice = device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
   BothPaths paths;
   paths.base = [](const ShippedScene&) {
@@ -92,13 +93,17 @@ TEST_F(VulkanTest, HostAndDeviceScansGiveTheSameMeshes) {
   paths.change = [](vk::GpuPolygonizeOptions& o) { o.hostPassesOnCpuDevices = false; };
   paths.check = [cpuDevice](const std::string& what, const ShippedScene&, const mesh::TriMesh& reference,
                             const vk::GpuStats& host, const vk::GpuStats& onDevice) {
-    // The host scanned where the device is the CPU (lavapipe maps its buffers cached), and only there.
+    // The host scanned and assembled the triangles where the device is the CPU (lavapipe maps its
+    // buffers cached), and only there.
     EXPECT_EQ(onDevice.hostSteps.scans, 0.0) << what;
+    EXPECT_EQ(onDevice.hostSteps.triangles, 0.0) << what;
     if (cpuDevice && !reference.triangles.empty()) {
       EXPECT_GT(host.hostSteps.scans, 0.0) << what;
+      EXPECT_GT(host.hostSteps.triangles, 0.0) << what;
     }
     if (!cpuDevice) {
       EXPECT_EQ(host.hostSteps.scans, 0.0) << what;
+      EXPECT_EQ(host.hostSteps.triangles, 0.0) << what;
     }
   };
   expectBothPathsGiveTheSameMeshes(device(), paths);

@@ -146,6 +146,9 @@ struct HostSteps {
   double rowCulling = 0.0;      // per batch (GpuPolygonizeOptions::columnSides): rows bounded and listed, uploaded
   double scans = 0.0;           // per batch, CPU devices: the segment scans on the host (host_scan.h; inside fieldSubmits)
   double vertexTileLists = 0.0; // per batch, CPU devices, vertex tiles: the tiles' lists on the host (inside emitSubmits)
+  double rows = 0.0;            // per batch, CPU devices: each row's counts on the host (host_row_passes.h; inside fieldSubmits)
+  double sources = 0.0;         // per batch, CPU devices: point words and sources on the host (host_row_passes.h; inside emitSubmits)
+  double triangles = 0.0;       // per batch, CPU devices: the triangles assembled on the host (host_triangles.h)
 };
 
 struct GpuStats {

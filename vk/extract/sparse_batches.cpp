@@ -14,6 +14,8 @@
 #include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/row_culling.h"
 #include "blobvk/vk/extract/scan.h"
+#include "blobvk/vk/extract/host_row_passes.h"
+#include "blobvk/vk/extract/host_triangles.h"
 #include "blobvk/vk/extract/vertex_tile_lists.h"
 
 #include <tbb/parallel_for.h>
@@ -200,6 +202,9 @@ struct SparseBatchRunner::State {
   // On a CPU device whose segment buffers the host reads and writes in place, the host scans them
   // (host_scan.h) between the two submits; elsewhere the device does (scan.h).
   bool hostScans = false;
+  // ... and, with the scans, the row passes (host_row_passes.h: counts, then point words and
+  // sources) and the triangles (host_triangles.h), in the buffers the field pass left mapped.
+  bool hostRowPasses = false;
   // Per-brick tapes (GpuPolygonizeOptions::brickTapes): the program the tapes are pruned from, the
   // batch's tapes on the host and on the device (grown as batches need), each brick's range.
   const blobtree::Program* tapeProgram = nullptr;
@@ -310,6 +315,8 @@ struct SparseBatchRunner::State {
     segmentScratch = make((vertexScratch + scanScratchWords(maxCellRows) + 1) * 4, "segment scan scratch");
     hostScans = device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU && vertexSegments.hostReadable() &&
                 triangleSegments.hostReadable() && o.hostPassesOnCpuDevices;
+    hostRowPasses = hostScans && masks.hostReadable() && segments.hostReadable() && pointWords.hostReadable() &&
+                    neighbours.hostReadable();
 
     // One lane per row of points: a work group holds a brick's R^2 rows rounded up to a vector of 8
     // (llvmpipe runs an idle vector through the whole evaluator), within the device's limits.
@@ -488,8 +495,11 @@ struct SparseBatchRunner::State {
     // one after the other (their pipelines are then found by name and specialization).
     const std::size_t evaluatorBuilds = builds.size();
     const std::array<std::uint32_t, 1> wgSpec{wg};
-    for (const char* fixed : {"brick_neighbours", "brick_rows", "brick_sources", "brick_triangles"})
-      builds.push_back([this, fixed, wgSpec] { return device.kernel(fixed, wgSpec); });
+    builds.push_back([this, wgSpec] { return device.kernel("brick_neighbours", wgSpec); });
+    if (!hostRowPasses) {
+      for (const char* fixed : {"brick_rows", "brick_sources", "brick_triangles"})
+        builds.push_back([this, fixed, wgSpec] { return device.kernel(fixed, wgSpec); });
+    }
     if (cullRows) builds.push_back([this, wgSpec] { return device.kernel("brick_row_fill", wgSpec); });
     std::vector<KernelPtr> built = buildConcurrently(builds);
     if (vertexBuilds) vertexKernel = built.front();
@@ -692,7 +702,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     }
     rec.computeBarrier();
     st.timer.mark(rec, mark + 1);
-    {
+    if (!st.hostRowPasses) {
       const std::uint32_t push[8] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded};
       const BufferRange bind[5] = {st.masks, st.segments, st.cases, st.vertexSegments, st.triangleSegments};
       rec.dispatch(*device.kernel("brick_rows", wgSpec), bind, push, sizeof(push), columnGroups.x, columnGroups.y);
@@ -717,10 +727,22 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   // The totals and where the next layer's segments start: c[0], c[1] the batch's vertices and
   // triangles, c[2], c[3] those of the bricks it emits.
   std::uint32_t c[4] = {0, 0, 0, 0};
+  const HostRowLayout rowLayout{{cells[0], cells[1], cells[2]},
+                                {bg.x, bg.y, bg.z},
+                                bg.log2B,
+                                loaded,
+                                batch.ownActive,
+                                static_cast<const std::uint32_t*>(st.masks.mapped()),
+                                static_cast<const std::uint32_t*>(st.segments.mapped())};
   if (st.hostScans) {
-    const auto scanStart = Clock::now();
     auto* vertexCounts = static_cast<std::uint32_t*>(st.vertexSegments.mapped());
     auto* triangleCounts = static_cast<std::uint32_t*>(st.triangleSegments.mapped());
+    if (st.hostRowPasses) {
+      const auto rowsStart = Clock::now();
+      countRowsOnHost(rowLayout, vertexCounts, triangleCounts);
+      s.hostSteps.rows += since(rowsStart);
+    }
+    const auto scanStart = Clock::now();
     c[0] = exclusiveScanInPlace(vertexCounts, rowCount);
     c[1] = exclusiveScanInPlace(triangleCounts, triangleSegmentCount);
     if (batch.ownActive < loaded) {
@@ -757,9 +779,13 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const std::uint64_t cornerBytes = cornerKeys ? 24 : 12;  // per triangle: three indices or three edge keys
   // brick_triangles.comp runs a lane per four triangles: its buffers hold whole groups of four.
   const std::uint64_t triangleQuads = (std::uint64_t(triangles) + 3) / 4;
-  Buffer indices = make(triangleQuads * 4 * cornerBytes, "triangle indices");
   Buffer vertexSources = make(std::uint64_t(vertices) * 8, "vertex sources");
   Buffer triangleSources = make(triangleQuads * 4 * 8, "triangle sources");
+  // On a CPU device the host assembles the triangles (host_triangles.h) from the sources pass's
+  // buffers, straight into the mesh; elsewhere brick_triangles.comp does, into `indices`.
+  const bool hostSources = st.hostRowPasses && vertexSources.hostReadable() && triangleSources.hostReadable();
+  const bool hostTriangles = !cornerKeys && hostSources;
+  Buffer indices = make(hostTriangles ? 16 : triangleQuads * 4 * cornerBytes, "triangle indices");
   Buffer tileVertices = vertexTiles.empty() ? Buffer{} : make(std::uint64_t(vertices) * 4, "vertex tile lists");
   // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
   static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
@@ -778,12 +804,15 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     std::function<void*(bool)> grow;
     std::uint64_t offset = 0;  // in the read-back buffer
     void* to = nullptr;        // where grow made room
+    bool madeByHost = false;   // written into `to` by the host, not copied from `buffer`
   };
   std::vector<Output> outputs{{&positions, vertices * 12ull, grow(mesh.positions, vertices, reserveRatio)},
                               {&keys, vertices * 8ull, grow(mesh.edgeKeys, vertices, reserveRatio)},
                               {&indices, triangles * cornerBytes,
                                cornerKeys ? grow(*cornerKeys, 3ull * triangles, 1.0)  // the batch's own
                                           : grow(mesh.triangles, triangles, reserveRatio)}};
+  const std::size_t indexOutput = outputs.size() - 1;  // an index: the vector grows below
+  outputs[indexOutput].madeByHost = hostTriangles;
   if (options.normals) outputs.push_back({&normals, vertices * 12ull, grow(mesh.normals, vertices, reserveRatio)});
   if (options.colours) outputs.push_back({&colours, vertices * 12ull, grow(mesh.colours, vertices, reserveRatio)});
   // The arrays grow side by side: each one's value-initialising fill is a single thread's, and
@@ -800,7 +829,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   };
   std::uint64_t stagingBytes = 0;
   for (Output& o : outputs) {
-    if (o.buffer->hostReadable() || o.bytes == 0) continue;
+    if (o.buffer->hostReadable() || o.bytes == 0 || o.madeByHost) continue;
     o.offset = stagingBytes;
     stagingBytes += (o.bytes + 15) / 16 * 16;
   }
@@ -810,7 +839,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   // 62 MB mesh, only the last output's waits for the fence.
   std::vector<std::size_t> staged;  // outputs with a read-back copy, in copy order
   for (std::size_t i = 0; i < outputs.size(); ++i)
-    if (!outputs[i].buffer->hostReadable() && outputs[i].bytes) staged.push_back(i);
+    if (!outputs[i].buffer->hostReadable() && outputs[i].bytes && !outputs[i].madeByHost) staged.push_back(i);
   const std::span<const VkEvent> events = device.hostEvents(std::uint32_t(staged.size()));
   auto copyOut = [&outputs, &staging](std::size_t i) {
     const Output& o = outputs[i];
@@ -840,7 +869,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   auto recordSources = [&](Recorder& rec) {
     rec.computeBarrier();
     st.timer.mark(rec, mark + 4);
-    if (vertices || triangles) {
+    if ((vertices || triangles) && !hostSources) {
       const std::uint32_t push[9] = {cells[0], cells[1], cells[2], cells[3], bg.x, bg.y, bg.z, loaded, batch.ownActive};
       const BufferRange bind[8] = {st.masks,           st.segments,   st.cases,        st.vertexSegments,
                                    st.triangleSegments, vertexSources, triangleSources, st.pointWords};
@@ -911,7 +940,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       const BufferRange bind[4] = {st.cases, st.batchBricks, triangleSources, indices};
       const Groups g = groupsFor(triangles, wg);
       rec.dispatch(*device.kernel("brick_triangle_keys", wgSpec), bind, &push, sizeof(push), g.x, g.y);
-    } else if (triangles) {
+    } else if (triangles && !hostTriangles) {
       const std::uint32_t push[3] = {bg.log2B, triangles, std::uint32_t(vertexBase)};
       const BufferRange bind[5] = {st.cases, st.pointWords, st.neighbours, triangleSources, indices};
       const Groups g = groupsFor(triangleQuads, wg);
@@ -928,7 +957,30 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     rec.hostBarrier();
   };
   const std::function<void()> whileRunning = stagingBytes ? std::function<void()>(whileDeviceCopies) : nullptr;
-  if (hostTileLists) {
+  if (hostSources) {  // the host's sources (and tile lists), then one submit of the rest
+    const auto sourcesStart = Clock::now();
+    if (vertices || triangles) {
+      writeSourcesOnHost(rowLayout, static_cast<const std::uint32_t*>(st.vertexSegments.mapped()),
+                         static_cast<const std::uint32_t*>(st.triangleSegments.mapped()),
+                         static_cast<std::uint32_t*>(st.pointWords.mapped()),
+                         static_cast<std::uint32_t*>(vertexSources.mapped()),
+                         static_cast<std::uint32_t*>(triangleSources.mapped()));
+    }
+    s.hostSteps.sources += since(sourcesStart);
+    if (hostTileLists) {
+      const auto listStart = Clock::now();
+      listVerticesByTile(static_cast<const std::uint32_t*>(vertexSources.mapped()), vertices, st.batchTiles.data(),
+                         std::uint32_t(st.tiles.size()), wg, static_cast<std::uint32_t*>(tileVertices.mapped()),
+                         static_cast<std::uint32_t*>(st.tileArgs.mapped()));
+      s.hostSteps.vertexTileLists += since(listStart);
+    }
+    submit(
+        [&](Recorder& rec) {
+          recordSources(rec);
+          recordTheRest(rec);
+        },
+        whileRunning);
+  } else if (hostTileLists) {
     submit([&](Recorder& rec) {
       recordSources(rec);
       rec.hostBarrier();
@@ -961,10 +1013,20 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   if (!stagingBytes) growOutputs();
   const auto copyStart = Clock::now();
   for (std::size_t i = 0; i < outputs.size(); ++i)
-    if (outputs[i].bytes && outputs[i].buffer->hostReadable()) copyOut(i);
+    if (outputs[i].bytes && outputs[i].buffer->hostReadable() && !outputs[i].madeByHost) copyOut(i);
   if (!staged.empty()) copyOut(staged.back());
   s.readbackSeconds += since(t0);
   s.hostSteps.copy += since(copyStart);
+  if (hostTriangles && triangles) {
+    const auto trianglesStart = Clock::now();
+    const HostTriangleInputs in{static_cast<const std::uint32_t*>(triangleSources.mapped()),
+                                static_cast<const std::uint32_t*>(st.pointWords.mapped()),
+                                static_cast<const std::uint32_t*>(st.neighbours.mapped()), bg.log2B,
+                                std::uint32_t(vertexBase)};
+    assembleTrianglesOnHost(in, triangles, static_cast<std::array<std::uint32_t, 3>*>(outputs[indexOutput].to));
+    s.hostSteps.triangles += since(trianglesStart);
+    s.extractSeconds += since(trianglesStart);
+  }
 }
 
 }  // namespace blobvk::vk
