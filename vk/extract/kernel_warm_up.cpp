@@ -20,12 +20,14 @@ namespace blobvk::vk {
 std::vector<KernelRequest> programIndependentSparseKernels(std::uint32_t workgroupSize) {
   // The specialisations of sparse_batches.cpp (SparseBatchRunner::run), then of
   // sparse_polygonizer.cpp (compaction) and scan.cpp: the batches' first, which every job runs,
-  // where a job that classifies on the host (host_classify.h) runs none of the others.
+  // where a job that classifies on the host (host_classify.h) runs none of the others. The
+  // warm-up serves CPU devices, where the host runs the row passes (brick_rows, brick_sources,
+  // brick_triangles: host_row_passes.h), so they are not listed.
   // tests/vk/test_kernel_warm_up.cpp checks that a sparse job builds each of these, so the list
   // cannot drift from the extraction unnoticed.
   const std::vector<std::uint32_t> wg{workgroupSize}, scan{kScanWorkgroup}, rowStarts{64u};
-  return {{"brick_neighbours", wg}, {"brick_rows", wg},    {"brick_sources", wg},   {"brick_triangles", wg},
-          {"scan_reduce", scan},    {"scan_apply", scan},  {"brick_compact", {}},   {"brick_row_starts", rowStarts}};
+  return {{"brick_neighbours", wg}, {"scan_reduce", scan}, {"scan_apply", scan}, {"brick_compact", {}},
+          {"brick_row_starts", rowStarts}};
 }
 
 // No work group runs, so nothing reads or writes the placeholders; 64 KiB covers any uniform
