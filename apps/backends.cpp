@@ -164,6 +164,7 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings, const bl
                               const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
                               std::uint8_t* out) { (*sides)(x, nx, y, z, n, out); };
   }
+  options.hostPassesOnCpuDevices = settings.hostPasses;
   options.refineSteps = settings.refineSteps;
   options.traversal = traversalFromName(settings.traversal);
   if (settings.fieldTiles > 0)  // a given cap holds for repeated jobs too
@@ -387,7 +388,8 @@ void refuseOptionsNoBackendUses(const CLI::App& command, const std::vector<std::
   };
   if (!uses("vk"))
     refuse({"--device", "--devices", "--cpu-worker", "--validation", "--traversal", "--brick-cells", "--field-tiles",
-            "--tiled-vertices", "--vertex-tiles", "--brick-tapes", "--no-row-culling", "--dense", "--batches-per-device"},
+            "--tiled-vertices", "--vertex-tiles", "--brick-tapes", "--no-row-culling", "--device-passes", "--dense",
+            "--batches-per-device"},
            "the vk backend");
   // The vk backend's CPU worker meshes on --threads threads, in MPUs of the brick size (not --mpu).
   if (!uses("cpu")) refuse({"--mpu", "--sub-block"}, "the cpu backend");
@@ -401,7 +403,8 @@ void refuseOptionsNoBackendUses(const CLI::App& command, const std::vector<std::
                                           [](const std::string& t) { return t == "auto" || t == "specialised"; }))
     refuse({"--field-tiles", "--vertex-tiles"}, "the specialised traversal (--traversal auto or specialised)");
   if (given("--dense"))
-    refuse({"--brick-cells", "--vertex-tiles", "--brick-tapes", "--no-row-culling", "--cpu-worker"}, "the sparse extraction, not --dense");
+    refuse({"--brick-cells", "--vertex-tiles", "--brick-tapes", "--no-row-culling", "--device-passes", "--cpu-worker"},
+           "the sparse extraction, not --dense");
   const std::vector<std::string> fieldTiles = values("--field-tiles");
   if (!fieldTiles.empty() && fieldTiles.back() == "1")
     refuse({"--vertex-tiles"}, "more than one field tile (--field-tiles 1 makes one)");

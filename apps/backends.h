@@ -64,6 +64,10 @@ struct PolygonizeSettings {
   // vk sparse on llvmpipe: the field pass skips rows of points the CPU backend's bound proves on
   // one side (vk::GpuPolygonizeOptions::columnSides); false: every row of an active brick.
   bool rowCulling = true;
+  // vk sparse on a CPU device (lavapipe): the bookkeeping passes (classification, scans, row
+  // counts, sources, triangles, vertex tile lists) on the host, in the mapped buffers
+  // (vk::GpuPolygonizeOptions::hostPassesOnCpuDevices); false: as kernels on the device.
+  bool hostPasses = true;
   int expectedRuns = 1;         // vk: runs of this job the caller makes (bench: warm-up + repeats)
   // cpu: called as MPU groups finish (MpuOptions::progress), from worker threads; vk streamed:
   // after each batch of brick layers.

@@ -59,6 +59,7 @@ void addBenchCommand(CLI::App& app) {
     bool vertexTiles = false;
     bool brickTapes = false;
     bool noRowCulling = false;
+    bool devicePasses = false;
     std::string device;
     std::vector<std::string> deviceLists{""};
     std::vector<std::string> traversals{"auto"};
@@ -111,6 +112,9 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--no-row-culling", a->noRowCulling,
                 "vk sparse on lavapipe: evaluate every row of points of an active brick, not only those the CPU "
                 "backend's bound leaves (the same mesh)");
+  cmd->add_flag("--device-passes", a->devicePasses,
+                "vk sparse on lavapipe: run the bookkeeping passes (classification, scans, row counts, sources, "
+                "triangles) as kernels on the device, not on the host (the same mesh)");
   cmd->add_flag("--json", a->json, "Print JSON instead of a table");
   cmd->callback([a, cmd] {
     refuseOptionsNoBackendUses(*cmd, a->backends);
@@ -160,6 +164,7 @@ void addBenchCommand(CLI::App& app) {
             settings.vertexTiles = a->vertexTiles;
             settings.brickTapes = a->brickTapes;
             settings.rowCulling = !a->noRowCulling;
+            settings.hostPasses = !a->devicePasses;
             settings.expectedRuns = a->warmup + a->repeats;
             // Repeats mesh again into the last mesh's arrays (cpu: with one polygonizer; vk on one
             // device: vk::polygonizeInto), as a host re-meshing does; the first run (first_s)

@@ -112,6 +112,9 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_flag("--no-row-culling{false}", a->settings.rowCulling,
                 "vk sparse on lavapipe: evaluate every row of points of an active brick, not only those the CPU "
                 "backend's bound leaves (the same mesh)");
+  cmd->add_flag("--device-passes{false}", a->settings.hostPasses,
+                "vk sparse on lavapipe: run the bookkeeping passes (classification, scans, row counts, sources, "
+                "triangles) as kernels on the device, not on the host (the same mesh)");
   cmd->add_option("--max-memory", a->maxMemory,
                   "Memory budget (e.g. 2G; default: available): a cpu or vk job whose mesh may not fit is streamed to the file layer by layer")
       ->check(nonEmptyText());

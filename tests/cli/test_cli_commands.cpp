@@ -339,6 +339,34 @@ TEST_F(CliCommands, VulkanEvaluationsCountEveryVertexSample) {
             b["vk_phases"]["active_bricks"].get<double>() * side * side * side + b["vertices"].get<double>());
 }
 
+// --device-passes: on a CPU device the bookkeeping passes (row counts, sources, triangles...) run
+// as kernels on the device instead of on the host; the same bytes either way, and bench's host
+// steps say where they ran. The cpu backend refuses the option.
+TEST_F(CliCommands, DevicePassesWriteTheBytesOfTheHostPasses) {
+  const fs::path cwd = dir("mesh_device_passes");
+  const std::string base = "mesh " + tower + " --resolution 48 --backend vk -q ";
+  ASSERT_EQ(runCliSplit(base + "-o host.ply", cwd).status, 0);
+  ASSERT_EQ(runCliSplit(base + "-o device.ply --device-passes", cwd).status, 0);
+  EXPECT_EQ(fileBytes(cwd / "host.ply"), fileBytes(cwd / "device.ply"));
+  auto bench = [&](const std::string& options) {
+    const CliSplitRun r = runCliSplit("bench " + tower + " --resolution 48 --backend vk --repeats 1 --json " + options, cwd);
+    EXPECT_EQ(r.status, 0) << r.err;
+    return nlohmann::json::parse(r.out)[0];
+  };
+  const nlohmann::json host = bench(""), device = bench("--device-passes");
+  EXPECT_EQ(device["vk_phases"]["host_steps"]["sources"].get<double>(), 0.0);
+  EXPECT_EQ(device["vk_phases"]["host_steps"]["triangles"].get<double>(), 0.0);
+  if (host["device"]["type"] == "CPU") {
+    EXPECT_GT(host["vk_phases"]["host_steps"]["rows"].get<double>(), 0.0);
+    EXPECT_GT(host["vk_phases"]["host_steps"]["sources"].get<double>(), 0.0);
+    EXPECT_GT(host["vk_phases"]["host_steps"]["triangles"].get<double>(), 0.0);
+  }
+  EXPECT_EQ(host["triangles"], device["triangles"]);
+  const CliSplitRun cpu = runCliSplit("mesh " + tower + " -o cpu.ply --device-passes", cwd);
+  EXPECT_NE(cpu.status, 0);
+  EXPECT_NE(cpu.err.find("--device-passes is for the vk backend"), std::string::npos) << cpu.err;
+}
+
 // --devices: lavapipe opened two and three times shares the brick batches and writes the bytes
 // of one device (and of the CPU backend); a bad list is one error line naming the entry, before
 // any work and with no file written.
