@@ -18,7 +18,7 @@ inline std::uint32_t bitCount(std::uint32_t v) {
   v = (v & 0x33333333u) + ((v >> 2) & 0x33333333u);
   return (((v + (v >> 4)) & 0x0f0f0f0fu) * 0x01010101u) >> 24;
 }
-inline std::uint32_t lowestBit(std::uint32_t v) { return std::uint32_t(__builtin_ctz(v)); }  // v != 0
+inline std::uint32_t lowestBit(std::uint32_t v) { return std::uint32_t(std::countr_zero(v)); }  // v != 0
 
 // One brick of the batch, its rows walked as the kernels walk them (brick_layout.glsl: the
 // same functions, the same uint32 arithmetic).

@@ -57,7 +57,7 @@ void assembleTrianglesOnHost(const HostTriangleInputs& in, std::uint32_t count, 
   const Assembler assembler{in, caseTableUniform().data(), 1u << in.log2B, (1u << in.log2B) + 1u};
   // Each triangle is written at its own index: the split does not change a byte.
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, count, 1u << 14), [&](const tbb::blocked_range<std::uint32_t>& r) {
-    for (std::uint32_t t = r.begin(); t < r.end(); ++t) out[t] = assembler.corners(in.sources[2u * t], in.sources[2u * t + 1u]);
+    for (std::uint32_t t = r.begin(); t < r.end(); ++t) out[t] = assembler.corners(in.sources[2ull * t], in.sources[2ull * t + 1]);
   });
 }
 

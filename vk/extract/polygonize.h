@@ -101,12 +101,13 @@ struct GpuPolygonizeOptions {
   std::function<void(const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
                      std::uint8_t* sides)>
       columnSides;
-  // Sparse path on a CPU device (lavapipe) whose buffers the host maps cached: two of each batch's
-  // bookkeeping passes run on the host between its submits, a stream through memory each, where
-  // as compute passes every load and store is a loop over the lanes: the exclusive scans of the
-  // per-row counts (vk/extract/host_scan.h) and, with vertex tiles, the tiles' vertex lists
-  // (vk/extract/vertex_tile_lists.h; on the device an atomic add per vertex). The same bytes
-  // either way; false: the device's passes, as on GPUs.
+  // Sparse path on a CPU device (lavapipe) whose buffers the host maps cached: the bookkeeping
+  // runs on the host in the mapped buffers, where as compute passes every load and store is a
+  // loop over the lanes: the classification where `columnSides` is given (host_classify.h), and
+  // per batch the row counts, the exclusive scans of them, the point words and sources, the
+  // tiles' vertex lists and the triangles (host_row_passes.h, host_scan.h, vertex_tile_lists.h,
+  // host_triangles.h); the device runs the field and vertex passes. The same bytes either way;
+  // false: the device's passes, as on GPUs (CLI `--device-passes`).
   bool hostPassesOnCpuDevices = true;
   // Sparse: the field pass interprets, per brick, the program pruned to the brick on the host
   // (vk/extract/brick_tapes.h) instead of the traversal's field kernel or field tiles; the vertex
@@ -173,8 +174,8 @@ struct GpuStats {
   double hostSeconds = 0.0;
   HostSteps hostSteps;
   std::uint32_t submits = 0;     // sparse: queue submissions (each one a host round trip)
-  std::uint32_t batches = 0;     // sparse: batches of brick layers (1 + 2 x batches submits; 3 for
-                                 // a batch whose host lists its vertex tiles, hostPassesOnCpuDevices)
+  std::uint32_t batches = 0;     // sparse: batches of brick layers (1 + 2 x batches submits; 3 for a
+                                 // batch whose device writes the sources and host lists the vertex tiles)
   std::uint32_t devices = 1;     // devices that shared the batches (multi_device.h)
   std::uint32_t bricks = 0;      // dense: z-slabs; sparse: bricks of the grid
   std::uint32_t activeBricks = 0;  // sparse: bricks that may hold surface

@@ -10,12 +10,12 @@
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/case_table.h"
 #include "blobvk/vk/extract/host_copy.h"
+#include "blobvk/vk/extract/host_row_passes.h"
 #include "blobvk/vk/extract/host_scan.h"
+#include "blobvk/vk/extract/host_triangles.h"
 #include "blobvk/vk/extract/loop_limit.h"
 #include "blobvk/vk/extract/row_culling.h"
 #include "blobvk/vk/extract/scan.h"
-#include "blobvk/vk/extract/host_row_passes.h"
-#include "blobvk/vk/extract/host_triangles.h"
 #include "blobvk/vk/extract/vertex_tile_lists.h"
 
 #include <tbb/parallel_for.h>
@@ -782,7 +782,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   Buffer vertexSources = make(std::uint64_t(vertices) * 8, "vertex sources");
   Buffer triangleSources = make(triangleQuads * 4 * 8, "triangle sources");
   // On a CPU device the host assembles the triangles (host_triangles.h) from the sources pass's
-  // buffers, straight into the mesh; elsewhere brick_triangles.comp does, into `indices`.
+  // buffers, straight into the mesh; elsewhere brick_triangles.comp does, into `indices`. (Where
+  // the host cannot map these two, brick_sources and brick_triangles run on the device, built at
+  // their first dispatch: the runner built no pipeline for them.)
   const bool hostSources = st.hostRowPasses && vertexSources.hostReadable() && triangleSources.hostReadable();
   const bool hostTriangles = !cornerKeys && hostSources;
   Buffer indices = make(hostTriangles ? 16 : triangleQuads * 4 * cornerBytes, "triangle indices");
@@ -862,8 +864,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   if (vertices && st.vertexReadsUniforms) s.vertexUniforms = true;
   // With a read-back copy to wait for (a discrete GPU), the arrays grow while the device works;
   // where the host reads the device's buffers (lavapipe, whose device work is these cores) after.
-  // On a CPU device the host lists each tile's vertices (vertex_tile_lists.h) between a submit
-  // of the sources pass and one of the rest; elsewhere the device does, in one submit.
+  // On a CPU device the host lists each tile's vertices (vertex_tile_lists.h) after the sources
+  // pass (its own, or the device's in a submit of its own) and before the vertex pass's submit;
+  // elsewhere the device does, in one submit.
   const bool hostTileLists = vertices && !vertexTiles.empty() && st.hostScans && vertexSources.hostReadable() &&
                              tileVertices.hostReadable() && st.tileArgs.hostReadable();
   auto recordSources = [&](Recorder& rec) {
@@ -980,7 +983,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
           recordTheRest(rec);
         },
         whileRunning);
-  } else if (hostTileLists) {
+  } else if (hostTileLists) {  // a CPU device whose row buffers the host cannot map: the device's sources
     submit([&](Recorder& rec) {
       recordSources(rec);
       rec.hostBarrier();

@@ -79,7 +79,7 @@ class SparseBatchRunner {
   SparseBatchRunner(const SparseBatchRunner&) = delete;
   SparseBatchRunner& operator=(const SparseBatchRunner&) = delete;
 
-  // Two submits (three where the host lists the vertex tiles, hostPassesOnCpuDevices): appends the batch's vertices (positions, normals, colours, edge keys) and its
+  // Two submits (three where the device writes the sources and the host lists the vertex tiles): appends the batch's vertices (positions, normals, colours, edge keys) and its
   // triangles, indices offset by `vertexBase`, to `out`. Adds to the stats' field evaluations,
   // submits and wall-time phases. At most `maxBatches` calls. With `cornerKeys`, the triangles'
   // corners are appended there as edge keys (three per triangle, out.triangles untouched): for a
