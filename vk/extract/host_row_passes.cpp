@@ -26,8 +26,11 @@ struct BrickRows {
   const HostRowLayout& layout;
   std::uint32_t a, B, R;
   const std::uint32_t* seg;  // x packed coordinates, y / z first row of points / cells, w counts
-  std::array<std::uint32_t, 3> g0;
+  std::array<std::uint32_t, 3> b, g0;  // the brick's coordinates, its first cell
   const std::uint32_t* rows;  // the brick's masks: row (ly, lz) at lz * R + ly
+  // Per brick, the same for each of its rows: the points x < xEnd with a +x edge in the grid,
+  // and those the brick owns (x < B, and x = B on the grid's last point along x).
+  std::uint32_t xEndMask, ownedMask;
 
   BrickRows(const HostRowLayout& l, std::uint32_t brick)
       : layout(l), a(brick), B(1u << l.log2B), R((1u << l.log2B) + 1u), seg(l.segments + 4ull * brick),
@@ -35,13 +38,15 @@ struct BrickRows {
     // unpackBrick: each axis in the bits its brick count needs (BrickGrid::bitsX, bitsY).
     const std::uint32_t bx = std::uint32_t(std::bit_width(l.bricks[0] - 1u)), by = std::uint32_t(std::bit_width(l.bricks[1] - 1u));
     const std::uint32_t p = seg[0];
-    g0 = {(p & ((1u << bx) - 1u)) << l.log2B, ((p >> bx) & ((1u << by) - 1u)) << l.log2B, (p >> (bx + by)) << l.log2B};
+    b = {p & ((1u << bx) - 1u), (p >> bx) & ((1u << by) - 1u), p >> (bx + by)};
+    g0 = {b[0] << l.log2B, b[1] << l.log2B, b[2] << l.log2B};
+    const std::uint32_t cellsX = l.cells[0];
+    xEndMask = (1u << std::min(cellsX - g0[0], B)) - 1u;
+    ownedMask = g0[0] + B == cellsX ? (2u << B) - 1u : (1u << std::min(cellsX - g0[0] + 1u, B)) - 1u;
   }
   std::uint32_t segmentOf(std::uint32_t base, std::uint32_t count, std::uint32_t ly, std::uint32_t lz) const {
     return base + lz * count * (seg[3] & 0x1fffffu) + ly * (seg[3] >> 21);
   }
-  std::uint32_t xEnd() const { return std::min(layout.cells[0] - g0[0], B); }
-
   // The step's four masks (MaskColumn): rows (y, z), (y + 1, z), (y, z + 1), (y + 1, z + 1), the
   // row itself past the brick.
   struct Masks {
@@ -56,12 +61,10 @@ struct BrickRows {
   std::array<std::uint32_t, 3> ownedEdges(const Masks& c, std::uint32_t ly, std::uint32_t lz) const {
     const auto& cells = layout.cells;
     const std::uint32_t gy = g0[1] + ly, gz = g0[2] + lz;
-    const std::uint32_t owned =
-        g0[0] + B == cells[0] ? (2u << B) - 1u : (1u << std::min(cells[0] - g0[0] + 1u, B)) - 1u;
     const bool ownsRow = (ly < B || gy == cells[1]) && (lz < B || gz == cells[2]) && gy <= cells[1] && gz <= cells[2];
     if (!ownsRow) return {0u, 0u, 0u};
-    return {(c.m ^ (c.m >> 1)) & ((1u << xEnd()) - 1u), gy < cells[1] ? (c.m ^ c.my) & owned : 0u,
-            gz < cells[2] ? (c.m ^ c.mz) & owned : 0u};
+    return {(c.m ^ (c.m >> 1)) & xEndMask, gy < cells[1] ? (c.m ^ c.my) & ownedMask : 0u,
+            gz < cells[2] ? (c.m ^ c.mz) & ownedMask : 0u};
   }
   // Whether row (ly, lz) of cells lies in the grid (the triangle passes' rows).
   bool cellRowInGrid(std::uint32_t ly, std::uint32_t lz) const {
@@ -70,7 +73,7 @@ struct BrickRows {
   // mixedCells, within the grid along x.
   std::uint32_t mixedCells(const Masks& c) const {
     const std::uint32_t all4 = c.m & c.my & c.mz & c.myz, any4 = c.m | c.my | c.mz | c.myz;
-    return ~((all4 & (all4 >> 1)) | ~(any4 | (any4 >> 1))) & ((1u << xEnd()) - 1u);
+    return ~((all4 & (all4 >> 1)) | ~(any4 | (any4 >> 1))) & xEndMask;
   }
   static std::uint32_t cellConfig(const Masks& c, std::uint32_t x) {
     return ((c.m >> x) & 3u) | (((c.my >> x) & 3u) << 2) | (((c.mz >> x) & 3u) << 4) | (((c.myz >> x) & 3u) << 6);
@@ -117,8 +120,7 @@ void writeSourcesOnHost(const HostRowLayout& layout, const std::uint32_t* vertex
     // The next layer's bricks (a >= ownActive) get their point words alone: this batch's
     // triangles of its last layer use the vertices on their lower faces.
     const bool own = a < layout.ownActive;
-    const std::array<std::uint32_t, 3> b = {brick.g0[0] >> layout.log2B, brick.g0[1] >> layout.log2B,
-                                            brick.g0[2] >> layout.log2B};
+    const std::array<std::uint32_t, 3>& b = brick.b;
     const std::uint32_t faces = (b[0] + 1u < layout.bricks[0] ? 1u : 0u) | (b[1] + 1u < layout.bricks[1] ? 2u : 0u) |
                                 (b[2] + 1u < layout.bricks[2] ? 4u : 0u);
     const std::size_t rowBase = std::size_t(a) * R * R;

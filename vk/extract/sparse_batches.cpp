@@ -960,7 +960,10 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     rec.hostBarrier();
   };
   const std::function<void()> whileRunning = stagingBytes ? std::function<void()>(whileDeviceCopies) : nullptr;
-  if (hostSources) {  // the host's sources (and tile lists), then one submit of the rest
+  // The sources: the host's, or the device's pass (in a submit of its own where the host lists
+  // the tiles' vertices from them: a CPU device whose row buffers the host cannot map).
+  const bool sourcesSubmit = !hostSources && hostTileLists;
+  if (hostSources) {
     const auto sourcesStart = Clock::now();
     if (vertices || triangles) {
       writeSourcesOnHost(rowLayout, static_cast<const std::uint32_t*>(st.vertexSegments.mapped()),
@@ -970,43 +973,29 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
                          static_cast<std::uint32_t*>(triangleSources.mapped()));
     }
     s.hostSteps.sources += since(sourcesStart);
-    if (hostTileLists) {
-      const auto listStart = Clock::now();
-      listVerticesByTile(static_cast<const std::uint32_t*>(vertexSources.mapped()), vertices, st.batchTiles.data(),
-                         std::uint32_t(st.tiles.size()), wg, static_cast<std::uint32_t*>(tileVertices.mapped()),
-                         static_cast<std::uint32_t*>(st.tileArgs.mapped()));
-      s.hostSteps.vertexTileLists += since(listStart);
-    }
-    submit(
-        [&](Recorder& rec) {
-          recordSources(rec);
-          recordTheRest(rec);
-        },
-        whileRunning);
-  } else if (hostTileLists) {  // a CPU device whose row buffers the host cannot map: the device's sources
+  } else if (sourcesSubmit) {
     submit([&](Recorder& rec) {
       recordSources(rec);
       rec.hostBarrier();
     });
+  }
+  if (hostTileLists) {
     const auto listStart = Clock::now();
     listVerticesByTile(static_cast<const std::uint32_t*>(vertexSources.mapped()), vertices, st.batchTiles.data(),
                        std::uint32_t(st.tiles.size()), wg, static_cast<std::uint32_t*>(tileVertices.mapped()),
                        static_cast<std::uint32_t*>(st.tileArgs.mapped()));
     s.hostSteps.vertexTileLists += since(listStart);
-    submit(
-        [&](Recorder& rec) {
-          rec.computeBarrier();  // the sources pass's writes, made in the last submit
-          recordTheRest(rec);
-        },
-        whileRunning);
-  } else {
-    submit(
-        [&](Recorder& rec) {
-          recordSources(rec);
-          recordTheRest(rec);
-        },
-        whileRunning);
   }
+  submit(
+      [&](Recorder& rec) {
+        if (sourcesSubmit) {
+          rec.computeBarrier();  // the sources pass's writes, made in the last submit
+        } else {
+          recordSources(rec);  // its dispatch, or only its timestamps where the host wrote them
+        }
+        recordTheRest(rec);
+      },
+      whileRunning);
   s.extractSeconds += since(t0);
   s.hostSteps.emitSubmits += since(t0);
 
