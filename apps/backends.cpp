@@ -168,7 +168,8 @@ vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings, const bl
   options.refineSteps = settings.refineSteps;
   options.traversal = traversalFromName(settings.traversal);
   if (settings.fieldTiles > 0)  // a given cap holds for repeated jobs too
-    options.maxFieldTiles = options.repeatedJobFieldTiles = std::uint32_t(settings.fieldTiles);
+    options.maxFieldTiles = options.repeatedJobFieldTiles = options.maxFieldTilesForLoopedCode =
+        std::uint32_t(settings.fieldTiles);
   if (settings.brickCells > 0) options.brickCells = std::uint32_t(settings.brickCells);
   options.sparse = !settings.dense;
   options.tiledVertexPass = settings.tiledVertices;

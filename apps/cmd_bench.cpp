@@ -99,7 +99,8 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_flag("--dense", a->dense, "vk: the dense z-slab extraction (every grid point) instead of the sparse one");
   cmd->add_option("--field-tiles", a->fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8, "
-                  "up to 16 for repeated jobs where the cost model says they pay)")
+                  "up to 16 for repeated jobs, and up to 128 where a long program's tiles would otherwise loop, where "
+                  "the cost model says they pay)")
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--tiled-vertices", a->tiledVertices,
                 "vk --dense, specialised: the dense pipeline's vertex pass per field tile (the sparse extraction's is "

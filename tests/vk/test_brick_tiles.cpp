@@ -2,9 +2,12 @@
 // exactly once with a region holding all its points, the batch order groups bricks by tile, and
 // meshes evaluated with kernels pruned per tile are the CPU reference's and, byte for byte, those
 // of one unpruned kernel.
+#include "blobvk/blobtree/scene_json.h"
+#include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/field_tiles.h"
+#include "blobvk/vk/eval/gpu_program.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/polygonize.h"
@@ -14,9 +17,11 @@
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -114,6 +119,62 @@ TEST(BrickTiles, CoverEveryBrickOnceWithRegionsHoldingTheirPoints) {
   }
 }
 
+// How many of `tiles` hold each brick of `bg`: 1 everywhere when they cover the grid once.
+std::vector<std::uint32_t> holdersPerBrick(const std::vector<vk::BrickTile>& tiles, const vk::BrickGrid& bg) {
+  std::vector<std::uint32_t> holders(std::size_t(bg.x) * bg.y * bg.z, 0);
+  for (const auto& t : tiles)
+    for (std::uint32_t z = t.first[2]; z <= t.last[2] && z < bg.z; ++z)
+      for (std::uint32_t y = t.first[1]; y <= t.last[1] && y < bg.y; ++y)
+        for (std::uint32_t x = t.first[0]; x <= t.last[0] && x < bg.x; ++x)
+          ++holders[(std::size_t(z) * bg.y + y) * bg.x + x];
+  return holders;
+}
+
+// A program of thousands of instructions (tower_L6P8I4: 6,448) is generated looped on CPU
+// drivers, where every record load in a loop is a loop over the lanes. Past maxTiles its tiles
+// split on until each tile's pruned code unrolls, still covering every brick once, within the
+// cap; where any repeated shape loops (GPUs' options) nothing splits past maxTiles.
+TEST(BrickTiles, LoopedTilesSplitUntilTheirCodeUnrolls) {
+  const ShippedScene large = shipped("tower_L6P8I4", 256);
+  const vk::BrickGrid bg = vk::brickGridFor(large.grid, 8);
+  const vk::LoopOptions cpuLoops = vk::defaultCodegenOptions(true).loops;
+  const vk::LoopOptions gpuLoops = vk::defaultCodegenOptions(false).loops;
+  auto loops = [&](const vk::BrickTile& t) { return vk::specialisedCodeLoops(large.program, t.region, cpuLoops); };
+  const auto coarse = vk::planBrickTiles(large.program, large.grid, bg, 8);
+  ASSERT_LE(coarse.size(), 8u);
+  ASSERT_TRUE(std::any_of(coarse.begin(), coarse.end(), loops)) << "premise: eight tiles of this program loop";
+  const auto split = vk::planBrickTiles(large.program, large.grid, bg, 8, 128, cpuLoops);
+  EXPECT_GT(split.size(), 8u);
+  EXPECT_LE(split.size(), 128u);
+  for (const auto& t : split)
+    EXPECT_FALSE(loops(t)) << "tile " << t.first[0] << "," << t.first[1] << "," << t.first[2] << " still loops";
+  const auto holders = holdersPerBrick(split, bg);
+  EXPECT_EQ(std::count(holders.begin(), holders.end(), 1u), std::ptrdiff_t(holders.size()))
+      << "every brick in exactly one tile";
+  EXPECT_EQ(vk::planBrickTiles(large.program, large.grid, bg, 8, 20, cpuLoops).size(), 20u) << "the cap holds";
+  EXPECT_EQ(vk::planBrickTiles(large.program, large.grid, bg, 8, 128, gpuLoops).size(), coarse.size());
+}
+
+// A knot of primitives that every split keeps whole (600 points within 0.05 of the origin, each
+// reaching 1 unit) is left looped in the tiles maxTiles gives, not cut into kernels that all loop.
+TEST(BrickTiles, AKnotNoSplitShedsIsNotSplitFurther) {
+  nlohmann::json children = nlohmann::json::array();
+  for (int i = 0; i < 600; ++i) {
+    const double a = 0.05 * std::sin(i * 1.7), b = 0.05 * std::cos(i * 2.3), c = 0.05 * std::sin(i * 0.37);
+    children.push_back({{"type", "point"}, {"centre", {a, b, c}}, {"support", 1.0}});
+  }
+  const nlohmann::json scene = {{"blobvk", 1}, {"root", {{"type", "union"}, {"children", children}}}};
+  const blobtree::Program program = blobtree::compile(blobtree::parseSceneJson(scene.dump(), "knot.json").root);
+  const blobtree::GridSpec grid = gridAt(program, 128);
+  const vk::LoopOptions cpuLoops = vk::defaultCodegenOptions(true).loops;
+  ASSERT_TRUE(vk::specialisedCodeLoops(program, {}, cpuLoops)) << "premise: the knot's code loops";
+  const vk::BrickGrid bg = vk::brickGridFor(grid, 8);
+  const auto tiles = vk::planBrickTiles(program, grid, bg, 8, 128, cpuLoops);
+  EXPECT_LE(tiles.size(), 8u);
+  const auto holders = holdersPerBrick(tiles, bg);
+  EXPECT_EQ(std::count(holders.begin(), holders.end(), 1u), std::ptrdiff_t(holders.size()));
+}
+
 // Kernels pruned per tile give the reference mesh and the bytes of one whole-program kernel, in
 // one batch and in batches of a few bricks (each batch orders its own bricks by tile).
 // Plans are remembered per program and grid (vk/eval/host_memo.h): a later job of another program
@@ -173,6 +234,47 @@ TEST_F(VulkanTest, FieldTilesGiveTheBytesOfOneKernel) {
       const std::string what = std::string(name) + ", batches of " + std::to_string(batchBricks) + " bricks";
       EXPECT_GT(st.fieldTiles, 1u) << what;
       expectSameBytes(m, one, what);
+    }
+  }
+}
+
+// Looped tiles split until their code unrolls (tower_L6P8I4 at 256 cells, which Auto splits)
+// give the mesh of the CPU backend byte for byte, as every lavapipe mesh does (docs/vulkan.md).
+TEST_F(VulkanTest, LoopedTilesSplitUntilTheyUnrollGiveTheCpuBytes) {
+  if (device().info().type != VK_PHYSICAL_DEVICE_TYPE_CPU) GTEST_SKIP() << "GPUs loop any repeated shape: no split";
+  const ShippedScene sc = shipped("tower_L6P8I4", 256);
+  vk::GpuPolygonizeOptions o;  // Auto: the split pays here (AutoSplitsLoopedTilesWhereTheyPay)
+  vk::GpuStats st;
+  const auto split = vk::polygonize(device(), sc.program, sc.grid, o, &st);
+  EXPECT_EQ(st.traversal, vk::Traversal::Specialised);
+  EXPECT_GT(st.fieldTiles, o.maxFieldTiles);
+  EXPECT_LE(st.fieldTiles, o.maxFieldTilesForLoopedCode);
+  const auto cpu = cpu::polygonizeMpu(sc.program, sc.grid);
+  ASSERT_GT(cpu.triangleCount(), 0u);
+  EXPECT_TRUE(sameBytes(split.positions, cpu.positions));
+  EXPECT_TRUE(sameBytes(split.normals, cpu.normals));
+  EXPECT_TRUE(sameBytes(split.colours, cpu.colours));
+  EXPECT_TRUE(sameBytes(split.triangles, cpu.triangles));
+}
+
+// Auto splits looped tiles only where the unrolled kernels' builds pay: tower_L6P8I4 at 256 cells
+// (48 tiles, the field pass 5-7 s -> 0.2-0.25 s a run, a first run no slower) but not at 64.
+TEST_F(VulkanTest, AutoSplitsLoopedTilesWhereTheyPay) {
+  if (device().info().type != VK_PHYSICAL_DEVICE_TYPE_CPU) GTEST_SKIP() << "the model's constants are lavapipe's";
+  for (const int resolution : {64, 256}) {
+    const ShippedScene sc = shipped("tower_L6P8I4", resolution);
+    vk::GpuStats cs;
+    const vk::ClassifiedBricks classified =
+        vk::classifyAndCompact(device(), sc.program, sc.grid, vk::brickGridFor(sc.grid, 8), cs);
+    vk::GpuPolygonizeOptions o;  // Auto, up to 128 tiles for looped code
+    const vk::SparseEvaluator e = vk::resolveSparseEvaluator(device(), sc.program, sc.grid, o, &classified);
+    const vk::GpuPolygonizeOptions resolved = e.apply(o);
+    if (resolution == 64) {
+      EXPECT_EQ(resolved.maxFieldTilesForLoopedCode, 0u) << "64 cells: the builds would not pay";
+    } else {
+      EXPECT_EQ(e.traversal, vk::Traversal::Specialised);
+      EXPECT_EQ(resolved.maxFieldTilesForLoopedCode, 128u) << "256 cells";
+      EXPECT_GT(resolved.maxFieldTiles, 1u);
     }
   }
 }

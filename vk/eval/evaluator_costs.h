@@ -136,6 +136,10 @@ inline constexpr double kLoopedKernelSeconds = kInterpreterKernelSeconds;
 // where the model without this margin predicted the reverse.
 inline constexpr double kSpecialisedPaybackFraction = 0.7;
 inline constexpr double kLoopedSecondsPerInstruction = 0.6 * kInterpreterSecondsPerInstruction;
+// Looped code pruned to a field tile runs about this share of the tile's instructions at a point
+// (its skips leave the rest): tower_L6P8I4 at 256 cells on lavapipe, 16 looped tiles of 400-600
+// instructions, field 0.75 us a point, about 40 instructions at kLoopedSecondsPerInstruction.
+inline constexpr double kLoopedTileRunShare = 0.08;
 // On CPU drivers code longer than this is generated looped (LoopOptions::minProgramInstructions,
 // defaultCodegenOptions). Below it the unrolled mesh kernels build in under ~4 s and then run
 // 10-50x faster than the interpreter; above it their build grows quadratically (808

@@ -19,6 +19,77 @@ FieldTile makeTile(const blobtree::Program& program, const blobtree::GridSpec& g
 
 double work(const FieldTile& t) { return double(t.points()) * double(t.cost); }
 
+// Of the splits of `t` along any axis at an eighth of its extent that `accept` takes, the one that
+// removes the most work (the first best wins ties), and that work; false when there is none.
+template <class Accept>
+bool bestSplit(const blobtree::Program& program, const blobtree::GridSpec& grid, const FieldTile& t,
+               std::uint32_t minExtent, const Accept& accept, FieldTile& low, FieldTile& high, double& bestGain) {
+  bool found = false;
+  bestGain = 0.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    const std::uint32_t extent = t.last[std::size_t(axis)] - t.first[std::size_t(axis)] + 1;
+    if (extent < 2 * minExtent) continue;
+    for (std::uint32_t eighth = 1; eighth <= 7; ++eighth) {
+      const std::uint32_t lowCount = std::clamp(extent * eighth / 8, minExtent, extent - minExtent);
+      auto lowLast = t.last, highFirst = t.first;
+      lowLast[std::size_t(axis)] = t.first[std::size_t(axis)] + lowCount - 1;
+      highFirst[std::size_t(axis)] = t.first[std::size_t(axis)] + lowCount;
+      FieldTile l = makeTile(program, grid, t.first, lowLast);
+      FieldTile h = makeTile(program, grid, highFirst, t.last);
+      const double gain = work(t) - work(l) - work(h);
+      if ((!found || gain > bestGain) && accept(l, h)) {
+        found = true;
+        bestGain = gain;
+        low = l;
+        high = h;
+      }
+    }
+  }
+  return found;
+}
+
+bool anySplit(const FieldTile&, const FieldTile&) { return true; }
+
+// FieldTilingOptions::maxTilesForLoopedCode: the looped tile with the most work split, until no
+// tile loops or the cap is reached. A split must shed code from both halves (each keeps at most
+// kShedShare of the tile's instructions), so that a dense knot of primitives, which no split
+// unrolls, is left looped rather than cut into kernels that all loop.
+void splitLoopedTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                      const FieldTilingOptions& options, std::vector<FieldTile>& tiles) {
+  constexpr double kShedShare = 0.9;
+  const std::uint32_t minExtent = std::max<std::uint32_t>(options.minExtent, 1);
+  // The region the tile's kernel evaluates, and whether its code there loops.
+  auto kernelRegion = [&](const FieldTile& t) {
+    auto last = t.last;
+    for (auto& l : last) l += options.kernelReach;
+    return regionOfPoints(grid, t.first, last);
+  };
+  auto loops = [&](const FieldTile& t) { return specialisedCodeLoops(program, kernelRegion(t), options.loops); };
+  std::vector<char> looped;  // per tile: its code loops and a split may still shed some
+  for (const FieldTile& t : tiles) looped.push_back(loops(t));
+  while (tiles.size() < options.maxTilesForLoopedCode) {
+    std::size_t pick = tiles.size();
+    for (std::size_t i = 0; i < tiles.size(); ++i)
+      if (looped[i] && (pick == tiles.size() || work(tiles[i]) > work(tiles[pick]))) pick = i;
+    if (pick == tiles.size()) break;
+    FieldTile low, high;
+    const double limit = kShedShare * double(prunedInstructionCount(program, kernelRegion(tiles[pick])));
+    auto sheds = [&](const FieldTile& l, const FieldTile& h) {
+      return double(prunedInstructionCount(program, kernelRegion(l))) <= limit &&
+             double(prunedInstructionCount(program, kernelRegion(h))) <= limit;
+    };
+    double gain = 0.0;
+    if (!bestSplit(program, grid, tiles[pick], minExtent, sheds, low, high, gain)) {
+      looped[pick] = 0;  // no split sheds code: the tile keeps its looped code
+      continue;
+    }
+    tiles[pick] = low;
+    looped[pick] = loops(low);
+    tiles.insert(tiles.begin() + std::ptrdiff_t(pick) + 1, high);
+    looped.insert(looped.begin() + std::ptrdiff_t(pick) + 1, loops(high));
+  }
+}
+
 }  // namespace
 
 PointRegion regionOfPoints(const blobtree::GridSpec& grid, const std::array<std::uint32_t, 3>& first,
@@ -71,31 +142,21 @@ std::vector<FieldTile> planFieldTiles(const blobtree::Program& program, const bl
     std::size_t bestTile = 0;
     FieldTile bestLow, bestHigh;
     for (std::size_t ti = 0; ti < tiles.size(); ++ti) {
-      const FieldTile& t = tiles[ti];
-      for (int axis = 0; axis < 3; ++axis) {
-        const std::uint32_t extent = t.last[std::size_t(axis)] - t.first[std::size_t(axis)] + 1;
-        if (extent < 2 * minExtent) continue;
-        for (std::uint32_t eighth = 1; eighth <= 7; ++eighth) {
-          const std::uint32_t lowCount = std::clamp(extent * eighth / 8, minExtent, extent - minExtent);
-          auto lowLast = t.last, highFirst = t.first;
-          lowLast[std::size_t(axis)] = t.first[std::size_t(axis)] + lowCount - 1;
-          highFirst[std::size_t(axis)] = t.first[std::size_t(axis)] + lowCount;
-          FieldTile low = makeTile(program, grid, t.first, lowLast);
-          FieldTile high = makeTile(program, grid, highFirst, t.last);
-          const double gain = work(t) - work(low) - work(high);
-          if (gain > bestGain) {
-            bestGain = gain;
-            bestTile = ti;
-            bestLow = low;
-            bestHigh = high;
-          }
-        }
+      FieldTile low, high;
+      double gain = 0.0;
+      if (bestSplit(program, grid, tiles[ti], minExtent, anySplit, low, high, gain) && gain > bestGain) {
+        bestGain = gain;
+        bestTile = ti;
+        bestLow = low;
+        bestHigh = high;
       }
     }
     if (bestGain <= options.minGain * total) break;
     tiles[bestTile] = bestLow;
     tiles.insert(tiles.begin() + std::ptrdiff_t(bestTile) + 1, bestHigh);
   }
+  if (options.maxTilesForLoopedCode > tiles.size() && options.loops.minProgramInstructions > 0)
+    splitLoopedTiles(program, grid, options, tiles);
   return tiles;
 }
 

@@ -45,6 +45,19 @@ struct FieldTilingOptions {
   // (tower_L6P8I4 at 128 cells, 1.4 M points: 11.3 s -> 6.6 s a polygonization; at 24 cells the
   // builds were all the time).
   std::uint64_t minPointsForLargePrograms = 1'000'000;
+  // Past maxTiles (and minGain), a tile whose pruned code takes the looped form with `loops`
+  // (specialisedCodeLoops) is split further, the one with the most work first, up to this many
+  // tiles in all (0: no such splits). On a CPU driver each buffer load in a loop is a loop over
+  // the lanes, so looped code runs tens of times slower than the unrolled code of smaller tiles,
+  // which builds in about the time (tower_L6P8I4 at 256 cells on lavapipe: field 5-7 s in 8 or 16
+  // looped tiles, 0.2-0.25 s in 48 unrolled ones; a first run no slower). A split must take code
+  // off both halves (splitLoopedTiles). Only where `loops` unrolls short code
+  // (minProgramInstructions > 0, CPU drivers): elsewhere any repeated shape loops.
+  std::uint32_t maxTilesForLoopedCode = 0;
+  LoopOptions loops;
+  // Points past a tile's last along each axis that its kernel evaluates too, which the test for
+  // looped code covers (a grid whose points are bricks: 1, each brick's far side).
+  std::uint32_t kernelReach = 0;
 };
 
 // A program too large to specialise whole gets its own kernel for a tile only when the pruned

@@ -11,7 +11,8 @@ namespace blobvk::vk {
 
 namespace {
 std::vector<BrickTile> planTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                 const BrickGrid& bricks, std::uint32_t maxTiles) {
+                                 const BrickGrid& bricks, std::uint32_t maxTiles, std::uint32_t maxTilesForLoopedCode,
+                                 const LoopOptions& loops) {
   const std::uint32_t B = 1u << bricks.log2B;
   const std::array<std::uint32_t, 3> count{bricks.x, bricks.y, bricks.z};
   // A grid whose point i is brick i's first point: its tiles of points are tiles of bricks (the
@@ -22,6 +23,9 @@ std::vector<BrickTile> planTiles(const blobtree::Program& program, const blobtre
   FieldTilingOptions options;
   options.maxTiles = std::max<std::uint32_t>(maxTiles, 1);
   options.minExtent = 1;
+  options.maxTilesForLoopedCode = maxTilesForLoopedCode;
+  options.loops = loops;
+  options.kernelReach = 1;
   std::vector<BrickTile> tiles;
   for (const FieldTile& f : planFieldTiles(program, coarse, options)) {
     BrickTile t;
@@ -43,12 +47,14 @@ std::vector<BrickTile> planTiles(const blobtree::Program& program, const blobtre
 }  // namespace
 
 std::vector<BrickTile> planBrickTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                      const BrickGrid& bricks, std::uint32_t maxTiles) {
+                                      const BrickGrid& bricks, std::uint32_t maxTiles,
+                                      std::uint32_t maxTilesForLoopedCode, const LoopOptions& loops) {
   static HostMemo<std::vector<BrickTile>> memo;
   MemoKey key;
   key.add(programFingerprint(program)).add(grid.origin).add(grid.cellSize).add(grid.cells);
   key.add(bricks.log2B).add(bricks.x).add(bricks.y).add(bricks.z).add(maxTiles);
-  return memo.get(key, [&] { return planTiles(program, grid, bricks, maxTiles); });
+  key.add(maxTilesForLoopedCode).add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
+  return memo.get(key, [&] { return planTiles(program, grid, bricks, maxTiles, maxTilesForLoopedCode, loops); });
 }
 
 BrickTileOrder orderBricksByTile(std::span<const BrickTile> tiles, const BrickGrid& bricks,

@@ -27,9 +27,12 @@ struct BrickTile {
 };
 
 // Tiles covering every brick of the grid exactly once (at most maxTiles; one when pruning gains
-// too little), planned by planFieldTiles over a grid whose points are the bricks. Deterministic.
+// too little), planned by planFieldTiles over a grid whose points are the bricks; past maxTiles,
+// tiles whose code would loop with `loops` split on, up to maxTilesForLoopedCode tiles
+// (FieldTilingOptions::maxTilesForLoopedCode; 0: not). Deterministic.
 std::vector<BrickTile> planBrickTiles(const blobtree::Program& program, const blobtree::GridSpec& grid,
-                                      const BrickGrid& bricks, std::uint32_t maxTiles);
+                                      const BrickGrid& bricks, std::uint32_t maxTiles,
+                                      std::uint32_t maxTilesForLoopedCode = 0, const LoopOptions& loops = {});
 
 // Bricks (packed coordinates, BrickGrid::pack, in batch order) grouped by tile: `order`
 // holds batch brick numbers, tile t's at order[starts[t] .. starts[t + 1]), ascending.

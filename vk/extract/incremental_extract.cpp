@@ -121,6 +121,8 @@ struct IncrementalExtractor::State {
                                     std::uint32_t a0, std::uint32_t a1, std::optional<CodegenOptions>& chosen,
                                     GpuStats& s) const {
     GpuPolygonizeOptions resolved = options;
+    // An edit re-extracts a box of bricks: kernels for tiles split past maxFieldTiles would not pay.
+    resolved.maxFieldTilesForLoopedCode = 0;
     if (options.traversal != Traversal::Auto) {
       s.traversal = options.traversal;
       return resolved;

@@ -67,6 +67,12 @@ struct GpuPolygonizeOptions {
   // their builds cost (tower at 512 cells: 16 tiles, a quarter less field pass). At most
   // maxFieldTiles when it is not above it.
   std::uint32_t repeatedJobFieldTiles = 16;
+  // Sparse path, Traversal::Auto, CPU drivers: field tiles whose pruned code would still loop (a
+  // program of more than kLoopedAboveInstructionsOnCpu instructions) split on until it unrolls,
+  // up to this many tiles in all (FieldTilingOptions::maxTilesForLoopedCode), where the cost model
+  // says the unrolled kernels' builds pay (tower_L6P8I4 at 256 cells: 48 tiles, field pass 5-7 s
+  // -> 0.2-0.25 s a run). A forced evaluator takes the tiles maxFieldTiles gives.
+  std::uint32_t maxFieldTilesForLoopedCode = 128;
   // Dense path only. With field tiles, run the vertex pass per tile too, with the evaluator pruned to each tile.
   // Off by default: a vertex kernel inlines the evaluator 8 times and takes 0.1-0.16 s to build
   // on lavapipe (a field tile kernel ~0.035 s), while it saves ~30 % of the emit pass (tower at

@@ -340,7 +340,7 @@ struct SparseBatchRunner::State {
     const char* tiledVertexShader = samples ? "brick_vertices_tiled" : "brick_vertices_direct_tiled";
     const bool generated = traversal == Traversal::Specialised && gpu.specialised && gpu.codegen.gradient;
     if (traversal == Traversal::Specialised && o.maxFieldTiles > 1 && !o.brickTapes)
-      tiles = planBrickTiles(program, g, bg, o.maxFieldTiles);
+      tiles = planBrickTiles(program, g, bg, o.maxFieldTiles, o.maxFieldTilesForLoopedCode, gpu.codegen.loops);
     // The vertex pass per field tile: only with the generated gradient (an interpreted one gains
     // nothing from a pruned field) and more than one tile.
     const bool tileable = generated && tiles.size() > 1;

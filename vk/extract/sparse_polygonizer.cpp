@@ -6,6 +6,7 @@
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/eval/evaluator_costs.h"
+#include "blobvk/vk/eval/host_memo.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/region_tape.h"
 #include "blobvk/vk/eval/uniform_program.h"
@@ -310,6 +311,30 @@ EvaluatedBricks activeBricks(Device& device, const ClassifiedBricks& classified)
   for (std::uint32_t p : packed) e.bricks.push_back(classified.bricks.unpack(p));
   return e;
 }
+
+// What the field tiles' cost model weighs of the kernel pruned to a region, remembered: a
+// repeated job asks again every run, and for a program of thousands of instructions the code's
+// shape analysis takes milliseconds a region (tower_L6P8I4 at 256 cells: 0.2 s a job for its
+// plans of 8 to 48 tiles).
+struct RegionKernel {
+  double codeSize = 0.0, prunedInstructions = 0.0, prunedCost = 0.0;
+  bool loops = false;
+};
+RegionKernel regionKernel(const blobtree::Program& program, std::uint64_t fingerprint, const PointRegion& region,
+                          const LoopOptions& loops) {
+  static HostMemo<RegionKernel, 1024> memo;
+  MemoKey key;
+  key.add(fingerprint).add(region.valid).add(region.lo).add(region.hi);
+  key.add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
+  return memo.get(key, [&] {
+    RegionKernel k;
+    k.codeSize = double(specialisedCodeSize(program, region, loops));
+    k.prunedInstructions = double(prunedInstructionCount(program, region));
+    k.prunedCost = double(prunedEvaluationCost(program, region));
+    k.loops = specialisedCodeLoops(program, region, loops);
+    return k;
+  });
+}
 }  // namespace
 
 SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& program, const blobtree::GridSpec& grid,
@@ -356,18 +381,26 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
   // cells: +0.1 s of start-up for 2 ms of field).
   // (Auto only: a forced evaluator gets the tiles it is given.)
   if (choose && cpuDevice && job.evaluated && e.traversal == Traversal::Specialised && options.maxFieldTiles > 1) {
-    // The field time a plan of at most `cap` tiles saves over the runs, and its kernels' builds
+    // The field time a plan of at most `cap` tiles (and `loopedCap` for looped code) saves over
+    // the runs against one unrolled kernel, its field time over the runs, and its kernels' builds
     // beyond the whole program's.
     struct TileGain {
       std::size_t tiles = 0;
-      double saved = 0.0, extraBuild = 0.0;
+      double saved = 0.0, run = 0.0, extraBuild = 0.0;
     };
     const double R = double(evaluated.cells) + 1.0, pointsPerBrick = R * R * R;
-    const double wholeCost = double(prunedEvaluationCost(program, {}));
-    const double wholeBuild = specialisedKernelSeconds(double(specialisedCodeSize(program, {}, codegen.loops)), 1.0);
-    auto tileGain = [&](std::uint32_t cap) {
+    const std::uint64_t fingerprint = programFingerprint(program);
+    const RegionKernel whole = regionKernel(program, fingerprint, {}, codegen.loops);
+    const double wholeBuild = specialisedKernelSeconds(whole.codeSize, 1.0);
+    // Seconds per point of a kernel: unrolled code runs all it holds under a mask; looped code
+    // branches on its skips, running a share of its instructions.
+    auto secondsPerPoint = [](const RegionKernel& k) {
+      return k.loops ? costs::kLoopedSecondsPerInstruction * costs::kLoopedTileRunShare * k.prunedInstructions
+                     : costs::kSpecialisedSecondsPerCost * k.prunedCost;
+    };
+    auto tileGain = [&](std::uint32_t cap, std::uint32_t loopedCap) {
       TileGain g;
-      const std::vector<BrickTile> tiles = planBrickTiles(program, grid, classified->bricks, cap);
+      const std::vector<BrickTile> tiles = planBrickTiles(program, grid, classified->bricks, cap, loopedCap, codegen.loops);
       g.tiles = tiles.size();
       g.extraBuild = -wholeBuild;
       for (const BrickTile& t : tiles) {
@@ -375,9 +408,11 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
         for (const auto& b : evaluated.bricks)
           bricks += b[0] >= t.first[0] && b[0] <= t.last[0] && b[1] >= t.first[1] && b[1] <= t.last[1] &&
                     b[2] >= t.first[2] && b[2] <= t.last[2];
-        g.extraBuild += specialisedKernelSeconds(double(specialisedCodeSize(program, t.region, codegen.loops)), 1.0);
-        g.saved += costs::kSpecialisedSecondsPerCost * (wholeCost - double(prunedEvaluationCost(program, t.region))) *
-                   double(bricks) * pointsPerBrick * double(job.repeats);
+        const double points = double(bricks) * pointsPerBrick * double(job.repeats);
+        const RegionKernel k = regionKernel(program, fingerprint, t.region, codegen.loops);
+        g.extraBuild += specialisedKernelSeconds(k.codeSize, 1.0);
+        g.saved += costs::kSpecialisedSecondsPerCost * (whole.prunedCost - k.prunedCost) * points;
+        g.run += secondsPerPoint(k) * points;
       }
       return g;
     };
@@ -385,15 +420,28 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
     // whole mesh kernels) say: tower at 256 cells, predicted +0.67 s for 8 tiles, measured no
     // slower a first run with the field's 0.14-0.2 s saved; dice at 64 cells +0.1-0.15 s.
     constexpr double kTileBuildShare = 0.3;
-    const TileGain coarse = tileGain(options.maxFieldTiles);
+    const TileGain coarse = tileGain(options.maxFieldTiles, 0);
     e.fieldTiles = coarse.tiles > 1 && coarse.saved > kTileBuildShare * coarse.extraBuild;
     // A job that runs again may take more tiles where the finer plan's extra saving pays its
     // extra kernels by the same measure (tower at 512 cells and 6 runs: 16 tiles, field pass
     // 0.16 s against 0.21 s; one run keeps 8: a `mesh` does not wait for 8 more builds).
+    TileGain plan = coarse;
     if (e.fieldTiles && job.repeats > 1 && options.repeatedJobFieldTiles > options.maxFieldTiles) {
-      const TileGain fine = tileGain(options.repeatedJobFieldTiles);
-      if (fine.tiles > coarse.tiles && fine.saved - coarse.saved > kTileBuildShare * (fine.extraBuild - coarse.extraBuild))
+      const TileGain fine = tileGain(options.repeatedJobFieldTiles, 0);
+      if (fine.tiles > coarse.tiles && fine.saved - coarse.saved > kTileBuildShare * (fine.extraBuild - coarse.extraBuild)) {
         e.fieldTileCap = options.repeatedJobFieldTiles;
+        plan = fine;
+      }
+    }
+    // Tiles whose code still loops (a program of thousands of instructions) split on until it
+    // unrolls, where the field time that saves pays the extra kernels by the same measure
+    // (tower_L6P8I4 at 256 cells: 48 tiles, field 0.2-0.25 s against 5-7 s a run, and a first run
+    // no slower).
+    if (e.fieldTiles && options.maxFieldTilesForLoopedCode > plan.tiles && codegen.loops.minProgramInstructions > 0) {
+      const std::uint32_t cap = e.fieldTileCap ? e.fieldTileCap : options.maxFieldTiles;
+      const TileGain unrolled = tileGain(cap, options.maxFieldTilesForLoopedCode);
+      if (unrolled.tiles > plan.tiles && plan.run - unrolled.run > kTileBuildShare * (unrolled.extraBuild - plan.extraBuild))
+        e.loopedTileCap = options.maxFieldTilesForLoopedCode;
     }
   }
   return e;
@@ -412,6 +460,7 @@ GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options)
   if (codegen) resolved.codegen = &*codegen;
   if (!fieldTiles) resolved.maxFieldTiles = 1;
   else if (fieldTileCap > 0) resolved.maxFieldTiles = fieldTileCap;
+  resolved.maxFieldTilesForLoopedCode = fieldTiles ? loopedTileCap : 0;
   resolved.interpretVertexPassUntilBuilt = options.interpretVertexPassUntilBuilt || interpretVertexPassUntilBuilt;
   return resolved;
 }

@@ -103,6 +103,10 @@ struct SparseEvaluator {
   bool fieldTiles = true;
   // The most tiles: options.maxFieldTiles, or repeatedJobFieldTiles where the finer plan pays.
   std::uint32_t fieldTileCap = 0;  // 0: options.maxFieldTiles
+  // Tiles in all where looped tiles split on until they unroll: under Auto,
+  // options.maxFieldTilesForLoopedCode where that pays, else 0 (none; a forced evaluator takes the
+  // tiles maxFieldTiles gives).
+  std::uint32_t loopedTileCap = 0;
   bool interpretVertexPassUntilBuilt = false;  // EvaluatorEstimate's
   void report(GpuStats& stats) const;
   // `options` with this evaluator; its codegen points into this object, which must outlive it.
