@@ -100,7 +100,7 @@ void addBenchCommand(CLI::App& app) {
   cmd->add_option("--field-tiles", a->fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8, "
                   "up to 16 for repeated jobs, and up to 128 where a long program's tiles would otherwise loop, where "
-                  "the cost model says they pay)")
+                  "the cost model says they pay; a given N caps them all)")
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--tiled-vertices", a->tiledVertices,
                 "vk --dense, specialised: the dense pipeline's vertex pass per field tile (the sparse extraction's is "

@@ -100,7 +100,7 @@ void addMeshCommand(CLI::App& app) {
   cmd->add_option("--field-tiles", a->settings.fieldTiles,
                   "vk specialised: most grid tiles with their own pruned field kernel (1 = one kernel; default 8, "
                   "up to 16 for repeated jobs, and up to 128 where a long program's tiles would otherwise loop, where "
-                  "the cost model says they pay)")
+                  "the cost model says they pay; a given N caps them all)")
       ->check(CLI::Range(1, 256));
   // The dense pipeline's flag (bench --dense --tiled-vertices), which once switched mesh to that
   // pipeline unasked: kept out of the help, refused with the sparse extraction's name for it.

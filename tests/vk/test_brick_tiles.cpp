@@ -151,11 +151,13 @@ TEST(BrickTiles, LoopedTilesSplitUntilTheirCodeUnrolls) {
   const auto holders = holdersPerBrick(split, bg);
   EXPECT_EQ(std::count(holders.begin(), holders.end(), 1u), std::ptrdiff_t(holders.size()))
       << "every brick in exactly one tile";
-  EXPECT_EQ(vk::planBrickTiles(large.program, large.grid, bg, 8, 20, cpuLoops).size(), 20u) << "the cap holds";
+  const auto capped = vk::planBrickTiles(large.program, large.grid, bg, 8, 20, cpuLoops);
+  EXPECT_LE(capped.size(), 20u) << "the cap holds";
+  EXPECT_GT(capped.size(), 8u);
   EXPECT_EQ(vk::planBrickTiles(large.program, large.grid, bg, 8, 128, gpuLoops).size(), coarse.size());
 }
 
-// A knot of primitives that every split keeps whole (600 points within 0.05 of the origin, each
+// A knot of primitives that every split keeps whole (600 points within 0.05 of the origin per axis, each
 // reaching 1 unit) is left looped in the tiles maxTiles gives, not cut into kernels that all loop.
 TEST(BrickTiles, AKnotNoSplitShedsIsNotSplitFurther) {
   nlohmann::json children = nlohmann::json::array();

@@ -59,9 +59,11 @@ void splitLoopedTiles(const blobtree::Program& program, const blobtree::GridSpec
   constexpr double kShedShare = 0.9;
   const std::uint32_t minExtent = std::max<std::uint32_t>(options.minExtent, 1);
   // The region the tile's kernel evaluates, and whether its code there loops.
+  const auto pts = grid.points();
+  const std::array<std::uint32_t, 3> lastPoint{std::uint32_t(pts.x - 1), std::uint32_t(pts.y - 1), std::uint32_t(pts.z - 1)};
   auto kernelRegion = [&](const FieldTile& t) {
     auto last = t.last;
-    for (auto& l : last) l += options.kernelReach;
+    for (std::size_t a = 0; a < 3; ++a) last[a] = std::min(last[a] + options.kernelReach, lastPoint[a]);
     return regionOfPoints(grid, t.first, last);
   };
   auto loops = [&](const FieldTile& t) { return specialisedCodeLoops(program, kernelRegion(t), options.loops); };

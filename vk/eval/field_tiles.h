@@ -55,8 +55,8 @@ struct FieldTilingOptions {
   // (minProgramInstructions > 0, CPU drivers): elsewhere any repeated shape loops.
   std::uint32_t maxTilesForLoopedCode = 0;
   LoopOptions loops;
-  // Points past a tile's last along each axis that its kernel evaluates too, which the test for
-  // looped code covers (a grid whose points are bricks: 1, each brick's far side).
+  // Points past a tile's last along each axis (within the grid) that its kernel evaluates too,
+  // which the test for looped code covers (a grid whose points are bricks: 1, each brick's far side).
   std::uint32_t kernelReach = 0;
 };
 

@@ -437,7 +437,8 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
     // unrolls, where the field time that saves pays the extra kernels by the same measure
     // (tower_L6P8I4 at 256 cells: 48 tiles, field 0.2-0.25 s against 5-7 s a run, and a first run
     // no slower).
-    if (e.fieldTiles && options.maxFieldTilesForLoopedCode > plan.tiles && codegen.loops.minProgramInstructions > 0) {
+    if (e.fieldTiles && whole.loops && options.maxFieldTilesForLoopedCode > plan.tiles &&
+        codegen.loops.minProgramInstructions > 0) {
       const std::uint32_t cap = e.fieldTileCap ? e.fieldTileCap : options.maxFieldTiles;
       const TileGain unrolled = tileGain(cap, options.maxFieldTilesForLoopedCode);
       if (unrolled.tiles > plan.tiles && plan.run - unrolled.run > kTileBuildShare * (unrolled.extraBuild - plan.extraBuild))
