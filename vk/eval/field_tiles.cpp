@@ -117,7 +117,7 @@ std::vector<char> specialiseTiles(const blobtree::Program& program, std::uint64_
                                   std::span<const PointRegion> regions, const LoopOptions& loops) {
   static HostMemo<std::vector<char>> memo;
   MemoKey key;
-  key.add(fingerprint ? fingerprint : programFingerprint(program)).add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
+  addLoopOptions(key.add(fingerprint ? fingerprint : programFingerprint(program)), loops);
   for (const PointRegion& r : regions) key.add(r.valid).add(r.lo).add(r.hi);
   auto compute = [&] {
     std::vector<char> own(regions.size());

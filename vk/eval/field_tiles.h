@@ -15,6 +15,7 @@
 
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
+#include "blobvk/vk/eval/host_memo.h"
 #include "blobvk/vk/eval/program_codegen.h"
 
 #include <array>
@@ -59,6 +60,11 @@ struct FieldTilingOptions {
   // which the test for looped code covers (a grid whose points are bricks: 1, each brick's far side).
   std::uint32_t kernelReach = 0;
 };
+
+// `loops` into a memo key (field by field: the struct has padding).
+inline MemoKey& addLoopOptions(MemoKey& key, const LoopOptions& loops) {
+  return key.add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
+}
 
 // A program too large to specialise whole gets its own kernel for a tile only when the pruned
 // code has at most this many instructions: LLVM's time grows faster than the code (measured on

@@ -53,7 +53,7 @@ std::vector<BrickTile> planBrickTiles(const blobtree::Program& program, const bl
   MemoKey key;
   key.add(programFingerprint(program)).add(grid.origin).add(grid.cellSize).add(grid.cells);
   key.add(bricks.log2B).add(bricks.x).add(bricks.y).add(bricks.z).add(maxTiles);
-  key.add(maxTilesForLoopedCode).add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
+  addLoopOptions(key.add(maxTilesForLoopedCode), loops);
   return memo.get(key, [&] { return planTiles(program, grid, bricks, maxTiles, maxTilesForLoopedCode, loops); });
 }
 

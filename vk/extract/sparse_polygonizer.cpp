@@ -6,7 +6,7 @@
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/evaluator_choice.h"
 #include "blobvk/vk/eval/evaluator_costs.h"
-#include "blobvk/vk/eval/host_memo.h"
+#include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/region_tape.h"
 #include "blobvk/vk/eval/uniform_program.h"
@@ -325,7 +325,7 @@ RegionKernel regionKernel(const blobtree::Program& program, std::uint64_t finger
   static HostMemo<RegionKernel, 1024> memo;
   MemoKey key;
   key.add(fingerprint).add(region.valid).add(region.lo).add(region.hi);
-  key.add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
+  addLoopOptions(key, loops);
   return memo.get(key, [&] {
     RegionKernel k;
     k.codeSize = double(specialisedCodeSize(program, region, loops));
