@@ -77,7 +77,8 @@ TEST_F(VulkanTest, RowCullingGivesTheMeshOfEveryRow) {
           expectSameMeshAsReference(m, reference, 1e-4f * s.grid.cellSize, what);
           // The row lists are in the device memory that --max-memory estimates.
           EXPECT_LE(culled.deviceBytes, vk::sparseDeviceBytes(vk::brickGridFor(s.grid, culled.brickCells), culled.activeBricks,
-                                                              m.positions.size(), m.triangles.size(), true, true))
+                                                              m.positions.size(), m.triangles.size(), true, true,
+                                                              culled.tapeBytes))
               << what;
           // Every row of an active brick without culling; with whole columns, whole rows and fewer
           // of them; with segments, at most as many points again.

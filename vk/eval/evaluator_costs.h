@@ -140,6 +140,12 @@ inline constexpr double kLoopedSecondsPerInstruction = 0.6 * kInterpreterSeconds
 // (its skips leave the rest): tower_L6P8I4 at 256 cells on lavapipe, 16 looped tiles of 400-600
 // instructions, field 0.75 us a point, about 40 instructions at kLoopedSecondsPerInstruction.
 inline constexpr double kLoopedTileRunShare = 0.08;
+// The field pass over per-brick tapes (vk/extract/brick_tapes.h, interpreted from uniform
+// blocks): seconds per tape instruction and point, the tapes' lengths summed over the active
+// bricks (`bench S --backend vk --brick-tapes --json`: field_s over tape_instructions and the
+// bricks' points; flat blends of 300 and 600 points 11.5-12.3 ns, towers L3P8G2 and tower_L6P8I4
+// 7.3-8.2 ns, whose skips jump part of their tapes).
+inline constexpr double kTapeSecondsPerInstruction = 1.2e-8;
 // On CPU drivers code longer than this is generated looped (LoopOptions::minProgramInstructions,
 // defaultCodegenOptions). Below it the unrolled mesh kernels build in under ~4 s and then run
 // 10-50x faster than the interpreter; above it their build grows quadratically (808

@@ -192,6 +192,7 @@ struct GpuStats {
   std::uint64_t tapeInstructions = 0;  // sparse, brick tapes: sum of the bricks' tape lengths
   std::uint64_t tapeWords = 0;         // ... instructions stored (equal tapes once)
   double tapeSeconds = 0.0;            // ... host time building them
+  std::uint64_t tapeBytes = 0;         // ... device bytes of their buffers (in deviceBytes)
   std::uint64_t fieldEvaluations = 0;  // grid samples (per vertex add evaluationsPerVertex)
   // Sparse: the evaluator the batches ran, and on CPU drivers what the cost model
   // (vk/eval/evaluator_choice.h) predicted for it (seconds; < 0 where it made no prediction).

@@ -5,6 +5,7 @@
 #include "blobvk/vk/device/error.h"
 #include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/gpu_program.h"
+#include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/uniform_program.h"
 #include "blobvk/vk/extract/brick_tapes.h"
 #include "blobvk/vk/extract/brick_tiles.h"
@@ -170,6 +171,7 @@ struct SparseBatchRunner::State {
   KernelPtr vertexKernel;
   std::future<KernelPtr> vertexKernelBuild;
   bool interpretedVertexPass = false;  // the embedded interpreter while the generated kernel builds
+  bool loopedVertexPass = false;       // the whole program's looped code, its gradient interpreted
   // An interpreting vertex kernel without samples reads the program from uniform blocks where it
   // fits them (uniform_program.h): these, else empty.
   std::vector<Buffer> vertexUniforms;
@@ -215,6 +217,12 @@ struct SparseBatchRunner::State {
   bool uniformTapes = false;
   UniformTapes windowTapes;
   std::array<Buffer, 5> tapeBlocks;
+  // Device bytes of the tape buffers (code, ranges and the uniform blocks), as grown so far.
+  std::uint64_t tapeBytes() const {
+    std::uint64_t b = tapeCode.size() + tapeRanges.size();
+    for (const Buffer& block : tapeBlocks) b += block.size();
+    return b;
+  }
   std::vector<std::uint8_t> blockBytes;
   // The storage-buffer tape kernel, for a batch whose tapes do not fit uniform blocks.
   KernelPtr storageTapes;
@@ -391,6 +399,13 @@ struct SparseBatchRunner::State {
       tiledVertices = tileKernelsBuilt();
       tileBuildAfterJob = !tiledVertices;
     }
+    // Looped code (a long program on a CPU driver) brings no gradient of its own: its vertex kernel
+    // interprets the gradient from the storage buffers, so where the pass runs the whole
+    // program's one kernel it interprets the gradient from uniform blocks instead (the same bits;
+    // llvmpipe gathers from a uniform block and loops over the lanes for a storage buffer: a
+    // flat blend of 600 points at 64 cells, vertex pass 4.4 s -> 0.6 s).
+    loopedVertexPass = generated && !tiledVertices && specialisedCodeLoops(*gpu.specialised, {}, gpu.codegen.loops);
+    const bool vertexGenerated = generated && !loopedVertexPass;
     // Background builds of the generated vertex kernels are known by a key: the one kernel's, or
     // with every tile's code, the tiles'.
     auto vertexKey = [&](bool tiled) {
@@ -419,9 +434,9 @@ struct SparseBatchRunner::State {
     std::vector<std::function<KernelPtr()>> builds;
     // The vertex kernel that interprets the gradient (as the generated code's, bit for bit): the
     // embedded one, without samples from uniform blocks where the program fits them.
-    const bool interpretUntilBuilt = generated && o.interpretVertexPassUntilBuilt && !vertexKernelsBuilt() &&
+    const bool interpretUntilBuilt = vertexGenerated && o.interpretVertexPassUntilBuilt && !vertexKernelsBuilt() &&
                                      !device.backgroundBuildDone(backgroundKey);
-    if (!samples && traversal != Traversal::StackBased && o.uniformVertexProgram && (!generated || interpretUntilBuilt))
+    if (!samples && traversal != Traversal::StackBased && o.uniformVertexProgram && (!vertexGenerated || interpretUntilBuilt))
       vertexUniforms = uploadUniformProgram(device, program);
     auto interpretingVertexKernel = [&, vertexShader, wg]() -> KernelPtr {
       vertexReadsUniforms = !vertexUniforms.empty();
@@ -460,7 +475,7 @@ struct SparseBatchRunner::State {
         for (std::size_t t = 0; t < tiles.size(); ++t) tileBuilds.push_back([&buildVertexTile, t] { return buildVertexTile(t); });
         return buildConcurrently(tileBuilds);
       });
-    } else if (traversal == Traversal::Specialised && (generated || vertexUniforms.empty())) {
+    } else if (traversal == Traversal::Specialised && (vertexGenerated || vertexUniforms.empty())) {
       vertexKernelBuild = std::async(std::launch::async, [this, vertexShader, wg, traversal, backgroundKey] {
         device.waitForBackgroundBuild(backgroundKey);  // an earlier job's: then a cache hit here
         return evaluatorKernel(device, gpu, vertexShader, wg, traversal);
@@ -860,8 +875,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   };
   st.peakOutputBytes = std::max(st.peakOutputBytes, outBytes);
   const KernelPtr& vertexKernel = st.vertices();
-  if (st.interpretedVertexPass) s.vertexGradient = false;
+  if (st.interpretedVertexPass || st.loopedVertexPass) s.vertexGradient = false;
   if (vertices && st.vertexReadsUniforms) s.vertexUniforms = true;
+  s.tapeBytes = std::max(s.tapeBytes, st.tapeBytes());
   // With a read-back copy to wait for (a discrete GPU), the arrays grow while the device works;
   // where the host reads the device's buffers (lavapipe, whose device work is these cores) after.
   // On a CPU device the host lists each tile's vertices (vertex_tile_lists.h) after the sources

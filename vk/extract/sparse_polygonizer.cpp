@@ -10,6 +10,7 @@
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/region_tape.h"
 #include "blobvk/vk/eval/uniform_program.h"
+#include "blobvk/vk/extract/brick_tapes.h"
 #include "blobvk/vk/extract/brick_tiles.h"
 #include "blobvk/vk/extract/classify_kernel.h"
 #include "blobvk/vk/extract/classify_tiles.h"
@@ -287,7 +288,7 @@ BrickGrid brickGridFor(const blobtree::GridSpec& grid, std::uint32_t brickCells)
 BrickBox wholeGrid(const BrickGrid& bricks) { return {{0, 0, 0}, {bricks.x, bricks.y, bricks.z}}; }
 
 std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBricks, std::uint64_t vertices,
-                                std::uint64_t triangles, bool normals, bool colours) {
+                                std::uint64_t triangles, bool normals, bool colours, std::uint64_t tapeBytes) {
   const std::uint64_t B = 1ull << bricks.log2B, R = B + 1;
   const std::uint64_t perBrick = sparseBrickBytes(bricks);
   const std::uint64_t scan = (scanScratchWords(bricks.count() + 1) + scanScratchWords(activeBricks * R * R) +
@@ -296,7 +297,8 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
   const std::uint64_t outputs = vertices * (12 + 8 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * (12 + 8);
   const std::uint64_t parentFlags = (bricks.count() / 7 + 8) * 4;  // the classification's coarser passes
   const std::uint64_t rowStarts = (std::uint64_t(bricks.y) * (bricks.z + 2) + 1) * 4;  // each brick row's first active brick
-  return (bricks.count() + 1) * 8 + parentFlags + rowStarts + activeBricks * perBrick + scan + outputs + 256 * 4 * 4;
+  return (bricks.count() + 1) * 8 + parentFlags + rowStarts + activeBricks * perBrick + scan + outputs + 256 * 4 * 4 +
+         tapeBytes;
 }
 
 namespace {
@@ -334,6 +336,22 @@ RegionKernel regionKernel(const blobtree::Program& program, std::uint64_t finger
     k.loops = specialisedCodeLoops(program, region, loops);
     return k;
   });
+}
+
+// Instructions the per-brick tapes (brick_tapes.h) hold over the active bricks, each brick's tape
+// counted once: from up to kSampledBricks bricks at a regular stride through the list (the same
+// job gives the same figure), scaled to all. Building them is a host walk of milliseconds.
+double activeTapeInstructions(const blobtree::Program& program, const blobtree::GridSpec& grid, const BrickGrid& bricks,
+                              const EvaluatedBricks& evaluated) {
+  constexpr std::size_t kSampledBricks = 2048;
+  const std::size_t n = evaluated.bricks.size();
+  if (n == 0) return 0.0;
+  const std::size_t stride = (n + kSampledBricks - 1) / kSampledBricks;
+  std::vector<std::uint32_t> packed;
+  for (std::size_t i = 0; i < n; i += stride) packed.push_back(bricks.pack(evaluated.bricks[i]));
+  BrickTapes tapes;
+  buildBrickTapes(program, grid, bricks, packed, std::uint32_t(program.boxes.size()), tapes);
+  return double(tapes.instructions) * double(n) / double(packed.size());
 }
 }  // namespace
 
@@ -380,7 +398,7 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
   // field 0.09 s against 0.23 s per run, no slower a first run), not on small jobs (dice at 64
   // cells: +0.1 s of start-up for 2 ms of field).
   // (Auto only: a forced evaluator gets the tiles it is given.)
-  if (choose && cpuDevice && job.evaluated && e.traversal == Traversal::Specialised && options.maxFieldTiles > 1) {
+  if (choose && cpuDevice && job.evaluated && e.traversal == Traversal::Specialised) {
     // The field time a plan of at most `cap` tiles (and `loopedCap` for looped code) saves over
     // the runs against one unrolled kernel, its field time over the runs, and its kernels' builds
     // beyond the whole program's.
@@ -420,7 +438,12 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
     // whole mesh kernels) say: tower at 256 cells, predicted +0.67 s for 8 tiles, measured no
     // slower a first run with the field's 0.14-0.2 s saved; dice at 64 cells +0.1-0.15 s.
     constexpr double kTileBuildShare = 0.3;
-    const TileGain coarse = tileGain(options.maxFieldTiles, 0);
+    // The plan taken so far: the whole program's one kernel.
+    const double activePoints = double(evaluated.bricks.size()) * pointsPerBrick * double(job.repeats);
+    TileGain taken;
+    taken.tiles = 1;
+    taken.run = secondsPerPoint(whole) * activePoints;
+    const TileGain coarse = options.maxFieldTiles > 1 ? tileGain(options.maxFieldTiles, 0) : taken;
     e.fieldTiles = coarse.tiles > 1 && coarse.saved > kTileBuildShare * coarse.extraBuild;
     // A job that runs again may take more tiles where the finer plan's extra saving pays its
     // extra kernels by the same measure (tower at 512 cells and 6 runs: 16 tiles, field pass
@@ -441,8 +464,30 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
         codegen.loops.minProgramInstructions > 0) {
       const std::uint32_t cap = e.fieldTileCap ? e.fieldTileCap : options.maxFieldTiles;
       const TileGain unrolled = tileGain(cap, options.maxFieldTilesForLoopedCode);
-      if (unrolled.tiles > plan.tiles && plan.run - unrolled.run > kTileBuildShare * (unrolled.extraBuild - plan.extraBuild))
+      if (unrolled.tiles > plan.tiles && plan.run - unrolled.run > kTileBuildShare * (unrolled.extraBuild - plan.extraBuild)) {
         e.loopedTileCap = options.maxFieldTilesForLoopedCode;
+        plan = unrolled;
+      }
+    }
+    if (e.fieldTiles) taken = plan;
+    // A looped program's field over per-brick tapes (brick_tapes.h: the program pruned to each
+    // brick on the host, interpreted from uniform blocks) builds no kernel and runs each brick's
+    // few instructions, where looped code runs every instance a skip does not jump (a flat blend
+    // of 600 points has none to jump: 1,200 instructions a point against 67 on its tapes).
+    // Taken where it beats the looped plan above, its kernels' builds included, and its loops fit
+    // the driver's limit with these bricks (the interpreter's bound). Tiles split until they
+    // unroll run several times faster than tapes once built (tower_L6P8I4 at 128 cells: field
+    // 0.05 s against 2.2 s a run), so where the split pays the tapes are not considered.
+    if (whole.loops && !options.brickTapes && e.loopedTileCap == 0) {
+      GpuPolygonizeOptions tapesOptions = options;
+      tapesOptions.brickTapes = true;
+      const bool fits = brickCellsWithinLoopLimit(evaluated.cells, evaluationLoopBound(program, tapesOptions),
+                                                  loopIterationLimit(device.info())) == evaluated.cells;
+      const double tapesRun = costs::kTapeSecondsPerInstruction * pointsPerBrick * double(job.repeats) *
+                              activeTapeInstructions(program, grid, classified->bricks, evaluated);
+      const double takenTotal = taken.run + kTileBuildShare * (wholeBuild + taken.extraBuild);
+      e.brickTapes = fits && tapesRun < takenTotal;
+      if (e.brickTapes) e.fieldTiles = false, e.fieldTileCap = 0, e.loopedTileCap = 0;
     }
   }
   return e;
@@ -462,6 +507,7 @@ GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options)
   if (!fieldTiles) resolved.maxFieldTiles = 1;
   else if (fieldTileCap > 0) resolved.maxFieldTiles = fieldTileCap;
   resolved.maxFieldTilesForLoopedCode = fieldTiles ? loopedTileCap : 0;
+  resolved.brickTapes = options.brickTapes || brickTapes;
   resolved.interpretVertexPassUntilBuilt = options.interpretVertexPassUntilBuilt || interpretVertexPassUntilBuilt;
   return resolved;
 }

@@ -67,9 +67,11 @@ struct BrickBox {
 BrickBox wholeGrid(const BrickGrid& bricks);
 
 // Device bytes the sparse path allocates for `activeBricks` active bricks producing `vertices`
-// and `triangles` (the output buffers included), for --max-memory style estimates.
+// and `triangles` (the output buffers included), for --max-memory style estimates, plus
+// `tapeBytes` where the field runs over per-brick tapes (GpuStats::tapeBytes: their size depends
+// on the program pruned to each brick, known once the bricks are).
 std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBricks, std::uint64_t vertices,
-                                std::uint64_t triangles, bool normals, bool colours);
+                                std::uint64_t triangles, bool normals, bool colours, std::uint64_t tapeBytes = 0);
 
 // The classification alone: 1 for each brick (x fastest) that may hold part of the surface, 0
 // for one whose (B+1)^3 grid samples provably lie on one side of the iso value. The Program's
@@ -107,6 +109,10 @@ struct SparseEvaluator {
   // options.maxFieldTilesForLoopedCode where that pays, else 0 (none; a forced evaluator takes the
   // tiles maxFieldTiles gives).
   std::uint32_t loopedTileCap = 0;
+  // Under Auto on CPU drivers, true where the field pass of a looped program (one over
+  // kLoopedAboveInstructionsOnCpu instructions) runs faster over per-brick tapes
+  // (options.brickTapes) than over its looped code or the tiles it splits into.
+  bool brickTapes = false;
   bool interpretVertexPassUntilBuilt = false;  // EvaluatorEstimate's
   void report(GpuStats& stats) const;
   // `options` with this evaluator; its codegen points into this object, which must outlive it.
