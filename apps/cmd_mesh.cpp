@@ -109,7 +109,8 @@ void addMeshCommand(CLI::App& app) {
                 "vk sparse, specialised: run the vertex pass per field tile with pruned kernels (slower to start; "
                 "the same mesh)");
   cmd->add_flag("--brick-tapes", a->settings.brickTapes,
-                "vk sparse: the field pass interprets, per brick, the program pruned to the brick (the same mesh)");
+                "vk sparse: the field pass interprets, per brick, the program pruned to the brick (the same mesh; "
+                "auto takes it on lavapipe for long looped programs where it pays)");
   cmd->add_flag("--no-row-culling{false}", a->settings.rowCulling,
                 "vk sparse on lavapipe: evaluate every row of points of an active brick, not only those the CPU "
                 "backend's bound leaves (the same mesh)");
