@@ -210,7 +210,7 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           gpu.hostSeconds, gpu.bricks, gpu.activeBricks, gpu.brickCells, gpu.deviceBytes,
           gpu.submits, gpu.batches, gpu.deviceTimed, gpu.devices,
           gpu.traversal == vk::Traversal::Auto ? std::string() : std::string(vk::traversalName(gpu.traversal)),
-          gpu.vertexGradient, gpu.vertexUniforms, gpu.hostClassification, gpu.modelBuildSeconds, gpu.modelRunSeconds,
+          gpu.vertexGradient, gpu.vertexUniforms, gpu.vertexTapes, gpu.hostClassification, gpu.modelBuildSeconds, gpu.modelRunSeconds,
           gpu.edgesSeconds, gpu.scansSeconds, gpu.sourcesSeconds, gpu.verticesSeconds, gpu.trianglesSeconds,
           gpu.fieldTiles, gpu.vertexTiles, gpu.generatedClassification, gpu.classifyTiles, gpu.tapeInstructions, gpu.tapeWords,
           gpu.tapeSeconds, gpu.readbackDeviceSeconds,

@@ -100,6 +100,7 @@ struct PolygonizeStats {
     std::string evaluator;
     bool vertexGradient = false;
     bool vertexUniforms = false;      // the interpreted gradient read the program from uniform blocks
+    bool vertexTapes = false;         // ... each vertex's brick's tape (with --brick-tapes or auto's tapes)
     bool hostClassification = false;  // the bricks classified on the host
     double modelBuild = -1.0, modelRun = -1.0;
     // extract by pass (device time): masks and edges, scans, sources, vertices, triangles

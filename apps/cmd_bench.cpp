@@ -250,6 +250,7 @@ void addBenchCommand(CLI::App& app) {
             auto seconds = [](double v) { return v >= 0 ? nlohmann::json(v) : nlohmann::json(nullptr); };
             phases["evaluator"] = {{"traversal", r.gpu.evaluator}, {"generated_gradient", r.gpu.vertexGradient},
                                    {"uniform_vertex_program", r.gpu.vertexUniforms},
+                                   {"vertex_tapes", r.gpu.vertexTapes},
                                    {"model_build_s", seconds(r.gpu.modelBuild)}, {"model_run_s", seconds(r.gpu.modelRun)}};
           }
         }

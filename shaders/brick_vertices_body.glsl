@@ -1,5 +1,6 @@
 // The sparse vertex kernels' body (brick_vertices.comp, brick_vertices_direct.comp, and their
-// per-tile forms with BRICK_VERTICES_TILED: a lane per entry of one tile's vertex list).
+// per-tile forms with BRICK_VERTICES_TILED: a lane per entry of one tile's vertex list; with
+// EVAL_TAPES, brick_vertices_direct_tapes.comp: each vertex's gradient from its brick's tape).
 #ifndef BLOBVK_BRICK_VERTICES_BODY_GLSL
 #define BLOBVK_BRICK_VERTICES_BODY_GLSL
 #define PROGRAM_SET 0
@@ -15,6 +16,13 @@ layout(std430, set = 0, binding = 8) writeonly buffer Positions { float position
 layout(std430, set = 0, binding = 9) writeonly buffer Normals { float normals[]; };
 layout(std430, set = 0, binding = 10) writeonly buffer Colours { float colours[]; };
 layout(std430, set = 0, binding = 11) writeonly buffer Keys { uvec2 keys[]; };
+#ifdef EVAL_TAPES
+// Per batch brick, its vertex tape's first instruction and end (vk/extract/brick_tapes.h,
+// TapeUse::Vertex), the tapes bound in place of the program's code.
+layout(std430, set = 0, binding = 12) readonly buffer BrickTapes { uvec2 brickTapes[]; };
+uint evalTapeEnd = 0u;
+#define EVAL_CODE_END evalTapeEnd
+#endif
 #ifdef BRICK_VERTICES_TILED
 layout(std430, set = 0, binding = 12) readonly buffer TileVertices { uint tileVertices[]; };  // brick_vertex_tile_lists
 layout(std430, set = 0, binding = 13) readonly buffer TileArgs { uint tileArgs[]; };  // brick_vertex_tile_args
@@ -47,6 +55,13 @@ void main() {
   if (v >= pc.vertices) return;
 #endif
   uvec2 source = vertexSources[v];
+#ifdef EVAL_TAPES
+  // Lanes may hold different bricks' tapes: the gradient interpreter runs each lane's own
+  // (its instruction counter is per lane, eval_gradient.glsl).
+  uvec2 tape = brickTapes[source.x];
+  evalTapeBegin = tape.x;
+  evalTapeEnd = tape.y;
+#endif
   uint R = (1u << pc.log2B) + 1u;
   uint r = source.y >> 7, x0 = (source.y >> 2) & 31u, axis = source.y & 3u;
   uint lz = divideSmall(r, R), ly = r - lz * R;

@@ -15,6 +15,10 @@
 // same differences), so meshes do not change.
 #ifndef BLOBVK_EDGE_VERTEX_GLSL
 #define BLOBVK_EDGE_VERTEX_GLSL
+// Where the evaluators' code ends: the program's length, or a per-brick tape's end (EVAL_TAPES).
+#ifndef EVAL_CODE_END
+#define EVAL_CODE_END pc.codeLength
+#endif
 
 #include "eval_gradient.glsl"
 
@@ -60,7 +64,7 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
     uint a = n >> 1u;
     float s = refining ? 0.0 : ((n & 1u) == 0u ? h : -h);
     vec3 q = p + vec3(a == 0u ? s : 0.0, a == 1u ? s : 0.0, a == 2u ? s : 0.0);
-    float f = evaluateField(q, pc.codeLength);
+    float f = evaluateField(q, EVAL_CODE_END);
     if (!refining) {
       if ((n & 1u) == 0u) {
         fPlus = f;
@@ -98,7 +102,7 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
   positions[v + 2u] = p.z;
   if (!STACK_TRAVERSAL && pc.attributes != 0u) {
     vec3 g, colour;
-    evaluateGradient(p, pc.codeLength, (pc.attributes & 2u) != 0u, g, colour);
+    evaluateGradient(p, EVAL_CODE_END, (pc.attributes & 2u) != 0u, g, colour);
     if ((pc.attributes & 1u) != 0u) {
       float glen = length(g);
       precise vec3 nrm = glen > 0.0 ? -g / glen : vec3(0.0, 0.0, 1.0);
@@ -122,7 +126,7 @@ void emitEdgeVertex(uint out_, uvec3 g, uint axis, float fa, float fb) {
 #ifndef EVALUATOR_GRADIENT_ONLY  // kernels without the stack-based traversal (brick_vertices_direct.comp)
   if (STACK_TRAVERSAL && (pc.attributes & 2u) != 0u) {
     vec3 colour;
-    evaluateFieldColour(p, pc.codeLength, colour);
+    evaluateFieldColour(p, EVAL_CODE_END, colour);
     colours[v] = colour.x;
     colours[v + 1u] = colour.y;
     colours[v + 2u] = colour.z;

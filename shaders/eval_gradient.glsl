@@ -13,6 +13,9 @@
 #ifndef BLOBVK_GENERATED_GRADIENT
 
 #include "program_layout.h"
+#ifndef EVAL_CODE_BEGIN
+#define EVAL_CODE_BEGIN 0u
+#endif
 
 // What the program contains, so that code for absent opcodes, primitive and warp types folds
 // away (llvmpipe compiles and runs every branch it cannot prove dead): the interpreter's
@@ -97,7 +100,7 @@ precise float evaluateGradient(vec3 p, uint n, bool wantColour, out vec3 gradien
       jc[i] = vec3(0.0, 0.0, 1.0);
     }
   }
-  for (uint pc_ = 0u; pc_ < n; ++pc_) {
+  for (uint pc_ = EVAL_CODE_BEGIN; pc_ < n; ++pc_) {
     uvec4 in_ = programCode[pc_].code;
     uint op = in_.x & 0xffu;
     uint dst = in_.x >> 8;
@@ -163,6 +166,27 @@ precise float evaluateGradient(vec3 p, uint n, bool wantColour, out vec3 gradien
       ja[d] = j0;
       jb[d] = j1;
       jc[d] = j2;
+    }
+    if (GRAD_HAS_OP(OP_NULL_ADDS) && op == OP_NULL_ADDS) {
+      // The pairs' bits (vk/eval/gradient_codegen.cpp, nullAdds, generates the same): the zeros
+      // come from the instruction word (z's top bit is clear), so no compiler folds a + 0 into a.
+      precise float zero = uintBitsToFloat(in_.z >> 31);
+      uvec3 negative = (uvec3(in_.z, in_.z >> 1, in_.z >> 2) & 1u) << 31;
+      if (wantColour) {
+        float wa = max(a, 0.0), wb = max(zero, 0.0);
+        float w = wa + wb;
+        vec3 cz = unpackColour(programPrims[in_.y].meta.z);
+        if (w > 0.0) {
+          for (uint k = 0u; k < in_.w; ++k) {
+            EVAL_LOOP_TICK();
+            precise vec3 next = (cv * wa + cz * wb) / w;
+            if (all(equal(floatBitsToUint(next), floatBitsToUint(cv)))) break;
+            cv = next;
+          }
+        }
+      }
+      v = a + zero;
+      gv = ga + uintBitsToFloat(negative | floatBitsToUint(vec3(zero)));
     }
     if (GRAD_HAS_OP(OP_SKIP) && op == OP_SKIP) {
       BoxRecord box = programBoxes[in_.y];

@@ -32,6 +32,10 @@ struct uvec4 { uint x, y, z, w; };
 //   OP_SKIP   if point[z] is outside boxes[y]: reg[dst] = 0, jump to instruction w
 //   OP_ONE_MINUS reg[dst] = 1 - reg[dst]                         (a cutter evaluated first)
 //   OP_MUL    reg[dst] = reg[dst] * reg[y]                       (smooth difference, reordered)
+//   OP_NULL_ADDS  (vertex tapes only, vk/eval/region_tape.h) w pairs of a primitive that is 0 in
+//             the region and the OP_ADD of it into reg[dst], with their bits: reg[dst] + 0, the
+//             gradient plus signed zeros (bit j of z set: component j adds -0), the colour blended
+//             with weight 0 until it stops changing (y: one of the primitives, for its colour)
 // Colour (when wanted) follows the field: OP_PRIM sets the primitive's colour; OP_ADD blends
 // the two colours weighted by max(field, 0); OP_MAX/OP_MIN keep the colour of the operand that
 // wins; OP_DIFF/OP_SDIFF take the cutter's colour where 1 - reg[y] < reg[dst]; OP_MUL the colour
@@ -52,6 +56,7 @@ BLOBVK_CONST uint OP_WARP = 8u;
 BLOBVK_CONST uint OP_SKIP = 9u;
 BLOBVK_CONST uint OP_ONE_MINUS = 10u;
 BLOBVK_CONST uint OP_MUL = 11u;
+BLOBVK_CONST uint OP_NULL_ADDS = 12u;
 
 BLOBVK_CONST uint MAX_FIELD_REGISTERS = 32u;  // Sethi-Ullman needs log2(nodes)+1: ample
 BLOBVK_CONST uint MAX_POINT_REGISTERS = 8u;   // warp nesting depth + 1

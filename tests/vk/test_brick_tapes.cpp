@@ -126,6 +126,29 @@ TEST(RegionTape, PrunesSubtreesSkipsAndAddedZeros) {
   EXPECT_EQ(tape.size(), s.program.code.size() - 1);
 }
 
+// A vertex tape keeps every instruction of the exact tape but folds each run of pairs (a
+// primitive that is 0 in the region, its addition into one register) into one OP_NULL_ADDS: in a
+// small region of random128 (a blend of 128 points) most of the blend is such runs.
+TEST(RegionTape, VertexTapesFoldRunsOfPrunedAdditions) {
+  const ShippedScene s = shipped("random128", 128);
+  const std::uint32_t emptyBox = std::uint32_t(s.program.boxes.size());
+  const vk::PointRegion region = vk::regionOfPoints(s.grid, {56, 56, 56}, {72, 72, 72});
+  std::vector<layout::Instruction> exact, vertex;
+  vk::appendRegionTape(s.program.code, s.program, region, emptyBox, vk::TapeUse::Exact, exact);
+  vk::appendRegionTape(s.program.code, s.program, region, emptyBox, vk::TapeUse::Vertex, vertex);
+  std::size_t runs = 0, pairs = 0;
+  for (const layout::Instruction& in : vertex) {
+    if ((in.code.x & 0xffu) != layout::OP_NULL_ADDS) continue;
+    ++runs;
+    pairs += in.code.w;
+    EXPECT_GE(in.code.w, 1u);
+    EXPECT_LT(in.code.y, s.program.primitives.size());
+  }
+  EXPECT_GT(runs, 0u);
+  EXPECT_EQ(vertex.size() + 2 * pairs - runs, exact.size()) << "each run of w pairs: 2w instructions as one";
+  EXPECT_LT(vertex.size() * 4, exact.size()) << "most of the blend is away from the region";
+}
+
 // Windows of uniform blocks: each brick's tape, run with its window's renumbered records, gives
 // the program's field at the brick's points; tower_L6P8I4's records (2,400 primitives) are over a
 // block, so they only fit once pruned, and its bricks take several windows.
@@ -181,8 +204,9 @@ TEST(UniformTapes, EachWindowsRecordsGiveTheProgramsFieldInItsBricks) {
   }
 }
 
-// The device: with tapes, the mesh of every case is the CPU reference's and the bytes of the
-// whole program's field pass, in one batch and in batches of a few bricks.
+// The device: with tapes (the field's, and the vertex pass's with TapeUse::Vertex), the mesh of
+// every case is the CPU reference's and the bytes of the whole program's passes, in one batch and
+// in batches of a few bricks.
 TEST_F(VulkanTest, BrickTapesGiveTheMeshOfTheWholeProgram) {
   struct Case {
     std::string what;
@@ -216,6 +240,7 @@ TEST_F(VulkanTest, BrickTapesGiveTheMeshOfTheWholeProgram) {
       const std::string what = c.what + ", batches of " + std::to_string(batchBricks) + " bricks, " +
                                (uniforms ? "uniform blocks" : "storage buffer");
       EXPECT_GT(st.tapeInstructions, 0u) << what;
+      EXPECT_TRUE(st.vertexTapes) << what << ": the vertex pass over the bricks' vertex tapes";
       // One batch: each active brick's tape counted once; a scene of many primitives runs a fraction.
       if (batchBricks == 0 && (c.what == "random128" || c.what == "tower" || c.what == "tower_L6P8I4")) {
         EXPECT_LT(st.tapeInstructions * 2, std::uint64_t(st.activeBricks) * c.program.code.size()) << what;
@@ -243,7 +268,7 @@ TEST_F(VulkanTest, AutoRunsALoopedFlatBlendsFieldOverBrickTapes) {
   EXPECT_EQ(st.traversal, vk::Traversal::Specialised);
   EXPECT_GT(st.tapeInstructions, 0u) << "the field over tapes";
   EXPECT_LT(st.tapeInstructions * 4, std::uint64_t(st.activeBricks) * flat.code.size()) << "tapes a fraction of the program";
-  EXPECT_TRUE(st.vertexUniforms) << "the looped program's gradient interpreted from uniform blocks";
+  EXPECT_TRUE(st.vertexTapes) << "the looped program's gradient interpreted from the bricks' vertex tapes";
   EXPECT_FALSE(st.vertexGradient);
   EXPECT_GT(st.tapeBytes, 0u);
   EXPECT_LE(st.deviceBytes, vk::sparseDeviceBytes(vk::brickGridFor(grid, st.brickCells), st.activeBricks,

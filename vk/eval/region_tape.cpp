@@ -1,6 +1,7 @@
 #include "blobvk/vk/eval/region_tape.h"
 
 #include <cfloat>
+#include <cmath>
 
 namespace blobvk::vk {
 
@@ -49,10 +50,54 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
     out.push_back({{layout::OP_SKIP | (d << 8), emptyBox, 0u, here() + 1u}});
     return next;
   };
+  // Vertex tapes: which instructions a skip jumps to (a run of null additions must not swallow one).
+  thread_local std::vector<char> target;
+  if (use == TapeUse::Vertex) {
+    target.assign(n + 1, 0);
+    for (std::size_t i = 0; i < n; ++i)
+      if ((tape[i].code.x & 0xffu) == layout::OP_SKIP && tape[i].code.w <= n) target[tape[i].code.w] = 1;
+  }
+  // A primitive the region prunes: field +0 and gradient M^T (+0) at every point of it.
+  auto prunedPrimitive = [&](const layout::uvec4& in) {
+    return (in.x & 0xffu) == layout::OP_PRIM && in.z == 0 && in.y < program.primitives.size() &&
+           in.y < program.primitiveBoxes.size() && regionMissesBox(region, program.primitiveBoxes[in.y]);
+  };
+  // The signs of a pruned primitive's gradient as the interpreter computes it (transposeTimesRows
+  // of +0): component j is -0 only where the matrix's column j is all negative; bit j set: -0.
+  auto negativeZeros = [&](const layout::uvec4& in) {
+    const std::uint32_t matrix = program.primitives[in.y].meta.y;
+    if (!matrix || matrix >= program.matrices.size()) return 0u;
+    const auto& m = program.matrices[matrix];
+    const float rows[3][3] = {{m.r0.x, m.r0.y, m.r0.z}, {m.r1.x, m.r1.y, m.r1.z}, {m.r2.x, m.r2.y, m.r2.z}};
+    std::uint32_t bits = 0;
+    for (int j = 0; j < 3; ++j)
+      if (std::signbit(rows[0][j]) && std::signbit(rows[1][j]) && std::signbit(rows[2][j])) bits |= 1u << j;
+    return bits;
+  };
   for (std::size_t i = 0; i < n;) {
     at[i] = here();
     const layout::uvec4& in = tape[i].code;
     const std::uint32_t op = in.x & 0xffu, dst = in.x >> 8;
+    if (use == TapeUse::Vertex && prunedPrimitive(in)) {
+      // Pairs (pruned primitive into b, OP_ADD of b into a) with the same a and b, none a jump target.
+      std::uint32_t run = 0, a = 0, negative = 7, last = 0;
+      for (std::size_t k = i; k + 1 < n; k += 2) {
+        const layout::uvec4& prim = tape[k].code;
+        const layout::uvec4& add = tape[k + 1].code;
+        if (!prunedPrimitive(prim) || (prim.x >> 8) != dst || (k > i && target[k]) || target[k + 1]) break;
+        if ((add.x & 0xffu) != layout::OP_ADD || add.y != dst || (add.x >> 8) == dst) break;
+        if (run > 0 && (add.x >> 8) != a) break;
+        a = add.x >> 8;
+        negative &= negativeZeros(prim);
+        last = prim.y;
+        ++run;
+      }
+      if (run > 0) {
+        out.push_back({{layout::OP_NULL_ADDS | (a << 8), last, negative, run}});
+        i += 2 * std::size_t(run);
+        continue;
+      }
+    }
     if (op == layout::OP_SKIP) {
       if (in.y == emptyBox) {  // a parent tape's "write 0"
         i = zero(dst, i + 1);

@@ -35,6 +35,11 @@ enum class TapeUse {
   // primitive that is 0 in the region stays (its colour and the sign of its zero gradient can
   // still reach the result).
   Exact,
+  // Exact, for the gradient interpreter of the sparse vertex pass: besides, a run of pairs (a
+  // primitive that is 0 in the region into register b, OP_ADD of b into register a) is one
+  // OP_NULL_ADDS with the pairs' bits (shaders/program_layout.h), as the generated gradient's
+  // nullAdds folds them (a flat blend's points away from the region).
+  Vertex,
 };
 
 // The box record every "write 0" of a tape tests against: lo above hi, so every point is outside

@@ -43,8 +43,8 @@ bool sameTape(std::span<const layout::Instruction> code, std::uint32_t begin, st
 class BrickTapeWalker {
  public:
   BrickTapeWalker(const blobtree::Program& program, const blobtree::GridSpec& grid, const BrickGrid& bricks,
-                  std::uint32_t emptyBox)
-      : program_(program), grid_(grid), bricks_(bricks), emptyBox_(emptyBox) {}
+                  std::uint32_t emptyBox, TapeUse use = TapeUse::Field)
+      : program_(program), grid_(grid), bricks_(bricks), emptyBox_(emptyBox), use_(use) {}
 
   const std::vector<layout::Instruction>& tapeOf(std::uint32_t packed) {
     const std::uint32_t B = 1u << bricks_.log2B;
@@ -58,14 +58,14 @@ class BrickTapeWalker {
         lo[i] = (block[i] << kLog2BlockBricks) * B;
         hi[i] = ((block[i] + 1) << kLog2BlockBricks) * B;  // every point its bricks' fields take
       }
-      appendRegionTape(program_.code, program_, regionOfPoints(grid_, lo, hi), emptyBox_, TapeUse::Field, it->second);
+      appendRegionTape(program_.code, program_, regionOfPoints(grid_, lo, hi), emptyBox_, use_, it->second);
     }
     for (int i = 0; i < 3; ++i) {
       lo[i] = b[i] * B;
       hi[i] = b[i] * B + B;
     }
     tape_.clear();
-    appendRegionTape(it->second, program_, regionOfPoints(grid_, lo, hi), emptyBox_, TapeUse::Field, tape_);
+    appendRegionTape(it->second, program_, regionOfPoints(grid_, lo, hi), emptyBox_, use_, tape_);
     return tape_;
   }
 
@@ -74,6 +74,7 @@ class BrickTapeWalker {
   const blobtree::GridSpec& grid_;
   const BrickGrid& bricks_;
   std::uint32_t emptyBox_;
+  TapeUse use_;
   // Block tapes by packed block coordinates; bricks come in (z, y, x) order, so a block's bricks
   // are met in a few runs and its tape is reused.
   std::unordered_map<std::uint64_t, std::vector<layout::Instruction>> blocks_;
@@ -108,11 +109,12 @@ class TapeStore {
 }  // namespace
 
 void buildBrickTapes(const blobtree::Program& program, const blobtree::GridSpec& grid, const BrickGrid& bricks,
-                     std::span<const std::uint32_t> packedBricks, std::uint32_t emptyBox, BrickTapes& out) {
+                     std::span<const std::uint32_t> packedBricks, std::uint32_t emptyBox, BrickTapes& out,
+                     TapeUse use) {
   out.code.clear();
   out.ranges.assign(packedBricks.size() * 2, 0);
   out.instructions = 0;
-  BrickTapeWalker walker(program, grid, bricks, emptyBox);
+  BrickTapeWalker walker(program, grid, bricks, emptyBox, use);
   TapeStore store(out.code);
   for (std::size_t a = 0; a < packedBricks.size(); ++a) {
     const std::vector<layout::Instruction>& tape = walker.tapeOf(packedBricks[a]);

@@ -16,6 +16,7 @@
 
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
+#include "blobvk/vk/eval/region_tape.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
 
 #include <cstdint>
@@ -33,9 +34,11 @@ struct BrickTapes {
 };
 
 // The tapes of `packedBricks` (BrickGrid::pack, in batch order) over `grid`. `emptyBox` is the
-// index of the empty skip box the evaluator sees (GpuProgram::emptyBox). Deterministic.
+// index of the empty skip box the evaluator sees (GpuProgram::emptyBox). Deterministic. `use`:
+// the field pass's tapes, or TapeUse::Vertex for the vertex pass (brick_vertices_direct_tapes).
 void buildBrickTapes(const blobtree::Program& program, const blobtree::GridSpec& grid, const BrickGrid& bricks,
-                     std::span<const std::uint32_t> packedBricks, std::uint32_t emptyBox, BrickTapes& out);
+                     std::span<const std::uint32_t> packedBricks, std::uint32_t emptyBox, BrickTapes& out,
+                     TapeUse use = TapeUse::Field);
 
 // Records per uniform block of 64 KB (brick_field_tapes_uniform.comp's array lengths).
 inline constexpr std::uint32_t kUniformTapeCode = 4096, kUniformTapePrims = 1024, kUniformTapeMatrices = 1365,

@@ -199,6 +199,7 @@ struct GpuStats {
   Traversal traversal = Traversal::Auto;
   bool vertexGradient = false;  // false too where the vertex pass interpreted while it built
   bool vertexUniforms = false;  // sparse: the interpreted gradient read the program from uniform blocks
+  bool vertexTapes = false;     // sparse: ... each vertex's brick's tape (with the field's brick tapes)
   bool hostClassification = false;  // sparse: the bricks classified on the host (host_classify.h)
   bool generatedClassification = false;  // sparse: the bricks classified by generated code (classify_kernel.h)
   std::uint32_t classifyTiles = 0;  // sparse: tiles the interpreted classification ran, each with its tape (0: whole program)

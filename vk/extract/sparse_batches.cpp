@@ -219,11 +219,17 @@ struct SparseBatchRunner::State {
   std::array<Buffer, 5> tapeBlocks;
   // Device bytes of the tape buffers (code, ranges and the uniform blocks), as grown so far.
   std::uint64_t tapeBytes() const {
-    std::uint64_t b = tapeCode.size() + tapeRanges.size();
+    std::uint64_t b = tapeCode.size() + tapeRanges.size() + vertexTapeCode.size() + vertexTapeRanges.size();
     for (const Buffer& block : tapeBlocks) b += block.size();
     return b;
   }
   std::vector<std::uint8_t> blockBytes;
+  // With the field's tapes, the vertex pass interprets per-brick vertex tapes (TapeUse::Vertex,
+  // brick_vertices_direct_tapes) where it would interpret the whole program: the batch's tapes
+  // on the host and on the device (grown as batches need), each brick's range.
+  bool vertexTapes = false;
+  BrickTapes vertexTapeSet;
+  Buffer vertexTapeCode, vertexTapeRanges;
   // The storage-buffer tape kernel, for a batch whose tapes do not fit uniform blocks.
   KernelPtr storageTapes;
   const KernelPtr& storageTapeKernel() {
@@ -281,6 +287,13 @@ struct SparseBatchRunner::State {
       s.tapeInstructions += tapes.instructions;
       s.tapeWords += tapes.code.size();
     }
+    if (vertexTapes) {
+      buildBrickTapes(*tapeProgram, grid, bg, packed, gpu.emptyBox, vertexTapeSet, TapeUse::Vertex);
+      const std::uint64_t codeBytes = vertexTapeSet.code.size() * sizeof(layout::Instruction);
+      reserve(vertexTapeCode, std::max<std::uint64_t>(codeBytes, 16), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "vertex tapes");
+      device.upload(vertexTapeCode, vertexTapeSet.code.data(), codeBytes);
+      device.upload(vertexTapeRanges, vertexTapeSet.ranges.data(), 4ull * vertexTapeSet.ranges.size());
+    }
     s.tapeSeconds += std::chrono::duration<double>(Clock::now() - start).count();
     return uniform;
   }
@@ -292,6 +305,12 @@ struct SparseBatchRunner::State {
   std::array<std::uint32_t, 6> tapeSpecs() const {
     std::array<std::uint32_t, 6> specs = gpu.specs(fieldGroupSize, Traversal::Stackless);
     specs[3] |= 1u << layout::OP_SKIP;
+    return specs;
+  }
+  // ... and the vertex tapes' kernel, which also meets runs of null additions.
+  std::array<std::uint32_t, 6> vertexTapeSpecs(std::uint32_t wg) const {
+    std::array<std::uint32_t, 6> specs = gpu.specs(wg, Traversal::Stackless);
+    specs[3] |= 1u << layout::OP_SKIP | 1u << layout::OP_NULL_ADDS;
     return specs;
   }
 
@@ -436,7 +455,13 @@ struct SparseBatchRunner::State {
     // embedded one, without samples from uniform blocks where the program fits them.
     const bool interpretUntilBuilt = vertexGenerated && o.interpretVertexPassUntilBuilt && !vertexKernelsBuilt() &&
                                      !device.backgroundBuildDone(backgroundKey);
-    if (!samples && traversal != Traversal::StackBased && o.uniformVertexProgram && (!vertexGenerated || interpretUntilBuilt))
+    // With the field's tapes, a vertex pass that would interpret the whole program interprets
+    // each brick's vertex tape instead (a flat blend of 600 points: a few tens of instructions a
+    // vertex instead of 1,200; the same bits).
+    vertexTapes = o.brickTapes && !samples && traversal != Traversal::StackBased && !vertexGenerated && !tiledVertices;
+    if (vertexTapes) vertexTapeRanges = make(std::uint64_t(maxLoaded) * 8, "vertex tape ranges");
+    if (!vertexTapes && !samples && traversal != Traversal::StackBased && o.uniformVertexProgram &&
+        (!vertexGenerated || interpretUntilBuilt))
       vertexUniforms = uploadUniformProgram(device, program);
     auto interpretingVertexKernel = [&, vertexShader, wg]() -> KernelPtr {
       vertexReadsUniforms = !vertexUniforms.empty();
@@ -445,7 +470,9 @@ struct SparseBatchRunner::State {
       return evaluatorKernel(device, gpu, vertexShader, wg,
                              traversal == Traversal::StackBased ? traversal : Traversal::Stackless);
     };
-    if (interpretUntilBuilt) {
+    if (vertexTapes) {
+      builds.push_back([this, wg] { return device.kernel("brick_vertices_direct_tapes", vertexTapeSpecs(wg)); });
+    } else if (interpretUntilBuilt) {
       // Not built: this job interprets its vertex pass (quick to create, the same bytes) and, if
       // more jobs are expected, the generated kernel builds in the background for them (once: a
       // build an earlier job started goes on). A job that comes while the build still runs
@@ -877,6 +904,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const KernelPtr& vertexKernel = st.vertices();
   if (st.interpretedVertexPass || st.loopedVertexPass) s.vertexGradient = false;
   if (vertices && st.vertexReadsUniforms) s.vertexUniforms = true;
+  if (vertices && st.vertexTapes) s.vertexTapes = true;
   s.tapeBytes = std::max(s.tapeBytes, st.tapeBytes());
   // With a read-back copy to wait for (a discrete GPU), the arrays grow while the device works;
   // where the host reads the device's buffers (lavapipe, whose device work is these cores) after.
@@ -921,7 +949,13 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       const BufferRange bind[14] = {program(0),    program(1), program(2), program(3), program(4), st.field,     st.batchBricks,
                                     vertexSources, positions,  normals,    colours,    keys,       tileVertices, st.tileArgs};
       const Groups g = groupsFor(vertices, wg);
-      if (vertexTiles.empty()) {
+      if (st.vertexTapes) {  // binding 0: the vertex tapes in place of the program's code; 12: their ranges
+        BufferRange tapeBind[13];
+        std::copy(bind, bind + 12, tapeBind);
+        tapeBind[0] = st.vertexTapeCode;
+        tapeBind[12] = st.vertexTapeRanges;
+        rec.dispatch(*vertexKernel, tapeBind, &push, sizeof(push), g.x, g.y);
+      } else if (vertexTiles.empty()) {
         rec.dispatch(*vertexKernel, std::span(bind, 12), &push, sizeof(push), g.x, g.y);
       } else {
         // Each vertex listed under its brick's tile (counts, runs, lists; made by the host before
