@@ -67,8 +67,10 @@ std::uint32_t brickCellsForLoopLimit(const DeviceInfo& info, const blobtree::Pro
 
 namespace {
 
-// The vertex pass runs the traversal's kernel (never the tapes), interpreting the gradient where
-// the generated one is off or not built yet.
+// The vertex pass runs the traversal's kernel, interpreting the gradient where the generated one
+// is off or not built yet, or (with brick tapes) over the bricks' vertex tapes, whose runs of
+// null additions loop over their colour blends: under llvmpipe's masks at most one iteration per
+// instruction more (a tape and its runs are at most the program).
 std::uint64_t vertexPassLoopIterations(const blobtree::Program& program, const GpuPolygonizeOptions& options) {
   GpuPolygonizeOptions vertexEvaluator = options;
   vertexEvaluator.brickTapes = false;
@@ -80,7 +82,7 @@ std::uint64_t vertexPassLoopIterations(const blobtree::Program& program, const G
   // The generated gradient's loops over runs of pruned primitives' colour blends
   // (vk/eval/gradient_codegen.cpp, nullAdds): at most one iteration per instruction.
   const bool generated = vertexEvaluator.traversal == Traversal::Specialised && generatedGradient;
-  return evaluations + (generated ? program.code.size() : 0);
+  return evaluations + (generated || options.brickTapes ? program.code.size() : 0);
 }
 
 // Whether a job with `options` fits `limit`: its vertex pass, and its field pass with bricks of

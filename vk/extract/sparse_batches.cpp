@@ -458,7 +458,8 @@ struct SparseBatchRunner::State {
     // With the field's tapes, a vertex pass that would interpret the whole program interprets
     // each brick's vertex tape instead (a flat blend of 600 points: a few tens of instructions a
     // vertex instead of 1,200; the same bits).
-    vertexTapes = o.brickTapes && !samples && traversal != Traversal::StackBased && !vertexGenerated && !tiledVertices;
+    vertexTapes = o.brickTapes && !samples && traversal != Traversal::StackBased && !vertexGenerated && !tiledVertices &&
+                  (o.normals || o.colours);
     if (vertexTapes) vertexTapeRanges = make(std::uint64_t(maxLoaded) * 8, "vertex tape ranges");
     if (!vertexTapes && !samples && traversal != Traversal::StackBased && o.uniformVertexProgram &&
         (!vertexGenerated || interpretUntilBuilt))

@@ -474,11 +474,13 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
     // brick on the host, interpreted from uniform blocks) builds no kernel and runs each brick's
     // few instructions, where looped code runs every instance a skip does not jump (a flat blend
     // of 600 points has none to jump: 1,200 instructions a point against 67 on its tapes).
-    // Taken where it beats the looped plan above, its kernels' builds included, and its loops fit
-    // the driver's limit with these bricks (the interpreter's bound). Tiles split until they
+    // Taken where it beats the looped plan above, its kernels' builds included, its loops fit the
+    // driver's limit with these bricks (the interpreter's bound), and the tapes go to uniform
+    // blocks (the rate's; from a storage buffer they run several times slower). Tiles split until they
     // unroll run several times faster than tapes once built (tower_L6P8I4 at 128 cells: field
     // 0.05 s against 2.2 s a run), so where the split pays the tapes are not considered.
-    if (whole.loops && !options.brickTapes && e.loopedTileCap == 0) {
+    if (whole.loops && !options.brickTapes && e.loopedTileCap == 0 && options.brickTapeUniforms &&
+        device.info().limits.maxUniformBufferRange >= kUniformTapeBlock) {
       GpuPolygonizeOptions tapesOptions = options;
       tapesOptions.brickTapes = true;
       const bool fits = brickCellsWithinLoopLimit(evaluated.cells, evaluationLoopBound(program, tapesOptions),
