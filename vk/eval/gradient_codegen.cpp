@@ -1,6 +1,7 @@
 #include "blobvk/vk/eval/gradient_codegen.h"
 
 #include "blobvk/vk/eval/codegen_text.h"
+#include "blobvk/vk/eval/region_tape.h"
 
 #include <algorithm>
 #include <array>
@@ -150,24 +151,7 @@ class GradientGenerator {
   }
 
   // A primitive the region prunes: +0 field and gradient M^T (+0) everywhere in it.
-  bool pruned(const layout::uvec4& in) const {
-    return in.z == 0 && in.y < p_.primitives.size() && in.y < p_.primitiveBoxes.size() &&
-           regionMissesBox(options_.region, p_.primitiveBoxes[in.y]);
-  }
-
-  // The signs of a pruned primitive's gradient, M^T (+0, +0, +0) as transposeTimesRows sums it:
-  // component j is -0 only where r0[j], r1[j] and r2[j] are all negative (or -0); true: -0.
-  std::array<bool, 3> prunedGradientSigns(const layout::uvec4& in) const {
-    const std::uint32_t matrix = p_.primitives[in.y].meta.y;
-    if (!matrix) return {false, false, false};
-    check(matrix < p_.matrices.size(), "matrix index out of range");
-    const auto& m = p_.matrices[matrix];
-    const float rows[3][3] = {{m.r0.x, m.r0.y, m.r0.z}, {m.r1.x, m.r1.y, m.r1.z}, {m.r2.x, m.r2.y, m.r2.z}};
-    std::array<bool, 3> negative{};
-    for (int j = 0; j < 3; ++j)
-      negative[std::size_t(j)] = std::signbit(rows[0][j]) && std::signbit(rows[1][j]) && std::signbit(rows[2][j]);
-    return negative;
-  }
+  bool pruned(const layout::uvec4& in) const { return regionPrunesPrimitive(p_, options_.region, in); }
 
   // Pairs (pruned primitive into register b, OP_ADD of b into a) from `pc` on, with the same a
   // and b: a blend's children outside the region (random128: most of its 128 points in a tile).
@@ -201,11 +185,8 @@ class GradientGenerator {
   void nullAdds(std::uint32_t pc, std::uint32_t run, int depth) {
     const auto& last = p_.code[pc + 2 * (run - 1)].code;
     const std::uint32_t b = last.x >> 8, a = p_.code[pc + 1].code.x >> 8;
-    std::array<bool, 3> allNegative{true, true, true};
-    for (std::uint32_t k = 0; k < run; ++k) {
-      const std::array<bool, 3> s = prunedGradientSigns(p_.code[pc + 2 * k].code);
-      for (std::size_t j = 0; j < 3; ++j) allNegative[j] = allNegative[j] && s[j];
-    }
+    std::uint32_t negative = 7;  // bit j: component j of every pair's zero is -0
+    for (std::uint32_t k = 0; k < run; ++k) negative &= prunedGradientNegativeZeros(p_, p_.code[pc + 2 * k].code.y);
     const std::string ra = named('r', a), rb = named('r', b), ga = named('g', a), ca = named('c', a), cb = named('c', b);
     line(depth, "// " + std::to_string(run) + " pruned primitives added into " + ra + " (the bits of adding each)");
     primitive(last, depth);
@@ -217,8 +198,8 @@ class GradientGenerator {
     line(depth + 2, ca + " = next;");
     line(depth + 1, "} } }");
     auto zero = [](bool negative) { return std::string(negative ? "-Z" : "Z"); };
-    line(depth, ra + " = " + ra + " + " + rb + "; " + ga + " = " + ga + " + vec3(" + zero(allNegative[0]) + ", " +
-                    zero(allNegative[1]) + ", " + zero(allNegative[2]) + ");");
+    line(depth, ra + " = " + ra + " + " + rb + "; " + ga + " = " + ga + " + vec3(" + zero(negative & 1u) + ", " +
+                    zero(negative & 2u) + ", " + zero(negative & 4u) + ");");
   }
 
   void combine(std::uint32_t op, std::uint32_t dst, std::uint32_t src, int depth) {

@@ -20,6 +20,22 @@ bool regionInsideBox(const PointRegion& region, const layout::BoxRecord& box) {
   return true;
 }
 
+bool regionPrunesPrimitive(const blobtree::Program& program, const PointRegion& region, const layout::uvec4& in) {
+  return (in.x & 0xffu) == layout::OP_PRIM && in.z == 0 && in.y < program.primitives.size() &&
+         in.y < program.primitiveBoxes.size() && regionMissesBox(region, program.primitiveBoxes[in.y]);
+}
+
+std::uint32_t prunedGradientNegativeZeros(const blobtree::Program& program, std::uint32_t primitive) {
+  const std::uint32_t matrix = program.primitives[primitive].meta.y;
+  if (!matrix || matrix >= program.matrices.size()) return 0u;
+  const auto& m = program.matrices[matrix];
+  const float rows[3][3] = {{m.r0.x, m.r0.y, m.r0.z}, {m.r1.x, m.r1.y, m.r1.z}, {m.r2.x, m.r2.y, m.r2.z}};
+  std::uint32_t bits = 0;
+  for (int j = 0; j < 3; ++j)
+    if (std::signbit(rows[0][j]) && std::signbit(rows[1][j]) && std::signbit(rows[2][j])) bits |= 1u << j;
+  return bits;
+}
+
 std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const blobtree::Program& program,
                                const PointRegion& region, std::uint32_t emptyBox, TapeUse use,
                                std::vector<layout::Instruction>& out) {
@@ -57,23 +73,7 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
     for (std::size_t i = 0; i < n; ++i)
       if ((tape[i].code.x & 0xffu) == layout::OP_SKIP && tape[i].code.w <= n) target[tape[i].code.w] = 1;
   }
-  // A primitive the region prunes: field +0 and gradient M^T (+0) at every point of it.
-  auto prunedPrimitive = [&](const layout::uvec4& in) {
-    return (in.x & 0xffu) == layout::OP_PRIM && in.z == 0 && in.y < program.primitives.size() &&
-           in.y < program.primitiveBoxes.size() && regionMissesBox(region, program.primitiveBoxes[in.y]);
-  };
-  // The signs of a pruned primitive's gradient as the interpreter computes it (transposeTimesRows
-  // of +0): component j is -0 only where the matrix's column j is all negative; bit j set: -0.
-  auto negativeZeros = [&](const layout::uvec4& in) {
-    const std::uint32_t matrix = program.primitives[in.y].meta.y;
-    if (!matrix || matrix >= program.matrices.size()) return 0u;
-    const auto& m = program.matrices[matrix];
-    const float rows[3][3] = {{m.r0.x, m.r0.y, m.r0.z}, {m.r1.x, m.r1.y, m.r1.z}, {m.r2.x, m.r2.y, m.r2.z}};
-    std::uint32_t bits = 0;
-    for (int j = 0; j < 3; ++j)
-      if (std::signbit(rows[0][j]) && std::signbit(rows[1][j]) && std::signbit(rows[2][j])) bits |= 1u << j;
-    return bits;
-  };
+  auto prunedPrimitive = [&](const layout::uvec4& in) { return regionPrunesPrimitive(program, region, in); };
   for (std::size_t i = 0; i < n;) {
     at[i] = here();
     const layout::uvec4& in = tape[i].code;
@@ -88,7 +88,7 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
         if ((add.x & 0xffu) != layout::OP_ADD || add.y != dst || (add.x >> 8) == dst) break;
         if (run > 0 && (add.x >> 8) != a) break;
         a = add.x >> 8;
-        negative &= negativeZeros(prim);
+        negative &= prunedGradientNegativeZeros(program, prim.y);
         last = prim.y;
         ++run;
       }
@@ -114,8 +114,7 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
           continue;
         }
       }
-    } else if (op == layout::OP_PRIM && use == TapeUse::Field && in.z == 0 && in.y < program.primitiveBoxes.size() &&
-               regionMissesBox(region, program.primitiveBoxes[in.y])) {
+    } else if (use == TapeUse::Field && prunedPrimitive(in)) {
       i = zero(dst, i + 1);
       continue;
     }

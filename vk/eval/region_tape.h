@@ -58,4 +58,12 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
 // True when every point of the region lies inside the box (no point of it can take the skip).
 bool regionInsideBox(const PointRegion& region, const layout::BoxRecord& box);
 
+// True when `in` is an OP_PRIM on the world point whose primitive's support box misses the
+// region: field +0 and gradient M^T (+0) at every point of it.
+bool regionPrunesPrimitive(const blobtree::Program& program, const PointRegion& region, const layout::uvec4& in);
+
+// The signs of such a pruned primitive's gradient, M^T (+0, +0, +0) as transposeTimesRows sums
+// it: component j is -0 only where r0[j], r1[j] and r2[j] are all negative; bit j set: -0.
+std::uint32_t prunedGradientNegativeZeros(const blobtree::Program& program, std::uint32_t primitive);
+
 }  // namespace blobvk::vk

@@ -481,15 +481,13 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
     // 0.05 s against 2.2 s a run), so where the split pays the tapes are not considered.
     if (whole.loops && !options.brickTapes && e.loopedTileCap == 0 && options.brickTapeUniforms &&
         device.info().limits.maxUniformBufferRange >= kUniformTapeBlock) {
-      GpuPolygonizeOptions tapesOptions = options;
-      tapesOptions.brickTapes = true;
-      const bool fits = brickCellsWithinLoopLimit(evaluated.cells, evaluationLoopBound(program, tapesOptions),
+      const bool fits = brickCellsWithinLoopLimit(evaluated.cells, evaluationLoopBound(program, Traversal::Stackless, nullptr),
                                                   loopIterationLimit(device.info())) == evaluated.cells;
-      const double tapesRun = costs::kTapeSecondsPerInstruction * pointsPerBrick * double(job.repeats) *
-                              activeTapeInstructions(program, grid, classified->bricks, evaluated);
       const double takenTotal = taken.run + kTileBuildShare * (wholeBuild + taken.extraBuild);
-      e.brickTapes = fits && tapesRun < takenTotal;
-      if (e.brickTapes) e.fieldTiles = false, e.fieldTileCap = 0, e.loopedTileCap = 0;
+      e.brickTapes = fits && costs::kTapeSecondsPerInstruction * pointsPerBrick * double(job.repeats) *
+                                     activeTapeInstructions(program, grid, classified->bricks, evaluated) <
+                                 takenTotal;
+      if (e.brickTapes) e.fieldTiles = false, e.fieldTileCap = 0;
     }
   }
   return e;
