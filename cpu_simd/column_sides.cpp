@@ -42,15 +42,21 @@ struct ColumnSides::State {
   tbb::enumerable_thread_specific<PerThread> threads;
 };
 
+namespace {
+bool hasPow(const blobtree::Program& program) {
+  return std::any_of(program.code.begin(), program.code.end(),
+                     [](const layout::Instruction& in) { return (in.code.x & 0xffu) == layout::OP_POW; });
+}
+}  // namespace
+
 bool ColumnSides::boundsHoldOnIeeeDevices(const blobtree::Program& program) {
-  for (const layout::Instruction& in : program.code)
-    if ((in.code.x & 0xffu) == layout::OP_POW) return false;
   for (const layout::WarpRecord& w : program.warps)
     if (w.meta.x == layout::WARP_TWIST || w.meta.x == layout::WARP_BEND) return false;
   return true;
 }
 
-ColumnSides::ColumnSides(const blobtree::Program& program) : program_(program), state_(std::make_unique<State>(program)) {}
+ColumnSides::ColumnSides(const blobtree::Program& program)
+    : program_(program), margin_(hasPow(program) ? kPowDeviceMargin : 0.0), state_(std::make_unique<State>(program)) {}
 ColumnSides::~ColumnSides() = default;
 
 void ColumnSides::operator()(const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,
@@ -94,8 +100,8 @@ void ColumnSides::operator()(const float* x, std::uint32_t nx, const float* y, c
   }
   specialiseTape(t.cell, lo, hi, TapeUse::Field, t.box);
   t.bounds.reset(t.box, lo, hi);
-  const double iso = layout::ISO_VALUE;
-  auto sideOf = [iso](double l, double h) -> std::uint8_t { return h < iso ? 0 : l >= iso ? 1 : 2; };
+  const double below = layout::ISO_VALUE - margin_, above = layout::ISO_VALUE + margin_;
+  auto sideOf = [below, above](double l, double h) -> std::uint8_t { return h < below ? 0 : l >= above ? 1 : 2; };
   // Whole columns first, one batch of equal boxes: the centres, and the largest half extent
   // (columns of a grid differ in float rounding only; a larger box is still a conservative one).
   // Then the segments of the columns that may cross: a proven column's segments share its side.

@@ -4,8 +4,12 @@
 // of every shipped scene it applies to is the CPU reference's and the bytes of the run without it,
 // in one batch and in batches of a few bricks, with bricks of 16 and 8, on the specialised tiles
 // and the interpreter; fewer points are evaluated.
+#include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/generators.h"
+#include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/column_sides.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
+#include "blobvk/vk/eval/field.h"
 #include "blobvk/vk/extract/incremental_extract.h"
 #include "blobvk/vk/extract/polygonize.h"
 #include "blobvk/vk/extract/sparse_polygonizer.h"
@@ -15,8 +19,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <string>
+#include <variant>
 #include <vector>
 
 namespace blobvk::testing {
@@ -98,6 +105,92 @@ TEST_F(VulkanTest, RowCullingGivesTheMeshOfEveryRow) {
   }
   // Segments of four cells along x cull points of rows that whole columns evaluate.
   EXPECT_LT(double(segmentSamples), 0.9 * double(columnSamples));
+}
+
+// Programs with Ricci blends (pow, whose llvmpipe results differ from the C library's in the last
+// bits): the legacy tower fragment and blends of random points under Ricci powers from 0.5 to 32.
+struct RicciModel {
+  std::string name;
+  blobtree::Program program;
+  blobtree::GridSpec grid;
+};
+
+std::vector<RicciModel> ricciModels(int resolution) {
+  std::vector<RicciModel> models;
+  {
+    const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/legacy/tower_fragment.blob");
+    blobtree::GridRequest request;
+    request.resolution = resolution;
+    RicciModel m{"tower_fragment.blob", blobtree::compile(scene.root), {}};
+    m.grid = blobtree::chooseGrid(m.program, scene.grid, request);
+    models.push_back(std::move(m));
+  }
+  for (const double power : {0.5, 2.0, 8.0, 32.0}) {
+    blobtree::Node root = blobtree::generateRandomBlobs(24, 7);
+    std::get<blobtree::Operator>(root.kind) = blobtree::Operator{blobtree::OperatorType::Ricci, power};
+    RicciModel m{"24 points, Ricci " + std::to_string(power), blobtree::compile(root), {}};
+    m.grid = gridAt(m.program, resolution);
+    models.push_back(std::move(m));
+  }
+  return models;
+}
+
+// The bound keeps ColumnSides::kPowDeviceMargin from the iso-value for programs with a pow: the
+// margin holds llvmpipe's fields of such programs a hundred times over (relative to the value
+// where it is past 1: the Ricci blend of power 0.5 reaches 4.2, and differs by 1.4e-6 there).
+TEST_F(VulkanTest, LlvmpipeRicciFieldsLieWellWithinTheRowCullingMargin) {
+  if (!device().info().isLlvmpipe()) GTEST_SKIP() << "row culling runs on llvmpipe only";
+  for (const RicciModel& m : ricciModels(40)) {
+    ASSERT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(m.program)) << m.name;
+    const auto points = m.grid.points();
+    for (const vk::Traversal traversal : {vk::Traversal::Specialised, vk::Traversal::Stackless}) {
+      vk::FieldOptions o;
+      o.traversal = traversal;
+      const std::vector<float> gpu = vk::evaluateFieldOnGrid(device(), m.program, m.grid, o);
+      ASSERT_EQ(gpu.size(), m.grid.pointCount()) << m.name;
+      double worst = 0.0;
+      std::size_t differ = 0, near = 0;
+      for (int k = 0; k < points.z; ++k)
+        for (int j = 0; j < points.y; ++j)
+          for (int i = 0; i < points.x; ++i) {
+            const float cpu = blobtree::evaluate(m.program, m.grid.point(i, j, k));
+            const float dev = gpu[m.grid.pointIndex(i, j, k)];
+            // Relative to the value past 1, as the bounds' own rounding margin is.
+            worst = std::max(worst, double(std::abs(dev - cpu)) / std::max(1.0, double(std::abs(cpu))));
+            differ += dev != cpu;
+            near += std::abs(cpu - layout::ISO_VALUE) < 0.1f;
+          }
+      EXPECT_LT(worst, cpu::ColumnSides::kPowDeviceMargin / 100.0) << m.name << ", " << vk::traversalName(traversal);
+      EXPECT_GT(near, 100u) << m.name << ": the grid misses the surface";
+      // The pow's last bits do differ (else this test would check nothing the other one doesn't).
+      if (m.name == "tower_fragment.blob") {
+        EXPECT_GT(differ, 0u) << m.name;
+      }
+    }
+  }
+}
+
+// With that margin the culled rows of Ricci blends give the bytes of every row, and the host's
+// classification drops the bricks the bound proves.
+TEST_F(VulkanTest, RowCullingOfRicciBlendsGivesTheMeshOfEveryRow) {
+  if (!device().info().isLlvmpipe()) GTEST_SKIP() << "row culling runs on llvmpipe only";
+  for (const RicciModel& m : ricciModels(64)) {
+    const auto sides = std::make_shared<cpu::ColumnSides>(m.program);
+    for (const std::uint32_t batchBricks : {0u, 7u}) {
+      const std::string what = m.name + ", batches of " + std::to_string(batchBricks);
+      vk::GpuPolygonizeOptions o = culling(sides);
+      o.maxBatchBricks = batchBricks;
+      vk::GpuStats culled, every;
+      const mesh::TriMesh m1 = vk::polygonize(device(), m.program, m.grid, o, &culled);
+      o.columnSides = nullptr;
+      const mesh::TriMesh all = vk::polygonize(device(), m.program, m.grid, o, &every);
+      ASSERT_GT(all.triangleCount(), 0u) << what;
+      expectSameBytes(m1, all, what);
+      EXPECT_TRUE(culled.hostClassification) << what;
+      EXPECT_LE(culled.activeBricks, every.activeBricks) << what;
+      EXPECT_LT(culled.fieldEvaluations, every.fieldEvaluations / 2) << what;
+    }
+  }
 }
 
 // A bound belongs to one program, and an edit session's programs change: the extractor ignores
