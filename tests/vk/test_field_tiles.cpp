@@ -1,6 +1,7 @@
 // Spatial tape pruning of the field pass (vk/eval/field_tiles.h): the tile plan covers the grid exactly
 // once and prunes real work, and tiled fields are bit for bit the untiled ones on every shipped
 // scene (the pruned subtrees and primitives are exactly 0 in their tiles).
+#include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
@@ -20,6 +21,7 @@
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <variant>
 #include <vector>
 
 namespace blobvk::testing {
@@ -75,6 +77,69 @@ TEST(FieldTiles, PrunedCodeDropsPrimitivesAndSubtreesOutsideTheRegion) {
   EXPECT_EQ(vk::prunedEvaluationCost(m.program, far), 0u);
   const std::string whole = vk::generateSpecialisedEvaluator(m.program, {});
   EXPECT_NE(whole.find("wyvill("), std::string::npos);
+}
+
+// A Ricci blend of random points (power 8): each child is a primitive, its pow, and the add.
+blobtree::Program ricciBlend(int points) {
+  blobtree::Node root = blobtree::generateRandomBlobs(points, 11);
+  std::get<blobtree::Operator>(root.kind) = blobtree::Operator{blobtree::OperatorType::Ricci, 8.0};
+  return blobtree::compile(root);
+}
+
+std::size_t occurrences(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+// llvmpipe's pow costs tens of primitives: the pruned code leaves out the pow of every child it
+// prunes (powField(0, e) is 0), and the cost that plans the tiles counts it so.
+TEST(FieldTiles, PrunedRicciChildrenLeaveTheirPowOut) {
+  const blobtree::Program program = ricciBlend(24);
+  std::size_t pows = 0;
+  for (const auto& in : program.code) pows += (in.code.x & 0xffu) == layout::OP_POW;
+  ASSERT_EQ(pows, 25u);  // one per child and the root
+  // Unrolled, the field and the colour evaluators (the gradient's vertex code is not pruned here).
+  vk::CodegenOptions c;
+  c.loops.enabled = false;
+  c.gradient = false;
+  EXPECT_EQ(occurrences(vk::generateSpecialisedEvaluator(program, c), "powField("), 2 * 25u);
+  // A region around the first child's centre: the children whose boxes it meets keep their pow.
+  const auto& box = program.primitiveBoxes[0];
+  vk::PointRegion near;
+  near.valid = true;
+  for (int a = 0; a < 3; ++a) {
+    const float c = 0.5f * ((&box.lo.x)[a] + (&box.hi.x)[a]);
+    near.lo[a] = c - 0.05f, near.hi[a] = c + 0.05f;
+  }
+  std::size_t kept = 0;
+  for (const auto& b : program.primitiveBoxes) kept += !vk::regionMissesBox(near, b);
+  ASSERT_GE(kept, 1u);
+  ASSERT_LT(kept, 24u);
+  c.region = near;
+  EXPECT_EQ(occurrences(vk::generateSpecialisedEvaluator(program, c), "powField("), 2 * (kept + 1));
+  EXPECT_EQ(vk::prunedEvaluationCost(program, near),
+            kept * (vk::kPrimitiveCost + vk::kPowCost) + 23 + vk::kPowCost + 1);  // 23 adds, the root's pow, the blend's box test
+}
+
+// The same Ricci blend, tiled: its field is the untiled one bit for bit (a left-out pow was an
+// exact 0) and the CPU reference's within float noise (llvmpipe's pow is not the C library's).
+TEST_F(VulkanTest, TiledRicciBlendEqualsTheUntiledFieldBitForBit) {
+  const blobtree::Program program = ricciBlend(24);
+  const blobtree::GridSpec grid = gridAt(program, 40);
+  vk::FieldOptions untiled;
+  untiled.traversal = vk::Traversal::Specialised;
+  untiled.tiling.maxTiles = 1;
+  vk::FieldOptions tiled = untiled;
+  tiled.tiling.maxTiles = 16;
+  tiled.tiling.minGain = 0.0;
+  vk::FieldStats stats;
+  const auto a = vk::evaluateFieldOnGrid(device(), program, grid, untiled);
+  const auto b = vk::evaluateFieldOnGrid(device(), program, grid, tiled, &stats);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_GT(stats.tiles, 1u);
+  EXPECT_LT(maxFieldDifference(b, referenceField(program, grid)), 1e-5f);
+  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0);
 }
 
 class TiledFieldTest : public VulkanTest, public ::testing::WithParamInterface<std::string> {};

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace blobvk::vk {
 namespace {
@@ -43,6 +44,7 @@ class Generator {
       if (colour_) line(1, precise("vec3 ") + col(r) + " = vec3(0.0);");
     }
     for (std::uint32_t q = 1; q < p_.pointRegisters; ++q) line(1, "vec3 " + point(q) + " = p;");
+    zero_.assign(regs, 1);
     emitRange(0, std::uint32_t(p_.code.size()), 1);
     if (colour_) out_ += "  colour = c0;\n";
     out_ += "  return r0;\n}\n\n";
@@ -117,7 +119,8 @@ class Generator {
           checkRegister(in.z, p_.pointRegisters, "point");
           if (in.y >= p_.primitives.size()) throw std::invalid_argument("specialised evaluator: primitive index out of range");
           const auto& prim = p_.primitives[in.y];
-          if (in.z == 0 && in.y < p_.primitiveBoxes.size() && regionMissesBox(options_.region, p_.primitiveBoxes[in.y]))
+          zero_[dst] = in.z == 0 && in.y < p_.primitiveBoxes.size() && regionMissesBox(options_.region, p_.primitiveBoxes[in.y]);
+          if (zero_[dst])
             line(depth, d + " = 0.0;  // pruned: the primitive is 0 in the region");
           else
             line(depth, d + " = " + primitiveField(prim, localPoint(prim.meta.y, in.z)) + ";");
@@ -133,6 +136,7 @@ class Generator {
           checkRegister(dst, regs, "field");
           checkRegister(in.y, regs, "field");
           const std::string b = reg(in.y), cb = col(in.y);
+          zero_[dst] = 0;
           if (op == layout::OP_ADD) {
             if (colour_)
               line(depth, "{ float wa = max(" + d + ", 0.0), wb = max(" + b + ", 0.0); float w = wa + wb; if (w > 0.0) " + c +
@@ -160,10 +164,17 @@ class Generator {
         }
         case layout::OP_ONE_MINUS:
           checkRegister(dst, regs, "field");
+          zero_[dst] = 0;
           line(depth, d + " = 1.0 - " + d + ";");
           break;
         case layout::OP_POW: {
           checkRegister(dst, regs, "field");
+          if (zero_[dst]) {
+            // powField(0, e) is +0 for every e, and pow is the dearest instruction on llvmpipe
+            // (kPowCost): a Ricci blend's pruned children cost nothing.
+            line(depth, "// pruned: " + d + " is 0, and so is its power");
+            break;
+          }
           // GLSL leaves pow(0, y) undefined; std::pow gives 0 for y > 0 (as in eval_body.glsl).
           // The exponent is read from the instruction (a uniform load), not spelled as a literal:
           // with a literal, NIR rewrites pow(x, 4.0) as x*x*x*x (pow is no arithmetic
@@ -191,6 +202,7 @@ class Generator {
           const auto& box = p_.boxes[in.y];
           if (in.z == 0 && regionMissesBox(options_.region, box)) {
             line(depth, d + " = 0.0;" + (colour_ ? " " + c + " = vec3(0.0);" : std::string()) + "  // pruned: outside the region");
+            zero_[dst] = 1;
             pc = target - 1;
             break;
           }
@@ -211,6 +223,7 @@ class Generator {
           }
           line(depth + 1, "if (" + o + ") { " + d + " = 0.0;" + (colour_ ? " " + c + " = vec3(0.0);" : std::string()) + " }");
           line(depth, "}");
+          std::fill(zero_.begin(), zero_.end(), 0);  // the block may or may not have run
           pc = target - 1;
           break;
         }
@@ -223,6 +236,7 @@ class Generator {
   const blobtree::Program& p_;
   CodegenOptions options_;
   bool colour_;
+  std::vector<char> zero_;  // per field register: known to hold +0 here (a pruned primitive or subtree)
   std::string out_;
 };
 
@@ -238,18 +252,29 @@ bool regionMissesBox(const PointRegion& region, const layout::BoxRecord& box) {
 
 std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const PointRegion& region) {
   std::uint32_t count = 0;
+  // Registers known to hold 0 (a pruned primitive or subtree), whose power the code leaves out.
+  std::vector<char> zero(std::max<std::uint32_t>(program.fieldRegisters, 1), 1);
   for (std::size_t pc = 0; pc < program.code.size(); ++pc) {
     const auto& in = program.code[pc].code;
-    const std::uint32_t op = in.x & 0xffu;
+    const std::uint32_t op = in.x & 0xffu, dst = in.x >> 8;
+    char* const known = op != layout::OP_WARP && dst < zero.size() ? &zero[dst] : nullptr;
     if (op == layout::OP_SKIP && in.z == 0 && in.y < program.boxes.size() && in.w > pc &&
         regionMissesBox(region, program.boxes[in.y])) {
+      if (known) *known = 1;
       pc = std::size_t(in.w) - 1;
       continue;
     }
-    if (op == layout::OP_PRIM && in.z == 0 && in.y < program.primitiveBoxes.size() &&
-        regionMissesBox(region, program.primitiveBoxes[in.y]))
+    if (op == layout::OP_SKIP) {  // the subtree may or may not run
+      std::fill(zero.begin(), zero.end(), 0);
+    } else if (op == layout::OP_PRIM && in.z == 0 && in.y < program.primitiveBoxes.size() &&
+               regionMissesBox(region, program.primitiveBoxes[in.y])) {
+      if (known) *known = 1;
       continue;
-    count += op == layout::OP_PRIM || op == layout::OP_WARP ? kPrimitiveCost : 1;
+    } else if (op == layout::OP_POW && known && *known) {
+      continue;
+    }
+    if (known) *known = 0;
+    count += op == layout::OP_PRIM || op == layout::OP_WARP ? kPrimitiveCost : op == layout::OP_POW ? kPowCost : 1;
   }
   return count;
 }

@@ -63,8 +63,14 @@ struct CodegenOptions {
 bool regionMissesBox(const PointRegion& region, const layout::BoxRecord& box);
 
 // Relative cost per point of the evaluator within `region` once pruned as above: a primitive or
-// warp counts kPrimitiveCost, any other instruction 1, what pruning removed 0 (a constant is left).
+// warp counts kPrimitiveCost, a pow (Ricci blend) kPowCost, any other instruction 1, what pruning
+// removed 0 (a constant is left; a pruned primitive's or subtree's pow too). llvmpipe's pow is
+// dear: a blend of 48 random points at 256 cells (one kernel, every row) takes 18 ns a point, and
+// as a Ricci blend, 49 pows more, 282 ns (`blobvk bench S --backend vk --field-tiles 1
+// --no-row-culling`, field_s per evaluated point): 5.4 ns a pow, 72 units of
+// kSpecialisedSecondsPerCost (evaluator_costs.h).
 inline constexpr std::uint32_t kPrimitiveCost = 8;
+inline constexpr std::uint32_t kPowCost = 72;
 std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const PointRegion& region);
 
 // A fingerprint of everything generateSpecialisedEvaluator's output depends on (the records, the
