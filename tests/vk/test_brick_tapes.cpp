@@ -286,5 +286,68 @@ TEST_F(VulkanTest, AutoRunsALoopedFlatBlendsFieldOverBrickTapes) {
   EXPECT_EQ(unrolled.tapeInstructions, 0u) << "unrolled code: no tapes";
 }
 
+// Without field tapes, a looped program's vertex pass may still interpret each vertex's brick's
+// vertex tape where it would run the whole program's looped code (GpuPolygonizeOptions::
+// vertexTapes): the bytes of the looped pass and of the MPU polygonizer, on a flat blend and on a
+// tower of repeated storeys (looped code of 808 instructions, skips it takes).
+TEST_F(VulkanTest, LoopedVertexPassOverVertexTapesGivesTheSameMesh) {
+  blobtree::GridRequest request;
+  request.resolution = 40;
+  struct Case {
+    std::string what;
+    blobtree::Program program;
+  };
+  for (const Case& c : {Case{"flat blend of 300", blobtree::compile(blobtree::generateRandomBlobs(300, 2))},
+                        Case{"tower L3P8G2", blobtree::compile(blobtree::generateTower(3, 8, 6.0, 6.0, 2))}}) {
+    ASSERT_GT(c.program.code.size(), 500u) << c.what;
+    const blobtree::GridSpec grid = blobtree::chooseGrid(c.program, {}, request);
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Specialised;  // looped code on a CPU driver
+    o.maxFieldTiles = 1;
+    vk::GpuStats looped, taped;
+    const mesh::TriMesh a = vk::polygonize(device(), c.program, grid, o, &looped);
+    o.vertexTapes = true;
+    const mesh::TriMesh b = vk::polygonize(device(), c.program, grid, o, &taped);
+    if (device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+      EXPECT_FALSE(looped.vertexTapes) << c.what;
+      EXPECT_TRUE(taped.vertexTapes) << c.what;
+      EXPECT_EQ(taped.tapeInstructions, 0u) << c.what << ": the field keeps its kernel";
+    }
+    ASSERT_GT(a.triangleCount(), 1000u) << c.what;
+    expectSameBytes(b, a, c.what);
+    const mesh::TriMesh cpu = cpu::polygonizeMpu(c.program, grid);
+    EXPECT_TRUE(sameBytes(b.positions, cpu.positions)) << c.what;
+    EXPECT_TRUE(sameBytes(b.normals, cpu.normals)) << c.what;
+    EXPECT_TRUE(sameBytes(b.colours, cpu.colours)) << c.what;
+    EXPECT_TRUE(sameBytes(b.triangles, cpu.triangles)) << c.what;
+  }
+}
+
+// Auto takes the vertex tapes for a looped program where a point of a brick would run many times
+// its brick's tape: a flat blend (1,200 instructions, nothing looped code can skip; tens on a
+// tape), not a tower of repeated storeys (its skips leave about a tape's worth).
+TEST_F(VulkanTest, AutoTakesVertexTapesForLoopedFlatBlendsNotTowers) {
+  if (device().info().type != VK_PHYSICAL_DEVICE_TYPE_CPU) GTEST_SKIP() << "the model's constants are lavapipe's";
+  blobtree::GridRequest request;
+  request.resolution = 64;
+  auto resolve = [&](const blobtree::Program& program) {
+    const blobtree::GridSpec grid = blobtree::chooseGrid(program, {}, request);
+    vk::GpuStats cs;
+    const vk::ClassifiedBricks classified =
+        vk::classifyAndCompact(device(), program, grid, vk::brickGridFor(grid, 16), cs);
+    vk::GpuPolygonizeOptions o;  // Auto
+    o.brickTapeUniforms = false;  // no field tapes: the vertex pass's choice alone
+    return vk::resolveSparseEvaluator(device(), program, grid, o, &classified);
+  };
+  const vk::SparseEvaluator flat = resolve(blobtree::compile(blobtree::generateRandomBlobs(600, 1)));
+  EXPECT_EQ(flat.traversal, vk::Traversal::Specialised);
+  EXPECT_FALSE(flat.brickTapes);
+  EXPECT_TRUE(flat.vertexTapes);
+  EXPECT_TRUE(flat.apply({}).vertexTapes);
+  const vk::SparseEvaluator tower = resolve(blobtree::compile(blobtree::generateTower(3, 8, 6.0, 6.0, 2)));
+  EXPECT_EQ(tower.traversal, vk::Traversal::Specialised);
+  EXPECT_FALSE(tower.vertexTapes);
+}
+
 }  // namespace
 }  // namespace blobvk::testing

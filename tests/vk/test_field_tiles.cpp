@@ -118,8 +118,48 @@ TEST(FieldTiles, PrunedRicciChildrenLeaveTheirPowOut) {
   ASSERT_LT(kept, 24u);
   c.region = near;
   EXPECT_EQ(occurrences(vk::generateSpecialisedEvaluator(program, c), "powField("), 2 * (kept + 1));
-  EXPECT_EQ(vk::prunedEvaluationCost(program, near),
-            kept * (vk::kPrimitiveCost + vk::kPowCost) + 23 + vk::kPowCost + 1);  // 23 adds, the root's pow, the blend's box test
+  // Each kept child its primitive, its pow and (past the first) its add; each run of pruned
+  // children one add of 0; the root's pow; the blend's box test.
+  std::uint32_t expected = vk::kPowCost + 1;
+  bool inRun = false;
+  for (std::size_t i = 0; i < 24; ++i) {
+    const bool pruned = vk::regionMissesBox(near, program.primitiveBoxes[i]);
+    if (!pruned) expected += vk::kPrimitiveCost + vk::kPowCost + (i > 0 ? 1 : 0);
+    if (pruned && i > 0 && !inRun) ++expected;
+    inRun = pruned && i > 0;
+  }
+  ASSERT_FALSE(vk::regionMissesBox(near, program.primitiveBoxes[0]));
+  EXPECT_EQ(vk::prunedEvaluationCost(program, near), expected);
+}
+
+// A flat blend pruned to a region: each run of children that are 0 there is one addition of 0 in
+// the field code (the bits of adding each), so a tile of a blend of hundreds of points unrolls.
+TEST(FieldTiles, PrunedBlendChildrenFoldIntoOneAdditionPerRun) {
+  const blobtree::Program program = blobtree::compile(blobtree::generateRandomBlobs(24, 11));
+  const auto& box = program.primitiveBoxes[0];
+  vk::PointRegion near;
+  near.valid = true;
+  for (int a = 0; a < 3; ++a) {
+    const float c = 0.5f * ((&box.lo.x)[a] + (&box.hi.x)[a]);
+    near.lo[a] = c - 0.05f, near.hi[a] = c + 0.05f;
+  }
+  // The blend's box test, the first child, two per kept child after it, one per run of pruned ones.
+  std::uint32_t expected = 2, runs = 0;
+  bool inRun = false;
+  for (std::size_t i = 1; i < 24; ++i) {
+    const bool pruned = vk::regionMissesBox(near, program.primitiveBoxes[i]);
+    expected += pruned ? (inRun ? 0 : 1) : 2;
+    runs += pruned && !inRun;
+    inRun = pruned;
+  }
+  ASSERT_GT(runs, 0u);
+  EXPECT_EQ(vk::prunedInstructionCount(program, near), expected);
+  EXPECT_EQ(vk::branchedInstructionCount(program, near), program.code.size()) << "looped code runs them all";
+  vk::CodegenOptions c;
+  c.loops.enabled = false;
+  c.gradient = false;
+  c.region = near;
+  EXPECT_EQ(occurrences(vk::generateSpecialisedEvaluator(program, c), "+ 0.0;  // pruned: children"), runs);
 }
 
 // The same Ricci blend, tiled: its field is the untiled one bit for bit (a left-out pow was an

@@ -77,7 +77,7 @@ EvaluatedWork branchingWork(const blobtree::Program& program, const blobtree::Gr
         }
         if (points <= 0.0) continue;
         w.points += points;
-        w.work += points * double(prunedInstructionCount(program, regionOfPoints(grid, first, last)));
+        w.work += points * double(branchedInstructionCount(program, regionOfPoints(grid, first, last)));
       }
   return w;
 }

@@ -30,6 +30,35 @@ std::string precise(const char* type) { return std::string("precise ") + type; }
 // The unrolled code's view of the instruction buffer.
 constexpr const char* kCodeArray = "C";
 
+// A run of children that are 0 in the region, each added into one register: from `pc`, groups of
+// a primitive pruned into b, optionally its pow (a Ricci child: pow of 0 is 0), and the OP_ADD of
+// b into a (the same a throughout, b dead after it: the register code consumes each operand
+// once), stopping before `end`. Returns the instructions the run spans (0: none) and sets `a`.
+// Adding +0 any number of times gives the bits of adding it once (x, or +0 for -0), so the field
+// code spells the run as one `a + 0.0`: a flat blend pruned to a tile keeps only its near points.
+std::uint32_t nullAddRun(const blobtree::Program& program, const PointRegion& region, std::uint32_t pc,
+                         std::uint32_t end, std::uint32_t& a) {
+  std::uint32_t at = pc;
+  bool any = false;
+  while (at < end) {
+    const layout::uvec4& prim = program.code[at].code;
+    if ((prim.x & 0xffu) != layout::OP_PRIM || prim.z != 0 || prim.y >= program.primitiveBoxes.size() ||
+        !regionMissesBox(region, program.primitiveBoxes[prim.y]))
+      break;
+    const std::uint32_t b = prim.x >> 8;
+    std::uint32_t next = at + 1;
+    if (next < end && (program.code[next].code.x & 0xffu) == layout::OP_POW && (program.code[next].code.x >> 8) == b) ++next;
+    if (next >= end) break;
+    const layout::uvec4& add = program.code[next].code;
+    const std::uint32_t into = add.x >> 8;
+    if ((add.x & 0xffu) != layout::OP_ADD || add.y != b || into == b || (any && into != a)) break;
+    a = into;
+    any = true;
+    at = next + 1;
+  }
+  return at - pc;
+}
+
 class Generator {
  public:
   Generator(const blobtree::Program& program, const CodegenOptions& options, bool colour)
@@ -116,6 +145,15 @@ class Generator {
       switch (op) {
         case layout::OP_PRIM: {
           checkRegister(dst, regs, "field");
+          std::uint32_t into = 0;
+          if (const std::uint32_t run = colour_ ? 0 : nullAddRun(p_, options_.region, pc, end, into); run > 0) {
+            checkRegister(into, regs, "field");
+            // (The colour evaluator keeps each pair: its zero-weight colour blend is not an identity.)
+            line(depth, reg(into) + " = " + reg(into) + " + 0.0;  // pruned: children that are 0 in the region");
+            for (std::uint32_t k = pc; k < pc + run; ++k) zero_[p_.code[k].code.x >> 8] = 0;
+            pc += run - 1;
+            break;
+          }
           checkRegister(in.z, p_.pointRegisters, "point");
           if (in.y >= p_.primitives.size()) throw std::invalid_argument("specialised evaluator: primitive index out of range");
           const auto& prim = p_.primitives[in.y];
@@ -264,6 +302,16 @@ std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const Point
       pc = std::size_t(in.w) - 1;
       continue;
     }
+    if (op == layout::OP_PRIM) {
+      std::uint32_t into = 0;
+      if (const std::uint32_t run = nullAddRun(program, region, std::uint32_t(pc), std::uint32_t(program.code.size()), into); run > 0) {
+        for (std::size_t k = pc; k < pc + run; ++k)
+          if ((program.code[k].code.x >> 8) < zero.size()) zero[program.code[k].code.x >> 8] = 0;
+        count += 1;  // the one add of 0
+        pc += run - 1;
+        continue;
+      }
+    }
     if (op == layout::OP_SKIP) {  // the subtree may or may not run
       std::fill(zero.begin(), zero.end(), 0);
     } else if (op == layout::OP_PRIM && in.z == 0 && in.y < program.primitiveBoxes.size() &&
@@ -314,13 +362,34 @@ std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const Codeg
   return evaluatorFingerprint(programFingerprint(program), options);
 }
 
-std::uint32_t prunedInstructionCount(const blobtree::Program& program, const PointRegion& region) {
+std::uint32_t branchedInstructionCount(const blobtree::Program& program, const PointRegion& region) {
   std::uint32_t count = 0;
   for (std::size_t pc = 0; pc < program.code.size(); ++pc, ++count) {
     const auto& in = program.code[pc].code;
     if ((in.x & 0xffu) == layout::OP_SKIP && in.z == 0 && in.y < program.boxes.size() && in.w > pc &&
         regionMissesBox(region, program.boxes[in.y]))
       pc = std::size_t(in.w) - 1;
+  }
+  return count;
+}
+
+std::uint32_t prunedInstructionCount(const blobtree::Program& program, const PointRegion& region) {
+  std::uint32_t count = 0;
+  const std::uint32_t n = std::uint32_t(program.code.size());
+  std::vector<std::uint32_t> open;  // the targets of the skips whose subtrees the walk is in
+  for (std::uint32_t pc = 0; pc < n; ++count) {
+    while (!open.empty() && open.back() <= pc) open.pop_back();
+    const auto& in = program.code[pc].code;
+    if ((in.x & 0xffu) == layout::OP_SKIP && in.z == 0 && in.y < program.boxes.size() && in.w > pc && in.w <= n) {
+      if (regionMissesBox(region, program.boxes[in.y])) {
+        pc = in.w;
+        continue;
+      }
+      open.push_back(in.w);
+    }
+    std::uint32_t into = 0;
+    const std::uint32_t run = nullAddRun(program, region, pc, open.empty() ? n : open.back(), into);
+    pc += std::max(run, 1u);
   }
   return count;
 }

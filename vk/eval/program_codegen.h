@@ -81,9 +81,13 @@ std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const Codeg
 std::uint64_t programFingerprint(const blobtree::Program& program);
 std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const CodegenOptions& options);
 
-// Instructions of the generated code once pruned to `region` (what kMaxSpecialisedInstructions
-// limits): a pruned subtree or primitive counts as one.
+// Instructions of the generated field code once pruned to `region` (what kMaxSpecialisedInstructions
+// limits and what decides loops): a pruned subtree or primitive counts as one, and so does a run
+// of children pruned out of one blend (spelled as one addition of 0).
 std::uint32_t prunedInstructionCount(const blobtree::Program& program, const PointRegion& region);
+// Instructions a point runs in `region` where the evaluator branches on skips (the interpreter,
+// looped code): the program less the subtrees whose boxes the region misses.
+std::uint32_t branchedInstructionCount(const blobtree::Program& program, const PointRegion& region);
 
 // Instructions the generated code spells out for the program pruned to `region`, with loops as
 // in `loops` (a shared function counts once): what compile time grows with.

@@ -82,7 +82,7 @@ std::uint64_t vertexPassLoopIterations(const blobtree::Program& program, const G
   // The generated gradient's loops over runs of pruned primitives' colour blends
   // (vk/eval/gradient_codegen.cpp, nullAdds): at most one iteration per instruction.
   const bool generated = vertexEvaluator.traversal == Traversal::Specialised && generatedGradient;
-  return evaluations + (generated || options.brickTapes ? program.code.size() : 0);
+  return evaluations + (generated || options.brickTapes || options.vertexTapes ? program.code.size() : 0);
 }
 
 // Whether a job with `options` fits `limit`: its vertex pass, and its field pass with bricks of

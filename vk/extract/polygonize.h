@@ -117,8 +117,14 @@ struct GpuPolygonizeOptions {
   bool hostPassesOnCpuDevices = true;
   // Sparse: the field pass interprets, per brick, the program pruned to the brick on the host
   // (vk/extract/brick_tapes.h) instead of the traversal's field kernel or field tiles; the vertex
-  // pass keeps the traversal's kernel. The same mesh byte for byte.
+  // pass, where it would interpret the gradient, interprets each vertex's brick's vertex tape.
+  // The same mesh byte for byte.
   bool brickTapes = false;
+  // Sparse, without brickTapes: a vertex pass that would run the whole program's looped code
+  // (a long program on a CPU driver) interprets each vertex's brick's vertex tape instead (the
+  // same mesh). Auto sets it where the bricks' tapes are a small part of what looped code runs
+  // (flat blends of hundreds of points; not towers, whose skips the looped code takes).
+  bool vertexTapes = false;
   // With brickTapes: the tapes and the records they use in uniform blocks by windows of bricks
   // where the device's uniform range allows (vk/extract/brick_tapes.h); false: in one storage
   // buffer beside the program's records (what a batch whose tape is over a block falls back to).

@@ -228,6 +228,7 @@ struct SparseBatchRunner::State {
   // brick_vertices_direct_tapes) where it would interpret the whole program: the batch's tapes
   // on the host and on the device (grown as batches need), each brick's range.
   bool vertexTapes = false;
+  const blobtree::Program* vertexTapeProgram = nullptr;
   BrickTapes vertexTapeSet;
   Buffer vertexTapeCode, vertexTapeRanges;
   // The storage-buffer tape kernel, for a batch whose tapes do not fit uniform blocks.
@@ -287,15 +288,18 @@ struct SparseBatchRunner::State {
       s.tapeInstructions += tapes.instructions;
       s.tapeWords += tapes.code.size();
     }
-    if (vertexTapes) {
-      buildBrickTapes(*tapeProgram, grid, bg, packed, gpu.emptyBox, vertexTapeSet, TapeUse::Vertex);
-      const std::uint64_t codeBytes = vertexTapeSet.code.size() * sizeof(layout::Instruction);
-      reserve(vertexTapeCode, std::max<std::uint64_t>(codeBytes, 16), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "vertex tapes");
-      device.upload(vertexTapeCode, vertexTapeSet.code.data(), codeBytes);
-      device.upload(vertexTapeRanges, vertexTapeSet.ranges.data(), 4ull * vertexTapeSet.ranges.size());
-    }
     s.tapeSeconds += std::chrono::duration<double>(Clock::now() - start).count();
     return uniform;
+  }
+  // Builds and uploads the vertex tapes of the batch's bricks (`packed`).
+  void uploadVertexTapes(std::span<const std::uint32_t> packed, const GpuProgram& gpu, GpuStats& s) {
+    const auto start = Clock::now();
+    buildBrickTapes(*vertexTapeProgram, grid, bg, packed, gpu.emptyBox, vertexTapeSet, TapeUse::Vertex);
+    const std::uint64_t codeBytes = vertexTapeSet.code.size() * sizeof(layout::Instruction);
+    reserve(vertexTapeCode, std::max<std::uint64_t>(codeBytes, 16), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "vertex tapes");
+    device.upload(vertexTapeCode, vertexTapeSet.code.data(), codeBytes);
+    device.upload(vertexTapeRanges, vertexTapeSet.ranges.data(), 4ull * vertexTapeSet.ranges.size());
+    s.tapeSeconds += std::chrono::duration<double>(Clock::now() - start).count();
   }
   DeviceTimer timer;
   std::uint32_t runs = 0, maxBatches = 0;
@@ -370,8 +374,7 @@ struct SparseBatchRunner::State {
       tiles = planBrickTiles(program, g, bg, o.maxFieldTiles, o.maxFieldTilesForLoopedCode, gpu.codegen.loops);
     // The vertex pass per field tile: only with the generated gradient (an interpreted one gains
     // nothing from a pruned field) and more than one tile.
-    const bool tileable = generated && tiles.size() > 1;
-    bool tiledVertices = tileable && o.sparseVertexTiles;
+    bool tileable = generated && tiles.size() > 1;
     const std::uint64_t print = tiles.size() > 1 ? (gpu.fingerprint ? gpu.fingerprint : programFingerprint(program)) : 0;
     const std::uint32_t wg = o.workgroupSize;
     // Tile t's vertex kernel: pruned to its box where the generator takes the pruned program,
@@ -388,6 +391,12 @@ struct SparseBatchRunner::State {
     const std::vector<char> ownTile =
         specialiseTiles(program, print ? print : gpu.fingerprint, regions, gpu.codegen.loops);
     auto ownTileKernel = [ownTile](std::size_t t) { return ownTile[t] != 0; };
+    // ... and only where every tile's code unrolls: looped code generates no gradient, and a
+    // looped tile's vertex kernel would interpret it from the storage buffers (a flat blend of 600
+    // points at 256 cells: 69 s against 2.7 s for the vertex tapes).
+    for (std::size_t t = 0; tileable && t < tiles.size(); ++t)
+      tileable = ownTileKernel(t) && !specialisedCodeLoops(program, tiles[t].region, gpu.codegen.loops);
+    bool tiledVertices = tileable && o.sparseVertexTiles;
     // Runs on the vertex kernels' thread, after this constructor: the program is gpu's copy.
     auto buildVertexTile = [this, print, tiledVertexShader, wg, traversal, ownTileKernel,
                             tileCodegen](std::size_t t) -> KernelPtr {
@@ -455,12 +464,16 @@ struct SparseBatchRunner::State {
     // embedded one, without samples from uniform blocks where the program fits them.
     const bool interpretUntilBuilt = vertexGenerated && o.interpretVertexPassUntilBuilt && !vertexKernelsBuilt() &&
                                      !device.backgroundBuildDone(backgroundKey);
-    // With the field's tapes, a vertex pass that would interpret the whole program interprets
-    // each brick's vertex tape instead (a flat blend of 600 points: a few tens of instructions a
-    // vertex instead of 1,200; the same bits).
-    vertexTapes = o.brickTapes && !samples && traversal != Traversal::StackBased && !vertexGenerated && !tiledVertices &&
-                  (o.normals || o.colours);
-    if (vertexTapes) vertexTapeRanges = make(std::uint64_t(maxLoaded) * 8, "vertex tape ranges");
+    // With the field's tapes, or where asked for a looped program (GpuPolygonizeOptions::
+    // vertexTapes), a vertex pass that would interpret the whole program interprets each brick's
+    // vertex tape instead (a flat blend of 600 points: a few tens of instructions a vertex instead
+    // of 1,200; the same bits).
+    vertexTapes = (o.brickTapes || (loopedVertexPass && o.vertexTapes)) && !samples && traversal != Traversal::StackBased &&
+                  !vertexGenerated && !tiledVertices && (o.normals || o.colours);
+    if (vertexTapes) {
+      vertexTapeProgram = &program;
+      vertexTapeRanges = make(std::uint64_t(maxLoaded) * 8, "vertex tape ranges");
+    }
     if (!vertexTapes && !samples && traversal != Traversal::StackBased && o.uniformVertexProgram &&
         (!vertexGenerated || interpretUntilBuilt))
       vertexUniforms = uploadUniformProgram(device, program);
@@ -629,7 +642,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const Groups columnGroups = groupsFor(std::uint64_t(loaded) * R, wg);  // the row passes: a lane per column of rows
   s.fieldTiles = std::uint32_t(st.tiles.size());
   // The batch's brick list on the host, for the tiles' order, the tapes and row culling.
-  if (st.tiles.size() > 1 || st.tapeProgram || st.cullRows) {
+  if (st.tiles.size() > 1 || st.tapeProgram || st.vertexTapes || st.cullRows) {
     st.batchPacked.resize(loaded);
     device.download(window->list, st.batchPacked.data(), 4ull * loaded, 4ull * windowActive);
   }
@@ -655,6 +668,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     s.fieldEvaluations += std::uint64_t(loaded) * P;
   }
   const bool uniformTapes = st.tapeProgram && st.uploadTapes(st.batchPacked, gpu, s);
+  if (st.vertexTapes) st.uploadVertexTapes(st.batchPacked, gpu, s);
   // The vertex pass per tile: each batch brick's tile, for brick_vertex_tile_counts and _lists.
   const std::vector<KernelPtr>& vertexTiles = st.vertexTiles();
   s.vertexTiles = std::uint32_t(vertexTiles.size());

@@ -331,7 +331,7 @@ RegionKernel regionKernel(const blobtree::Program& program, std::uint64_t finger
   return memo.get(key, [&] {
     RegionKernel k;
     k.codeSize = double(specialisedCodeSize(program, region, loops));
-    k.prunedInstructions = double(prunedInstructionCount(program, region));
+    k.prunedInstructions = double(branchedInstructionCount(program, region));
     k.prunedCost = double(prunedEvaluationCost(program, region));
     k.loops = specialisedCodeLoops(program, region, loops);
     return k;
@@ -341,17 +341,35 @@ RegionKernel regionKernel(const blobtree::Program& program, std::uint64_t finger
 // Instructions the per-brick tapes (brick_tapes.h) hold over the active bricks, each brick's tape
 // counted once: from up to kSampledBricks bricks at a regular stride through the list (the same
 // job gives the same figure), scaled to all. Building them is a host walk of milliseconds.
+constexpr std::size_t kSampledBricks = 2048;
+std::size_t sampleStride(const EvaluatedBricks& evaluated) {
+  return (evaluated.bricks.size() + kSampledBricks - 1) / kSampledBricks;
+}
 double activeTapeInstructions(const blobtree::Program& program, const blobtree::GridSpec& grid, const BrickGrid& bricks,
                               const EvaluatedBricks& evaluated) {
-  constexpr std::size_t kSampledBricks = 2048;
   const std::size_t n = evaluated.bricks.size();
   if (n == 0) return 0.0;
-  const std::size_t stride = (n + kSampledBricks - 1) / kSampledBricks;
   std::vector<std::uint32_t> packed;
-  for (std::size_t i = 0; i < n; i += stride) packed.push_back(bricks.pack(evaluated.bricks[i]));
+  for (std::size_t i = 0; i < n; i += sampleStride(evaluated)) packed.push_back(bricks.pack(evaluated.bricks[i]));
   BrickTapes tapes;
   buildBrickTapes(program, grid, bricks, packed, std::uint32_t(program.boxes.size()), tapes);
   return double(tapes.instructions) * double(n) / double(packed.size());
+}
+// The same for what a point of each brick runs where the code branches on skips (looped code):
+// the program less the subtrees whose boxes miss the brick (branchedInstructionCount).
+double activeBranchedInstructions(const blobtree::Program& program, const blobtree::GridSpec& grid,
+                                  const EvaluatedBricks& evaluated) {
+  const std::size_t n = evaluated.bricks.size();
+  if (n == 0) return 0.0;
+  const std::uint32_t B = evaluated.cells;
+  double sum = 0.0;
+  std::size_t sampled = 0;
+  for (std::size_t i = 0; i < n; i += sampleStride(evaluated), ++sampled) {
+    const auto& b = evaluated.bricks[i];
+    sum += double(branchedInstructionCount(
+        program, regionOfPoints(grid, {b[0] * B, b[1] * B, b[2] * B}, {b[0] * B + B, b[1] * B + B, b[2] * B + B})));
+  }
+  return sum * double(n) / double(sampled);
 }
 }  // namespace
 
@@ -479,15 +497,28 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
     // blocks (the rate's; from a storage buffer they run several times slower). Tiles split until they
     // unroll run several times faster than tapes once built (tower_L6P8I4 at 128 cells: field
     // 0.05 s against 2.2 s a run), so where the split pays the tapes are not considered.
+    // How much looped code runs against the bricks' tapes, beyond which the vertex pass takes them.
+    constexpr double kVertexTapeShare = 8.0;
+    double tapeInstructions = -1.0;  // over the active bricks, once counted
     if (whole.loops && !options.brickTapes && e.loopedTileCap == 0 && options.brickTapeUniforms &&
         device.info().limits.maxUniformBufferRange >= kUniformTapeBlock) {
       const bool fits = brickCellsWithinLoopLimit(evaluated.cells, evaluationLoopBound(program, Traversal::Stackless, nullptr),
                                                   loopIterationLimit(device.info())) == evaluated.cells;
       const double takenTotal = taken.run + kTileBuildShare * (wholeBuild + taken.extraBuild);
-      e.brickTapes = fits && costs::kTapeSecondsPerInstruction * pointsPerBrick * double(job.repeats) *
-                                     activeTapeInstructions(program, grid, classified->bricks, evaluated) <
+      tapeInstructions = activeTapeInstructions(program, grid, classified->bricks, evaluated);
+      e.brickTapes = fits && costs::kTapeSecondsPerInstruction * pointsPerBrick * double(job.repeats) * tapeInstructions <
                                  takenTotal;
       if (e.brickTapes) e.fieldTiles = false, e.fieldTileCap = 0;
+    }
+    // A looped program's vertex pass runs the whole program's looped code unless its tiles unroll
+    // (vertex tiles) or it interprets per-brick vertex tapes: taken where a point of a brick would
+    // run many times its brick's tape (a flat blend, which looped code cannot skip: 600 points at
+    // 256 cells, 72 times, vertex pass 8 s longer looped; towers, whose skips the looped code
+    // takes, about once, and their looped pass is as fast or faster: tower L3P8G2 at 256 cells
+    // 1.1-1.4 s against 1.8-1.9 s with tapes).
+    if (whole.loops && !e.brickTapes && (options.normals || options.colours)) {
+      if (tapeInstructions < 0.0) tapeInstructions = activeTapeInstructions(program, grid, classified->bricks, evaluated);
+      e.vertexTapes = activeBranchedInstructions(program, grid, evaluated) > kVertexTapeShare * tapeInstructions;
     }
   }
   return e;
@@ -508,6 +539,7 @@ GpuPolygonizeOptions SparseEvaluator::apply(const GpuPolygonizeOptions& options)
   else if (fieldTileCap > 0) resolved.maxFieldTiles = fieldTileCap;
   resolved.maxFieldTilesForLoopedCode = fieldTiles ? loopedTileCap : 0;
   resolved.brickTapes = options.brickTapes || brickTapes;
+  resolved.vertexTapes = options.vertexTapes || vertexTapes;
   resolved.interpretVertexPassUntilBuilt = options.interpretVertexPassUntilBuilt || interpretVertexPassUntilBuilt;
   return resolved;
 }

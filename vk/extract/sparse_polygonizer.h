@@ -113,6 +113,9 @@ struct SparseEvaluator {
   // kLoopedAboveInstructionsOnCpu instructions) runs faster over per-brick tapes
   // (options.brickTapes) than over its looped code or the tiles it splits into.
   bool brickTapes = false;
+  // Under Auto on CPU drivers, without brickTapes: true where a looped program's vertex pass runs
+  // faster over per-brick vertex tapes (options.vertexTapes) than over its looped code.
+  bool vertexTapes = false;
   bool interpretVertexPassUntilBuilt = false;  // EvaluatorEstimate's
   void report(GpuStats& stats) const;
   // `options` with this evaluator; its codegen points into this object, which must outlive it.
