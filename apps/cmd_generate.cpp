@@ -12,6 +12,7 @@
 #include <CLI/CLI.hpp>
 
 #include <charconv>
+#include <variant>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -103,6 +104,7 @@ void addGenerateCommand(CLI::App& app) {
   struct Random {
     int count = 128;
     std::uint64_t seed = 1;
+    double ricci = 0.0;  // 0: a plain blend
     std::string out;
   };
   auto random = std::make_shared<Random>();
@@ -119,10 +121,16 @@ void addGenerateCommand(CLI::App& app) {
                        : "'" + text + "' is not a whole number from 0 to 2^64 - 1";
           },
           "UINT64"));
+  r->add_option("--ricci", random->ricci,
+                 "Join the points with a Ricci blend of this power, (sum f^n)^(1/n), instead of a blend (sum f)")
+      ->check(finiteRange(0.01, 1000.0));
   r->add_option("-o,--output", random->out, "Output .json (- for standard output)")->required();
   r->callback([random] {
     checkOutput(random->out);
-    save(blobtree::generateRandomBlobs(random->count, random->seed), "random", random->out, "--count/--seed");
+    blobtree::Node root = blobtree::generateRandomBlobs(random->count, random->seed);
+    if (random->ricci > 0.0)
+      std::get<blobtree::Operator>(root.kind) = blobtree::Operator{blobtree::OperatorType::Ricci, random->ricci};
+    save(root, "random", random->out, "--count/--seed/--ricci");
   });
 }
 

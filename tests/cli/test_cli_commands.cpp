@@ -39,6 +39,30 @@ class CliCommands : public ::testing::Test {
   static void SetUpTestSuite() { setenv("LP_NUM_THREADS", "2", 0); }
 };
 
+// `generate random --ricci N` joins the same points with a Ricci blend of power N: the scene
+// file says so, and its field is (sum f^N)^(1/N) of the plain blend's children, so at N = 1 both
+// scenes mesh alike and at N = 8 the Ricci blend's surface lies inside the blend's.
+TEST_F(CliCommands, GenerateRandomRicciJoinsThePointsWithARicciBlend) {
+  const fs::path cwd = dir("ricci");
+  ASSERT_EQ(runCliSplit("generate random --count 12 --seed 4 -o plain.json", cwd).status, 0);
+  ASSERT_EQ(runCliSplit("generate random --count 12 --seed 4 --ricci 8 -o ricci.json", cwd).status, 0);
+  const nlohmann::json plain = nlohmann::json::parse(std::ifstream(cwd / "plain.json"));
+  const nlohmann::json ricci = nlohmann::json::parse(std::ifstream(cwd / "ricci.json"));
+  EXPECT_EQ(plain["root"]["type"], "blend");
+  EXPECT_EQ(ricci["root"]["type"], "ricci");
+  EXPECT_EQ(ricci["root"]["power"], 8.0);
+  EXPECT_EQ(plain["root"]["children"], ricci["root"]["children"]);
+  auto volume = [&](const std::string& scene) {
+    const CliSplitRun r = runCliSplit("mesh " + scene + " --resolution 40 -q --json -o m.ply", cwd);
+    EXPECT_EQ(r.status, 0) << r.err;
+    return nlohmann::json::parse(r.out)["check"]["volume"].get<double>();
+  };
+  EXPECT_LT(volume("ricci.json"), 0.95 * volume("plain.json"));
+  const CliSplitRun bad = runCliSplit("generate random --ricci 0 -o r.json", cwd);
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.err.find("--ricci"), std::string::npos) << bad.err;
+}
+
 TEST_F(CliCommands, InfoJsonCountsWhatTheFileHolds) {
   const fs::path cwd = dir("info");
   ASSERT_EQ(runCliSplit("generate random --count 7 --seed 3 -o r.json", cwd).status, 0);
