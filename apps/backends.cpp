@@ -158,7 +158,7 @@ namespace {
 vk::GpuPolygonizeOptions gpuOptions(const PolygonizeSettings& settings, const blobtree::Program& program) {
   vk::GpuPolygonizeOptions options;
   // On llvmpipe the field pass skips the rows the CPU backend's bound proves one-sided, where the
-  // device's values are the CPU's bits (no pow, sin or cos), so that the bound holds for them.
+  // bound holds for the device's values (no sin or cos; Ricci powers within a margin).
   if (settings.rowCulling && cpu::ColumnSides::boundsHoldOnIeeeDevices(program)) {
     options.columnSides = [sides = std::make_shared<cpu::ColumnSides>(program)](
                               const float* x, std::uint32_t nx, const float* y, const float* z, std::uint32_t n,

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -50,6 +51,13 @@ bool hasPow(const blobtree::Program& program) {
 }  // namespace
 
 bool ColumnSides::boundsHoldOnIeeeDevices(const blobtree::Program& program) {
+  for (const layout::Instruction& in : program.code) {
+    if ((in.code.x & 0xffu) != layout::OP_POW) continue;
+    // A power whose result a device may flush to 0 where the CPU keeps the smallest normal float
+    // (or the reverse) moves a Ricci blend by up to 2^(-126/e): at most half the margin.
+    const double e = std::bit_cast<float>(in.code.w);
+    if (!(e > 0.0) || std::exp2(-126.0 / e) > 0.5 * kPowDeviceMargin) return false;
+  }
   for (const layout::WarpRecord& w : program.warps)
     if (w.meta.x == layout::WARP_TWIST || w.meta.x == layout::WARP_BEND) return false;
   return true;

@@ -19,15 +19,18 @@ class ColumnSides {
   // Whether these bounds contain an IEEE device's values (lavapipe: IEEE division and sqrt), not
   // only the CPU's. Without Ricci blends and twist or bend warps the device evaluates the program
   // bit for bit as the CPU does. A Ricci blend's pow differs from the C library's in the last
-  // bits: the sides then keep kPowDeviceMargin between the bound and the iso-value. Twist and
-  // bend warps (sin, cos) move the point the rest of the program sees: no bound is claimed.
+  // bits: the sides then keep kPowDeviceMargin between the bound and the iso-value, which holds
+  // for powers up to 8.8: above, a child's power that one side flushes to 0 (below the smallest
+  // normal float) and the other keeps moves the blend by 2^(-126/n), over half the margin
+  // (0.0043 at n = 16), so no bound is claimed. Twist and bend warps (sin, cos) move the point
+  // the rest of the program sees: no bound is claimed.
   static bool boundsHoldOnIeeeDevices(const blobtree::Program& program);
 
   // The margin, in field units, between a proven side's bound and the iso-value for programs
   // with a Ricci blend, on top of the bounds' own rounding margin (1e-4 of the value): the row
   // culling that uses these sides runs on llvmpipe only, whose fields of such programs differ from
   // the CPU's by under 1e-6 of the value past 1 (tests/vk/test_row_culling.cpp holds Ricci blends
-  // of powers 0.5 to 32 and the legacy tower fragment to a hundredth of this margin).
+  // of powers 0.5 to 8 and the legacy tower fragment to a hundredth of this margin).
   static constexpr double kPowDeviceMargin = 1e-4;
 
   // `program` must outlive the object.

@@ -2,6 +2,7 @@
 // point of a column given a side has that side (blobtree::evaluate at every point of the
 // column's closed box), called from one thread and from many at once.
 #include "blobvk/blobtree/evaluate.h"
+#include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
@@ -13,8 +14,10 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <random>
 #include <string>
+#include <variant>
 #include <vector>
 
 namespace blobvk {
@@ -112,6 +115,18 @@ TEST(ColumnSides, HoldOnIeeeDevicesOnlyWithoutSinAndCos) {
   // A Ricci blend (pow) alone: the sides keep kPowDeviceMargin from the iso-value.
   EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(
       blobtree::compile(blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/legacy/tower_fragment.blob").root)));
+  // Up to power 8.8: above, a child's power flushed to 0 on one side only moves the blend by
+  // 2^(-126/n), more than half the margin.
+  auto ricci = [](double power) {
+    blobtree::Node root = blobtree::generateRandomBlobs(6, 3);
+    std::get<blobtree::Operator>(root.kind) = blobtree::Operator{blobtree::OperatorType::Ricci, power};
+    return blobtree::compile(root);
+  };
+  EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(ricci(0.5)));
+  EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(ricci(8.0)));
+  EXPECT_FALSE(cpu::ColumnSides::boundsHoldOnIeeeDevices(ricci(16.0)));
+  EXPECT_GT(std::exp2(-126.0 / 16.0), 0.5 * cpu::ColumnSides::kPowDeviceMargin);
+  EXPECT_LT(std::exp2(-126.0 / 8.0), 0.5 * cpu::ColumnSides::kPowDeviceMargin);
 }
 
 }  // namespace

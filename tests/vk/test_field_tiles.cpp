@@ -133,7 +133,7 @@ TEST(FieldTiles, PrunedRicciChildrenLeaveTheirPowOut) {
 }
 
 // A flat blend pruned to a region: each run of children that are 0 there is one addition of 0 in
-// the field code (the bits of adding each), so a tile of a blend of hundreds of points unrolls.
+// the generated code (the bits of adding each), so a tile of a blend of hundreds of points unrolls.
 TEST(FieldTiles, PrunedBlendChildrenFoldIntoOneAdditionPerRun) {
   const blobtree::Program program = blobtree::compile(blobtree::generateRandomBlobs(24, 11));
   const auto& box = program.primitiveBoxes[0];
@@ -159,7 +159,10 @@ TEST(FieldTiles, PrunedBlendChildrenFoldIntoOneAdditionPerRun) {
   c.loops.enabled = false;
   c.gradient = false;
   c.region = near;
-  EXPECT_EQ(occurrences(vk::generateSpecialisedEvaluator(program, c), "+ 0.0;  // pruned: children"), runs);
+  // In the field and the colour evaluators; the colour's blend repeated to its fixed point in a loop.
+  const std::string code = vk::generateSpecialisedEvaluator(program, c);
+  EXPECT_EQ(occurrences(code, "+ 0.0;  // pruned: children"), 2 * runs);
+  EXPECT_EQ(occurrences(code, "for (uint k = 0u; k < "), runs);
 }
 
 // The same Ricci blend, tiled: its field is the untiled one bit for bit (a left-out pow was an

@@ -108,7 +108,7 @@ TEST_F(VulkanTest, RowCullingGivesTheMeshOfEveryRow) {
 }
 
 // Programs with Ricci blends (pow, whose llvmpipe results differ from the C library's in the last
-// bits): the legacy tower fragment and blends of random points under Ricci powers from 0.5 to 32.
+// bits): the legacy tower fragment and blends of random points under Ricci powers from 0.5 to 8.
 struct RicciModel {
   std::string name;
   blobtree::Program program;
@@ -125,7 +125,7 @@ std::vector<RicciModel> ricciModels(int resolution) {
     m.grid = blobtree::chooseGrid(m.program, scene.grid, request);
     models.push_back(std::move(m));
   }
-  for (const double power : {0.5, 2.0, 8.0, 32.0}) {
+  for (const double power : {0.5, 2.0, 8.0}) {  // (higher powers: ColumnSides claims no bound)
     blobtree::Node root = blobtree::generateRandomBlobs(24, 7);
     std::get<blobtree::Operator>(root.kind) = blobtree::Operator{blobtree::OperatorType::Ricci, power};
     RicciModel m{"24 points, Ricci " + std::to_string(power), blobtree::compile(root), {}};

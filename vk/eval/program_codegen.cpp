@@ -146,9 +146,27 @@ class Generator {
         case layout::OP_PRIM: {
           checkRegister(dst, regs, "field");
           std::uint32_t into = 0;
-          if (const std::uint32_t run = colour_ ? 0 : nullAddRun(p_, options_.region, pc, end, into); run > 0) {
+          if (const std::uint32_t run = nullAddRun(p_, options_.region, pc, end, into); run > 0) {
             checkRegister(into, regs, "field");
-            // (The colour evaluator keeps each pair: its zero-weight colour blend is not an identity.)
+            std::uint32_t children = 0;
+            for (std::uint32_t k = pc; k < pc + run; ++k) {
+              checkRegister(p_.code[k].code.x >> 8, regs, "field");
+              children += (p_.code[k].code.x & 0xffu) == layout::OP_ADD;
+            }
+            if (colour_) {
+              // Each child's blend maps the colour c -> (c * wa + cb * 0) / w with the same wa
+              // and w (a + 0 is a unless a is a zero, and then w is 0 and nothing blends; cb * 0
+              // is +0 for every primitive's colour): repeated until it leaves c's bits alone, at
+              // most once a child (as the generated gradient's runs, gradient_codegen.cpp).
+              const std::string ra = reg(into), ca = col(into);
+              line(depth, "{ float wa = max(" + ra + ", 0.0); float w = wa + 0.0; if (w > 0.0) {");
+              line(depth + 1, "for (uint k = 0u; k < " + std::to_string(children) + "u; ++k) {");
+              line(depth + 2, "EVAL_LOOP_TICK();");
+              line(depth + 2, "precise vec3 next = (" + ca + " * wa + vec3(0.0)) / w;");
+              line(depth + 2, "if (all(equal(floatBitsToUint(next), floatBitsToUint(" + ca + ")))) break;");
+              line(depth + 2, ca + " = next;");
+              line(depth + 1, "} } }");
+            }
             line(depth, reg(into) + " = " + reg(into) + " + 0.0;  // pruned: children that are 0 in the region");
             for (std::uint32_t k = pc; k < pc + run; ++k) zero_[p_.code[k].code.x >> 8] = 0;
             pc += run - 1;
@@ -289,41 +307,49 @@ bool regionMissesBox(const PointRegion& region, const layout::BoxRecord& box) {
 }
 
 std::uint32_t prunedEvaluationCost(const blobtree::Program& program, const PointRegion& region) {
+  // The walk the generator makes (Generator::emitRange): a skip's subtree a range of its own,
+  // registers known to hold 0 (a pruned primitive or subtree), whose power the code leaves out,
+  // forgotten after a subtree (it may or may not have run).
   std::uint32_t count = 0;
-  // Registers known to hold 0 (a pruned primitive or subtree), whose power the code leaves out.
   std::vector<char> zero(std::max<std::uint32_t>(program.fieldRegisters, 1), 1);
-  for (std::size_t pc = 0; pc < program.code.size(); ++pc) {
-    const auto& in = program.code[pc].code;
-    const std::uint32_t op = in.x & 0xffu, dst = in.x >> 8;
-    char* const known = op != layout::OP_WARP && dst < zero.size() ? &zero[dst] : nullptr;
-    if (op == layout::OP_SKIP && in.z == 0 && in.y < program.boxes.size() && in.w > pc &&
-        regionMissesBox(region, program.boxes[in.y])) {
-      if (known) *known = 1;
-      pc = std::size_t(in.w) - 1;
-      continue;
-    }
-    if (op == layout::OP_PRIM) {
-      std::uint32_t into = 0;
-      if (const std::uint32_t run = nullAddRun(program, region, std::uint32_t(pc), std::uint32_t(program.code.size()), into); run > 0) {
-        for (std::size_t k = pc; k < pc + run; ++k)
-          if ((program.code[k].code.x >> 8) < zero.size()) zero[program.code[k].code.x >> 8] = 0;
-        count += 1;  // the one add of 0
-        pc += run - 1;
+  auto known = [&](std::uint32_t r) -> char* { return r < zero.size() ? &zero[r] : nullptr; };
+  const std::uint32_t n = std::uint32_t(program.code.size());
+  auto walk = [&](auto&& self, std::uint32_t begin, std::uint32_t end) -> void {
+    for (std::uint32_t pc = begin; pc < end; ++pc) {
+      const auto& in = program.code[pc].code;
+      const std::uint32_t op = in.x & 0xffu, dst = in.x >> 8;
+      if (op == layout::OP_SKIP && in.w > pc && in.w <= end) {
+        if (in.z == 0 && in.y < program.boxes.size() && regionMissesBox(region, program.boxes[in.y])) {
+          if (char* z = known(dst)) *z = 1;
+        } else {
+          count += 1;  // the box test
+          self(self, pc + 1, in.w);
+          std::fill(zero.begin(), zero.end(), 0);
+        }
+        pc = in.w - 1;
         continue;
       }
+      if (op == layout::OP_PRIM) {
+        std::uint32_t into = 0;
+        if (const std::uint32_t run = nullAddRun(program, region, pc, end, into); run > 0) {
+          for (std::uint32_t k = pc; k < pc + run; ++k)
+            if (char* z = known(program.code[k].code.x >> 8)) *z = 0;
+          count += 1;  // the one addition of 0
+          pc += run - 1;
+          continue;
+        }
+        if (in.z == 0 && in.y < program.primitiveBoxes.size() && regionMissesBox(region, program.primitiveBoxes[in.y])) {
+          if (char* z = known(dst)) *z = 1;
+          continue;
+        }
+      }
+      if (op == layout::OP_POW && known(dst) && *known(dst)) continue;
+      if (op != layout::OP_WARP)
+        if (char* z = known(dst)) *z = 0;
+      count += op == layout::OP_PRIM || op == layout::OP_WARP ? kPrimitiveCost : op == layout::OP_POW ? kPowCost : 1;
     }
-    if (op == layout::OP_SKIP) {  // the subtree may or may not run
-      std::fill(zero.begin(), zero.end(), 0);
-    } else if (op == layout::OP_PRIM && in.z == 0 && in.y < program.primitiveBoxes.size() &&
-               regionMissesBox(region, program.primitiveBoxes[in.y])) {
-      if (known) *known = 1;
-      continue;
-    } else if (op == layout::OP_POW && known && *known) {
-      continue;
-    }
-    if (known) *known = 0;
-    count += op == layout::OP_PRIM || op == layout::OP_WARP ? kPrimitiveCost : op == layout::OP_POW ? kPowCost : 1;
-  }
+  };
+  walk(walk, 0, n);
   return count;
 }
 
