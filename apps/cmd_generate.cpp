@@ -12,7 +12,6 @@
 #include <CLI/CLI.hpp>
 
 #include <charconv>
-#include <variant>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -127,10 +126,9 @@ void addGenerateCommand(CLI::App& app) {
   r->add_option("-o,--output", random->out, "Output .json (- for standard output)")->required();
   r->callback([random] {
     checkOutput(random->out);
-    blobtree::Node root = blobtree::generateRandomBlobs(random->count, random->seed);
-    if (random->ricci > 0.0)
-      std::get<blobtree::Operator>(root.kind) = blobtree::Operator{blobtree::OperatorType::Ricci, random->ricci};
-    save(root, "random", random->out, "--count/--seed/--ricci");
+    save(random->ricci > 0.0 ? blobtree::generateRandomRicciBlobs(random->count, random->seed, random->ricci)
+                             : blobtree::generateRandomBlobs(random->count, random->seed),
+         "random", random->out, "--count/--seed/--ricci");
   });
 }
 

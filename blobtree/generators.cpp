@@ -146,4 +146,11 @@ Node generateRandomBlobs(int n, std::uint64_t seed) {
   return operatorNode(OperatorType::Blend, std::move(points), "blobs");
 }
 
+Node generateRandomRicciBlobs(int n, std::uint64_t seed, double power) {
+  if (!(power > 0.0)) throw std::invalid_argument("generateRandomRicciBlobs: power must be > 0");
+  Node root = generateRandomBlobs(n, seed);
+  std::get<Operator>(root.kind) = Operator{OperatorType::Ricci, power};
+  return root;
+}
+
 }  // namespace blobvk::blobtree

@@ -22,6 +22,10 @@ Node generateEggshell();
 // by SplitMix64 from `seed`. Throws std::invalid_argument for n < 1.
 Node generateRandomBlobs(int n, std::uint64_t seed);
 
+// The same points joined by a Ricci blend of `power` (> 0), (sum f^power)^(1/power), instead of
+// a blend. Throws std::invalid_argument for n < 1 or a power that is not positive.
+Node generateRandomRicciBlobs(int n, std::uint64_t seed, double power);
+
 // Vigna's SplitMix64: tiny, fast and fully specified, so generated models do not depend on the
 // standard library's distributions (which are implementation-defined).
 class SplitMix64 {

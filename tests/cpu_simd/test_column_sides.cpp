@@ -17,7 +17,6 @@
 #include <cmath>
 #include <random>
 #include <string>
-#include <variant>
 #include <vector>
 
 namespace blobvk {
@@ -117,11 +116,7 @@ TEST(ColumnSides, HoldOnIeeeDevicesOnlyWithoutSinAndCos) {
       blobtree::compile(blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/legacy/tower_fragment.blob").root)));
   // Up to power 8.8: above, a child's power flushed to 0 on one side only moves the blend by
   // 2^(-126/n), more than half the margin.
-  auto ricci = [](double power) {
-    blobtree::Node root = blobtree::generateRandomBlobs(6, 3);
-    std::get<blobtree::Operator>(root.kind) = blobtree::Operator{blobtree::OperatorType::Ricci, power};
-    return blobtree::compile(root);
-  };
+  auto ricci = [](double power) { return blobtree::compile(blobtree::generateRandomRicciBlobs(6, 3, power)); };
   EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(ricci(0.5)));
   EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(ricci(8.0)));
   EXPECT_FALSE(cpu::ColumnSides::boundsHoldOnIeeeDevices(ricci(16.0)));

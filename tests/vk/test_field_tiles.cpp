@@ -21,7 +21,6 @@
 #include <cstring>
 #include <filesystem>
 #include <string>
-#include <variant>
 #include <vector>
 
 namespace blobvk::testing {
@@ -80,10 +79,19 @@ TEST(FieldTiles, PrunedCodeDropsPrimitivesAndSubtreesOutsideTheRegion) {
 }
 
 // A Ricci blend of random points (power 8): each child is a primitive, its pow, and the add.
-blobtree::Program ricciBlend(int points) {
-  blobtree::Node root = blobtree::generateRandomBlobs(points, 11);
-  std::get<blobtree::Operator>(root.kind) = blobtree::Operator{blobtree::OperatorType::Ricci, 8.0};
-  return blobtree::compile(root);
+blobtree::Program ricciBlend(int points) { return blobtree::compile(blobtree::generateRandomRicciBlobs(points, 11, 8.0)); }
+
+// A small region around the centre of the program's first primitive's box: it meets that
+// primitive and a few of its neighbours.
+vk::PointRegion regionAroundFirstPrimitive(const blobtree::Program& program) {
+  const auto& box = program.primitiveBoxes[0];
+  vk::PointRegion near;
+  near.valid = true;
+  for (int a = 0; a < 3; ++a) {
+    const float c = 0.5f * ((&box.lo.x)[a] + (&box.hi.x)[a]);
+    near.lo[a] = c - 0.05f, near.hi[a] = c + 0.05f;
+  }
+  return near;
 }
 
 std::size_t occurrences(const std::string& text, const std::string& what) {
@@ -105,13 +113,7 @@ TEST(FieldTiles, PrunedRicciChildrenLeaveTheirPowOut) {
   c.gradient = false;
   EXPECT_EQ(occurrences(vk::generateSpecialisedEvaluator(program, c), "powField("), 2 * 25u);
   // A region around the first child's centre: the children whose boxes it meets keep their pow.
-  const auto& box = program.primitiveBoxes[0];
-  vk::PointRegion near;
-  near.valid = true;
-  for (int a = 0; a < 3; ++a) {
-    const float c = 0.5f * ((&box.lo.x)[a] + (&box.hi.x)[a]);
-    near.lo[a] = c - 0.05f, near.hi[a] = c + 0.05f;
-  }
+  const vk::PointRegion near = regionAroundFirstPrimitive(program);
   std::size_t kept = 0;
   for (const auto& b : program.primitiveBoxes) kept += !vk::regionMissesBox(near, b);
   ASSERT_GE(kept, 1u);
@@ -136,13 +138,7 @@ TEST(FieldTiles, PrunedRicciChildrenLeaveTheirPowOut) {
 // the generated code (the bits of adding each), so a tile of a blend of hundreds of points unrolls.
 TEST(FieldTiles, PrunedBlendChildrenFoldIntoOneAdditionPerRun) {
   const blobtree::Program program = blobtree::compile(blobtree::generateRandomBlobs(24, 11));
-  const auto& box = program.primitiveBoxes[0];
-  vk::PointRegion near;
-  near.valid = true;
-  for (int a = 0; a < 3; ++a) {
-    const float c = 0.5f * ((&box.lo.x)[a] + (&box.hi.x)[a]);
-    near.lo[a] = c - 0.05f, near.hi[a] = c + 0.05f;
-  }
+  const vk::PointRegion near = regionAroundFirstPrimitive(program);
   // The blend's box test, the first child, two per kept child after it, one per run of pruned ones.
   std::uint32_t expected = 2, runs = 0;
   bool inRun = false;

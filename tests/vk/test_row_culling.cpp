@@ -23,7 +23,6 @@
 #include <cmath>
 #include <memory>
 #include <string>
-#include <variant>
 #include <vector>
 
 namespace blobvk::testing {
@@ -126,9 +125,8 @@ std::vector<RicciModel> ricciModels(int resolution) {
     models.push_back(std::move(m));
   }
   for (const double power : {0.5, 2.0, 8.0}) {  // (higher powers: ColumnSides claims no bound)
-    blobtree::Node root = blobtree::generateRandomBlobs(24, 7);
-    std::get<blobtree::Operator>(root.kind) = blobtree::Operator{blobtree::OperatorType::Ricci, power};
-    RicciModel m{"24 points, Ricci " + std::to_string(power), blobtree::compile(root), {}};
+    RicciModel m{"24 points, Ricci " + std::to_string(power),
+                 blobtree::compile(blobtree::generateRandomRicciBlobs(24, 7, power)), {}};
     m.grid = gridAt(m.program, resolution);
     models.push_back(std::move(m));
   }
