@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace blobvk::cpu {
 namespace bounds_detail {
@@ -81,6 +82,59 @@ FieldInterval primitiveBounds(const blobtree::Program& program,
   return {tLo * tLo * tLo, tHi * tHi * tHi};
 }
 
+namespace {
+// The (u, v) box of the points of the rectangle [u0, u1] x [v0, v1] turned by every angle in
+// [t0, t1] (either order), r being the distance of its farthest corner from the origin. A disc of
+// radius r unless the rectangle leaves out the origin and the angles (the rectangle's own, plus
+// the turn, plus a margin for the float angle and sin/cos) span less than a quarter turn: then
+// the box of that annular sector, from its four end points and the directions of the axes it
+// reaches at radius r. The caller pads the result for the rotation's float rounding.
+struct Sector {
+  double lo[2], hi[2];
+};
+Sector twistSector(double u0, double u1, double v0, double v1, double t0, double t1, double r) {
+  const Sector disc{{-r, -r}, {r, r}};
+  if (t0 > t1) std::swap(t0, t1);
+  // The reference computes the angle in float (k * p[a]) and its sine and cosine with libm's
+  // float functions: a few ulps of the angle, and an absolute slack for sin and cos.
+  const double slack = 1e-6 * (std::max(std::abs(t0), std::abs(t1)) + 1.0);
+  const double turn = t1 - t0 + 2.0 * slack;
+  if (!(turn < 0.5 * std::numbers::pi) || !std::isfinite(turn)) return disc;
+  if (u0 <= 0.0 && u1 >= 0.0 && v0 <= 0.0 && v1 >= 0.0) return disc;  // the axis crosses the box
+  // Nearest distance of the rectangle from the origin, and its corners' angles about the angle of
+  // its centre (a rectangle that leaves out the origin spans less than half a turn seen from it).
+  const double nu = std::clamp(0.0, u0, u1), nv = std::clamp(0.0, v0, v1);
+  const double rmin = std::sqrt(nu * nu + nv * nv);
+  const double centre = std::atan2(0.5 * (v0 + v1), 0.5 * (u0 + u1));
+  double f0 = std::numbers::pi, f1 = -std::numbers::pi;
+  for (const double cu : {u0, u1})
+    for (const double cv : {v0, v1}) {
+      double f = std::atan2(cv, cu) - centre;
+      if (f > std::numbers::pi) f -= 2.0 * std::numbers::pi;
+      if (f < -std::numbers::pi) f += 2.0 * std::numbers::pi;
+      f0 = std::min(f0, f), f1 = std::max(f1, f);
+    }
+  const double from = centre + f0 + t0 - slack, to = centre + f1 + t1 + slack;
+  if (!(to - from < 1.5 * std::numbers::pi)) return disc;
+  Sector s{{kInf, kInf}, {-kInf, -kInf}};
+  auto take = [&](double radius, double angle) {
+    const double pu = radius * std::cos(angle), pv = radius * std::sin(angle);
+    s.lo[0] = std::min(s.lo[0], pu), s.hi[0] = std::max(s.hi[0], pu);
+    s.lo[1] = std::min(s.lo[1], pv), s.hi[1] = std::max(s.hi[1], pv);
+  };
+  for (const double radius : {rmin, r}) take(radius, from), take(radius, to);
+  // The directions of the axes (multiples of a quarter turn) within the sector's angles.
+  const double quarter = 0.5 * std::numbers::pi;
+  for (double q = std::ceil(from / quarter) * quarter; q <= to; q += quarter) take(r, q);
+  // cos and sin of the end angles round too: a relative margin on top of the caller's padding.
+  for (int i = 0; i < 2; ++i) {
+    const double m = 1e-9 * r;
+    s.lo[i] = std::max(s.lo[i] - m, -r), s.hi[i] = std::min(s.hi[i] + m, r);
+  }
+  return s;
+}
+}  // namespace
+
 Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Box b) {
   if (warp.meta.w != 0u) b = transform(program.matrices[warp.meta.w], b);
   if (!b.finite()) return b;
@@ -88,13 +142,17 @@ Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Bo
   const double k = warp.params.x;
   switch (warp.meta.x) {
     case layout::WARP_TWIST: {
-      // A rotation about axis a keeps the coordinate along a and the distance from the axis.
+      // A rotation about axis a by k * p[a] keeps the coordinate along a and the distance from
+      // the axis (the disc of the farthest corner), and turns the box's cross-section by an angle
+      // within k times its extent along a: where that cross-section lies off the axis and the
+      // angles stay short of a quarter turn, the box of the rotated annular sector.
       const unsigned u = (a + 1u) % 3u, v = (a + 2u) % 3u;
       const double mu = std::max(std::abs(b.lo[u]), std::abs(b.hi[u]));
       const double mv = std::max(std::abs(b.lo[v]), std::abs(b.hi[v]));
       const double r = std::sqrt(mu * mu + mv * mv);
-      b.lo[u] = b.lo[v] = -r;
-      b.hi[u] = b.hi[v] = r;
+      const Sector sector = twistSector(b.lo[u], b.hi[u], b.lo[v], b.hi[v], k * b.lo[a], k * b.hi[a], r);
+      b.lo[u] = sector.lo[0], b.hi[u] = sector.hi[0];
+      b.lo[v] = sector.lo[1], b.hi[v] = sector.hi[1];
       return pad(b);
     }
     case layout::WARP_TAPER: {

@@ -802,9 +802,8 @@ def main():
     w(cmd("bench_cpu"))
     w(cpu_table(cpu_rows) if cpu_rows else "_(not measured)_")
     # Several invocations of the command, which the script runs once: as the page has it.
-    w("\nRows vary by up to 1.3x between invocations of this command: at 384 cells the fastest of four\n"
-      "invocations is 35.2 (tower), 36.6 (random128) and 23.0 (eggshell) ns/tri on 2 threads, 70.3,\n"
-      "73.5 and 45.1 on one.\n")
+    w("\nRows vary by up to 1.5x between invocations of this command and spells of this shared machine\n"
+      "(tower at 384 cells on one thread: 96 to 118 ms): compare within a table.\n")
     if chart_ns_per_triangle(cpu_rows, vk_rows, os.path.join(charts, "ns_per_triangle.png")):
         w("\n![ns per triangle against resolution](performance/ns_per_triangle.png)\n")
     phase_rows = bench_rows(os.path.join(results, "bench_phases.json"))
