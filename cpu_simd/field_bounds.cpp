@@ -88,12 +88,22 @@ namespace {
 // radius r unless the rectangle leaves out the origin and the angles (the rectangle's own, plus
 // the turn, plus a margin for the float angle and sin/cos) span less than a quarter turn: then
 // the box of that annular sector, from its four end points and the directions of the axes it
-// reaches at radius r. The caller pads the result for the rotation's float rounding.
+// reaches at radius r. Both grow by kTrigPositionMargin r for a device's sin and cos; the caller
+// pads the result for the rotation's float rounding.
+//
+// Vulkan allows sin and cos an absolute error of 2^-11 within [-pi, pi], which moves a turned
+// point by up to 2 * 2^-11 r (under 1e-3 r) from the exact one: with that margin the bound holds
+// for any conformant device's twist there, and for llvmpipe's at any angle (its sin and cos
+// reduce the angle first, and err by about 1e-7: tests/vk/test_row_culling.cpp), so that its
+// row culling and host classification run on twisted programs (ColumnSides::
+// boundsHoldOnIeeeDevices). It costs the CPU's bound a thousandth of the radius.
+constexpr double kTrigPositionMargin = 1e-3;
 struct Sector {
   double lo[2], hi[2];
 };
 Sector twistSector(double u0, double u1, double v0, double v1, double t0, double t1, double r) {
-  const Sector disc{{-r, -r}, {r, r}};
+  const double reach = r * (1.0 + kTrigPositionMargin);
+  const Sector disc{{-reach, -reach}, {reach, reach}};
   if (t0 > t1) std::swap(t0, t1);
   // The reference computes the angle in float (k * p[a]) and its sine and cosine with libm's
   // float functions: a few ulps of the angle, and an absolute slack for sin and cos.
@@ -126,10 +136,10 @@ Sector twistSector(double u0, double u1, double v0, double v1, double t0, double
   // The directions of the axes (multiples of a quarter turn) within the sector's angles.
   const double quarter = 0.5 * std::numbers::pi;
   for (double q = std::ceil(from / quarter) * quarter; q <= to; q += quarter) take(r, q);
-  // cos and sin of the end angles round too: a relative margin on top of the caller's padding.
+  // A device's sin and cos (and this function's own, a few ulps) move the point: the margin.
   for (int i = 0; i < 2; ++i) {
-    const double m = 1e-9 * r;
-    s.lo[i] = std::max(s.lo[i] - m, -r), s.hi[i] = std::min(s.hi[i] + m, r);
+    const double m = kTrigPositionMargin * r;
+    s.lo[i] = std::max(s.lo[i] - m, -reach), s.hi[i] = std::min(s.hi[i] + m, reach);
   }
   return s;
 }
