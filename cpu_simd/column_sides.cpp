@@ -58,10 +58,7 @@ bool ColumnSides::boundsHoldOnIeeeDevices(const blobtree::Program& program) {
     const double e = std::bit_cast<float>(in.code.w);
     if (!(e > 0.0) || std::exp2(-126.0 / e) > 0.5 * kPowDeviceMargin) return false;
   }
-  // A twist's bound keeps a margin for the device's sin and cos (field_bounds.cpp); a bend's
-  // (sin and cos of the arc) does not.
-  for (const layout::WarpRecord& w : program.warps)
-    if (w.meta.x == layout::WARP_BEND) return false;
+  // Twists and bends: their bounds keep a margin for the device's sin and cos (field_bounds.cpp).
   return true;
 }
 

@@ -22,10 +22,9 @@ class ColumnSides {
   // bits: the sides then keep kPowDeviceMargin between the bound and the iso-value, which holds
   // for powers up to 8.8: above, a child's power that one side flushes to 0 (below the smallest
   // normal float) and the other keeps moves the blend by 2^(-126/n), over half the margin
-  // (0.0043 at n = 16), so no bound is claimed. A twist's sin and cos move the point the rest of
-  // the program sees: its bound keeps a thousandth of the radius for them (more than Vulkan's
-  // 2^-11 error of sin and cos allows; llvmpipe's are about 1e-7). A bend's bound claims
-  // nothing.
+  // (0.0043 at n = 16), so no bound is claimed. The sin and cos of twists and bends move the
+  // point the rest of the program sees: their bounds keep a thousandth of the radius of the turn
+  // for them (more than Vulkan's 2^-11 error of sin and cos allows; llvmpipe's are about 1e-7).
   static bool boundsHoldOnIeeeDevices(const blobtree::Program& program);
 
   // The margin, in field units, between a proven side's bound and the iso-value for programs

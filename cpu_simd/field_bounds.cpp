@@ -95,7 +95,7 @@ namespace {
 // point by up to 2 * 2^-11 r (under 1e-3 r) from the exact one: with that margin the bound holds
 // for any conformant device's twist there, and for llvmpipe's at any angle (its sin and cos
 // reduce the angle first, and err by about 1e-7: tests/vk/test_row_culling.cpp), so that its
-// row culling and host classification run on twisted programs (ColumnSides::
+// row culling and host classification run on twisted and bent programs (ColumnSides::
 // boundsHoldOnIeeeDevices). It costs the CPU's bound a thousandth of the radius.
 constexpr double kTrigPositionMargin = 1e-3;
 struct Sector {
@@ -177,8 +177,24 @@ Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Bo
       b.lo[a] += s.lo, b.hi[a] += s.hi;
       return pad(b);
     }
-    default:  // bend: not worth a tight bound
-      return Box::everything();
+    case layout::WARP_BEND: {
+      // The reference maps p to (c0, 1/k) + R(theta) (beyond, p[c] - 1/k): a turn by theta =
+      // k (clamp(p[a], lo, hi) - c0) of how far p lies past the bent region along a (`beyond`,
+      // 0 within it) and from the arc's centre line towards c. Bounding theta and the rectangle of
+      // (beyond, p[c] - 1/k) apart is conservative; the turn's bound is the twist's.
+      if (k == 0.0) return pad(b);
+      const double c0 = warp.params.y, lo = warp.params.z, hi = warp.params.w, invK = 1.0 / k;
+      const double y0 = std::clamp(b.lo[a], lo, hi), y1 = std::clamp(b.hi[a], lo, hi);
+      const double u0 = b.lo[a] - y0, u1 = b.hi[a] - y1;  // `beyond` grows with p[a]
+      const double v0 = b.lo[c] - invK, v1 = b.hi[c] - invK;
+      const double r = std::sqrt(std::max(u0 * u0, u1 * u1) + std::max(v0 * v0, v1 * v1));
+      const Sector sector = twistSector(u0, u1, v0, v1, k * (y0 - c0), k * (y1 - c0), r);
+      b.lo[a] = sector.lo[0] + c0, b.hi[a] = sector.hi[0] + c0;
+      b.lo[c] = sector.lo[1] + invK, b.hi[c] = sector.hi[1] + invK;
+      return pad(b);
+    }
+    default:  // unknown: the reference leaves the point as it is
+      return pad(b);
   }
 }
 

@@ -106,12 +106,12 @@ TEST(ColumnSides, ManyThreadsAtOnceGiveOneThreadsSides) {
   EXPECT_EQ(serial, parallel);
 }
 
-TEST(ColumnSides, HoldOnIeeeDevicesWithoutBends) {
+TEST(ColumnSides, HoldOnIeeeDevicesWithTwistsAndBends) {
   EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(shipped("tower", 16).program));
   EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(shipped("random128", 16).program));
-  // A twist's bound keeps a margin for the device's sin and cos; a bend's claims nothing.
+  // Twists' and bends' bounds keep a margin for the device's sin and cos.
   EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(shipped("twisted_column", 16).program));
-  EXPECT_FALSE(cpu::ColumnSides::boundsHoldOnIeeeDevices(shipped("creature", 16).program));
+  EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(shipped("creature", 16).program));
   // A Ricci blend (pow) alone: the sides keep kPowDeviceMargin from the iso-value.
   EXPECT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(
       blobtree::compile(blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/legacy/tower_fragment.blob").root)));

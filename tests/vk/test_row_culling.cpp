@@ -208,12 +208,34 @@ TEST_F(VulkanTest, IncrementalExtractionIgnoresARowCullingBound) {
   expectSameBytes(inc.reset(s.program), whole, "incremental extractor with a wrong bound");
 }
 
-// Twisted programs: their bound turns a box by the twist's angles with a margin of a thousandth of
-// the radius for a device's sin and cos (cpu_simd/field_bounds.cpp), llvmpipe's being far within
-// it. Shipped twisted_column (in a Ricci blend, with tapers), a twisted intersection, and blends
-// twisted from half a radian a unit to twenty, off the axis.
-std::vector<RicciModel> twistedModels(int resolution) {
+// Twisted and bent programs: their bounds turn a box by the warp's angles with a margin of a
+// thousandth of the radius for a device's sin and cos (cpu_simd/field_bounds.cpp), llvmpipe's
+// being far within it. Shipped twisted_column (in a Ricci blend, with tapers) and creature (a bend
+// over a union of 19 primitives), a twisted intersection, blends twisted from half a radian a
+// unit to twenty, off the axis, and a blend bent over part of its length and over all of it.
+std::vector<RicciModel> turnedModels(int resolution) {
   std::vector<RicciModel> models;
+  {
+    ShippedScene s = shipped("creature", resolution);
+    models.push_back({"creature", s.program, s.grid});
+  }
+  for (const bool region : {true, false}) {
+    std::vector<blobtree::Node> points;
+    for (int i = 0; i < 8; ++i) points.push_back(pointAt({-1.4 + 0.4 * i, 0.1 * (i % 3), 0.0}));
+    blobtree::Warp w;
+    w.type = blobtree::WarpType::Bend;
+    w.axis = 0, w.otherAxis = 1, w.factor = 0.6, w.centre = -0.5;
+    if (region) w.lo = -1.0, w.hi = 0.8;
+    const blobtree::Program p =
+        blobtree::compile(blobtree::Node{w, "", {}, {combine(blobtree::OperatorType::Blend, points)}});
+    blobtree::GridSettings bounds;  // a bend is unbounded to compile(): the box it bends within
+    bounds.boundsLo = glm::dvec3(-3.0, -3.0, -1.5);
+    bounds.boundsHi = glm::dvec3(3.0, 3.0, 1.5);
+    blobtree::GridRequest request;
+    request.resolution = resolution;
+    models.push_back({region ? "blend bent over part of its length" : "blend bent over all of it", p,
+                      blobtree::chooseGrid(p, bounds, request)});
+  }
   {
     ShippedScene s = shipped("twisted_column", resolution);
     models.push_back({"twisted_column", s.program, s.grid});
@@ -242,12 +264,12 @@ std::vector<RicciModel> twistedModels(int resolution) {
   return models;
 }
 
-// llvmpipe's twisted fields differ from the CPU's by what its sin and cos move the points, about
-// 1e-7 of the radius: under 1e-5 of the value (past 1), where the bound's margin would allow
+// llvmpipe's twisted and bent fields differ from the CPU's by what its sin and cos move the points,
+// about 1e-7 of the radius: under 1e-5 of the value (past 1), where the bounds' margin would allow
 // differences of the order of 1e-3 of the radius times the field's slope.
-TEST_F(VulkanTest, LlvmpipeTwistedFieldsDifferFromTheCpuByLastBitsOfSinAndCos) {
+TEST_F(VulkanTest, LlvmpipeTurnedFieldsDifferFromTheCpuByLastBitsOfSinAndCos) {
   if (!device().info().isLlvmpipe()) GTEST_SKIP() << "row culling runs on llvmpipe only";
-  for (const RicciModel& m : twistedModels(64)) {
+  for (const RicciModel& m : turnedModels(64)) {
     ASSERT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(m.program)) << m.name;
     const auto points = m.grid.points();
     vk::FieldOptions o;
@@ -269,11 +291,11 @@ TEST_F(VulkanTest, LlvmpipeTwistedFieldsDifferFromTheCpuByLastBitsOfSinAndCos) {
   }
 }
 
-// With that bound the culled rows of twisted programs give the bytes of every row, the host's
-// classification drops the bricks the bound proves, and the mesh is the CPU reference's.
-TEST_F(VulkanTest, RowCullingOfTwistedProgramsGivesTheMeshOfEveryRow) {
+// With those bounds the culled rows of twisted and bent programs give the bytes of every row, the
+// host's classification drops the bricks the bounds prove, and the mesh is the CPU reference's.
+TEST_F(VulkanTest, RowCullingOfTwistedAndBentProgramsGivesTheMeshOfEveryRow) {
   if (!device().info().isLlvmpipe()) GTEST_SKIP() << "row culling runs on llvmpipe only";
-  for (const RicciModel& m : twistedModels(64)) {
+  for (const RicciModel& m : turnedModels(64)) {
     const auto sides = std::make_shared<cpu::ColumnSides>(m.program);
     const mesh::TriMesh reference = cpu::polygonizeReference(m.program, m.grid, {});
     for (const std::uint32_t batchBricks : {0u, 7u}) {
