@@ -84,12 +84,15 @@ FieldInterval primitiveBounds(const blobtree::Program& program,
 
 namespace {
 // The (u, v) box of the points of the rectangle [u0, u1] x [v0, v1] turned by every angle in
-// [t0, t1] (either order), r being the distance of its farthest corner from the origin. A disc of
-// radius r unless the rectangle leaves out the origin and the angles (the rectangle's own, plus
-// the turn, plus a margin for the float angle and sin/cos) span less than a quarter turn: then
-// the box of that annular sector, from its four end points and the directions of the axes it
-// reaches at radius r. Both grow by kTrigPositionMargin r for a device's sin and cos; the caller
-// pads the result for the rotation's float rounding.
+// [t0, t1] (either order), r being the distance of its farthest corner from the origin: the
+// intersection of three boxes that each hold them all. The disc of radius r. The rectangle turned
+// by the middle angle (its corners' box), grown by r times half the span (a chord is shorter than
+// its arc): tight where the span is short beside the rectangle's own angles. Where the rectangle
+// leaves out the origin and the angles (the rectangle's own, plus the turn) span less than a
+// quarter turn, the box of that annular sector (its four end points and the directions of the
+// axes it reaches at radius r): tight where the turn is long. The angles keep a margin for the
+// reference's float angle and sin/cos, the boxes kTrigPositionMargin r for a device's sin and
+// cos; the caller pads the result for the rotation's float rounding.
 //
 // Vulkan allows sin and cos an absolute error of 2^-11 within [-pi, pi], which moves a turned
 // point by up to 2 * 2^-11 r (under 1e-3 r) from the exact one: with that margin the bound holds
@@ -102,17 +105,33 @@ struct Sector {
   double lo[2], hi[2];
 };
 Sector twistSector(double u0, double u1, double v0, double v1, double t0, double t1, double r) {
-  const double reach = r * (1.0 + kTrigPositionMargin);
-  const Sector disc{{-reach, -reach}, {reach, reach}};
+  const double m = kTrigPositionMargin * r, reach = r + m;
+  Sector s{{-reach, -reach}, {reach, reach}};
   if (t0 > t1) std::swap(t0, t1);
   // The reference computes the angle in float (k * p[a]) and its sine and cosine with libm's
   // float functions: a few ulps of the angle, and an absolute slack for sin and cos.
   const double slack = 1e-6 * (std::max(std::abs(t0), std::abs(t1)) + 1.0);
+  if (!std::isfinite(t1 - t0) || !std::isfinite(r)) return s;
+  auto cut = [&](const double lo[2], const double hi[2], double grow) {
+    for (int i = 0; i < 2; ++i) s.lo[i] = std::max(s.lo[i], lo[i] - grow), s.hi[i] = std::min(s.hi[i], hi[i] + grow);
+  };
+  {  // the rectangle turned by the middle angle
+    const double middle = 0.5 * (t0 + t1), c = std::cos(middle), sn = std::sin(middle);
+    double lo[2] = {kInf, kInf}, hi[2] = {-kInf, -kInf};
+    for (const double cu : {u0, u1})
+      for (const double cv : {v0, v1}) {
+        const double pu = cu * c - cv * sn, pv = cu * sn + cv * c;
+        lo[0] = std::min(lo[0], pu), hi[0] = std::max(hi[0], pu);
+        lo[1] = std::min(lo[1], pv), hi[1] = std::max(hi[1], pv);
+      }
+    cut(lo, hi, r * (0.5 * (t1 - t0) + slack) + m);
+  }
   const double turn = t1 - t0 + 2.0 * slack;
-  if (!(turn < 0.5 * std::numbers::pi) || !std::isfinite(turn)) return disc;
-  if (u0 <= 0.0 && u1 >= 0.0 && v0 <= 0.0 && v1 >= 0.0) return disc;  // the axis crosses the box
-  // Nearest distance of the rectangle from the origin, and its corners' angles about the angle of
-  // its centre (a rectangle that leaves out the origin spans less than half a turn seen from it).
+  if (!(turn < 0.5 * std::numbers::pi)) return s;
+  if (u0 <= 0.0 && u1 >= 0.0 && v0 <= 0.0 && v1 >= 0.0) return s;  // the axis crosses the box
+  // The annular sector: the rectangle's nearest distance from the origin, and its corners' angles
+  // about the angle of its centre (a rectangle that leaves out the origin spans less than half a
+  // turn seen from it).
   const double nu = std::clamp(0.0, u0, u1), nv = std::clamp(0.0, v0, v1);
   const double rmin = std::sqrt(nu * nu + nv * nv);
   const double centre = std::atan2(0.5 * (v0 + v1), 0.5 * (u0 + u1));
@@ -125,22 +144,18 @@ Sector twistSector(double u0, double u1, double v0, double v1, double t0, double
       f0 = std::min(f0, f), f1 = std::max(f1, f);
     }
   const double from = centre + f0 + t0 - slack, to = centre + f1 + t1 + slack;
-  if (!(to - from < 1.5 * std::numbers::pi)) return disc;
-  Sector s{{kInf, kInf}, {-kInf, -kInf}};
+  if (!(to - from < 1.5 * std::numbers::pi)) return s;
+  double lo[2] = {kInf, kInf}, hi[2] = {-kInf, -kInf};
   auto take = [&](double radius, double angle) {
     const double pu = radius * std::cos(angle), pv = radius * std::sin(angle);
-    s.lo[0] = std::min(s.lo[0], pu), s.hi[0] = std::max(s.hi[0], pu);
-    s.lo[1] = std::min(s.lo[1], pv), s.hi[1] = std::max(s.hi[1], pv);
+    lo[0] = std::min(lo[0], pu), hi[0] = std::max(hi[0], pu);
+    lo[1] = std::min(lo[1], pv), hi[1] = std::max(hi[1], pv);
   };
   for (const double radius : {rmin, r}) take(radius, from), take(radius, to);
   // The directions of the axes (multiples of a quarter turn) within the sector's angles.
   const double quarter = 0.5 * std::numbers::pi;
   for (double q = std::ceil(from / quarter) * quarter; q <= to; q += quarter) take(r, q);
-  // A device's sin and cos (and this function's own, a few ulps) move the point: the margin.
-  for (int i = 0; i < 2; ++i) {
-    const double m = kTrigPositionMargin * r;
-    s.lo[i] = std::max(s.lo[i] - m, -reach), s.hi[i] = std::min(s.hi[i] + m, reach);
-  }
+  cut(lo, hi, m);
   return s;
 }
 }  // namespace

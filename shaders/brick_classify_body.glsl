@@ -147,6 +147,30 @@ vec2 primitiveBounds(uint index, uint type, uint matrix, Box world) {
   return vec2(tLo * tLo * tLo, tHi * tHi * tHi);
 }
 
+// The box of the rectangle [lo, hi] turned (as a twist and a bend turn: (x c - y s, x s + y c))
+// by every angle in [t0, t1]: the rectangle turned by the middle angle (its corners' box), grown
+// by how far the rest of the turn moves a point (r times half the span: a chord is shorter than
+// its arc) and by 4e-3 r for sin and cos, this bound's and the evaluation's (Vulkan allows each
+// 2^-11 within [-pi, pi], which moves a turned point by under 7e-4 r), within the disc of the
+// farthest corner's radius r; that disc alone where an angle lies outside [-pi, pi] (no precision
+// is promised there: false). (The CPU's bound, cpu_simd/field_bounds.cpp, takes the turned
+// annular sector with libm's sin and cos.)
+bool turnedRectangle(vec2 lo, vec2 hi, float t0, float t1, out vec2 outLo, out vec2 outHi) {
+  float r = length(max(abs(lo), abs(hi)));
+  float reach = r * (1.0 + 4e-3);
+  outLo = vec2(-reach);
+  outHi = vec2(reach);
+  float middle = 0.5 * (t0 + t1), halfSpan = 0.5 * abs(t1 - t0);
+  if (!(max(abs(t0), abs(t1)) <= 3.14159)) return false;
+  float c = cos(middle), s = sin(middle);
+  vec2 p0 = vec2(lo.x * c - lo.y * s, lo.x * s + lo.y * c), p1 = vec2(hi.x * c - lo.y * s, hi.x * s + lo.y * c);
+  vec2 p2 = vec2(lo.x * c - hi.y * s, lo.x * s + hi.y * c), p3 = vec2(hi.x * c - hi.y * s, hi.x * s + hi.y * c);
+  float m = r * (halfSpan + 4e-3);
+  outLo = max(min(min(p0, p1), min(p2, p3)) - vec2(m), outLo);
+  outHi = min(max(max(p0, p1), max(p2, p3)) + vec2(m), outHi);
+  return true;
+}
+
 // Warp `index` whose record's meta word is `meta` (an argument, as primitiveBounds' type).
 Box warpBox(uint index, uvec4 meta, Box b) {
   if ((WARP_MASK & MASK_HAS_MATRIX) != 0u && meta.w != 0u) b = transformBox(programMatrices[meta.w], b);
@@ -154,14 +178,33 @@ Box warpBox(uint index, uvec4 meta, Box b) {
   uint a = min(meta.y, 2u), c = min(meta.z, 2u);
   float k = programWarps[index].params.x;
   if (HAS_WARP(WARP_TWIST) && meta.x == WARP_TWIST) {
-    // A rotation about axis a keeps the coordinate along a and the distance from the axis.
+    // A rotation about axis a by k p[a]: the coordinate along a stays, the cross-section turns.
     uint u = (a + 1u) % 3u, v = (a + 2u) % 3u;
-    float mu = max(abs(b.lo[u]), abs(b.hi[u])), mv = max(abs(b.lo[v]), abs(b.hi[v]));
-    float r = sqrt(mu * mu + mv * mv);
-    b.lo[u] = -r;
-    b.lo[v] = -r;
-    b.hi[u] = r;
-    b.hi[v] = r;
+    vec2 lo, hi;  // (the disc past half a turn, as before)
+    turnedRectangle(vec2(b.lo[u], b.lo[v]), vec2(b.hi[u], b.hi[v]), min(k * b.lo[a], k * b.hi[a]),
+                    max(k * b.lo[a], k * b.hi[a]), lo, hi);
+    b.lo[u] = lo.x;
+    b.lo[v] = lo.y;
+    b.hi[u] = hi.x;
+    b.hi[v] = hi.y;
+    return padBox(b);
+  }
+  if (HAS_WARP(WARP_BEND) && meta.x == WARP_BEND) {
+    // p maps to (c0, 1/k) + the turn by k (clamp(p[a], lo, hi) - c0) of (how far p lies past the
+    // bent region along a, p[c] - 1/k) (blobtree/evaluate.cpp); the angle and the rectangle bounded apart.
+    if (k == 0.0) return padBox(b);
+    vec4 w = programWarps[index].params;
+    float invK = 1.0 / k;
+    float y0 = clamp(b.lo[a], w.z, w.w), y1 = clamp(b.hi[a], w.z, w.w);
+    vec2 lo, hi;
+    // Past half a turn either way the device's sin and cos promise nothing: no bound, as before.
+    if (!turnedRectangle(vec2(b.lo[a] - y0, b.lo[c] - invK), vec2(b.hi[a] - y1, b.hi[c] - invK),
+                         min(k * (y0 - w.y), k * (y1 - w.y)), max(k * (y0 - w.y), k * (y1 - w.y)), lo, hi))
+      return everything();
+    b.lo[a] = lo.x + w.y;
+    b.hi[a] = hi.x + w.y;
+    b.lo[c] = lo.y + invK;
+    b.hi[c] = hi.y + invK;
     return padBox(b);
   }
   if (HAS_WARP(WARP_TAPER) && meta.x == WARP_TAPER) {
@@ -176,7 +219,7 @@ Box warpBox(uint index, uvec4 meta, Box b) {
     b.hi[a] += s.y;
     return padBox(b);
   }
-  return everything();  // bend: not worth a tight bound
+  return everything();  // unknown
 }
 
 // fieldBounds(Box query, out bool gaveUp): the interval of the field over `query`. Embedded: the

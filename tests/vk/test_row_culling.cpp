@@ -318,3 +318,30 @@ TEST_F(VulkanTest, RowCullingOfTwistedAndBentProgramsGivesTheMeshOfEveryRow) {
 
 }  // namespace
 }  // namespace blobvk::testing
+
+namespace blobvk::testing {
+namespace {
+
+// The device's classification (every device but llvmpipe with the CPU's bound, and the library's
+// default without one) turns twisted and bent boxes too, with its own margins for sin and cos
+// (shaders/brick_classify_body.glsl): it keeps about the bricks the host's bound keeps, where the
+// disc of a twist and a bend's whole space kept several times more, and the meshes stay the
+// bytes of every row evaluated and the reference's.
+TEST_F(VulkanTest, DeviceClassificationTurnsTwistedAndBentBoxes) {
+  for (const RicciModel& m : turnedModels(192)) {
+    const auto sides = std::make_shared<cpu::ColumnSides>(m.program);
+    vk::GpuPolygonizeOptions o = culling(sides);
+    vk::GpuStats host, onDevice;
+    const mesh::TriMesh byHost = vk::polygonize(device(), m.program, m.grid, o, &host);
+    o.columnSides = nullptr;
+    const mesh::TriMesh byDevice = vk::polygonize(device(), m.program, m.grid, o, &onDevice);
+    expectSameBytes(byHost, byDevice, m.name);
+    if (!device().info().isLlvmpipe()) continue;  // the host classifies on llvmpipe only
+    EXPECT_TRUE(host.hostClassification) << m.name;
+    EXPECT_FALSE(onDevice.hostClassification) << m.name;
+    EXPECT_LE(onDevice.activeBricks, host.activeBricks * 3 / 2 + 8) << m.name;
+  }
+}
+
+}  // namespace
+}  // namespace blobvk::testing
