@@ -101,12 +101,12 @@ namespace {
 // row culling and host classification run on twisted and bent programs (ColumnSides::
 // boundsHoldOnIeeeDevices). It costs the CPU's bound a thousandth of the radius.
 constexpr double kTrigPositionMargin = 1e-3;
-struct Sector {
+struct TurnedBox {
   double lo[2], hi[2];
 };
-Sector twistSector(double u0, double u1, double v0, double v1, double t0, double t1, double r) {
+TurnedBox turnedRectangle(double u0, double u1, double v0, double v1, double t0, double t1, double r) {
   const double m = kTrigPositionMargin * r, reach = r + m;
-  Sector s{{-reach, -reach}, {reach, reach}};
+  TurnedBox s{{-reach, -reach}, {reach, reach}};
   if (t0 > t1) std::swap(t0, t1);
   // The reference computes the angle in float (k * p[a]) and its sine and cosine with libm's
   // float functions: a few ulps of the angle, and an absolute slack for sin and cos.
@@ -167,17 +167,15 @@ Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Bo
   const double k = warp.params.x;
   switch (warp.meta.x) {
     case layout::WARP_TWIST: {
-      // A rotation about axis a by k * p[a] keeps the coordinate along a and the distance from
-      // the axis (the disc of the farthest corner), and turns the box's cross-section by an angle
-      // within k times its extent along a: where that cross-section lies off the axis and the
-      // angles stay short of a quarter turn, the box of the rotated annular sector.
+      // A rotation about axis a by k * p[a]: the coordinate along a stays, and the box's
+      // cross-section turns by the angles k times its extent along a gives.
       const unsigned u = (a + 1u) % 3u, v = (a + 2u) % 3u;
       const double mu = std::max(std::abs(b.lo[u]), std::abs(b.hi[u]));
       const double mv = std::max(std::abs(b.lo[v]), std::abs(b.hi[v]));
       const double r = std::sqrt(mu * mu + mv * mv);
-      const Sector sector = twistSector(b.lo[u], b.hi[u], b.lo[v], b.hi[v], k * b.lo[a], k * b.hi[a], r);
-      b.lo[u] = sector.lo[0], b.hi[u] = sector.hi[0];
-      b.lo[v] = sector.lo[1], b.hi[v] = sector.hi[1];
+      const TurnedBox t = turnedRectangle(b.lo[u], b.hi[u], b.lo[v], b.hi[v], k * b.lo[a], k * b.hi[a], r);
+      b.lo[u] = t.lo[0], b.hi[u] = t.hi[0];
+      b.lo[v] = t.lo[1], b.hi[v] = t.hi[1];
       return pad(b);
     }
     case layout::WARP_TAPER: {
@@ -203,9 +201,9 @@ Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Bo
       const double u0 = b.lo[a] - y0, u1 = b.hi[a] - y1;  // `beyond` grows with p[a]
       const double v0 = b.lo[c] - invK, v1 = b.hi[c] - invK;
       const double r = std::sqrt(std::max(u0 * u0, u1 * u1) + std::max(v0 * v0, v1 * v1));
-      const Sector sector = twistSector(u0, u1, v0, v1, k * (y0 - c0), k * (y1 - c0), r);
-      b.lo[a] = sector.lo[0] + c0, b.hi[a] = sector.hi[0] + c0;
-      b.lo[c] = sector.lo[1] + invK, b.hi[c] = sector.hi[1] + invK;
+      const TurnedBox t = turnedRectangle(u0, u1, v0, v1, k * (y0 - c0), k * (y1 - c0), r);
+      b.lo[a] = t.lo[0] + c0, b.hi[a] = t.hi[0] + c0;
+      b.lo[c] = t.lo[1] + invK, b.hi[c] = t.hi[1] + invK;
       return pad(b);
     }
     default:  // unknown: the reference leaves the point as it is
