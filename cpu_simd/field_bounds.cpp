@@ -89,7 +89,7 @@ namespace {
 // by the middle angle (its corners' box), grown by r times half the span (a chord is shorter than
 // its arc): tight where the span is short beside the rectangle's own angles. Where the rectangle
 // leaves out the origin and the angles (the rectangle's own, plus the turn) span less than a
-// quarter turn, the box of that annular sector (its four end points and the directions of the
+// whole turn, the box of that annular sector (its four end points and the directions of the
 // axes it reaches at radius r): tight where the turn is long. The angles keep a margin for the
 // reference's float angle and sin/cos, the boxes kTrigPositionMargin r for a device's sin and
 // cos; the caller pads the result for the rotation's float rounding.
@@ -126,8 +126,6 @@ TurnedBox turnedRectangle(double u0, double u1, double v0, double v1, double t0,
       }
     cut(lo, hi, r * (0.5 * (t1 - t0) + slack) + m);
   }
-  const double turn = t1 - t0 + 2.0 * slack;
-  if (!(turn < 0.5 * std::numbers::pi)) return s;
   if (u0 <= 0.0 && u1 >= 0.0 && v0 <= 0.0 && v1 >= 0.0) return s;  // the axis crosses the box
   // The annular sector: the rectangle's nearest distance from the origin, and its corners' angles
   // about the angle of its centre (a rectangle that leaves out the origin spans less than half a
@@ -144,7 +142,7 @@ TurnedBox turnedRectangle(double u0, double u1, double v0, double v1, double t0,
       f0 = std::min(f0, f), f1 = std::max(f1, f);
     }
   const double from = centre + f0 + t0 - slack, to = centre + f1 + t1 + slack;
-  if (!(to - from < 1.5 * std::numbers::pi)) return s;
+  if (!(to - from < 2.0 * std::numbers::pi)) return s;
   double lo[2] = {kInf, kInf}, hi[2] = {-kInf, -kInf};
   auto take = [&](double radius, double angle) {
     const double pu = radius * std::cos(angle), pv = radius * std::sin(angle);
@@ -196,14 +194,20 @@ Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Bo
       // 0 within it) and from the arc's centre line towards c. Bounding theta and the rectangle of
       // (beyond, p[c] - 1/k) apart is conservative; the turn's bound is the twist's.
       if (k == 0.0) return pad(b);
-      const double c0 = warp.params.y, lo = warp.params.z, hi = warp.params.w, invK = 1.0 / k;
+      // 1/k as the evaluators compute it, in float: near the centre line a box's turned point
+      // lies about |1/k| from it, and the exact 1/k differs by up to 6e-8 of that, more than the
+      // padding on axis a. A device may round its own division by 2.5 ulps: 1e-6 |1/k| kept.
+      const float invKf = 1.0f / warp.params.x;
+      if (!std::isfinite(invKf)) return Box::everything();  // a subnormal rate: the reference gives inf
+      const double c0 = warp.params.y, lo = warp.params.z, hi = warp.params.w, invK = invKf;
+      const double divisionMargin = 1e-6 * std::abs(invK);
       const double y0 = std::clamp(b.lo[a], lo, hi), y1 = std::clamp(b.hi[a], lo, hi);
       const double u0 = b.lo[a] - y0, u1 = b.hi[a] - y1;  // `beyond` grows with p[a]
       const double v0 = b.lo[c] - invK, v1 = b.hi[c] - invK;
       const double r = std::sqrt(std::max(u0 * u0, u1 * u1) + std::max(v0 * v0, v1 * v1));
       const TurnedBox t = turnedRectangle(u0, u1, v0, v1, k * (y0 - c0), k * (y1 - c0), r);
-      b.lo[a] = t.lo[0] + c0, b.hi[a] = t.hi[0] + c0;
-      b.lo[c] = t.lo[1] + invK, b.hi[c] = t.hi[1] + invK;
+      b.lo[a] = t.lo[0] + c0 - divisionMargin, b.hi[a] = t.hi[0] + c0 + divisionMargin;
+      b.lo[c] = t.lo[1] + invK - divisionMargin, b.hi[c] = t.hi[1] + invK + divisionMargin;
       return pad(b);
     }
     default:  // unknown: the reference leaves the point as it is

@@ -194,17 +194,21 @@ Box warpBox(uint index, uvec4 meta, Box b) {
     // bent region along a, p[c] - 1/k) (blobtree/evaluate.cpp); the angle and the rectangle bounded apart.
     if (k == 0.0) return padBox(b);
     vec4 w = programWarps[index].params;
+    // The evaluation's 1/k (eval_formulas.glsl) may differ from this one by a few ulps (Vulkan:
+    // 2.5 each), which moves the point by as much times |1/k|: kept on both axes.
     float invK = 1.0 / k;
+    if (isinf(invK) || isnan(invK)) return everything();
+    float divisionMargin = 2e-6 * abs(invK);
     float y0 = clamp(b.lo[a], w.z, w.w), y1 = clamp(b.hi[a], w.z, w.w);
     vec2 lo, hi;
     // Past half a turn either way the device's sin and cos promise nothing: no bound, as before.
     if (!turnedRectangle(vec2(b.lo[a] - y0, b.lo[c] - invK), vec2(b.hi[a] - y1, b.hi[c] - invK),
                          min(k * (y0 - w.y), k * (y1 - w.y)), max(k * (y0 - w.y), k * (y1 - w.y)), lo, hi))
       return everything();
-    b.lo[a] = lo.x + w.y;
-    b.hi[a] = hi.x + w.y;
-    b.lo[c] = lo.y + invK;
-    b.hi[c] = hi.y + invK;
+    b.lo[a] = lo.x + w.y - divisionMargin;
+    b.hi[a] = hi.x + w.y + divisionMargin;
+    b.lo[c] = lo.y + invK - divisionMargin;
+    b.hi[c] = hi.y + invK + divisionMargin;
     return padBox(b);
   }
   if (HAS_WARP(WARP_TAPER) && meta.x == WARP_TAPER) {

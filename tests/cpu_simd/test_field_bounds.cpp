@@ -150,6 +150,38 @@ TEST(FieldBounds, TwistedBoxesOffTheAxisKeepTheirAngle) {
   EXPECT_EQ(tight, tried);
 }
 
+// A bend's bound holds the points as the evaluators turn them, with 1/k in float: near the bend's
+// centre line (p[b] about 1/k) a gentle bend's turned point lies about |1/k| from the exact
+// inverse rate's, more than the padding on the length axis (a box at 1,000 units there once lay
+// 3e-6 outside its bound with k = 1e-3).
+TEST(FieldBounds, BentBoxesNearTheCentreLineHoldTheFloatInverseRate) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (const float k : {1e-3f, -1e-3f, 1e-4f, 0.05f}) {
+    blobtree::Program program;
+    program.matrices.push_back(layout::MatrixRecord{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}});
+    const layout::WarpRecord warp{{layout::WARP_BEND, 1, 2, 0}, {k, 0.0f, -1e30f, 1e30f}};
+    const float invK = 1.0f / k;
+    for (int b = 0; b < 200; ++b) {
+      const float side = 0.01f * std::abs(invK) * u(rng) + 1e-3f;
+      const glm::vec3 lo(-0.5f * side, std::abs(invK) * (0.5f + u(rng)), invK - side * u(rng));
+      const glm::vec3 hi = lo + glm::vec3(side);
+      const BoundsBox box = warpBounds(program, warp, {glm::dvec3(lo), glm::dvec3(hi)});
+      for (int i = 0; i < 64; ++i) {
+        glm::vec3 p = lo + (hi - lo) * glm::vec3(u(rng), u(rng), u(rng));
+        if (i < 8) p = glm::vec3(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z);
+        // blobtree/evaluate.cpp's bend along y towards z, centre 0, bent everywhere.
+        const float theta = k * p.y, c = std::cos(theta), s = std::sin(theta);
+        const float y = -s * (p.z - invK) + 0.0f + c * 0.0f, z = c * (p.z - invK) + invK + s * 0.0f;
+        ASSERT_GE(double(y), box.lo.y) << "k " << k << " box " << b;
+        ASSERT_LE(double(y), box.hi.y) << "k " << k << " box " << b;
+        ASSERT_GE(double(z), box.lo.z) << "k " << k << " box " << b;
+        ASSERT_LE(double(z), box.hi.z) << "k " << k << " box " << b;
+      }
+    }
+  }
+}
+
 // Boxes lying entirely inside a solid blob are classified inside: the lower end of each
 // primitive's interval comes from the farthest distance to its skeleton, not 0.
 TEST(FieldBounds, SmallBoxesDeepInsideAreClassifiedInside) {
