@@ -104,7 +104,8 @@ constexpr double kTrigPositionMargin = 1e-3;
 struct TurnedBox {
   double lo[2], hi[2];
 };
-TurnedBox turnedRectangle(double u0, double u1, double v0, double v1, double t0, double t1, double r) {
+TurnedBox turnedRectangle(double u0, double u1, double v0, double v1, double t0, double t1) {
+  const double r = std::sqrt(std::max(u0 * u0, u1 * u1) + std::max(v0 * v0, v1 * v1));
   const double m = kTrigPositionMargin * r, reach = r + m;
   TurnedBox s{{-reach, -reach}, {reach, reach}};
   if (t0 > t1) std::swap(t0, t1);
@@ -168,10 +169,7 @@ Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Bo
       // A rotation about axis a by k * p[a]: the coordinate along a stays, and the box's
       // cross-section turns by the angles k times its extent along a gives.
       const unsigned u = (a + 1u) % 3u, v = (a + 2u) % 3u;
-      const double mu = std::max(std::abs(b.lo[u]), std::abs(b.hi[u]));
-      const double mv = std::max(std::abs(b.lo[v]), std::abs(b.hi[v]));
-      const double r = std::sqrt(mu * mu + mv * mv);
-      const TurnedBox t = turnedRectangle(b.lo[u], b.hi[u], b.lo[v], b.hi[v], k * b.lo[a], k * b.hi[a], r);
+      const TurnedBox t = turnedRectangle(b.lo[u], b.hi[u], b.lo[v], b.hi[v], k * b.lo[a], k * b.hi[a]);
       b.lo[u] = t.lo[0], b.hi[u] = t.hi[0];
       b.lo[v] = t.lo[1], b.hi[v] = t.hi[1];
       return pad(b);
@@ -204,8 +202,7 @@ Box warpBox(const blobtree::Program& program, const layout::WarpRecord& warp, Bo
       const double y0 = std::clamp(b.lo[a], lo, hi), y1 = std::clamp(b.hi[a], lo, hi);
       const double u0 = b.lo[a] - y0, u1 = b.hi[a] - y1;  // `beyond` grows with p[a]
       const double v0 = b.lo[c] - invK, v1 = b.hi[c] - invK;
-      const double r = std::sqrt(std::max(u0 * u0, u1 * u1) + std::max(v0 * v0, v1 * v1));
-      const TurnedBox t = turnedRectangle(u0, u1, v0, v1, k * (y0 - c0), k * (y1 - c0), r);
+      const TurnedBox t = turnedRectangle(u0, u1, v0, v1, k * (y0 - c0), k * (y1 - c0));
       b.lo[a] = t.lo[0] + c0 - divisionMargin, b.hi[a] = t.hi[0] + c0 + divisionMargin;
       b.lo[c] = t.lo[1] + invK - divisionMargin, b.hi[c] = t.hi[1] + invK + divisionMargin;
       return pad(b);

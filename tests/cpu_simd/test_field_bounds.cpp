@@ -11,6 +11,7 @@
 #include "blobvk/cpu_simd/field_bounds.h"
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "tests/cpu_simd/models.h"
+#include "tests/vk/shipped_scenes.h"
 
 #include <gtest/gtest.h>
 
@@ -242,16 +243,12 @@ TEST(FieldBounds, SparseFieldCacheKeepsShippedScenesBelowFourEvaluationsPerTrian
 TEST(FieldBounds, TwistedAndBentScenesMeshWithFewEvaluationsPerTriangle) {
   for (const char* name : {"twisted_column", "creature"}) {
     SCOPED_TRACE(name);
-    const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/" + name + ".json");
-    const auto program = blobtree::compile(scene.root);
-    blobtree::GridRequest request;
-    request.resolution = 256;
-    const auto grid = blobtree::chooseGrid(program, scene.grid, request);
+    const testing::ShippedScene s = testing::shipped(name, 256);
     MpuOptions dense;
     dense.subBlockCells = 0;
-    const mesh::TriMesh reference = polygonizeMpu(program, grid, dense);
+    const mesh::TriMesh reference = polygonizeMpu(s.program, s.grid, dense);
     MpuStats stats;
-    EXPECT_TRUE(polygonizeMpu(program, grid, MpuOptions{}, &stats) == reference);
+    EXPECT_TRUE(polygonizeMpu(s.program, s.grid, MpuOptions{}, &stats) == reference);
     EXPECT_LT(stats.fvept, 5.0);
   }
 }

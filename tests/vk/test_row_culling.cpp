@@ -107,26 +107,27 @@ TEST_F(VulkanTest, RowCullingGivesTheMeshOfEveryRow) {
   EXPECT_LT(double(segmentSamples), 0.9 * double(columnSamples));
 }
 
-// Programs with Ricci blends (pow, whose llvmpipe results differ from the C library's in the last
-// bits): the legacy tower fragment and blends of random points under Ricci powers from 0.5 to 8.
-struct RicciModel {
+// A program on a grid, for the tests of programs whose device values are not the CPU's bit for bit.
+struct DeviceModel {
   std::string name;
   blobtree::Program program;
   blobtree::GridSpec grid;
 };
 
-std::vector<RicciModel> ricciModels(int resolution) {
-  std::vector<RicciModel> models;
+// Programs with Ricci blends (pow, whose llvmpipe results differ from the C library's in the last
+// bits): the legacy tower fragment and blends of random points under Ricci powers from 0.5 to 8.
+std::vector<DeviceModel> ricciModels(int resolution) {
+  std::vector<DeviceModel> models;
   {
     const auto scene = blobtree::loadScene(std::string(BLOBVK_SOURCE_DIR) + "/scenes/legacy/tower_fragment.blob");
     blobtree::GridRequest request;
     request.resolution = resolution;
-    RicciModel m{"tower_fragment.blob", blobtree::compile(scene.root), {}};
+    DeviceModel m{"tower_fragment.blob", blobtree::compile(scene.root), {}};
     m.grid = blobtree::chooseGrid(m.program, scene.grid, request);
     models.push_back(std::move(m));
   }
   for (const double power : {0.5, 2.0, 8.0}) {  // (higher powers: ColumnSides claims no bound)
-    RicciModel m{"24 points, Ricci " + std::to_string(power),
+    DeviceModel m{"24 points, Ricci " + std::to_string(power),
                  blobtree::compile(blobtree::generateRandomRicciBlobs(24, 7, power)), {}};
     m.grid = gridAt(m.program, resolution);
     models.push_back(std::move(m));
@@ -134,31 +135,64 @@ std::vector<RicciModel> ricciModels(int resolution) {
   return models;
 }
 
+// How llvmpipe's field of `m` (by `traversal`) differs from blobtree::evaluate at every grid point:
+// the largest difference relative to the value past 1 (as the bounds' own rounding margin is),
+// how many points differ, and how many lie within 0.1 of the iso-value.
+struct FieldDifference {
+  double worst = 0.0;
+  std::size_t differ = 0, near = 0;
+};
+FieldDifference fieldDifference(vk::Device& device, const DeviceModel& m, vk::Traversal traversal) {
+  vk::FieldOptions o;
+  o.traversal = traversal;
+  const std::vector<float> gpu = vk::evaluateFieldOnGrid(device, m.program, m.grid, o);
+  EXPECT_EQ(gpu.size(), m.grid.pointCount()) << m.name;
+  FieldDifference d;
+  if (gpu.size() != m.grid.pointCount()) return d;
+  const auto points = m.grid.points();
+  for (int k = 0; k < points.z; ++k)
+    for (int j = 0; j < points.y; ++j)
+      for (int i = 0; i < points.x; ++i) {
+        const float cpu = blobtree::evaluate(m.program, m.grid.point(i, j, k));
+        const float dev = gpu[m.grid.pointIndex(i, j, k)];
+        d.worst = std::max(d.worst, double(std::abs(dev - cpu)) / std::max(1.0, double(std::abs(cpu))));
+        d.differ += dev != cpu;
+        d.near += std::abs(cpu - layout::ISO_VALUE) < 0.1f;
+      }
+  return d;
+}
+
+// The culled rows of `m` give the bytes of every row, in one batch and in batches of 7 bricks, with
+// the host's classification and at most as many bricks, on half the evaluations or fewer; and,
+// given, the reference's mesh.
+void expectCullingGivesEveryRow(vk::Device& device, const DeviceModel& m, const mesh::TriMesh* reference) {
+  const auto sides = std::make_shared<cpu::ColumnSides>(m.program);
+  for (const std::uint32_t batchBricks : {0u, 7u}) {
+    const std::string what = m.name + ", batches of " + std::to_string(batchBricks);
+    vk::GpuPolygonizeOptions o = culling(sides);
+    o.maxBatchBricks = batchBricks;
+    vk::GpuStats culled, every;
+    const mesh::TriMesh m1 = vk::polygonize(device, m.program, m.grid, o, &culled);
+    o.columnSides = nullptr;
+    const mesh::TriMesh all = vk::polygonize(device, m.program, m.grid, o, &every);
+    ASSERT_GT(all.triangleCount(), 0u) << what;
+    expectSameBytes(m1, all, what);
+    if (reference) expectSameMeshAsReference(m1, *reference, 1e-4f * m.grid.cellSize, what);
+    EXPECT_TRUE(culled.hostClassification) << what;
+    EXPECT_LE(culled.activeBricks, every.activeBricks) << what;
+    EXPECT_LT(culled.fieldEvaluations, every.fieldEvaluations / 2) << what;
+  }
+}
+
 // The bound keeps ColumnSides::kPowDeviceMargin from the iso-value for programs with a pow: the
 // margin holds llvmpipe's fields of such programs a hundred times over (relative to the value
 // where it is past 1: the Ricci blend of power 0.5 reaches 4.2, and differs by 1.4e-6 there).
 TEST_F(VulkanTest, LlvmpipeRicciFieldsLieWellWithinTheRowCullingMargin) {
   if (!device().info().isLlvmpipe()) GTEST_SKIP() << "row culling runs on llvmpipe only";
-  for (const RicciModel& m : ricciModels(40)) {
+  for (const DeviceModel& m : ricciModels(40)) {
     ASSERT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(m.program)) << m.name;
-    const auto points = m.grid.points();
     for (const vk::Traversal traversal : {vk::Traversal::Specialised, vk::Traversal::Stackless}) {
-      vk::FieldOptions o;
-      o.traversal = traversal;
-      const std::vector<float> gpu = vk::evaluateFieldOnGrid(device(), m.program, m.grid, o);
-      ASSERT_EQ(gpu.size(), m.grid.pointCount()) << m.name;
-      double worst = 0.0;
-      std::size_t differ = 0, near = 0;
-      for (int k = 0; k < points.z; ++k)
-        for (int j = 0; j < points.y; ++j)
-          for (int i = 0; i < points.x; ++i) {
-            const float cpu = blobtree::evaluate(m.program, m.grid.point(i, j, k));
-            const float dev = gpu[m.grid.pointIndex(i, j, k)];
-            // Relative to the value past 1, as the bounds' own rounding margin is.
-            worst = std::max(worst, double(std::abs(dev - cpu)) / std::max(1.0, double(std::abs(cpu))));
-            differ += dev != cpu;
-            near += std::abs(cpu - layout::ISO_VALUE) < 0.1f;
-          }
+      const auto [worst, differ, near] = fieldDifference(device(), m, traversal);
       EXPECT_LT(worst, cpu::ColumnSides::kPowDeviceMargin / 100.0) << m.name << ", " << vk::traversalName(traversal);
       EXPECT_GT(near, 100u) << m.name << ": the grid misses the surface";
       // The pow's last bits do differ (else this test would check nothing the other one doesn't).
@@ -173,23 +207,7 @@ TEST_F(VulkanTest, LlvmpipeRicciFieldsLieWellWithinTheRowCullingMargin) {
 // classification drops the bricks the bound proves.
 TEST_F(VulkanTest, RowCullingOfRicciBlendsGivesTheMeshOfEveryRow) {
   if (!device().info().isLlvmpipe()) GTEST_SKIP() << "row culling runs on llvmpipe only";
-  for (const RicciModel& m : ricciModels(64)) {
-    const auto sides = std::make_shared<cpu::ColumnSides>(m.program);
-    for (const std::uint32_t batchBricks : {0u, 7u}) {
-      const std::string what = m.name + ", batches of " + std::to_string(batchBricks);
-      vk::GpuPolygonizeOptions o = culling(sides);
-      o.maxBatchBricks = batchBricks;
-      vk::GpuStats culled, every;
-      const mesh::TriMesh m1 = vk::polygonize(device(), m.program, m.grid, o, &culled);
-      o.columnSides = nullptr;
-      const mesh::TriMesh all = vk::polygonize(device(), m.program, m.grid, o, &every);
-      ASSERT_GT(all.triangleCount(), 0u) << what;
-      expectSameBytes(m1, all, what);
-      EXPECT_TRUE(culled.hostClassification) << what;
-      EXPECT_LE(culled.activeBricks, every.activeBricks) << what;
-      EXPECT_LT(culled.fieldEvaluations, every.fieldEvaluations / 2) << what;
-    }
-  }
+  for (const DeviceModel& m : ricciModels(64)) expectCullingGivesEveryRow(device(), m, nullptr);
 }
 
 // A bound belongs to one program, and an edit session's programs change: the extractor ignores
@@ -213,8 +231,8 @@ TEST_F(VulkanTest, IncrementalExtractionIgnoresARowCullingBound) {
 // being far within it. Shipped twisted_column (in a Ricci blend, with tapers) and creature (a bend
 // over a union of 19 primitives), a twisted intersection, blends twisted from half a radian a
 // unit to twenty, off the axis, and a blend bent over part of its length and over all of it.
-std::vector<RicciModel> turnedModels(int resolution) {
-  std::vector<RicciModel> models;
+std::vector<DeviceModel> turnedModels(int resolution) {
+  std::vector<DeviceModel> models;
   {
     ShippedScene s = shipped("creature", resolution);
     models.push_back({"creature", s.program, s.grid});
@@ -269,25 +287,11 @@ std::vector<RicciModel> turnedModels(int resolution) {
 // differences of the order of 1e-3 of the radius times the field's slope.
 TEST_F(VulkanTest, LlvmpipeTurnedFieldsDifferFromTheCpuByLastBitsOfSinAndCos) {
   if (!device().info().isLlvmpipe()) GTEST_SKIP() << "row culling runs on llvmpipe only";
-  for (const RicciModel& m : turnedModels(64)) {
+  for (const DeviceModel& m : turnedModels(64)) {
     ASSERT_TRUE(cpu::ColumnSides::boundsHoldOnIeeeDevices(m.program)) << m.name;
-    const auto points = m.grid.points();
-    vk::FieldOptions o;
-    o.traversal = vk::Traversal::Specialised;
-    const std::vector<float> gpu = vk::evaluateFieldOnGrid(device(), m.program, m.grid, o);
-    ASSERT_EQ(gpu.size(), m.grid.pointCount()) << m.name;
-    double worst = 0.0;
-    std::size_t differ = 0;
-    for (int k = 0; k < points.z; ++k)
-      for (int j = 0; j < points.y; ++j)
-        for (int i = 0; i < points.x; ++i) {
-          const float cpu = blobtree::evaluate(m.program, m.grid.point(i, j, k));
-          const float dev = gpu[m.grid.pointIndex(i, j, k)];
-          worst = std::max(worst, double(std::abs(dev - cpu)) / std::max(1.0, double(std::abs(cpu))));
-          differ += dev != cpu;
-        }
-    EXPECT_LT(worst, 1e-5) << m.name;
-    EXPECT_GT(differ, 0u) << m.name << ": sin and cos agree everywhere, so this checks nothing";
+    const FieldDifference d = fieldDifference(device(), m, vk::Traversal::Specialised);
+    EXPECT_LT(d.worst, 1e-5) << m.name;
+    EXPECT_GT(d.differ, 0u) << m.name << ": sin and cos agree everywhere, so this checks nothing";
   }
 }
 
@@ -295,32 +299,12 @@ TEST_F(VulkanTest, LlvmpipeTurnedFieldsDifferFromTheCpuByLastBitsOfSinAndCos) {
 // host's classification drops the bricks the bounds prove, and the mesh is the CPU reference's.
 TEST_F(VulkanTest, RowCullingOfTwistedAndBentProgramsGivesTheMeshOfEveryRow) {
   if (!device().info().isLlvmpipe()) GTEST_SKIP() << "row culling runs on llvmpipe only";
-  for (const RicciModel& m : turnedModels(64)) {
-    const auto sides = std::make_shared<cpu::ColumnSides>(m.program);
+  for (const DeviceModel& m : turnedModels(64)) {
     const mesh::TriMesh reference = cpu::polygonizeReference(m.program, m.grid, {});
-    for (const std::uint32_t batchBricks : {0u, 7u}) {
-      const std::string what = m.name + ", batches of " + std::to_string(batchBricks);
-      vk::GpuPolygonizeOptions o = culling(sides);
-      o.maxBatchBricks = batchBricks;
-      vk::GpuStats culled, every;
-      const mesh::TriMesh m1 = vk::polygonize(device(), m.program, m.grid, o, &culled);
-      o.columnSides = nullptr;
-      const mesh::TriMesh all = vk::polygonize(device(), m.program, m.grid, o, &every);
-      ASSERT_GT(all.triangleCount(), 0u) << what;
-      expectSameBytes(m1, all, what);
-      expectSameMeshAsReference(m1, reference, 1e-4f * m.grid.cellSize, what);
-      EXPECT_TRUE(culled.hostClassification) << what;
-      EXPECT_LE(culled.activeBricks, every.activeBricks) << what;
-      EXPECT_LT(culled.fieldEvaluations, every.fieldEvaluations / 2) << what;
-    }
+    expectCullingGivesEveryRow(device(), m, &reference);
   }
 }
 
-}  // namespace
-}  // namespace blobvk::testing
-
-namespace blobvk::testing {
-namespace {
 
 // The device's classification (every device but llvmpipe with the CPU's bound, and the library's
 // default without one) turns twisted and bent boxes too, with its own margins for sin and cos
@@ -328,7 +312,7 @@ namespace {
 // disc of a twist and a bend's whole space kept several times more, and the meshes stay the
 // bytes of every row evaluated and the reference's.
 TEST_F(VulkanTest, DeviceClassificationTurnsTwistedAndBentBoxes) {
-  for (const RicciModel& m : turnedModels(192)) {
+  for (const DeviceModel& m : turnedModels(192)) {
     const auto sides = std::make_shared<cpu::ColumnSides>(m.program);
     vk::GpuPolygonizeOptions o = culling(sides);
     vk::GpuStats host, onDevice;
