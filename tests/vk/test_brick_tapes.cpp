@@ -6,6 +6,7 @@
 #include "blobvk/blobtree/evaluate.h"
 #include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/gradient.h"
+#include "blobvk/blobtree/program.h"
 #include "blobvk/blobtree/scene_io.h"
 #include "blobvk/cpu_simd/mpu_polygonizer.h"
 #include "blobvk/cpu_simd/reference_polygonizer.h"
@@ -39,12 +40,79 @@ blobtree::Program tapeProgram(const blobtree::Program& program, std::vector<layo
 
 std::vector<std::string> tapeScenes() { return {"random128", "tower", "tower_L6P8I4", "eggshell", "dice"}; }
 
+// 64 small rotated and stretched subtrees (a box blended with a point, each under its own skip
+// box) on a 4 x 4 x 4 lattice, joined by `op` (a union or a difference): a scattering of
+// instances, where a region of 16 cells meets a few subtrees and every other child of the
+// operator is a "write 0" and its combination. A difference keeps a long bar as its first child
+// and cuts it with the rest.
+ShippedScene scatteredSubtrees(blobtree::OperatorType op, int resolution) {
+  using namespace blobtree;
+  std::vector<Node> children;
+  if (op == OperatorType::Difference) {
+    Node bar;
+    Primitive line;
+    line.type = PrimitiveType::Line;
+    line.a = Vec3(-1.0, 4.5, 4.5);
+    line.b = Vec3(10.0, 4.5, 4.5);
+    line.support = 1.5;
+    bar.kind = line;
+    children.push_back(bar);
+  }
+  for (int i = 0; i < 64; ++i) {
+    Node box, point, pair;
+    Primitive cube;
+    cube.type = PrimitiveType::Cube;
+    cube.b = Vec3(0.3, 0.1, 0.3);
+    cube.support = 0.5;
+    cube.colour = Vec3(0.2 + 0.01 * i, 0.5, 0.9 - 0.01 * i);
+    box.kind = cube;
+    Primitive centre;
+    centre.a = Vec3(0.0, 0.4, 0.0);
+    centre.support = 0.7;
+    point.kind = centre;
+    pair.kind = Operator{OperatorType::Blend};
+    pair.children = {box, point};
+    pair.transform.translate = Vec3(3.0 * (i % 4), 3.0 * (i / 4 % 4), 3.0 * (i / 16));
+    pair.transform.rotate = glm::angleAxis(0.4 * i, glm::normalize(Vec3(1.0, 0.3 * (i % 3), 0.7)));
+    pair.transform.scale = Vec3(1.0, 0.8 + 0.02 * i, 1.0);
+    children.push_back(pair);
+  }
+  Node root;
+  root.kind = Operator{op};
+  root.children = std::move(children);
+  ShippedScene s{blobtree::compile(root), {}};
+  blobtree::GridRequest request;
+  request.resolution = resolution;
+  s.grid = blobtree::chooseGrid(s.program, {}, request);
+  return s;
+}
+
+struct TapeScene {
+  std::string name;
+  ShippedScene scene;
+  bool prunes;  // whether a region of 16 cells runs a small part of the program
+};
+
+std::vector<TapeScene> tapeTestScenes() {
+  std::vector<TapeScene> scenes;
+  for (const std::string& name : tapeScenes())
+    scenes.push_back({name, shipped(name, 128), name == "random128" || name == "tower" || name == "tower_L6P8I4"});
+  scenes.push_back({"scattered union", scatteredSubtrees(blobtree::OperatorType::Union, 128), true});
+  scenes.push_back({"scattered difference", scatteredSubtrees(blobtree::OperatorType::Difference, 128), true});
+  // A Ricci blend raises each child to its power before adding it: a missed child goes with both.
+  ShippedScene ricci{blobtree::compile(blobtree::generateRandomRicciBlobs(128, 5, 4.0)), {}};
+  blobtree::GridRequest request;
+  request.resolution = 128;
+  ricci.grid = blobtree::chooseGrid(ricci.program, {}, request);
+  scenes.push_back({"Ricci blend of 128", std::move(ricci), true});
+  return scenes;
+}
+
 // Regions of 16 cells at random places of the scene's grid at 128 cells (and one at each
 // corner of the grid, mostly empty), with points drawn inside each, corners included.
 TEST(RegionTape, GivesTheProgramsFieldAtEveryPointOfItsRegion) {
   std::mt19937 rng(7);
-  for (const std::string& name : tapeScenes()) {
-    const ShippedScene s = shipped(name, 128);
+  for (const auto& [name, s, prunes] : tapeTestScenes()) {
     const std::uint32_t emptyBox = std::uint32_t(s.program.boxes.size());
     std::uint64_t tapeLength = 0, programLength = 0;
     for (int r = 0; r < 24; ++r) {
@@ -93,8 +161,10 @@ TEST(RegionTape, GivesTheProgramsFieldAtEveryPointOfItsRegion) {
       }
     }
     // What the tapes are for: in a scene of many primitives, a region of 16 cells runs a fraction
-    // of the program (eggshell and dice are a few primitives all near every region).
-    if (name == "random128" || name == "tower" || name == "tower_L6P8I4") {
+    // of the program (eggshell and dice are a few primitives all near every region). Under a
+    // union, intersection or difference, the children a region misses leave one "write 0" and
+    // its combination, not one each.
+    if (prunes) {
       EXPECT_LT(tapeLength * 4, programLength) << name << ": tapes of " << tapeLength << " instructions";
     }
   }
@@ -224,6 +294,11 @@ TEST_F(VulkanTest, BrickTapesGiveTheMeshOfTheWholeProgram) {
   request.resolution = 64;
   legacy.grid = blobtree::chooseGrid(legacy.program, scene.grid, request);
   cases.push_back(std::move(legacy));
+  for (blobtree::OperatorType op : {blobtree::OperatorType::Union, blobtree::OperatorType::Difference}) {
+    ShippedScene s = scatteredSubtrees(op, 48);
+    cases.push_back({op == blobtree::OperatorType::Union ? "scattered union" : "scattered difference",
+                     std::move(s.program), s.grid});
+  }
   for (const Case& c : cases) {
     vk::GpuPolygonizeOptions o;
     o.traversal = vk::Traversal::Stackless;
@@ -242,7 +317,8 @@ TEST_F(VulkanTest, BrickTapesGiveTheMeshOfTheWholeProgram) {
       EXPECT_GT(st.tapeInstructions, 0u) << what;
       EXPECT_TRUE(st.vertexTapes) << what << ": the vertex pass over the bricks' vertex tapes";
       // One batch: each active brick's tape counted once; a scene of many primitives runs a fraction.
-      if (batchBricks == 0 && (c.what == "random128" || c.what == "tower" || c.what == "tower_L6P8I4")) {
+      if (batchBricks == 0 && (c.what == "random128" || c.what == "tower" || c.what == "tower_L6P8I4" ||
+                               c.what == "scattered union")) {
         EXPECT_LT(st.tapeInstructions * 2, std::uint64_t(st.activeBricks) * c.program.code.size()) << what;
       }
       expectSameBytes(m, whole, what);

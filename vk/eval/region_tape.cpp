@@ -1,7 +1,9 @@
 #include "blobvk/vk/eval/region_tape.h"
 
+#include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstdint>
 
 namespace blobvk::vk {
 
@@ -36,6 +38,12 @@ std::uint32_t prunedGradientNegativeZeros(const blobtree::Program& program, std:
   return bits;
 }
 
+namespace {
+bool sameCode(const layout::uvec4& a, const layout::uvec4& b) {
+  return a.x == b.x && a.y == b.y && a.z == b.z && a.w == b.w;
+}
+}  // namespace
+
 std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const blobtree::Program& program,
                                const PointRegion& region, std::uint32_t emptyBox, TapeUse use,
                                std::vector<layout::Instruction>& out) {
@@ -52,27 +60,61 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
   at.resize(n + 1);
   jumps.clear();
   auto here = [&] { return std::uint32_t(out.size() - start); };
+  // The last "write 0" kept: the old index of what it stands for and where it landed (below).
+  std::size_t zeroFrom = n, zeroAt = SIZE_MAX;
   // Instructions [i, next) leave 0 in register d: one "write 0" (a skip on the empty box), or
   // nothing at all when only the field is wanted and the next instruction adds d to another
   // register (d is dead after it: the register code consumes each operand once).
   auto zero = [&](std::uint32_t d, std::size_t next) -> std::size_t {
     if (use == TapeUse::Field && next < n) {
-      const layout::uvec4& add = tape[next].code;
-      if ((add.x & 0xffu) == layout::OP_ADD && add.y == d && (add.x >> 8) != d) {
-        at[next] = here();
-        return next + 1;
+      // A Ricci blend's child is raised to its power first: pow(0, n) is +0 (powField).
+      const std::size_t power = (tape[next].code.x & 0xffu) == layout::OP_POW && (tape[next].code.x >> 8) == d;
+      const layout::uvec4& add = tape[std::min(next + power, n - 1)].code;
+      if (next + power < n && (add.x & 0xffu) == layout::OP_ADD && add.y == d && (add.x >> 8) != d) {
+        at[next] = at[next + power] = here();
+        return next + power + 1;
       }
     }
+    zeroAt = out.size();
     out.push_back({{layout::OP_SKIP | (d << 8), emptyBox, 0u, here() + 1u}});
     return next;
   };
-  // Vertex tapes: which instructions a skip jumps to (a run of null additions must not swallow one).
+  // Which instructions a skip jumps to: a run of null additions (vertex tapes) must not swallow
+  // one, and a repeated zero operand (below) is only dropped where no jump lands on it.
   thread_local std::vector<char> target;
-  if (use == TapeUse::Vertex) {
-    target.assign(n + 1, 0);
-    for (std::size_t i = 0; i < n; ++i)
-      if ((tape[i].code.x & 0xffu) == layout::OP_SKIP && tape[i].code.w <= n) target[tape[i].code.w] = 1;
-  }
+  target.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    if ((tape[i].code.x & 0xffu) == layout::OP_SKIP && tape[i].code.w <= n) target[tape[i].code.w] = 1;
+  // A union, intersection or difference of many children of which the region meets few leaves a
+  // run of the same constant operand and its combination: ["write 0" into d, OP_MAX a d], or
+  // ["write 0" into d, OP_ONE_MINUS d, OP_MIN a d] for a reordered difference's cutter. Max or
+  // min with a constant already taken changes nothing (field, colour and gradient: an operand is
+  // taken only when strictly greater, or smaller), so each repeat goes: a brick of a union of 200
+  // instances runs its own few.
+  auto writesZero = [&](std::size_t k, std::uint32_t d) {
+    const layout::uvec4& c = out[k].code;
+    return (c.x & 0xffu) == layout::OP_SKIP && (c.x >> 8) == d && c.y == emptyBox && c.w == k - start + 1;
+  };
+  auto unaryOn = [&](const layout::uvec4& c, std::uint32_t d) {
+    const std::uint32_t op = c.x & 0xffu;
+    return (op == layout::OP_ONE_MINUS || op == layout::OP_POW) && (c.x >> 8) == d;
+  };
+  // The length of the constant operand that tape[i] combines, when it repeats the operand and
+  // combination just before it; else 0.
+  auto repeatedConstantOperand = [&](std::size_t i) -> std::size_t {
+    const layout::uvec4& in = tape[i].code;
+    const std::uint32_t op = in.x & 0xffu, a = in.x >> 8, d = in.y;
+    if ((op != layout::OP_MAX && op != layout::OP_MIN && op != layout::OP_DIFF) || a == d) return 0;
+    const std::size_t k = out.size();
+    if (zeroAt == SIZE_MAX || zeroAt >= k || target[zeroFrom] || !writesZero(zeroAt, d)) return 0;
+    const std::size_t length = k - zeroAt;  // the "write 0" and the unary operations after it
+    if (zeroAt < start + length + 1) return 0;
+    const std::size_t before = zeroAt - 1 - length;
+    if (!sameCode(out[zeroAt - 1].code, in) || !writesZero(before, d)) return 0;
+    for (std::size_t j = 1; j < length; ++j)
+      if (!unaryOn(out[zeroAt + j].code, d) || !sameCode(out[before + j].code, out[zeroAt + j].code)) return 0;
+    return length;
+  };
   auto prunedPrimitive = [&](const layout::uvec4& in) { return regionPrunesPrimitive(program, region, in); };
   for (std::size_t i = 0; i < n;) {
     at[i] = here();
@@ -100,12 +142,14 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
     }
     if (op == layout::OP_SKIP) {
       if (in.y == emptyBox) {  // a parent tape's "write 0"
+        zeroFrom = i;
         i = zero(dst, i + 1);
         continue;
       }
       if (in.z == 0 && in.y < program.boxes.size() && in.w > i && in.w <= n) {
         const layout::BoxRecord& box = program.boxes[in.y];
         if (regionMissesBox(region, box)) {  // every point of the region skips the subtree
+          zeroFrom = i;
           i = zero(dst, in.w);
           continue;
         }
@@ -115,7 +159,14 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
         }
       }
     } else if (use == TapeUse::Field && prunedPrimitive(in)) {
+      zeroFrom = i;
       i = zero(dst, i + 1);
+      continue;
+    } else if (const std::size_t length = repeatedConstantOperand(i)) {
+      out.resize(out.size() - length);  // the operand goes, and its combination is not kept
+      for (std::size_t j = zeroFrom; j <= i; ++j) at[j] = here();
+      zeroAt = SIZE_MAX;
+      ++i;
       continue;
     }
     if (op == layout::OP_SKIP) jumps.push_back(out.size());
