@@ -62,10 +62,10 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
   auto here = [&] { return std::uint32_t(out.size() - start); };
   // The last "write 0" kept: the old index of what it stands for and where it landed (below).
   std::size_t zeroFrom = n, zeroAt = SIZE_MAX;
-  // Instructions [i, next) leave 0 in register d: one "write 0" (a skip on the empty box), or
+  // Instructions [from, next) leave 0 in register d: one "write 0" (a skip on the empty box), or
   // nothing at all when only the field is wanted and the next instruction adds d to another
   // register (d is dead after it: the register code consumes each operand once).
-  auto zero = [&](std::uint32_t d, std::size_t next) -> std::size_t {
+  auto zero = [&](std::uint32_t d, std::size_t from, std::size_t next) -> std::size_t {
     if (use == TapeUse::Field && next < n) {
       // A Ricci blend's child is raised to its power first: pow(0, n) is +0 (powField).
       const std::size_t power = (tape[next].code.x & 0xffu) == layout::OP_POW && (tape[next].code.x >> 8) == d;
@@ -75,6 +75,7 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
         return next + power + 1;
       }
     }
+    zeroFrom = from;
     zeroAt = out.size();
     out.push_back({{layout::OP_SKIP | (d << 8), emptyBox, 0u, here() + 1u}});
     return next;
@@ -142,15 +143,13 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
     }
     if (op == layout::OP_SKIP) {
       if (in.y == emptyBox) {  // a parent tape's "write 0"
-        zeroFrom = i;
-        i = zero(dst, i + 1);
+        i = zero(dst, i, i + 1);
         continue;
       }
       if (in.z == 0 && in.y < program.boxes.size() && in.w > i && in.w <= n) {
         const layout::BoxRecord& box = program.boxes[in.y];
         if (regionMissesBox(region, box)) {  // every point of the region skips the subtree
-          zeroFrom = i;
-          i = zero(dst, in.w);
+          i = zero(dst, i, in.w);
           continue;
         }
         if (regionInsideBox(region, box)) {  // no point skips it: the test goes, the subtree stays
@@ -159,8 +158,7 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
         }
       }
     } else if (use == TapeUse::Field && prunedPrimitive(in)) {
-      zeroFrom = i;
-      i = zero(dst, i + 1);
+      i = zero(dst, i, i + 1);
       continue;
     } else if (const std::size_t length = repeatedConstantOperand(i)) {
       out.resize(out.size() - length);  // the operand goes, and its combination is not kept
