@@ -40,6 +40,15 @@ blobtree::Program tapeProgram(const blobtree::Program& program, std::vector<layo
 
 std::vector<std::string> tapeScenes() { return {"random128", "tower", "tower_L6P8I4", "eggshell", "dice"}; }
 
+// `root` compiled, on its default grid with `resolution` cells along the longest side.
+ShippedScene compiledModel(const blobtree::Node& root, int resolution) {
+  ShippedScene s{blobtree::compile(root), {}};
+  blobtree::GridRequest request;
+  request.resolution = resolution;
+  s.grid = blobtree::chooseGrid(s.program, {}, request);
+  return s;
+}
+
 // 64 small rotated and stretched subtrees (a box blended with a point, each under its own skip
 // box) on a 4 x 4 x 4 lattice, joined by `op` (a union or a difference): a scattering of
 // instances, where a region of 16 cells meets a few subtrees and every other child of the
@@ -80,11 +89,7 @@ ShippedScene scatteredSubtrees(blobtree::OperatorType op, int resolution) {
   Node root;
   root.kind = Operator{op};
   root.children = std::move(children);
-  ShippedScene s{blobtree::compile(root), {}};
-  blobtree::GridRequest request;
-  request.resolution = resolution;
-  s.grid = blobtree::chooseGrid(s.program, {}, request);
-  return s;
+  return compiledModel(root, resolution);
 }
 
 struct TapeScene {
@@ -100,11 +105,7 @@ std::vector<TapeScene> tapeTestScenes() {
   scenes.push_back({"scattered union", scatteredSubtrees(blobtree::OperatorType::Union, 128), true});
   scenes.push_back({"scattered difference", scatteredSubtrees(blobtree::OperatorType::Difference, 128), true});
   // A Ricci blend raises each child to its power before adding it: a missed child goes with both.
-  ShippedScene ricci{blobtree::compile(blobtree::generateRandomRicciBlobs(128, 5, 4.0)), {}};
-  blobtree::GridRequest request;
-  request.resolution = 128;
-  ricci.grid = blobtree::chooseGrid(ricci.program, {}, request);
-  scenes.push_back({"Ricci blend of 128", std::move(ricci), true});
+  scenes.push_back({"Ricci blend of 128", compiledModel(blobtree::generateRandomRicciBlobs(128, 5, 4.0), 128), true});
   return scenes;
 }
 

@@ -1,6 +1,5 @@
 #include "blobvk/vk/eval/region_tape.h"
 
-#include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <cstdint>
@@ -69,10 +68,11 @@ std::uint32_t appendRegionTape(std::span<const layout::Instruction> tape, const 
     if (use == TapeUse::Field && next < n) {
       // A Ricci blend's child is raised to its power first: pow(0, n) is +0 (powField).
       const std::size_t power = (tape[next].code.x & 0xffu) == layout::OP_POW && (tape[next].code.x >> 8) == d;
-      const layout::uvec4& add = tape[std::min(next + power, n - 1)].code;
-      if (next + power < n && (add.x & 0xffu) == layout::OP_ADD && add.y == d && (add.x >> 8) != d) {
-        at[next] = at[next + power] = here();
-        return next + power + 1;
+      const std::size_t addition = next + power;
+      if (addition < n && (tape[addition].code.x & 0xffu) == layout::OP_ADD && tape[addition].code.y == d &&
+          (tape[addition].code.x >> 8) != d) {
+        at[next] = at[addition] = here();
+        return addition + 1;
       }
     }
     zeroFrom = from;
