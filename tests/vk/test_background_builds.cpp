@@ -117,6 +117,39 @@ TEST_F(BackgroundBuildTest, FirstJobInterpretsTheVertexPassAndTheNextRunsTheGene
   expectSameBytes(tiled.mesh, generated.mesh, "the tiles' kernels, built after a generated job");
 }
 
+// The tiles' kernels build unbidden after a job only where their build is predicted quick
+// (GpuPolygonizeOptions::unbiddenBuildSeconds); a longer one waits for expected runs that repay
+// it. Here every build counts as long: three runs of a tower whose vertex pass takes milliseconds
+// cannot repay a build of a second, a billion can.
+TEST_F(BackgroundBuildTest, ALongTileBuildStartsOnlyWhereTheExpectedRunsRepayIt) {
+  const auto program = blobtree::compile(blobtree::generateTower(1, 4, 6.0, 6.0, 1));
+  const auto grid = gridAt(program, 48);
+  const vk::CodegenOptions codegen = vk::defaultCodegenOptions(device());
+  // Whether the job after a first one, once the background builds are done, finds the tiles'
+  // vertex kernels built.
+  auto nextJobRunsTiles = [&](std::uint32_t expectedRuns, double unbiddenSeconds) {
+    vk::Device fresh(device().host());
+    vk::GpuPolygonizeOptions o;
+    o.traversal = vk::Traversal::Specialised;
+    o.codegen = &codegen;
+    o.expectedRuns = expectedRuns;
+    o.unbiddenBuildSeconds = unbiddenSeconds;
+    vk::GpuStats first, next;
+    const mesh::TriMesh a = vk::polygonize(fresh, program, grid, o, &first);
+    EXPECT_TRUE(first.vertexGradient);
+    EXPECT_GT(first.fieldTiles, 1u);
+    EXPECT_EQ(first.vertexTiles, 0u);  // the whole program's kernel: the tiles' are not built yet
+    fresh.waitForBackgroundBuilds();
+    const mesh::TriMesh b = vk::polygonize(fresh, program, grid, o, &next);
+    expectSameBytes(b, a, "the job after the first");
+    EXPECT_TRUE(next.vertexTiles == 0 || next.vertexTiles == next.fieldTiles);
+    return next.vertexTiles > 0;
+  };
+  EXPECT_TRUE(nextJobRunsTiles(3, 10.0));          // quick: built for the two runs after
+  EXPECT_FALSE(nextJobRunsTiles(3, 0.0));          // long, and two runs cannot repay it
+  EXPECT_TRUE(nextJobRunsTiles(1000000000u, 0.0));  // long, repaid
+}
+
 TEST_F(BackgroundBuildTest, OneExpectedRunBuildsNothingInTheBackground) {
   const auto program = blobtree::compile(blobtree::generateTower(1, 4, 6.0, 6.0, 1));
   const auto grid = gridAt(program, 32);

@@ -152,6 +152,21 @@ inline constexpr double kTapeSecondsPerInstruction = 1.2e-8;
 // instructions: ~18 s) while looped code builds in under a second at any size.
 inline constexpr std::uint32_t kLoopedAboveInstructionsOnCpu = 400;
 
+// The tiles' vertex kernels that a job expected to run again builds after it, in the background
+// (vk/extract/sparse_batches.cpp). A build predicted (specialisedKernelSeconds, the generated
+// gradient's copies) within GpuPolygonizeOptions::unbiddenBuildSeconds (10 s) starts unbidden:
+// the shipped scenes' 2-5 s (tower, random128 at 256 and 512 cells) repay themselves in tens of
+// runs, which is what an engine re-meshing a scene wants. A longer one starts only where the
+// caller's expected runs after the job repay it, each saving this share of the job's measured
+// vertex pass: 0.3 where that pass ran the whole program's generated code (tower and random128 at
+// 512 cells: 67 -> 45 and 210 -> 130 ms), 0.8 where it interpreted the gradient or ran vertex
+// tapes (tower_L6P8I4 at 256 cells: 3.5 -> 0.18 s; a random blend of 2048 points: 3.7 -> about
+// 0.7 s). The prediction is within 3x of these long builds (`bench S --resolution 256 --backend
+// vk`, background_build_wait_s): tower_L6P8I4 98 s predicted, 31-37 s measured; the 2048 points
+// 92 s predicted, 136 s measured.
+inline constexpr double kTiledVertexSavingGenerated = 0.3;
+inline constexpr double kTiledVertexSavingInterpreted = 0.8;
+
 // Vertex pass: vertices ~ this many per grid point^(2/3) (a surface's cells) when the active
 // bricks are not known, each evaluated 8 times plus the refinement steps.
 inline constexpr double kVerticesPerSurfacePoint = 10.0;

@@ -85,8 +85,11 @@ struct GpuPolygonizeOptions {
   // the time for 0.8-2 s of builds on lavapipe (its NIR work per kernel is not cached; tower and
   // random128 at 256 and 512 cells, docs/performance.md). Off, a job with expectedRuns > 1 still
   // takes them once they are built, and starts their build in the background when it is done,
-  // so that no job waits for them.
+  // so that no job waits for them: where that build is predicted to take at most
+  // unbiddenBuildSeconds, or where the expected runs after the job repay it (evaluator_costs.h,
+  // kTiledVertexSavingGenerated).
   bool sparseVertexTiles = false;
+  double unbiddenBuildSeconds = 10.0;
   // Sparse path, specialised code (set by the cost model for Auto, EvaluatorEstimate::
   // interpretVertexPassUntilBuilt): while the generated-gradient vertex kernel is not built, the
   // vertex pass runs the embedded interpreter (the same bytes) instead of waiting for the build;

@@ -3,6 +3,8 @@
 #include "blobvk/vk/device/concurrent_builds.h"
 #include "blobvk/vk/device/device_timer.h"
 #include "blobvk/vk/device/error.h"
+#include "blobvk/vk/eval/evaluator_choice.h"
+#include "blobvk/vk/eval/evaluator_costs.h"
 #include "blobvk/vk/eval/field_tiles.h"
 #include "blobvk/vk/eval/gpu_program.h"
 #include "blobvk/vk/eval/program_codegen.h"
@@ -179,8 +181,26 @@ struct SparseBatchRunner::State {
   // Started when the job is done: the background build of the tiles' vertex kernels for the runs
   // after it (GpuPolygonizeOptions::expectedRuns).
   std::function<void()> tileBuildAfterJobDone;
+  double tileBuildSeconds = 0.0;  // its predicted build time (specialisedKernelSeconds)
   ~State() {
-    if (tileBuildAfterJobDone) tileBuildAfterJobDone();
+    if (tileBuildAfterJobDone && tileBuildAfterJobPays()) tileBuildAfterJobDone();
+  }
+  // A quick build starts unbidden (GpuPolygonizeOptions::unbiddenBuildSeconds); a long one only
+  // where the runs the caller expects after this one repay it, each saving a share of this job's
+  // vertex pass (evaluator_costs.h).
+  // Without the rule a random blend of 2048 points at 256 cells built 46 tiles' kernels for 136 s
+  // and 2.9 GB behind a `bench --repeats 3` whose runs take 7.5 s.
+  bool tileBuildAfterJobPays() noexcept {
+    if (tileBuildSeconds <= options.unbiddenBuildSeconds) return true;
+    try {
+      double vertexSeconds = 0.0;
+      for (std::uint32_t b = 0; b < runs; ++b) vertexSeconds += timer.seconds(kMarks * b + 9, kMarks * b + 6);
+      const bool interpreted = interpretedVertexPass || loopedVertexPass || vertexTapes;
+      const double saving = interpreted ? costs::kTiledVertexSavingInterpreted : costs::kTiledVertexSavingGenerated;
+      return vertexSeconds * saving * double(options.expectedRuns - 1) >= tileBuildSeconds;
+    } catch (...) {
+      return false;  // the vertex pass unmeasured: no long build on a guess
+    }
   }
   // The vertex pass per field tile (GpuPolygonizeOptions::sparseVertexTiles): tile t's vertices
   // by vertexTileKernels[t], pruned to its box; empty: one kernel for every vertex. Built on a
@@ -447,8 +467,12 @@ struct SparseBatchRunner::State {
     const std::string backgroundKey = vertexKey(tiledVertices);
     if (tileBuildAfterJob) {
       std::vector<std::pair<std::uint64_t, CodegenOptions>> kernels;  // per tile: fingerprint, code
-      for (std::size_t t = 0; t < tiles.size(); ++t)
+      for (std::size_t t = 0; t < tiles.size(); ++t) {
         kernels.emplace_back(ownTileKernel(t) ? print : gpu.fingerprint, ownTileKernel(t) ? tileCodegen(t) : gpu.codegen);
+        const PointRegion region = ownTileKernel(t) ? tiles[t].region : PointRegion{};
+        tileBuildSeconds += specialisedKernelSeconds(specialisedCodeSize(program, region, gpu.codegen.loops),
+                                                     costs::kGradientVertexKernelCopies);
+      }
       tileBuildAfterJobDone = [&d = device, key = vertexKey(true), program = gpu.specialised, kernels,
                                shader = std::string(tiledVertexShader), wg] {
         d.buildInBackground(key, [&d, program, kernels, shader, wg] {
