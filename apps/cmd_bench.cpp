@@ -182,7 +182,11 @@ void addBenchCommand(CLI::App& app) {
               mesh::TriMesh mesh = polygonize(model.program, grid, settings, &stats, std::move(last));
               if (i == 0) {
                 row.first = stats.seconds;
-                // The steady state is the one with every kernel built.
+                // The steady state is the one with every kernel built (on a terminal, the bar
+                // says what it waits for: a long program's builds take tens of seconds).
+                if (backend == "vk")
+                  progress.update(long(rows.size()), path + " " + std::to_string(resolution) +
+                                                         ": waiting for background kernel builds");
                 row.backgroundWait = waitForBackgroundBuilds(settings);
               }
               else row.steady = row.steady < 0 ? stats.seconds : std::min(row.steady, stats.seconds);
