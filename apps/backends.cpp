@@ -217,7 +217,8 @@ PolygonizeStats::Phases gpuPhases(const vk::GpuStats& gpu) {
           {gpu.hostSteps.classification, gpu.hostSteps.preparation, gpu.hostSteps.fieldSubmits, gpu.hostSteps.emitSubmits,
            gpu.hostSteps.grow, gpu.hostSteps.copy, gpu.hostSteps.corners, gpu.hostSteps.rowCulling,
            gpu.hostSteps.scans, gpu.hostSteps.vertexTileLists, gpu.hostSteps.rows, gpu.hostSteps.sources,
-           gpu.hostSteps.triangles}};
+           gpu.hostSteps.triangles},
+          gpu.vertexTapeWindows};
 }
 
 // `--cpu-worker`: the CPU polygonizer takes batches beside the devices. Its MPUs are the bricks,

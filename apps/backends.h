@@ -119,6 +119,7 @@ struct PolygonizeStats {
       double classification = 0.0, preparation = 0.0, fieldSubmits = 0.0, emitSubmits = 0.0, grow = 0.0, copy = 0.0,
              corners = 0.0, rowCulling = 0.0, scans = 0.0, vertexTileLists = 0.0, rows = 0.0, sources = 0.0, triangles = 0.0;
     } hostSteps;
+    std::uint64_t vertexTapeWindows = 0;  // the vertex tapes' windows of uniform blocks (all batches; 0: storage buffer)
   } gpu;
 };
 

@@ -255,6 +255,7 @@ void addBenchCommand(CLI::App& app) {
             phases["evaluator"] = {{"traversal", r.gpu.evaluator}, {"generated_gradient", r.gpu.vertexGradient},
                                    {"uniform_vertex_program", r.gpu.vertexUniforms},
                                    {"vertex_tapes", r.gpu.vertexTapes},
+                                   {"vertex_tape_windows", r.gpu.vertexTapeWindows},
                                    {"model_build_s", seconds(r.gpu.modelBuild)}, {"model_run_s", seconds(r.gpu.modelRun)}};
           }
         }

@@ -37,7 +37,7 @@ namespace {
 nlohmann::json gpuJson(const PolygonizeStats::Phases& gpu) {
   return {{"batches", gpu.batches}, {"active_bricks", gpu.activeBricks}, {"device_bytes", gpu.deviceBytes},
           {"devices", gpu.devices}, {"evaluator", gpu.evaluator}, {"generated_gradient", gpu.vertexGradient},
-          {"uniform_vertex_program", gpu.vertexUniforms}, {"vertex_tapes", gpu.vertexTapes}, {"host_classification", gpu.hostClassification},
+          {"uniform_vertex_program", gpu.vertexUniforms}, {"vertex_tapes", gpu.vertexTapes}, {"vertex_tape_windows", gpu.vertexTapeWindows}, {"host_classification", gpu.hostClassification},
           {"brick_cells", gpu.brickCells}, {"field_tiles", gpu.fieldTiles}, {"vertex_tiles", gpu.vertexTiles},
           {"tape_instructions", gpu.tapeInstructions},
           {"generated_classification", gpu.generatedClassification}, {"classify_tiles", gpu.classifyTiles}};

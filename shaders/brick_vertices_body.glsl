@@ -1,6 +1,7 @@
 // The sparse vertex kernels' body (brick_vertices.comp, brick_vertices_direct.comp, and their
 // per-tile forms with BRICK_VERTICES_TILED: a lane per entry of one tile's vertex list; with
-// EVAL_TAPES, brick_vertices_direct_tapes.comp: each vertex's gradient from its brick's tape).
+// EVAL_TAPES, brick_vertices_direct_tapes.comp: each vertex's gradient from its brick's tape; with
+// both, brick_vertices_direct_tapes_uniform.comp: a window of bricks' tapes, its vertex list).
 #ifndef BLOBVK_BRICK_VERTICES_BODY_GLSL
 #define BLOBVK_BRICK_VERTICES_BODY_GLSL
 #define PROGRAM_SET 0
@@ -18,8 +19,12 @@ layout(std430, set = 0, binding = 10) writeonly buffer Colours { float colours[]
 layout(std430, set = 0, binding = 11) writeonly buffer Keys { uvec2 keys[]; };
 #ifdef EVAL_TAPES
 // Per batch brick, its vertex tape's first instruction and end (vk/extract/brick_tapes.h,
-// TapeUse::Vertex), the tapes bound in place of the program's code.
+// TapeUse::Vertex), the tapes bound in place of the program's code (in its window's block).
+#ifdef BRICK_VERTICES_TILED
+layout(std430, set = 0, binding = 14) readonly buffer BrickTapes { uvec2 brickTapes[]; };
+#else
 layout(std430, set = 0, binding = 12) readonly buffer BrickTapes { uvec2 brickTapes[]; };
+#endif
 uint evalTapeEnd = 0u;
 #define EVAL_CODE_END evalTapeEnd
 #endif
@@ -39,7 +44,7 @@ layout(push_constant) uniform Push {
   uint nx, ny;      // grid points per axis (edge keys)
   uint tailBase;    // the samples' tail (brick_layout.glsl, fieldIndex)
 #ifdef BRICK_VERTICES_TILED
-  uint tile;        // its count and first list entry: tileArgs[tile * 8 + 3], [tile * 8 + 4]
+  uint tile;        // its count and first list entry: tileArgs[tile * 8 + 3], [tile * 8 + 4] (a window's, with EVAL_TAPES)
 #endif
 } pc;
 

@@ -159,13 +159,14 @@ inline constexpr std::uint32_t kLoopedAboveInstructionsOnCpu = 400;
 // runs, which is what an engine re-meshing a scene wants. A longer one starts only where the
 // caller's expected runs after the job repay it, each saving this share of the job's measured
 // vertex pass: 0.3 where that pass ran the whole program's generated code (tower and random128 at
-// 512 cells: 67 -> 45 and 210 -> 130 ms), 0.8 where it interpreted the gradient or ran vertex
-// tapes (tower_L6P8I4 at 256 cells: 3.5 -> 0.18 s; a random blend of 2048 points: 3.7 -> about
-// 0.7 s). The prediction is within 3x of these long builds (`bench S --resolution 256 --backend
-// vk`, background_build_wait_s): tower_L6P8I4 98 s predicted, 31-37 s measured; the 2048 points
-// 92 s predicted, 136 s measured.
+// 512 cells: 67 -> 45 and 210 -> 130 ms), 0.75 where it interpreted the gradient or ran vertex
+// tapes (at 256 cells: tower_L6P8I4 0.67 s over vertex tapes in uniform blocks, 3.4 s looped,
+// 0.18 s tiled; a random blend of 1024 points 1.8 s over the tapes, 0.54 s tiled). The
+// prediction is within 3x of these long builds (`bench S --resolution 256 --backend vk`,
+// background_build_wait_s): tower_L6P8I4 98 s predicted, 31-37 s measured; a random blend of
+// 2048 points 92 s predicted, 136 s measured.
 inline constexpr double kTiledVertexSavingGenerated = 0.3;
-inline constexpr double kTiledVertexSavingInterpreted = 0.8;
+inline constexpr double kTiledVertexSavingInterpreted = 0.75;
 
 // Vertex pass: vertices ~ this many per grid point^(2/3) (a surface's cells) when the active
 // bricks are not known, each evaluated 8 times plus the refinement steps.

@@ -201,7 +201,7 @@ class WindowRecords {
     bool fits = true;
     for (layout::Instruction& in : local) {
       const std::uint32_t op = in.code.x & 0xffu;
-      if (op == layout::OP_PRIM) {
+      if (op == layout::OP_PRIM || op == layout::OP_NULL_ADDS) {  // a null addition's: for its colour
         layout::PrimitiveRecord r = program_.primitives[in.code.y];
         fits = matrix(r.meta.y) && prims_.intern(in.code.y, r, in.code.y);
       } else if (op == layout::OP_SKIP && in.code.y == emptyBox) {
@@ -240,7 +240,7 @@ class WindowRecords {
 }  // namespace
 
 bool buildUniformTapes(const blobtree::Program& program, const blobtree::GridSpec& grid, const BrickGrid& bricks,
-                       std::span<const std::uint32_t> packedBricks, UniformTapes& out) {
+                       std::span<const std::uint32_t> packedBricks, UniformTapes& out, TapeUse use) {
   // Cleared, not freed: a runner reuses one UniformTapes for every batch, so its blocks' memory
   // is allocated (and faulted in) once.
   out.windows.clear();
@@ -252,7 +252,7 @@ bool buildUniformTapes(const blobtree::Program& program, const blobtree::GridSpe
   out.instructions = 0;
   out.ranges.assign(packedBricks.size() * 2, 0);
   const std::uint32_t emptyBox = std::uint32_t(program.boxes.size());
-  BrickTapeWalker walker(program, grid, bricks, emptyBox);
+  BrickTapeWalker walker(program, grid, bricks, emptyBox, use);
   WindowRecords records(program, out);
   TapeStore store(records.code());
   std::vector<layout::Instruction> local;

@@ -62,8 +62,9 @@ struct UniformTapes {
 };
 
 // The same tapes packed in windows for uniform blocks; false (out unspecified) when one brick's
-// tape alone is over a block (then buildBrickTapes' storage buffers serve).
+// tape alone is over a block (then buildBrickTapes' storage buffers serve). With TapeUse::Vertex
+// the vertex tapes (brick_vertices_direct_tapes_uniform, a dispatch per window).
 bool buildUniformTapes(const blobtree::Program& program, const blobtree::GridSpec& grid, const BrickGrid& bricks,
-                       std::span<const std::uint32_t> packedBricks, UniformTapes& out);
+                       std::span<const std::uint32_t> packedBricks, UniformTapes& out, TapeUse use = TapeUse::Field);
 
 }  // namespace blobvk::vk

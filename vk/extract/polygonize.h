@@ -131,6 +131,7 @@ struct GpuPolygonizeOptions {
   // With brickTapes: the tapes and the records they use in uniform blocks by windows of bricks
   // where the device's uniform range allows (vk/extract/brick_tapes.h); false: in one storage
   // buffer beside the program's records (what a batch whose tape is over a block falls back to).
+  // The vertex tapes too, on a CPU device (a dispatch per window over the host's vertex lists).
   bool brickTapeUniforms = true;
   // Sparse: a vertex kernel that interprets the gradient without samples (no refinement; a first
   // job before the generated gradient is built, or the interpreter's traversal) reads the program
@@ -209,6 +210,7 @@ struct GpuStats {
   bool vertexGradient = false;  // false too where the vertex pass interpreted while it built
   bool vertexUniforms = false;  // sparse: the interpreted gradient read the program from uniform blocks
   bool vertexTapes = false;     // sparse: ... each vertex's brick's tape (with the field's brick tapes)
+  std::uint32_t vertexTapeWindows = 0;  // sparse: ... from uniform blocks, in this many windows (all batches)
   bool hostClassification = false;  // sparse: the bricks classified on the host (host_classify.h)
   bool generatedClassification = false;  // sparse: the bricks classified by generated code (classify_kernel.h)
   std::uint32_t classifyTiles = 0;  // sparse: tiles the interpreted classification ran, each with its tape (0: whole program)

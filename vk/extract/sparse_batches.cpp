@@ -239,8 +239,10 @@ struct SparseBatchRunner::State {
   std::array<Buffer, 5> tapeBlocks;
   // Device bytes of the tape buffers (code, ranges and the uniform blocks), as grown so far.
   std::uint64_t tapeBytes() const {
-    std::uint64_t b = tapeCode.size() + tapeRanges.size() + vertexTapeCode.size() + vertexTapeRanges.size();
+    std::uint64_t b = tapeCode.size() + tapeRanges.size() + vertexTapeCode.size() + vertexTapeRanges.size() +
+                      vertexWindowArgs.size();
     for (const Buffer& block : tapeBlocks) b += block.size();
+    for (const Buffer& block : vertexTapeBlocks) b += block.size();
     return b;
   }
   std::vector<std::uint8_t> blockBytes;
@@ -251,6 +253,20 @@ struct SparseBatchRunner::State {
   const blobtree::Program* vertexTapeProgram = nullptr;
   BrickTapes vertexTapeSet;
   Buffer vertexTapeCode, vertexTapeRanges;
+  // On a CPU device the vertex tapes go to uniform blocks by windows of bricks as the field's do
+  // (GpuPolygonizeOptions::brickTapeUniforms): the host lists each window's vertices
+  // (vertex_tile_lists.h, a window for a tile) and brick_vertices_direct_tapes_uniform runs a
+  // dispatch per window. From a storage buffer llvmpipe loops over the lanes at every load (at
+  // 256 cells, vertex pass from the storage buffer and from windows: a union of 200 instances
+  // 0.30 -> 0.08-0.13 s, a random blend of 1024 points 4.2 -> 1.8 s). Where a batch's tapes do
+  // not fit the blocks, its vertex tapes go to the storage buffer.
+  bool vertexTapeWindows = false;   // chosen for the job
+  bool batchVertexWindows = false;  // this batch's vertex tapes are in windows
+  UniformTapes vertexWindowTapes;
+  std::array<Buffer, 5> vertexTapeBlocks;
+  std::vector<std::uint32_t> vertexWindowOfBrick;  // per batch brick, its window
+  Buffer vertexWindowArgs;                         // per window, its dispatch (vertex_tile_lists.h)
+  KernelPtr vertexWindowKernel;
   // The storage-buffer tape kernel, for a batch whose tapes do not fit uniform blocks.
   KernelPtr storageTapes;
   const KernelPtr& storageTapeKernel() {
@@ -274,6 +290,23 @@ struct SparseBatchRunner::State {
     }
   }
 
+  // Each window's code and records at the start of its 64 KB block (any uniform offset alignment).
+  void uploadWindowBlocks(const UniformTapes& u, std::array<Buffer, 5>& blocks) {
+    const std::uint64_t windows = u.windows.size();
+    auto uploadBlocks = [&](Buffer& dst, const void* records, std::size_t recordBytes, std::size_t perWindow) {
+      reserve(dst, windows * kUniformTapeBlock, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, "brick tape blocks");
+      blockBytes.assign(windows * kUniformTapeBlock, 0);
+      for (std::uint64_t w = 0; w < windows; ++w)
+        std::memcpy(blockBytes.data() + w * kUniformTapeBlock,
+                    static_cast<const std::uint8_t*>(records) + w * perWindow * recordBytes, perWindow * recordBytes);
+      device.upload(dst, blockBytes.data(), blockBytes.size());
+    };
+    uploadBlocks(blocks[0], u.code.data(), sizeof(layout::Instruction), kUniformTapeCode);
+    uploadBlocks(blocks[1], u.primitives.data(), sizeof(layout::PrimitiveRecord), kUniformTapePrims);
+    uploadBlocks(blocks[2], u.matrices.data(), sizeof(layout::MatrixRecord), kUniformTapeMatrices);
+    uploadBlocks(blocks[3], u.boxes.data(), sizeof(layout::BoxRecord), kUniformTapeBoxes);
+    uploadBlocks(blocks[4], u.warps.data(), sizeof(layout::WarpRecord), kUniformTapeWarps);
+  }
   // Builds and uploads the tapes of the batch's bricks (`packed`): in uniform blocks by windows
   // where they fit, else in one storage buffer. Returns whether they went to uniform blocks.
   bool uploadTapes(std::span<const std::uint32_t> packed, const GpuProgram& gpu, GpuStats& s) {
@@ -281,24 +314,10 @@ struct SparseBatchRunner::State {
     const bool uniform = uniformTapes && buildUniformTapes(*tapeProgram, grid, bg, packed, windowTapes);
     if (uniform) {
       const UniformTapes& u = windowTapes;
-      const std::uint64_t windows = u.windows.size();
-      // Each window's records at the start of its 64 KB block (any uniform offset alignment).
-      auto uploadBlocks = [&](Buffer& dst, const void* records, std::size_t recordBytes, std::size_t perWindow) {
-        reserve(dst, windows * kUniformTapeBlock, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, "brick tape blocks");
-        blockBytes.assign(windows * kUniformTapeBlock, 0);
-        for (std::uint64_t w = 0; w < windows; ++w)
-          std::memcpy(blockBytes.data() + w * kUniformTapeBlock,
-                      static_cast<const std::uint8_t*>(records) + w * perWindow * recordBytes, perWindow * recordBytes);
-        device.upload(dst, blockBytes.data(), blockBytes.size());
-      };
-      uploadBlocks(tapeBlocks[0], u.code.data(), sizeof(layout::Instruction), kUniformTapeCode);
-      uploadBlocks(tapeBlocks[1], u.primitives.data(), sizeof(layout::PrimitiveRecord), kUniformTapePrims);
-      uploadBlocks(tapeBlocks[2], u.matrices.data(), sizeof(layout::MatrixRecord), kUniformTapeMatrices);
-      uploadBlocks(tapeBlocks[3], u.boxes.data(), sizeof(layout::BoxRecord), kUniformTapeBoxes);
-      uploadBlocks(tapeBlocks[4], u.warps.data(), sizeof(layout::WarpRecord), kUniformTapeWarps);
+      uploadWindowBlocks(u, tapeBlocks);
       device.upload(tapeRanges, u.ranges.data(), 4ull * u.ranges.size());
       s.tapeInstructions += u.instructions;
-      s.tapeWords += windows * kUniformTapeCode;
+      s.tapeWords += u.windows.size() * kUniformTapeCode;
     } else {
       buildBrickTapes(*tapeProgram, grid, bg, packed, gpu.emptyBox, tapes);
       const std::uint64_t codeBytes = tapes.code.size() * sizeof(layout::Instruction);
@@ -311,9 +330,24 @@ struct SparseBatchRunner::State {
     s.tapeSeconds += std::chrono::duration<double>(Clock::now() - start).count();
     return uniform;
   }
-  // Builds and uploads the vertex tapes of the batch's bricks (`packed`).
-  void uploadVertexTapes(std::span<const std::uint32_t> packed, const GpuProgram& gpu, GpuStats& s) {
+  // Builds and uploads the vertex tapes of the batch's bricks (`packed`): in windows of uniform
+  // blocks where the job takes them and they fit, else in the storage buffer.
+  void uploadVertexTapes(std::span<const std::uint32_t> packed, const GpuProgram& gpu, GpuStats& s, bool windows) {
     const auto start = Clock::now();
+    batchVertexWindows =
+        windows && buildUniformTapes(*vertexTapeProgram, grid, bg, packed, vertexWindowTapes, TapeUse::Vertex);
+    if (batchVertexWindows) {
+      const UniformTapes& u = vertexWindowTapes;
+      uploadWindowBlocks(u, vertexTapeBlocks);
+      device.upload(vertexTapeRanges, u.ranges.data(), 4ull * u.ranges.size());
+      vertexWindowOfBrick.resize(packed.size());
+      for (std::size_t w = 0; w < u.windows.size(); ++w)
+        std::fill(vertexWindowOfBrick.begin() + u.windows[w].firstBrick, vertexWindowOfBrick.begin() + u.windows[w].endBrick,
+                  std::uint32_t(w));
+      reserve(vertexWindowArgs, u.windows.size() * 32, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, "vertex window dispatches");
+      s.tapeSeconds += std::chrono::duration<double>(Clock::now() - start).count();
+      return;
+    }
     buildBrickTapes(*vertexTapeProgram, grid, bg, packed, gpu.emptyBox, vertexTapeSet, TapeUse::Vertex);
     const std::uint64_t codeBytes = vertexTapeSet.code.size() * sizeof(layout::Instruction);
     reserve(vertexTapeCode, std::max<std::uint64_t>(codeBytes, 16), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, "vertex tapes");
@@ -497,6 +531,7 @@ struct SparseBatchRunner::State {
     if (vertexTapes) {
       vertexTapeProgram = &program;
       vertexTapeRanges = make(std::uint64_t(maxLoaded) * 8, "vertex tape ranges");
+      vertexTapeWindows = hostScans && vertexTapesInWindows(device, o);
     }
     if (!vertexTapes && !samples && traversal != Traversal::StackBased && o.uniformVertexProgram &&
         (!vertexGenerated || interpretUntilBuilt))
@@ -509,7 +544,11 @@ struct SparseBatchRunner::State {
                              traversal == Traversal::StackBased ? traversal : Traversal::Stackless);
     };
     if (vertexTapes) {
+      // Both kernels where the tapes may go to windows: a batch whose tapes do not fit takes the
+      // storage buffer's.
       builds.push_back([this, wg] { return device.kernel("brick_vertices_direct_tapes", vertexTapeSpecs(wg)); });
+      if (vertexTapeWindows)
+        builds.push_back([this, wg] { return device.kernel("brick_vertices_direct_tapes_uniform", vertexTapeSpecs(wg)); });
     } else if (interpretUntilBuilt) {
       // Not built: this job interprets its vertex pass (quick to create, the same bytes) and, if
       // more jobs are expected, the generated kernel builds in the background for them (once: a
@@ -583,6 +622,7 @@ struct SparseBatchRunner::State {
     if (cullRows) builds.push_back([this, wgSpec] { return device.kernel("brick_row_fill", wgSpec); });
     std::vector<KernelPtr> built = buildConcurrently(builds);
     if (vertexBuilds) vertexKernel = built.front();
+    if (vertexTapes && vertexTapeWindows) vertexWindowKernel = built[1];
     fieldKernels.assign(built.begin() + std::ptrdiff_t(vertexBuilds), built.begin() + std::ptrdiff_t(evaluatorBuilds));
     if (tiledVertices && !interpretedVertexPass) {
       brickTiles = make(std::uint64_t(maxLoaded) * 4, "brick tiles");
@@ -615,6 +655,11 @@ SparseBatchRunner::SparseBatchRunner(Device& device, const blobtree::Program& pr
     : state_((checkLoopLimit(device, program, options, traversal, bricks),
               std::make_unique<State>(device, program, grid, options, traversal, bricks, windows, maxLoaded,
                                       maxBatches))) {}
+
+bool vertexTapesInWindows(const Device& device, const GpuPolygonizeOptions& options) {
+  return device.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU && options.brickTapeUniforms &&
+         device.info().limits.maxUniformBufferRange >= kUniformTapeBlock;
+}
 
 SparseBatchRunner::~SparseBatchRunner() = default;
 
@@ -692,7 +737,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
     s.fieldEvaluations += std::uint64_t(loaded) * P;
   }
   const bool uniformTapes = st.tapeProgram && st.uploadTapes(st.batchPacked, gpu, s);
-  if (st.vertexTapes) st.uploadVertexTapes(st.batchPacked, gpu, s);
+  if (st.vertexTapes) st.uploadVertexTapes(st.batchPacked, gpu, s, st.vertexTapeWindows);
   // The vertex pass per tile: each batch brick's tile, for brick_vertex_tile_counts and _lists.
   const std::vector<KernelPtr>& vertexTiles = st.vertexTiles();
   s.vertexTiles = std::uint32_t(vertexTiles.size());
@@ -869,7 +914,9 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const bool hostSources = st.hostRowPasses && vertexSources.hostReadable() && triangleSources.hostReadable();
   const bool hostTriangles = !cornerKeys && hostSources;
   Buffer indices = make(hostTriangles ? 16 : triangleQuads * 4 * cornerBytes, "triangle indices");
-  Buffer tileVertices = vertexTiles.empty() ? Buffer{} : make(std::uint64_t(vertices) * 4, "vertex tile lists");
+  const bool vertexWindows = vertices && st.vertexTapes && st.batchVertexWindows;
+  Buffer tileVertices =
+      vertexTiles.empty() && !vertexWindows ? Buffer{} : make(std::uint64_t(vertices) * 4, "vertex tile lists");
   // Edge keys are 64-bit, low word first on the device (x86 and ARM hosts are little-endian).
   static_assert(sizeof(mesh.edgeKeys[0]) == 8 && std::endian::native == std::endian::little);
   // Each output's room at the end of its mesh array, made before the copies: grow(false) makes
@@ -952,6 +999,12 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   // elsewhere the device does, in one submit.
   const bool hostTileLists = vertices && !vertexTiles.empty() && st.hostScans && vertexSources.hostReadable() &&
                              tileVertices.hostReadable() && st.tileArgs.hostReadable();
+  // The vertex tapes' windows are listed on the host alone; where it cannot, the batch's vertex
+  // tapes go to the storage buffer after all.
+  const bool hostWindowLists = vertexWindows && vertexSources.hostReadable() && tileVertices.hostReadable() &&
+                               st.vertexWindowArgs.hostReadable();
+  if (vertexWindows && !hostWindowLists) st.uploadVertexTapes(st.batchPacked, gpu, s, false);
+  if (hostWindowLists) s.vertexTapeWindows += std::uint32_t(st.vertexWindowTapes.windows.size());
   auto recordSources = [&](Recorder& rec) {
     rec.computeBarrier();
     st.timer.mark(rec, mark + 4);
@@ -988,7 +1041,26 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       const BufferRange bind[14] = {program(0),    program(1), program(2), program(3), program(4), st.field,     st.batchBricks,
                                     vertexSources, positions,  normals,    colours,    keys,       tileVertices, st.tileArgs};
       const Groups g = groupsFor(vertices, wg);
-      if (st.vertexTapes) {  // binding 0: the vertex tapes in place of the program's code; 12: their ranges
+      if (hostWindowLists) {
+        // A dispatch per window of bricks over its vertex list: its blocks in place of the
+        // program (0-4), the list and dispatches (12, 13), the tapes' ranges in their windows (14).
+        BufferRange windowBind[15];
+        std::copy(bind, bind + 12, windowBind);
+        windowBind[12] = tileVertices;
+        windowBind[13] = st.vertexWindowArgs;
+        windowBind[14] = st.vertexTapeRanges;
+        struct {
+          decltype(push) vertex;
+          std::uint32_t window;
+        } windowPush{push, 0};
+        for (std::uint32_t w = 0; w < std::uint32_t(st.vertexWindowTapes.windows.size()); ++w) {
+          for (std::size_t i = 0; i < 5; ++i)
+            windowBind[i] = BufferRange(st.vertexTapeBlocks[i].handle(), w * kUniformTapeBlock, kUniformTapeBlock);
+          windowPush.window = w;
+          rec.dispatchIndirect(*st.vertexWindowKernel, windowBind, &windowPush, sizeof(windowPush), st.vertexWindowArgs,
+                               32ull * w);
+        }
+      } else if (st.vertexTapes) {  // binding 0: the vertex tapes in place of the program's code; 12: their ranges
         BufferRange tapeBind[13];
         std::copy(bind, bind + 12, tapeBind);
         tapeBind[0] = st.vertexTapeCode;
@@ -1051,7 +1123,7 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
   const std::function<void()> whileRunning = stagingBytes ? std::function<void()>(whileDeviceCopies) : nullptr;
   // The sources: the host's, or the device's pass (in a submit of its own where the host lists
   // the tiles' vertices from them: a CPU device whose row buffers the host cannot map).
-  const bool sourcesSubmit = !hostSources && hostTileLists;
+  const bool sourcesSubmit = !hostSources && (hostTileLists || hostWindowLists);
   if (hostSources) {
     const auto sourcesStart = Clock::now();
     if (vertices || triangles) {
@@ -1067,6 +1139,14 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       recordSources(rec);
       rec.hostBarrier();
     });
+  }
+  if (hostWindowLists) {
+    const auto listStart = Clock::now();
+    listVerticesByTile(static_cast<const std::uint32_t*>(vertexSources.mapped()), vertices, st.vertexWindowOfBrick.data(),
+                       std::uint32_t(st.vertexWindowTapes.windows.size()), wg,
+                       static_cast<std::uint32_t*>(tileVertices.mapped()),
+                       static_cast<std::uint32_t*>(st.vertexWindowArgs.mapped()));
+    s.hostSteps.vertexTileLists += since(listStart);
   }
   if (hostTileLists) {
     const auto listStart = Clock::now();

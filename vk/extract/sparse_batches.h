@@ -62,6 +62,11 @@ std::vector<SparseBatch> planSparseBatches(std::span<const std::uint32_t> layerS
 // What one storage buffer can hold, in active bricks of `bricks`' size, on `device`.
 std::uint64_t sparseRangeBricks(Device& device, const BrickGrid& bricks);
 
+// Whether per-brick vertex tapes go to uniform blocks by windows of bricks on `device`
+// (GpuPolygonizeOptions::brickTapeUniforms, a CPU device whose uniform range holds a block): from
+// there llvmpipe interprets them 2.4-5x faster than from a storage buffer.
+bool vertexTapesInWindows(const Device& device, const GpuPolygonizeOptions& options);
+
 // A device buffer of `size` bytes (at least 16) for the sparse extraction's `what`, added to
 // `bytes`; throws naming `what` when it is over the device's maxStorageBufferRange.
 Buffer makeSparseBuffer(Device& device, std::uint64_t size, const char* what, std::uint64_t& bytes);

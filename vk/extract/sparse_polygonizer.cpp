@@ -511,14 +511,20 @@ SparseEvaluator resolveSparseEvaluator(Device& device, const blobtree::Program& 
       if (e.brickTapes) e.fieldTiles = false, e.fieldTileCap = 0;
     }
     // A looped program's vertex pass runs the whole program's looped code unless its tiles unroll
-    // (vertex tiles) or it interprets per-brick vertex tapes: taken where a point of a brick would
-    // run many times its brick's tape (a flat blend, which looped code cannot skip: 600 points at
-    // 256 cells, 72 times, vertex pass 8 s longer looped; towers, whose skips the looped code
-    // takes, about once, and their looped pass is as fast or faster: tower L3P8G2 at 256 cells
-    // 1.1-1.4 s against 1.8-1.9 s with tapes).
+    // (vertex tiles) or it interprets per-brick vertex tapes. From a storage buffer the tapes are
+    // taken where a point of a brick would run many times its brick's tape (a flat blend, which
+    // looped code cannot skip: 600 points at 256 cells, 72 times, vertex pass 8 s longer looped;
+    // towers, whose skips the looped code takes, about once, and their looped pass is as fast or
+    // faster: tower L3P8G2 at 256 cells 1.1-1.4 s against 1.8-1.9 s with tapes). From uniform
+    // blocks (vertexTapesInWindows) always: towers at 256 cells, looped and from windows, L3P8G2
+    // 0.45 -> 0.32 s, L5P8G3 2.4 -> 0.59 s, tower_L6P8I4 3.4 -> 0.67 s.
     if (whole.loops && !e.brickTapes && (options.normals || options.colours)) {
-      if (tapeInstructions < 0.0) tapeInstructions = activeTapeInstructions(program, grid, classified->bricks, evaluated);
-      e.vertexTapes = activeBranchedInstructions(program, grid, evaluated) > kVertexTapeShare * tapeInstructions;
+      if (vertexTapesInWindows(device, options)) {
+        e.vertexTapes = true;
+      } else {
+        if (tapeInstructions < 0.0) tapeInstructions = activeTapeInstructions(program, grid, classified->bricks, evaluated);
+        e.vertexTapes = activeBranchedInstructions(program, grid, evaluated) > kVertexTapeShare * tapeInstructions;
+      }
     }
   }
   return e;
