@@ -293,8 +293,11 @@ std::uint64_t sparseDeviceBytes(const BrickGrid& bricks, std::uint64_t activeBri
   const std::uint64_t perBrick = sparseBrickBytes(bricks);
   const std::uint64_t scan = (scanScratchWords(bricks.count() + 1) + scanScratchWords(activeBricks * R * R) +
                               scanScratchWords(activeBricks * B * B)) * 4;
-  // Outputs, and where each vertex and triangle comes from (8 bytes each).
-  const std::uint64_t outputs = vertices * (12 + 8 + 8 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * (12 + 8);
+  // Outputs, where each vertex and triangle comes from (8 bytes each), and each vertex's entry in
+  // its tile's or window's list where the vertex pass runs per field tile or per window of vertex
+  // tapes (4 bytes).
+  const std::uint64_t outputs =
+      vertices * (12 + 8 + 8 + 4 + (normals ? 12 : 0) + (colours ? 12 : 0)) + triangles * (12 + 8);
   const std::uint64_t parentFlags = (bricks.count() / 7 + 8) * 4;  // the classification's coarser passes
   const std::uint64_t rowStarts = (std::uint64_t(bricks.y) * (bricks.z + 2) + 1) * 4;  // each brick row's first active brick
   return (bricks.count() + 1) * 8 + parentFlags + rowStarts + activeBricks * perBrick + scan + outputs + 256 * 4 * 4 +
