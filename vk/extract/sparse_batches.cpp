@@ -181,7 +181,8 @@ struct SparseBatchRunner::State {
   // Started when the job is done: the background build of the tiles' vertex kernels for the runs
   // after it (GpuPolygonizeOptions::expectedRuns).
   std::function<void()> tileBuildAfterJobDone;
-  double tileBuildSeconds = 0.0;  // its predicted build time (specialisedKernelSeconds)
+  double tileBuildSeconds = 0.0;       // its predicted build time (specialisedKernelSeconds)
+  double measuredVertexSeconds = 0.0;  // the job's vertex pass so far, batches completed (device time)
   ~State() {
     if (tileBuildAfterJobDone && tileBuildAfterJobPays()) tileBuildAfterJobDone();
   }
@@ -192,15 +193,10 @@ struct SparseBatchRunner::State {
   // and 2.9 GB behind a `bench --repeats 3` whose runs take 7.5 s.
   bool tileBuildAfterJobPays() noexcept {
     if (tileBuildSeconds <= options.unbiddenBuildSeconds) return true;
-    try {
-      double vertexSeconds = 0.0;
-      for (std::uint32_t b = 0; b < runs; ++b) vertexSeconds += timer.seconds(kMarks * b + 9, kMarks * b + 6);
-      const bool interpreted = interpretedVertexPass || loopedVertexPass || vertexTapes;
-      const double saving = interpreted ? costs::kTiledVertexSavingInterpreted : costs::kTiledVertexSavingGenerated;
-      return vertexSeconds * saving * double(options.expectedRuns - 1) >= tileBuildSeconds;
-    } catch (...) {
-      return false;  // the vertex pass unmeasured: no long build on a guess
-    }
+    // Unmeasured (no timestamps, or the job failed): 0, so no long build on a guess.
+    const bool interpreted = interpretedVertexPass || loopedVertexPass || vertexTapes;
+    const double saving = interpreted ? costs::kTiledVertexSavingInterpreted : costs::kTiledVertexSavingGenerated;
+    return measuredVertexSeconds * saving * double(options.expectedRuns - 1) >= tileBuildSeconds;
   }
   // The vertex pass per field tile (GpuPolygonizeOptions::sparseVertexTiles): tile t's vertices
   // by vertexTileKernels[t], pruned to its box; empty: one kernel for every vertex. Built on a
@@ -1167,6 +1163,10 @@ void SparseBatchRunner::run(const SparseBatch& batch, std::uint64_t vertexBase, 
       whileRunning);
   s.extractSeconds += since(t0);
   s.hostSteps.emitSubmits += since(t0);
+  // The batch's vertex pass, for the after-job build's payback (State::tileBuildAfterJobPays):
+  // read once the batch has completed, never in the destructor of a job that failed (a query
+  // never written would be waited for).
+  if (st.tileBuildAfterJobDone && st.timer.enabled()) st.measuredVertexSeconds += st.timer.seconds(mark + 9, mark + 6);
 
   // What is left after the fence: every output where the host reads the device's buffers
   // (lavapipe), else the last staged one.
