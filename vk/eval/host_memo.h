@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <mutex>
 #include <unordered_map>
 #include <utility>
@@ -15,13 +16,22 @@
 
 namespace blobvk::vk {
 
-// FNV-1a, 64 bits, over plain data without padding holes: these memos' keys and the program and
-// evaluator fingerprints (programFingerprint, evaluatorFingerprint).
+// FNV-1a, 64 bits, over plain data without padding holes, eight bytes a step (each step folds
+// the high half down, so that a word's high bits reach the low ones): these memos' keys and the
+// program and evaluator fingerprints (programFingerprint, evaluatorFingerprint). A job hashes its
+// program tens of times; byte by byte that was 30 us a time for the tower.
 struct MemoKey {
   std::uint64_t h = 14695981039346656037ull;
   MemoKey& bytes(const void* p, std::size_t n) {
     const auto* b = static_cast<const unsigned char*>(p);
-    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+    std::size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+      std::uint64_t w;
+      std::memcpy(&w, b + i, 8);
+      h = (h ^ w) * 1099511628211ull;
+      h ^= h >> 32;
+    }
+    for (; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
     return *this;
   }
   template <class T>

@@ -447,11 +447,30 @@ bool wantsLoops(const blobtree::Program& program, const PointRegion& region, con
          (loops.minProgramInstructions == 0 || prunedInstructionCount(program, region) > loops.minProgramInstructions);
 }
 
+MemoKey loopsKey(const blobtree::Program& program, const LoopOptions& loops) {
+  MemoKey k;
+  k.add(programFingerprint(program));
+  k.add(loops.enabled);
+  k.add(loops.minCount);
+  k.add(loops.minInstructions);
+  k.add(loops.minProgramInstructions);
+  return k;
+}
+
+// CodeShapes::analyse, remembered per program and loop options: the loop limit, the evaluator
+// choice, the tiles and the upload each ask for it, on every job (GPUs loop any repeated shape:
+// tens of analyses of the tower a job, 0.8 ms of its host time).
+std::shared_ptr<const CodeShapes> analysedShapes(const blobtree::Program& program, const LoopOptions& loops) {
+  static HostMemo<std::shared_ptr<const CodeShapes>> memo;
+  return memo.get(loopsKey(program, loops),
+                  [&] { return std::shared_ptr<const CodeShapes>(CodeShapes::analyse(program, loops)); });
+}
+
 // The looped form when the code parses into shapes (and loops are on for it), else unrolled.
 Generated generate(const blobtree::Program& program, const CodegenOptions& options) {
   Generated g;
-  std::unique_ptr<CodeShapes> shapes;
-  if (wantsLoops(program, options.region, options.loops)) shapes = CodeShapes::analyse(program, options.loops);
+  std::shared_ptr<const CodeShapes> shapes;
+  if (wantsLoops(program, options.region, options.loops)) shapes = analysedShapes(program, options.loops);
   if (shapes) {
     // Looped code branches on skips (CodegenOptions::loops).
     CodegenOptions looped = options;
@@ -475,15 +494,23 @@ Generated generate(const blobtree::Program& program, const CodegenOptions& optio
 }  // namespace
 
 bool specialisedCodeLoops(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
-  return wantsLoops(program, region, loops) && CodeShapes::analyse(program, loops) != nullptr;
+  return wantsLoops(program, region, loops) && analysedShapes(program, loops) != nullptr;
 }
 
 std::uint32_t specialisedCodeSize(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
   if (!wantsLoops(program, region, loops)) return prunedInstructionCount(program, region);
-  CodegenOptions o;
-  o.region = region;
-  o.loops = loops;
-  return generate(program, o).emitted;
+  // Generating the code to count it: remembered, as the evaluator choice and the tiles ask again
+  // every job.
+  static HostMemo<std::uint32_t> memo;
+  MemoKey key = loopsKey(program, loops);
+  key.add(region.valid);
+  if (region.valid) key.add(region.lo).add(region.hi);
+  return memo.get(key, [&] {
+    CodegenOptions o;
+    o.region = region;
+    o.loops = loops;
+    return generate(program, o).emitted;
+  });
 }
 
 bool canSpecialise(const blobtree::Program& program, const PointRegion& region, const LoopOptions& loops) {
@@ -495,7 +522,7 @@ bool canSpecialise(const blobtree::Program& program, const PointRegion& region, 
 std::vector<layout::uvec4> specialisedData(const blobtree::Program& program, const LoopOptions& loops) {
   // The whole program's code is the longest of its regions': when it is unrolled, so is every tile's.
   if (!wantsLoops(program, {}, loops)) return {};
-  const auto shapes = CodeShapes::analyse(program, loops);
+  const auto shapes = analysedShapes(program, loops);
   return shapes ? shapes->data() : std::vector<layout::uvec4>{};
 }
 
