@@ -12,6 +12,7 @@
 #include "blobvk/vk/extract/polygonize.h"
 #include "reference_checks.h"
 #include "shipped_scenes.h"
+#include "unrolled_code.h"
 #include "vk_fixture.h"
 
 #include <gtest/gtest.h>
@@ -61,8 +62,9 @@ struct Job {
 
 Job polygonizeOn(vk::Device& d, const blobtree::Program& program, const blobtree::GridSpec& grid,
                  bool interpretUntilBuilt, std::uint32_t expectedRuns) {
-  // The generated gradient, unrolled (a small program); given, so that the stats report it.
-  const vk::CodegenOptions codegen = vk::defaultCodegenOptions(d);
+  // The generated gradient, unrolled (a small program) on every driver; given, so that the stats
+  // report it.
+  const vk::CodegenOptions codegen = unrolledCodegen(d);
   vk::GpuPolygonizeOptions o;
   o.traversal = vk::Traversal::Specialised;
   o.codegen = &codegen;
@@ -83,6 +85,17 @@ TEST_F(BackgroundBuildTest, FirstJobInterpretsTheVertexPassAndTheNextRunsTheGene
   ASSERT_FALSE(generated.mesh.triangles.empty());
   EXPECT_EQ(reference.backgroundBuildsStarted(), 0u);
 
+  // The interpreted gradient gives the generated code's bytes on lavapipe; other drivers round
+  // sin, cos and pow otherwise in the two code shapes (docs/vulkan.md).
+  const bool lavapipe = device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  const float cell = grid.cellSize;
+  auto expectInterpretedMesh = [&](const mesh::TriMesh& m, const std::string& what) {
+    if (lavapipe) {
+      expectSameBytes(m, generated.mesh, what);
+    } else {
+      expectSameMeshWithin(m, generated.mesh, 1e-2f * cell, 1e-2f, 1e-3f, what);
+    }
+  };
   vk::Device fresh(device().host());
   fresh.holdBackgroundBuilds(true);  // the builds cannot finish before the second job
   const Job first = polygonizeOn(fresh, program, grid, true, 3);
@@ -91,13 +104,13 @@ TEST_F(BackgroundBuildTest, FirstJobInterpretsTheVertexPassAndTheNextRunsTheGene
   // The generated kernel's build, started with the job; the field tiles' vertex kernels', started
   // once it was done (not before: they would slow it).
   EXPECT_EQ(fresh.backgroundBuildsStarted(), 2u);
-  expectSameBytes(first.mesh, generated.mesh, "first job, interpreted vertex pass");
+  expectInterpretedMesh(first.mesh, "first job, interpreted vertex pass");
   // The builds still run: the second job interprets again, neither waiting for them nor starting
   // more.
   const Job second = polygonizeOn(fresh, program, grid, true, 3);
   EXPECT_FALSE(second.stats.vertexGradient);
   EXPECT_EQ(fresh.backgroundBuildsStarted(), 2u);
-  expectSameBytes(second.mesh, generated.mesh, "second job, the builds unfinished");
+  expectInterpretedMesh(second.mesh, "second job, the builds unfinished");
   // Once they have finished, the next job runs the generated kernels, per field tile.
   fresh.waitForBackgroundBuilds();
   const Job third = polygonizeOn(fresh, program, grid, true, 3);
@@ -124,7 +137,7 @@ TEST_F(BackgroundBuildTest, FirstJobInterpretsTheVertexPassAndTheNextRunsTheGene
 TEST_F(BackgroundBuildTest, ALongTileBuildStartsOnlyWhereTheExpectedRunsRepayIt) {
   const auto program = blobtree::compile(blobtree::generateTower(1, 4, 6.0, 6.0, 1));
   const auto grid = gridAt(program, 48);
-  const vk::CodegenOptions codegen = vk::defaultCodegenOptions(device());
+  const vk::CodegenOptions codegen = unrolledCodegen(device());
   // Whether the job after a first one, once the background builds are done, finds the tiles'
   // vertex kernels built.
   auto nextJobRunsTiles = [&](std::uint32_t expectedRuns, double unbiddenSeconds) {

@@ -405,10 +405,14 @@ TEST_F(VulkanTest, LoopedVertexPassOverVertexTapesGivesTheSameMesh) {
     ASSERT_GT(a.triangleCount(), 1000u) << c.what;
     expectSameBytes(b, a, c.what);
     const mesh::TriMesh cpu = cpu::polygonizeMpu(c.program, grid);
-    EXPECT_TRUE(sameBytes(b.positions, cpu.positions)) << c.what;
-    EXPECT_TRUE(sameBytes(b.normals, cpu.normals)) << c.what;
-    EXPECT_TRUE(sameBytes(b.colours, cpu.colours)) << c.what;
     EXPECT_TRUE(sameBytes(b.triangles, cpu.triangles)) << c.what;
+    if (device().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+      EXPECT_TRUE(sameBytes(b.positions, cpu.positions)) << c.what;
+      EXPECT_TRUE(sameBytes(b.normals, cpu.normals)) << c.what;
+      EXPECT_TRUE(sameBytes(b.colours, cpu.colours)) << c.what;
+    } else {  // other drivers' exp and division round otherwise (docs/vulkan.md)
+      expectSameMeshWithin(b, cpu, referenceToleranceCells(false) * grid.cellSize, 1e-2f, 1e-3f, c.what);
+    }
   }
 }
 

@@ -7,6 +7,7 @@
 #include "blobvk/blobtree/generators.h"
 #include "blobvk/blobtree/grid.h"
 #include "blobvk/blobtree/program.h"
+#include "blobvk/vk/eval/gpu_program.h"
 #include "blobvk/vk/eval/program_codegen.h"
 #include "blobvk/vk/eval/runtime_compiler.h"
 #include "blobvk/vk/eval/spirv_cache.h"
@@ -164,6 +165,10 @@ TEST_F(VulkanTest, ANewContextOnAWarmCacheSkipsGlslangAndMeshesTheSame) {
   const auto grid = blobtree::chooseGrid(program, {}, request);
   vk::GpuPolygonizeOptions options;
   options.traversal = vk::Traversal::Specialised;
+  // A CPU driver's code options on every driver: the tower unrolled, so that its vertex kernel is
+  // generated code too (a GPU's options loop it, and its vertex pass interprets the gradient).
+  const vk::CodegenOptions codegen = vk::defaultCodegenOptions(true);
+  options.codegen = &codegen;
   vk::StandaloneOptions standalone;
   standalone.validation = true;
   if (const char* d = std::getenv("BLOBVK_TEST_DEVICE")) standalone.device = d;
