@@ -61,11 +61,6 @@ struct FieldTilingOptions {
   std::uint32_t kernelReach = 0;
 };
 
-// `loops` into a memo key (field by field: the struct has padding).
-inline MemoKey& addLoopOptions(MemoKey& key, const LoopOptions& loops) {
-  return key.add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
-}
-
 // A program too large to specialise whole gets its own kernel for a tile only when the pruned
 // code has at most this many instructions: LLVM's time grows faster than the code (measured on
 // tower_L6P8I4: 16 tile kernels of ~2,900 instructions took 80 s to build on lavapipe).

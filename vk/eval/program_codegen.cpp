@@ -366,16 +366,17 @@ std::uint64_t programFingerprint(const blobtree::Program& program) {
   return f.h;
 }
 
+MemoKey& addLoopOptions(MemoKey& key, const LoopOptions& loops) {
+  return key.add(loops.enabled).add(loops.minCount).add(loops.minInstructions).add(loops.minProgramInstructions);
+}
+
 std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const CodegenOptions& options) {
   MemoKey f;
   f.add(programFingerprint);
   f.add(options.branchOnSkips);
   f.add(options.minBranchInstructions);
   f.add(options.region.valid);
-  f.add(options.loops.enabled);
-  f.add(options.loops.minCount);
-  f.add(options.loops.minInstructions);
-  f.add(options.loops.minProgramInstructions);
+  addLoopOptions(f, options.loops);
   f.add(options.gradient);
   if (options.region.valid) {
     f.add(options.region.lo);
@@ -449,12 +450,7 @@ bool wantsLoops(const blobtree::Program& program, const PointRegion& region, con
 
 MemoKey loopsKey(const blobtree::Program& program, const LoopOptions& loops) {
   MemoKey k;
-  k.add(programFingerprint(program));
-  k.add(loops.enabled);
-  k.add(loops.minCount);
-  k.add(loops.minInstructions);
-  k.add(loops.minProgramInstructions);
-  return k;
+  return addLoopOptions(k.add(programFingerprint(program)), loops);
 }
 
 // CodeShapes::analyse, remembered per program and loop options: the loop limit, the evaluator

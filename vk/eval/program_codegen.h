@@ -21,6 +21,8 @@
 
 namespace blobvk::vk {
 
+struct MemoKey;
+
 // The generator refuses code that would spell out more than this many instructions (after loops
 // and pruning): beyond it glslang and LLVM take tens of seconds and gigabytes. Which evaluator
 // pays within a job is the cost model's choice (vk/eval/evaluator_choice.h), not this cap.
@@ -80,6 +82,8 @@ std::uint64_t evaluatorFingerprint(const blobtree::Program& program, const Codeg
 // The same from programFingerprint(program), for callers generating many variants of one program.
 std::uint64_t programFingerprint(const blobtree::Program& program);
 std::uint64_t evaluatorFingerprint(std::uint64_t programFingerprint, const CodegenOptions& options);
+// `loops` into a memo key (host_memo.h; field by field: the struct has padding).
+MemoKey& addLoopOptions(MemoKey& key, const LoopOptions& loops);
 
 // Instructions of the generated field code once pruned to `region` (what kMaxSpecialisedInstructions
 // limits and what decides loops): a pruned subtree or primitive counts as one, and so does a run
